@@ -1,0 +1,260 @@
+"""Reading a run's YAML composition into a checked :class:`Config`.
+
+A configuration names one component for each single-answer slot and a list for the collect-all
+ones. A component is written as its name, or as a mapping whose ``use`` key names it and whose
+other keys are its options::
+
+    seed: 7
+    world: {use: office, width: 200}
+    casebase: sqlite
+    retrieve: {use: nearest, k: 3}
+    retain: [keep_all]
+
+Every problem found is reported at once, each with its YAML path, line and column, the bad value
+and what was expected.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import attrs
+import yaml
+
+from cbrcore.errors import ConfigError
+from cbrcore.options import option_problems, paths_relative_to, unstructure
+from cbrcore.registry import Registry, UnknownComponent
+
+SINGLE_SLOTS: dict[str, str] = {
+    "world": "world",
+    "casebase": "store",
+    "retrieve": "retriever",
+    "reuse": "reuser",
+    "revise": "reviser",
+    "solver": "solver",
+    "workload": "workload",
+}
+"""Slots that take one component, and the component kind each takes."""
+
+LIST_SLOTS: dict[str, str] = {
+    "retain": "retainer",
+    "forget": "forgetter",
+    "observers": "observer",
+    "metrics": "metric",
+}
+"""Slots that take a list of components (a single one is accepted as a list of one)."""
+
+DEFAULT_STORE = "memory"
+
+
+@attrs.frozen
+class ComponentRef:
+    """A configured component: its kind and name, validated options and where it was written."""
+
+    kind: str
+    name: str
+    options: Any
+    path: str
+
+
+@attrs.frozen
+class Config:
+    """A checked configuration, ready to build an engine from."""
+
+    seed: int = 0
+    world: ComponentRef | None = None
+    casebase: ComponentRef | None = None
+    retrieve: ComponentRef | None = None
+    reuse: ComponentRef | None = None
+    revise: ComponentRef | None = None
+    solver: ComponentRef | None = None
+    workload: ComponentRef | None = None
+    retain: tuple[ComponentRef, ...] = ()
+    forget: tuple[ComponentRef, ...] = ()
+    observers: tuple[ComponentRef, ...] = ()
+    metrics: tuple[ComponentRef, ...] = ()
+    source: Path | None = None
+
+    @property
+    def base_dir(self) -> Path:
+        return self.source.parent if self.source is not None else Path.cwd()
+
+    def resolved(self) -> dict[str, Any]:
+        """The configuration as plain data with every default filled in (for a run's manifest)."""
+
+        def plain(ref: ComponentRef) -> dict[str, Any]:
+            return {"use": ref.name, **unstructure(ref.options)}
+
+        data: dict[str, Any] = {"seed": self.seed}
+        for slot in SINGLE_SLOTS:
+            ref = getattr(self, slot)
+            if ref is not None:
+                data[slot] = plain(ref)
+        for slot in LIST_SLOTS:
+            refs = getattr(self, slot)
+            if refs:
+                data[slot] = [plain(ref) for ref in refs]
+        return data
+
+
+class _Marks:
+    """Line and column of every YAML path in a document, for error messages."""
+
+    def __init__(self, node: yaml.Node | None) -> None:
+        self.marks: dict[str, yaml.Mark] = {}
+        if node is not None:
+            self._walk(node, "")
+
+    def _walk(self, node: yaml.Node, path: str) -> None:
+        self.marks[path] = node.start_mark
+        if isinstance(node, yaml.MappingNode):
+            for key, value in node.value:
+                child = f"{path}.{key.value}" if path else str(key.value)
+                self._walk(value, child)
+                self.marks.setdefault(child, key.start_mark)
+        elif isinstance(node, yaml.SequenceNode):
+            for index, item in enumerate(node.value):
+                self._walk(item, f"{path}.{index}" if path else str(index))
+
+    def where(self, path: str) -> str:
+        probe = path
+        while probe not in self.marks and probe:
+            probe = probe.rpartition(".")[0]
+        mark = self.marks.get(probe)
+        return f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
+
+
+def read_yaml(path: Path) -> tuple[Any, _Marks]:
+    """Parse a YAML file safely; errors name the file and the line and column of the fault."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(str(path), ["file not found"]) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(str(path), [f"cannot read the file: {exc}"]) from None
+    try:
+        node = yaml.compose(text, Loader=yaml.SafeLoader)
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise ConfigError(str(path), [f"{where}malformed YAML: {problem}"]) from None
+    return data, _Marks(node)
+
+
+def apply_overrides(data: Any, overrides: Sequence[str], source: str) -> Any:
+    """Apply ``key.path=value`` overrides (values parsed as YAML) to the raw configuration."""
+    if data is None:
+        data = {}
+    problems = []
+    for text in overrides:
+        key, sep, raw = text.partition("=")
+        if not sep or not key.strip():
+            problems.append(f"--set {text!r}: expected KEY.PATH=VALUE")
+            continue
+        try:
+            value = yaml.safe_load(raw)
+        except yaml.YAMLError as exc:
+            problems.append(f"--set {text!r}: the value is not valid YAML ({exc})")
+            continue
+        parts = key.strip().split(".")
+        node = data
+        for depth, part in enumerate(parts[:-1]):
+            node, problem = _descend(node, part, ".".join(parts[: depth + 1]))
+            if problem:
+                problems.append(f"--set {text!r}: {problem}")
+                break
+        else:
+            last = parts[-1]
+            if isinstance(node, list) and last.isdigit() and int(last) < len(node):
+                node[int(last)] = value
+            elif isinstance(node, dict):
+                node[last] = value
+            else:
+                problems.append(f"--set {text!r}: {key} cannot be set")
+    if problems:
+        raise ConfigError(source, problems)
+    return data
+
+
+def _descend(node: Any, part: str, path: str) -> tuple[Any, str | None]:
+    if isinstance(node, list):
+        if part.isdigit() and int(part) < len(node):
+            return node[int(part)], None
+        return node, f"{path}: no list item {part}"
+    if not isinstance(node, dict):
+        return node, f"{path}: not a mapping"
+    child = node.get(part)
+    if isinstance(child, str):  # a component given by name alone gains options
+        child = node[part] = {"use": child}
+    elif child is None:
+        child = node[part] = {}
+    return child, None
+
+
+def _component(raw: Any, kind: str, path: str, registry: Registry,
+               problems: list[tuple[str, str]]) -> ComponentRef | None:
+    if isinstance(raw, str):
+        name, options = raw, {}
+    elif isinstance(raw, Mapping) and isinstance(raw.get("use"), str):
+        name = raw["use"]
+        options = {k: v for k, v in raw.items() if k != "use"}
+    else:
+        problems.append((path, f"expected a {kind} name or a mapping with a 'use' key naming "
+                               f"the {kind}, got {raw!r}"))
+        return None
+    try:
+        component = registry.get(kind, name)
+    except UnknownComponent as exc:
+        problems.append((f"{path}.use" if isinstance(raw, Mapping) else path, str(exc)))
+        return None
+    value, found = option_problems(component.options, options, path)
+    problems.extend(found)
+    return ComponentRef(kind, name, value, path) if not found else None
+
+
+def parse_config(data: Any, registry: Registry, *, source: Path | None = None,
+                 marks: _Marks | None = None) -> Config:
+    """Check raw configuration data against the registry; raise one error listing every problem."""
+    marks = marks or _Marks(None)
+    label = str(source) if source is not None else "configuration"
+    if data is None:
+        data = {}
+    if not isinstance(data, Mapping):
+        raise ConfigError(label, [f"expected a mapping at the top level, got {data!r}"])
+    problems: list[tuple[str, str]] = []
+    known = {"seed", *SINGLE_SLOTS, *LIST_SLOTS}
+    for key in data:
+        if key not in known:
+            problems.append((str(key), f"unknown key; expected one of: {', '.join(sorted(known))}"))
+    seed = data.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        problems.append(("seed", f"expected a non-negative integer, got {seed!r}"))
+    values: dict[str, Any] = {}
+    base = source.parent if source is not None else Path.cwd()
+    with paths_relative_to(base):
+        for slot, kind in SINGLE_SLOTS.items():
+            raw = data.get(slot, DEFAULT_STORE if slot == "casebase" else None)
+            if raw is not None:
+                values[slot] = _component(raw, kind, slot, registry, problems)
+        for slot, kind in LIST_SLOTS.items():
+            raw = data.get(slot) or []
+            items = raw if isinstance(raw, list) else [raw]
+            refs = [_component(item, kind, f"{slot}.{i}" if isinstance(raw, list) else slot,
+                               registry, problems) for i, item in enumerate(items)]
+            values[slot] = tuple(ref for ref in refs if ref is not None)
+    if problems:
+        raise ConfigError(label, [f"{path}{marks.where(path)}: {message}"
+                                  for path, message in problems])
+    return Config(seed=seed, source=source, **values)
+
+
+def load_config(path: Path | str, registry: Registry, overrides: Sequence[str] = ()) -> Config:
+    """Read, override and check the configuration file at ``path``."""
+    path = Path(path).resolve()
+    data, marks = read_yaml(path)
+    data = apply_overrides(data, overrides, str(path))
+    return parse_config(data, registry, source=path, marks=marks)

@@ -1,0 +1,278 @@
+"""The engine: the CBR cycle with a fallback solver, for embedding or for ``cbr run``."""
+
+from __future__ import annotations
+
+import collections
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import attrs
+import pluggy
+
+from cbrcore.casebase.store import CaseStore
+from cbrcore.config import ComponentRef, Config, load_config
+from cbrcore.context import Context
+from cbrcore.errors import CbrError, PhaseError, PluginError
+from cbrcore.hookspecs import PHASE_HOOKS
+from cbrcore.model import CASEBASE, Outcome, Proposal, Retrieval, Revision, Solution
+from cbrcore.plugins import Plugins, current, implemented_hooks, new_plugin_manager
+from cbrcore.registry import KIND_HOOK
+
+_PHASE_OF_HOOK = {hook: phase for phase, hook in PHASE_HOOKS.items()}
+
+
+@attrs.define
+class EngineStats:
+    """Counters over the queries an engine has answered."""
+
+    queries: int = 0
+    from_casebase: int = 0
+    from_solver: int = 0
+    unsolved: int = 0
+    learned: int = 0
+    fallback_reasons: collections.Counter[str] = attrs.field(factory=collections.Counter)
+
+    @property
+    def cbr_share(self) -> float:
+        """The fraction of queries the case base answered (0 before any query)."""
+        return self.from_casebase / self.queries if self.queries else 0.0
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "queries": self.queries,
+            "from_casebase": self.from_casebase,
+            "from_solver": self.from_solver,
+            "unsolved": self.unsolved,
+            "learned": self.learned,
+            "cbr_share": self.cbr_share,
+            "fallback_reasons": dict(self.fallback_reasons),
+        }
+
+
+class Hooks:
+    """The one typed facade over the engine's phase hooks.
+
+    Each call times the phase, checks the type of the answer and turns an exception raised by a
+    component into a :class:`~cbrcore.errors.PhaseError` naming the plugin that raised.
+    """
+
+    def __init__(self, pm: pluggy.PluginManager, owners: dict[str, str]) -> None:
+        self._pm = pm
+        self._owners = owners
+
+    def _call(self, hook: str, expected: type | None, timings: dict[str, float],
+              **kwargs: Any) -> Any:
+        caller = getattr(self._pm.hook, hook)
+        started = time.perf_counter()
+        try:
+            result = caller(**kwargs)
+        except CbrError:
+            raise
+        except Exception as exc:
+            raise PhaseError(_PHASE_OF_HOOK[hook], self._culprit(caller, exc), exc) from exc
+        finally:
+            phase = _PHASE_OF_HOOK[hook]
+            timings[phase] = timings.get(phase, 0.0) + time.perf_counter() - started
+        if expected is not None and result is not None and not isinstance(result, expected):
+            raise PhaseError(_PHASE_OF_HOOK[hook], self._culprit(caller, None), TypeError(
+                f"returned {type(result).__name__}, expected {expected.__name__} or None"))
+        return result
+
+    def _culprit(self, caller: Any, exc: BaseException | None) -> str:
+        impls = caller.get_hookimpls()
+        if exc is not None:
+            codes = {impl.function.__code__: impl.plugin_name for impl in impls}
+            raised = None
+            tb = exc.__traceback__
+            while tb is not None:
+                raised = codes.get(tb.tb_frame.f_code, raised)
+                tb = tb.tb_next
+            if raised is not None:
+                return self._owners.get(raised, raised)
+        answering = [impl for impl in impls if not impl.wrapper and not impl.hookwrapper]
+        name = answering[-1].plugin_name if answering else "<none>"
+        return self._owners.get(name, name)
+
+    def retrieve(self, problem: Any, casebase: CaseStore, ctx: Context,
+                 timings: dict[str, float]) -> Retrieval | None:
+        return self._call("cbr_retrieve", Retrieval, timings,
+                          problem=problem, casebase=casebase, ctx=ctx)
+
+    def reuse(self, problem: Any, retrieval: Retrieval, ctx: Context,
+              timings: dict[str, float]) -> Solution | None:
+        return self._call("cbr_reuse", Solution, timings,
+                          problem=problem, retrieval=retrieval, ctx=ctx)
+
+    def revise(self, problem: Any, solution: Solution, ctx: Context,
+               timings: dict[str, float]) -> Revision | None:
+        return self._call("cbr_revise", Revision, timings,
+                          problem=problem, solution=solution, ctx=ctx)
+
+    def solve(self, problem: Any, ctx: Context, timings: dict[str, float]) -> Solution | None:
+        return self._call("cbr_solve", Solution, timings, problem=problem, ctx=ctx)
+
+    def retain(self, problem: Any, solution: Solution, outcome: Outcome, casebase: CaseStore,
+               ctx: Context, timings: dict[str, float]) -> None:
+        self._call("cbr_retain", None, timings, problem=problem, solution=solution,
+                   outcome=outcome, casebase=casebase, ctx=ctx)
+
+    def forget(self, casebase: CaseStore, ctx: Context, timings: dict[str, float]) -> None:
+        self._call("cbr_forget", None, timings, casebase=casebase, ctx=ctx)
+
+
+class Engine:
+    """A configured CBR engine.
+
+    ``solve`` runs retrieve -> reuse -> revise and hands the query to the fallback solver when the
+    retrieval is not usable, reuse fails or revision rejects. ``learn`` runs retain -> forget in one
+    case base transaction after the solution has been carried out. ``stats`` counts where answers
+    came from. Close the engine (or use it as a context manager) to release the case base.
+    """
+
+    def __init__(self, config: Config, *, plugins: Plugins | None = None,
+                 out_dir: Path | None = None) -> None:
+        self.config = config
+        self.plugins = plugins or current()
+        self.stats = EngineStats()
+        registry = self.plugins.registry
+        self.ctx = Context(registry=registry, seed=config.seed, out_dir=out_dir,
+                           config_dir=config.base_dir)
+        self._pm = new_plugin_manager()
+        self._owners: dict[str, str] = {}
+        self._slots: dict[str, str] = {}
+        self.casebase: CaseStore | None = None
+        self._closed = False
+        try:
+            self.world = self._build(config.world)
+            self.ctx.world = self.world
+            self.casebase = self._build(config.casebase)
+            for slot in ("retrieve", "reuse", "revise", "solver"):
+                self._register(getattr(config, slot))
+            for slot in ("retain", "forget", "observers"):
+                for ref in getattr(config, slot):
+                    self._register(ref)
+            self.workload = self._build(config.workload)
+            self.metrics = [self._build(ref) for ref in config.metrics]
+        except BaseException:
+            self.close()
+            raise
+        self.hooks = Hooks(self._pm, self._owners)
+
+    @classmethod
+    def from_yaml(cls, path: Path | str, *, overrides: Sequence[str] = (),
+                  plugins: Plugins | None = None, out_dir: Path | None = None) -> Engine:
+        """Build an engine from a YAML file, with optional ``key.path=value`` overrides."""
+        plugins = plugins or current()
+        config = load_config(path, plugins.registry, overrides)
+        return cls(config, plugins=plugins, out_dir=out_dir)
+
+    def _build(self, ref: ComponentRef | None) -> Any:
+        if ref is None:
+            return None
+        component = self.plugins.registry.get(ref.kind, ref.name)
+        try:
+            return component.factory(ref.options, self.ctx)
+        except CbrError:
+            raise
+        except Exception as exc:
+            raise PluginError(f"{ref.path}: plugin {component.plugin!r} failed to build "
+                              f"{ref.kind} {ref.name!r}: {type(exc).__name__}: {exc}") from exc
+
+    def _register(self, ref: ComponentRef | None) -> None:
+        instance = self._build(ref)
+        if instance is None or ref is None:
+            return
+        plugin = self.plugins.registry.get(ref.kind, ref.name).plugin
+        hooks = set(implemented_hooks(instance)) & set(PHASE_HOOKS.values())
+        wanted = KIND_HOOK.get(ref.kind)
+        label = f"{ref.path}: {ref.kind} {ref.name!r} (plugin {plugin!r})"
+        if wanted is not None and hooks != {wanted}:
+            extra = ", ".join(sorted(hooks - {wanted})) or "nothing else"
+            raise PluginError(f"{label} must implement exactly {wanted}; it implements "
+                              f"{', '.join(sorted(hooks)) or 'no phase hook'} ({extra} besides)")
+        if wanted is None and not hooks:
+            raise PluginError(f"{label} implements no phase hook to observe")
+        name = f"{ref.path}:{ref.name}"
+        self._pm.register(instance, name=name)
+        self._owners[name] = f"{ref.name} ({plugin})"
+        self._slots[ref.kind] = ref.name
+
+    def solve(self, problem: Any) -> Proposal:
+        """Answer one query: from the case base if it can, else from the fallback solver."""
+        self.ctx.step = self.stats.queries
+        self.stats.queries += 1
+        timings: dict[str, float] = {}
+        retrieval: Retrieval | None = None
+        revision: Revision | None = None
+        solution, reason = None, None
+        if "retriever" not in self._slots:
+            reason = "no retriever configured"
+        else:
+            retrieval = self.hooks.retrieve(problem, self.casebase, self.ctx, timings)
+            if retrieval is None or not retrieval.usable:
+                reason = "no usable retrieval"
+            elif "reuser" not in self._slots:
+                reason = "no reuser configured"
+            else:
+                solution = self.hooks.reuse(problem, retrieval, self.ctx, timings)
+                if solution is None:
+                    reason = "reuse failed"
+                elif "reviser" in self._slots:
+                    revision = self.hooks.revise(problem, solution, self.ctx, timings)
+                    if revision is None or not revision.accepted:
+                        why = revision.reason if revision is not None else "no verdict"
+                        reason = f"revision rejected: {why}" if why else "revision rejected"
+                        solution = None
+                    elif revision.solution is not None:
+                        solution = revision.solution
+        if solution is not None:
+            self.stats.from_casebase += 1
+            return Proposal(solution, CASEBASE, None, retrieval, revision, timings)
+        self.stats.fallback_reasons[reason or ""] += 1
+        if "solver" in self._slots:
+            solution = self.hooks.solve(problem, self.ctx, timings)
+        if solution is None:
+            self.stats.unsolved += 1
+            return Proposal(None, "none", reason, retrieval, revision, timings)
+        self.stats.from_solver += 1
+        source = f"solver:{self._slots['solver']}"
+        return Proposal(solution, source, reason, retrieval, revision, timings)
+
+    def learn(self, problem: Any, proposal: Proposal, outcome: Outcome) -> dict[str, float]:
+        """Retain and forget after ``proposal`` was carried out; return seconds per phase.
+
+        One case base transaction: a crash inside keeps nothing of this step and everything
+        before it.
+        """
+        timings: dict[str, float] = {}
+        solution = outcome.solution or proposal.solution
+        with self.casebase.transaction():
+            if proposal.from_casebase and proposal.solution is not None:
+                self.casebase.touch(proposal.solution.cases)
+            if solution is not None:
+                self.hooks.retain(problem, solution, outcome, self.casebase, self.ctx, timings)
+            self.hooks.forget(self.casebase, self.ctx, timings)
+        self.stats.learned += 1
+        return timings
+
+    def close(self) -> None:
+        """Close every component that has a ``close()`` method, the case base last; idempotent."""
+        if self._closed:
+            return
+        self._closed = True
+        parts = [*self._pm.get_plugins(), getattr(self, "workload", None),
+                 *getattr(self, "metrics", ()), getattr(self, "world", None), self.casebase]
+        for part in parts:
+            close = getattr(part, "close", None)
+            if callable(close):
+                close()
+
+    def __enter__(self) -> Engine:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()

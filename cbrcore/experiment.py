@@ -1,0 +1,70 @@
+"""Experiments: reproductions that plugins register and ``cbr experiment`` runs.
+
+An experiment is a component of kind ``experiment`` whose instance has a ``run`` method. cbrcore
+writes what it returns into the output folder: ``results.json``, ``results.md`` (the markdown
+table, usually the paper's numbers beside ours), one PNG per figure, and ``manifest.json``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any, Literal, Protocol, runtime_checkable
+
+import attrs
+
+from cbrcore.context import Context
+from cbrcore.errors import CbrError, PluginError
+from cbrcore.plugins import Plugins
+from cbrcore.run import manifest, write_json
+
+Size = Literal["ci", "full"]
+
+
+@attrs.frozen
+class ExperimentResult:
+    """What an experiment produced: data, a markdown table and matplotlib figures by file stem."""
+
+    results: Mapping[str, Any]
+    table: str
+    figures: Mapping[str, Any] = attrs.field(factory=dict)
+
+
+@runtime_checkable
+class Experiment(Protocol):
+    """A registered experiment."""
+
+    def run(self, size: Size, out_dir: Path, progress: Callable[[int, int], None]
+            ) -> ExperimentResult:
+        """Run at ``size`` (``ci``: minutes at most, for the test suite; ``full``: the paper's
+        scale), calling ``progress(done, total)`` as work completes."""
+        ...
+
+
+def run_experiment(name: str, plugins: Plugins, *, size: Size, out_dir: Path, seed: int = 0,
+                   progress: Callable[[int, int], None] | None = None) -> list[Path]:
+    """Run the experiment ``name`` and write its files into ``out_dir``; return their paths."""
+    component = plugins.registry.get("experiment", name)
+    ctx = Context(registry=plugins.registry, seed=seed, out_dir=out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        experiment = component.factory(component.options(), ctx)
+        result = experiment.run(size, out_dir, progress or (lambda done, total: None))
+    except CbrError:
+        raise
+    except Exception as exc:
+        raise PluginError(f"experiment {name!r} (plugin {component.plugin!r}) failed: "
+                          f"{type(exc).__name__}: {exc}") from exc
+    if not isinstance(result, ExperimentResult):
+        raise PluginError(f"experiment {name!r} returned {type(result).__name__}, "
+                          "expected ExperimentResult")
+    written = [out_dir / "results.json", out_dir / "results.md", out_dir / "manifest.json"]
+    write_json(written[0], dict(result.results))
+    written[1].write_text(result.table.rstrip() + "\n", encoding="utf-8")
+    write_json(written[2], manifest(None, plugins, seed=seed,
+                                    extra={"experiment": name, "size": size}))
+    for stem, figure in result.figures.items():
+        path = out_dir / f"{stem}.png"
+        figure.savefig(path, dpi=120, bbox_inches="tight")
+        written.append(path)
+    return written

@@ -1,0 +1,137 @@
+"""The hook specifications of cbrcore.
+
+Two sorts of hook live here.
+
+*Plugin hooks* (``cbr_register``, ``cbr_cli``) are implemented by plugin modules found through the
+``cbr`` entry point group and are called once when plugins load.
+
+*Phase hooks* (``cbr_retrieve`` ... ``cbr_forget``, ``cbr_solve``) are implemented by component
+instances. An :class:`~cbrcore.engine.Engine` has its own plugin manager holding exactly the
+components its configuration names, one per single-answer phase, plus its observers, so a
+``firstresult`` phase hook reaches the configured component and nothing else. Observers wrap phase
+hooks with ``wrapper=True`` hookimpls.
+
+Rules for implementers: hooks are called with keyword arguments only; declare just the arguments
+you use; a phase hook is called once per query (never per cell or per case pair), so vectorise the
+inner loops. Arguments and results are the attrs objects of :mod:`cbrcore.model`; ``problem``
+is whatever the configured workload produces, which the engine passes through untouched.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import pluggy
+
+if TYPE_CHECKING:
+    import typer
+
+    from cbrcore.casebase.store import CaseStore
+    from cbrcore.context import Context
+    from cbrcore.model import Outcome, Retrieval, Revision, Solution
+    from cbrcore.registry import Registry
+
+PROJECT = "cbr"
+
+hookspec = pluggy.HookspecMarker(PROJECT)
+hookimpl = pluggy.HookimplMarker(PROJECT)
+
+
+@hookspec
+def cbr_register(registry: Registry) -> None:
+    """Register the plugin's named components.
+
+    Called once per plugin when plugins load (collect-all, return value ignored). Call
+    ``registry.add(kind, name, factory, options=OptionsClass)`` for every component the plugin
+    supplies; kinds are listed in :data:`cbrcore.registry.KINDS`. The factory is called as
+    ``factory(options, ctx)`` with a validated instance of the attrs options class and the run's
+    :class:`~cbrcore.context.Context`. A name already taken by another plugin, or an exception
+    raised here, marks this plugin as failed; the others still load.
+    """
+
+
+@hookspec
+def cbr_cli(app: typer.Typer) -> None:
+    """Add commands to the ``cbr`` command line.
+
+    Called once per plugin when the CLI starts (collect-all, return value ignored). Add commands
+    with ``@app.command()`` or sub-applications with ``app.add_typer(...)``. Raise
+    :class:`~cbrcore.errors.CbrError` from a command for a user error: the CLI prints it and exits
+    with code 2.
+    """
+
+
+@hookspec(firstresult=True)
+def cbr_retrieve(problem: Any, casebase: CaseStore, ctx: Context) -> Retrieval | None:
+    """Retrieve: find the stored cases that may solve ``problem``.
+
+    firstresult: the configured retriever answers. Return a :class:`~cbrcore.model.Retrieval`
+    whose ``matches`` are ordered best first and carry per-feature similarity detail; an empty
+    retrieval (or None) means the case base cannot answer and the query goes to ``cbr_solve``.
+    Must not modify the case base.
+    """
+
+
+@hookspec(firstresult=True)
+def cbr_reuse(problem: Any, retrieval: Retrieval, ctx: Context) -> Solution | None:
+    """Reuse: adapt the retrieved cases into a solution of ``problem``.
+
+    firstresult: the configured reuser answers. Called only with a usable retrieval. Return a
+    :class:`~cbrcore.model.Solution` listing in ``cases`` the ids of the cases it was built from;
+    None means adaptation failed and the query goes to ``cbr_solve``.
+    """
+
+
+@hookspec(firstresult=True)
+def cbr_revise(problem: Any, solution: Solution, ctx: Context) -> Revision | None:
+    """Revise: accept, repair or reject a reused solution before it is used.
+
+    firstresult: the configured reviser answers. Return a :class:`~cbrcore.model.Revision`;
+    ``accepted=False`` sends the query to ``cbr_solve`` with its reason recorded, an accepted
+    revision may carry a repaired solution. With no reviser configured every reused solution is
+    accepted as it is.
+    """
+
+
+@hookspec(firstresult=True)
+def cbr_solve(problem: Any, ctx: Context) -> Solution | None:
+    """Solve with the alternative (model-based) method, without the case base.
+
+    firstresult: the configured fallback solver answers. Called when retrieval is not usable, reuse
+    fails or revision rejects. Return the :class:`~cbrcore.model.Solution`, or None when the
+    problem has no solution (the proposal's source is then ``"none"``).
+    """
+
+
+@hookspec
+def cbr_retain(problem: Any, solution: Solution, outcome: Outcome, casebase: CaseStore,
+               ctx: Context) -> None:
+    """Retain: store what is worth keeping from a carried-out solution.
+
+    Collect-all: every configured retainer runs, in the same case base transaction as the forget
+    step that follows, so a crash keeps all or none of one learn step. ``solution`` is what was
+    executed (the outcome's solution when it has one, else the proposal's). Return value ignored.
+    """
+
+
+@hookspec
+def cbr_forget(casebase: CaseStore, ctx: Context) -> None:
+    """Forget: maintain the case base after a retain (capacity limits, forgetting strategies).
+
+    Collect-all: every configured forgetter runs, inside the learn step's transaction, after all
+    retainers. Return value ignored.
+    """
+
+
+PHASE_HOOKS: dict[str, str] = {
+    "retrieve": "cbr_retrieve",
+    "reuse": "cbr_reuse",
+    "revise": "cbr_revise",
+    "solve": "cbr_solve",
+    "retain": "cbr_retain",
+    "forget": "cbr_forget",
+}
+"""Each phase of the cycle and the hook that carries it out."""
+
+PLUGIN_HOOKS = ("cbr_register", "cbr_cli")
+"""Hooks implemented by plugin modules rather than by configured components."""

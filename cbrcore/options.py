@@ -1,0 +1,153 @@
+"""Component options: attrs classes checked strictly when a configuration is read.
+
+A plugin declares its options as an attrs class and documents each field with :func:`option`::
+
+    @attrs.frozen
+    class NearestOptions:
+        k: int = option(3, "How many cases to retrieve.", validator=attrs.validators.ge(1))
+
+Values are checked strictly (YAML ``"3"`` is not an integer, ``3.5`` is not silently truncated),
+unknown keys are refused, and ``pathlib.Path`` fields resolve relative to the configuration
+file's folder.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import re
+import typing
+from collections.abc import Callable, Iterator, Mapping
+from pathlib import Path
+from typing import Any, Literal
+
+import attrs
+import cattrs
+from cattrs.errors import ClassValidationError, ForbiddenExtraKeysError, IterableValidationError
+
+from cbrcore.errors import ConfigError
+
+_base_dir: contextvars.ContextVar[Path] = contextvars.ContextVar("cbr_base_dir")
+
+
+def option(default: Any = attrs.NOTHING, doc: str = "", *,
+           validator: Callable[..., Any] | None = None, factory: Callable[[], Any] | None = None
+           ) -> Any:
+    """An attrs field with a documentation string shown in the configuration reference."""
+    if factory is not None:
+        return attrs.field(factory=factory, validator=validator, metadata={"doc": doc})
+    return attrs.field(default=default, validator=validator, metadata={"doc": doc})
+
+
+def _strict(kind: type, label: str, accept: tuple[type, ...]) -> Callable[[Any, type], Any]:
+    def structure(value: Any, _: type) -> Any:
+        if isinstance(value, bool) and kind is not bool:
+            raise TypeError(f"expected {label}, got {value!r}")
+        if not isinstance(value, accept):
+            raise TypeError(f"expected {label}, got {value!r}")
+        return kind(value)
+
+    return structure
+
+
+def _literal(value: Any, kind: Any) -> Any:
+    allowed = typing.get_args(kind)
+    if value not in allowed or isinstance(value, bool) != any(isinstance(a, bool) for a in allowed):
+        raise ValueError(f"expected one of {', '.join(map(repr, allowed))}, got {value!r}")
+    return value
+
+
+def _path(value: Any, _: type) -> Path:
+    if not isinstance(value, str | Path):
+        raise TypeError(f"expected a file path, got {value!r}")
+    path = Path(value).expanduser()
+    base = _base_dir.get(None)
+    return path if path.is_absolute() or base is None else base / path
+
+
+def _make_converter() -> cattrs.Converter:
+    converter = cattrs.Converter(forbid_extra_keys=True, detailed_validation=True)
+    converter.register_structure_hook(int, _strict(int, "an integer", (int,)))
+    converter.register_structure_hook(float, _strict(float, "a number", (int, float)))
+    converter.register_structure_hook(bool, _strict(bool, "true or false", (bool,)))
+    converter.register_structure_hook(str, _strict(str, "a string", (str,)))
+    converter.register_structure_hook(Path, _path)
+    converter.register_structure_hook_func(lambda t: typing.get_origin(t) is Literal, _literal)
+    converter.register_unstructure_hook(Path, str)
+    return converter
+
+
+converter = _make_converter()
+"""The converter that reads every component's options."""
+
+
+@contextlib.contextmanager
+def paths_relative_to(base: Path) -> Iterator[None]:
+    """Resolve relative ``Path`` options against ``base`` while structuring."""
+    token = _base_dir.set(base)
+    try:
+        yield
+    finally:
+        _base_dir.reset(token)
+
+
+def _describe(exc: BaseException) -> str:
+    if isinstance(exc, KeyError):
+        return "required option is missing"
+    if isinstance(exc, TypeError | ValueError):
+        return str(exc)
+    return f"{type(exc).__name__}: {exc}"
+
+
+_VALIDATOR_MESSAGE = re.compile(r"^'(?P<field>\w+)' (?P<rest>must .*)$", re.S)
+
+
+def _walk(exc: BaseException, path: str) -> Iterator[tuple[str, str]]:
+    if isinstance(exc, ForbiddenExtraKeysError):
+        fields = [a.name for a in attrs.fields(exc.cl)] if attrs.has(exc.cl) else []
+        expected = ", ".join(fields) if fields else "no options"
+        for key in sorted(exc.extra_fields):
+            yield f"{path}.{key}", f"unknown key; expected one of: {expected}"
+    elif isinstance(exc, ClassValidationError | IterableValidationError):
+        noted, plain = exc.group_exceptions()
+        for inner, note in noted:
+            step = getattr(note, "name", None)
+            yield from _walk(inner, f"{path}.{step if step is not None else note.index}")
+        for inner in plain:
+            yield from _walk(inner, path)
+    elif isinstance(exc, BaseExceptionGroup):
+        for inner in exc.exceptions:
+            yield from _walk(inner, path)
+    elif isinstance(exc, ValueError) and (named := _VALIDATOR_MESSAGE.match(str(exc))):
+        # attrs validators raise after structuring, naming the field only in their message
+        yield f"{path}.{named['field']}", named["rest"]
+    else:
+        yield path, _describe(exc)
+
+
+def option_problems(options_cls: type, data: Any, where: str) -> tuple[Any, list[tuple[str, str]]]:
+    """Structure ``data`` into ``options_cls``; return the instance or the problems found.
+
+    Each problem is ``(yaml_path, message)`` with paths below ``where``.
+    """
+    if data is None:
+        data = {}
+    if not isinstance(data, Mapping):
+        return None, [(where, f"expected a mapping of options, got {data!r}")]
+    try:
+        return converter.structure(dict(data), options_cls), []
+    except Exception as exc:  # cattrs gathers every field's error into one group
+        return None, list(_walk(exc, where))
+
+
+def structure_options(options_cls: type, data: Any, where: str) -> Any:
+    """Structure ``data`` into ``options_cls`` or raise a :class:`ConfigError` listing problems."""
+    value, problems = option_problems(options_cls, data, where)
+    if problems:
+        raise ConfigError(where, [f"{path}: {message}" for path, message in problems])
+    return value
+
+
+def unstructure(options: Any) -> Any:
+    """Plain data for an options instance (as written to a run's manifest)."""
+    return converter.unstructure(options)

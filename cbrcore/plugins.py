@@ -1,0 +1,205 @@
+"""Finding, loading and listing plugins.
+
+Plugins are found through the ``cbr`` entry point group; cbrcore's own built-ins are declared
+there too, so they load exactly as a third party's do. A plugin that fails to import or register
+is reported and skipped while the others load, unless ``CBR_STRICT_PLUGINS=1``.
+
+Environment variables:
+
+``CBR_PLUGINS``
+    Comma-separated entry point names: when set, only these plugins load (an allow-list).
+``CBR_DISABLE_PLUGINS``
+    Comma-separated entry point names that never load (a block-list).
+``CBR_STRICT_PLUGINS``
+    ``1`` makes any plugin failure fatal (a :class:`~cbrcore.errors.PluginError`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import os
+import warnings
+from collections.abc import Iterator, Mapping, Sequence
+from importlib import metadata
+from typing import Any
+
+import attrs
+import pluggy
+
+from cbrcore import hookspecs
+from cbrcore.errors import PluginError
+from cbrcore.registry import KIND_HOOK, Registry
+
+ENTRY_POINT_GROUP = "cbr"
+
+
+def new_plugin_manager() -> pluggy.PluginManager:
+    """A plugin manager that knows cbrcore's hook specifications."""
+    pm = pluggy.PluginManager(hookspecs.PROJECT)
+    pm.add_hookspecs(hookspecs)
+    return pm
+
+
+def implemented_hooks(obj: Any) -> tuple[str, ...]:
+    """The cbrcore hooks that ``obj`` (a module, class or instance) implements."""
+    marker = f"{hookspecs.PROJECT}_impl"
+    names = {name for name in dir(obj) if name.startswith("cbr_")
+             and hasattr(getattr(obj, name, None), marker)}
+    return tuple(sorted(names))
+
+
+@attrs.frozen
+class PluginInfo:
+    """A loaded plugin: where it comes from and what it provides."""
+
+    name: str
+    module: str
+    distribution: str | None
+    version: str | None
+    hooks: tuple[str, ...]
+    components: tuple[str, ...]
+
+
+@attrs.frozen
+class PluginFailure:
+    """A plugin that did not load, and why."""
+
+    name: str
+    distribution: str | None
+    version: str | None
+    stage: str
+    error: str
+
+    def describe(self) -> str:
+        source = f" from {self.distribution} {self.version}" if self.distribution else ""
+        return f"plugin {self.name!r}{source} failed to {self.stage}: {self.error}"
+
+
+@attrs.define
+class Plugins:
+    """The loaded plugins: their plugin manager, the components they registered, the failures."""
+
+    pm: pluggy.PluginManager
+    registry: Registry
+    loaded: list[PluginInfo] = attrs.field(factory=list)
+    failed: list[PluginFailure] = attrs.field(factory=list)
+    skipped: list[str] = attrs.field(factory=list)
+
+    def info(self, name: str) -> PluginInfo:
+        for plugin in self.loaded:
+            if plugin.name == name:
+                return plugin
+        raise PluginError(f"no plugin named {name!r} is loaded")
+
+
+def _names(environ: Mapping[str, str], key: str) -> set[str] | None:
+    value = environ.get(key, "").strip()
+    return {n.strip() for n in value.split(",") if n.strip()} if value else None
+
+
+def _distribution(ep: metadata.EntryPoint) -> tuple[str | None, str | None]:
+    dist = ep.dist
+    return (dist.name, dist.version) if dist is not None else (None, None)
+
+
+def _component_hooks(registry: Registry, name: str) -> set[str]:
+    hooks = set()
+    for component in registry.by_plugin(name):
+        if component.kind in KIND_HOOK:
+            hooks.add(KIND_HOOK[component.kind])
+        if isinstance(component.factory, type):
+            hooks.update(implemented_hooks(component.factory))
+    return hooks
+
+
+def load_plugins(extra: Sequence[tuple[str, Any]] = (), *, entry_points: bool = True,
+                 environ: Mapping[str, str] | None = None) -> Plugins:
+    """Load the plugins of the ``cbr`` entry point group, then ``extra`` (name, module) pairs.
+
+    ``extra`` registers plugins that no distribution declares (the testing kit uses it);
+    ``entry_points=False`` loads only those.
+    """
+    environ = os.environ if environ is None else environ
+    allow = _names(environ, "CBR_PLUGINS")
+    block = _names(environ, "CBR_DISABLE_PLUGINS") or set()
+    strict = environ.get("CBR_STRICT_PLUGINS", "") not in ("", "0")
+    plugins = Plugins(pm=new_plugin_manager(), registry=Registry())
+    sources: dict[str, tuple[str | None, str | None]] = {}
+
+    def fail(name: str, dist: tuple[str | None, str | None], stage: str, error: str) -> None:
+        failure = PluginFailure(name, dist[0], dist[1], stage, error)
+        if strict:
+            raise PluginError(failure.describe())
+        plugins.failed.append(failure)
+        warnings.warn(failure.describe(), stacklevel=3)
+
+    candidates: list[tuple[str, Any, tuple[str | None, str | None]]] = []
+    if entry_points:
+        for ep in sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
+            candidates.append((ep.name, ep, _distribution(ep)))
+    candidates.extend((name, obj, (None, None)) for name, obj in extra)
+
+    for name, source, dist in candidates:
+        if name in block or (allow is not None and name not in allow):
+            plugins.skipped.append(name)
+            continue
+        if name in sources:
+            taken = sources[name][0] or "a plugin registered in code"
+            fail(name, dist, "load", f"the plugin name is already taken by {taken}")
+            continue
+        try:
+            obj = source.load() if isinstance(source, metadata.EntryPoint) else source
+            plugins.pm.register(obj, name=name)
+        except Exception as exc:  # a broken plugin must not stop the others
+            fail(name, dist, "import", f"{type(exc).__name__}: {exc}")
+            continue
+        sources[name] = dist
+
+    for name, dist in sources.items():
+        obj = plugins.pm.get_plugin(name)
+        plugins.registry._begin(name)
+        try:
+            register = getattr(obj, "cbr_register", None)
+            if register is not None and "cbr_register" in implemented_hooks(obj):
+                register(registry=plugins.registry)
+        except Exception as exc:  # a broken plugin must not stop the others
+            plugins.registry._drop(name)
+            plugins.pm.unregister(name=name)
+            fail(name, dist, "register", f"{type(exc).__name__}: {exc}")
+            continue
+        hooks = set(implemented_hooks(obj)) | _component_hooks(plugins.registry, name)
+        plugins.loaded.append(PluginInfo(
+            name=name,
+            module=getattr(obj, "__name__", type(obj).__name__),
+            distribution=dist[0],
+            version=dist[1],
+            hooks=tuple(sorted(hooks)),
+            components=tuple(f"{c.kind}:{c.name}" for c in plugins.registry.by_plugin(name)),
+        ))
+    return plugins
+
+
+_active: contextvars.ContextVar[Plugins | None] = contextvars.ContextVar(
+    "cbr_plugins", default=None)
+_installed: list[Plugins] = []
+
+
+def current() -> Plugins:
+    """The plugins in use: those of :func:`use_plugins`, else the installed ones, loaded once."""
+    active = _active.get()
+    if active is not None:
+        return active
+    if not _installed:
+        _installed.append(load_plugins())
+    return _installed[0]
+
+
+@contextlib.contextmanager
+def use_plugins(plugins: Plugins) -> Iterator[Plugins]:
+    """Make ``plugins`` the ones :func:`current` returns inside the block."""
+    token = _active.set(plugins)
+    try:
+        yield plugins
+    finally:
+        _active.reset(token)

@@ -1,0 +1,104 @@
+"""Markdown references generated from the code: configuration options and hooks.
+
+The docs pages ``docs/reference/configuration.md`` and ``docs/reference/hooks.md`` are this
+module's output (``cbr reference config`` and ``cbr reference hooks``); a test keeps them current.
+"""
+
+from __future__ import annotations
+
+import inspect
+import typing
+from collections.abc import Iterable
+
+import attrs
+
+from cbrcore import hookspecs
+from cbrcore.config import LIST_SLOTS, SINGLE_SLOTS
+from cbrcore.registry import KINDS, Component, NoOptions
+
+_TOP = """\
+# Configuration reference
+
+A configuration is a YAML mapping. `seed` is a non-negative integer (default 0) from which every
+random choice of the run derives. Every other key is a slot naming a component, written as its
+name or as a mapping whose `use` key names it and whose other keys are its options:
+
+```yaml
+retrieve: nearest            # default options
+retrieve: {use: nearest, k: 3}
+```
+
+| key | takes | component kind |
+|---|---|---|
+"""
+
+
+def _type_name(kind: object) -> str:
+    if isinstance(kind, str):
+        return kind
+    if typing.get_origin(kind) is typing.Literal:
+        return " \\| ".join(repr(a) for a in typing.get_args(kind))
+    text = getattr(kind, "__name__", None) if typing.get_origin(kind) is None else None
+    return text or str(kind).replace("typing.", "").replace("|", "\\|")
+
+
+def _default(field: attrs.Attribute) -> str:
+    if field.default is attrs.NOTHING:
+        return "required"
+    if isinstance(field.default, attrs.Factory):  # type: ignore[arg-type]
+        return f"`{field.default.factory()!r}`"
+    return f"`{field.default!r}`"
+
+
+def _component_section(component: Component) -> list[str]:
+    lines = [f"### `{component.name}`", "", f"Plugin: `{component.plugin}`.", ""]
+    doc = inspect.cleandoc(component.doc) if component.doc else ""
+    if doc:
+        lines += [doc, ""]
+    if component.options is NoOptions or not attrs.fields(component.options):
+        return [*lines, "No options.", ""]
+    lines += ["| option | type | default | meaning |", "|---|---|---|---|"]
+    for field in attrs.fields(component.options):
+        meaning = field.metadata.get("doc", "").replace("\n", " ").replace("|", "\\|")
+        lines.append(f"| `{field.name}` | {_type_name(field.type)} | {_default(field)} "
+                     f"| {meaning} |")
+    return [*lines, ""]
+
+
+def config_reference(components: Iterable[Component]) -> str:
+    """The configuration reference for ``components``, grouped by kind."""
+    lines = [_TOP.rstrip("\n")]
+    slot_of = {kind: slot for slot, kind in SINGLE_SLOTS.items()}
+    list_slot_of = {kind: slot for slot, kind in LIST_SLOTS.items()}
+    for slot, kind in SINGLE_SLOTS.items():
+        default = " (default `memory`)" if slot == "casebase" else ""
+        lines.append(f"| `{slot}` | one component{default} | {kind} |")
+    for slot, kind in LIST_SLOTS.items():
+        lines.append(f"| `{slot}` | a list of components (or one) | {kind} |")
+    lines.append("")
+    by_kind: dict[str, list[Component]] = {}
+    for component in components:
+        by_kind.setdefault(component.kind, []).append(component)
+    for kind, description in KINDS.items():
+        slot = slot_of.get(kind) or list_slot_of.get(kind)
+        where = f"slot `{slot}`" if slot else "run by `cbr experiment`"
+        lines += [f"## {kind} ({where})", "", description[0].upper() + description[1:] + ".", ""]
+        listed = sorted(by_kind.get(kind, []), key=lambda c: c.name)
+        if not listed:
+            lines += ["No built-in component of this kind is installed.", ""]
+        for component in listed:
+            lines += _component_section(component)
+    return "\n".join(lines).rstrip("\n") + "\n"
+
+
+def hook_reference() -> str:
+    """The hook reference: every hookspec with its signature, kind and contract."""
+    lines = ["# Hook reference", "", inspect.cleandoc(hookspecs.__doc__ or ""), ""]
+    for name in (*hookspecs.PLUGIN_HOOKS, *hookspecs.PHASE_HOOKS.values()):
+        function = getattr(hookspecs, name)
+        opts = getattr(function, f"{hookspecs.PROJECT}_spec")
+        signature = str(inspect.signature(function)).replace("'", "")
+        kind = "firstresult" if opts.get("firstresult") else "collect-all"
+        lines += [f"## `{name}`", "", "```python", f"def {name}{signature}", "```", "",
+                  f"*{kind}*", "", inspect.cleandoc(function.__doc__ or ""), ""]
+    return "\n".join(lines).rstrip("\n") + "\n"

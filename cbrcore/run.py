@@ -1,0 +1,204 @@
+"""Running a configured workload and writing its results.
+
+A run writes into its output folder:
+
+``results.csv``
+    One row per query, written as the run goes (a killed run keeps the rows so far).
+``summary.json``
+    Where answers came from, the CBR share, success rate, phase timings and metric means.
+``manifest.json``
+    The configuration as resolved, the seed, and the versions of Python, cbrcore, its
+    dependencies and every loaded plugin: what is needed to repeat the run.
+"""
+
+from __future__ import annotations
+
+import csv
+import datetime as dt
+import json
+import platform
+import statistics
+import sys
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from importlib import metadata
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+from cbrcore.config import Config
+from cbrcore.context import Context
+from cbrcore.engine import Engine
+from cbrcore.errors import CbrError, ConfigError, PluginError
+from cbrcore.hookspecs import PHASE_HOOKS
+from cbrcore.model import Outcome, Proposal
+from cbrcore.plugins import Plugins
+
+PHASES = (*PHASE_HOOKS, "learn")
+_DEPENDENCIES = ("attrs", "cattrs", "pluggy", "pyyaml", "typer", "rich", "numpy", "networkx",
+                 "matplotlib")
+
+
+@runtime_checkable
+class Workload(Protocol):
+    """The queries of a run and how a proposal is carried out (the ``workload`` component)."""
+
+    def __len__(self) -> int:
+        """How many queries ``queries`` yields (for the progress bar)."""
+        ...
+
+    def queries(self, ctx: Context) -> Iterable[Any]:
+        """The problems to solve, in order."""
+        ...
+
+    def execute(self, problem: Any, proposal: Proposal, ctx: Context) -> Outcome:
+        """Carry out the proposal (a simulated robot drives the path) and report what happened."""
+        ...
+
+    def describe(self, problem: Any) -> Mapping[str, Any]:
+        """Scalar columns that identify the query in ``results.csv`` (start and goal cells...)."""
+        ...
+
+
+@runtime_checkable
+class Metric(Protocol):
+    """Per-query figures beyond the built-in columns (a ``metrics`` component)."""
+
+    def measure(self, problem: Any, proposal: Proposal, outcome: Outcome,
+                ctx: Context) -> Mapping[str, float]:
+        """Named numbers for one query; the same names every time."""
+        ...
+
+
+def manifest(config: Config | None, plugins: Plugins, *, seed: int,
+             extra: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """What a run or an experiment needs recorded to be repeated."""
+
+    def version(name: str) -> str | None:
+        try:
+            return metadata.version(name)
+        except metadata.PackageNotFoundError:
+            return None
+
+    return {
+        "created": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        "command": [Path(sys.argv[0]).name, *sys.argv[1:]],
+        "seed": seed,
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "cbrcore": version("cbrcore"),
+        "packages": {name: version(name) for name in _DEPENDENCIES},
+        "plugins": [{"name": p.name, "distribution": p.distribution, "version": p.version}
+                    for p in plugins.loaded],
+        "config_file": str(config.source) if config is not None and config.source else None,
+        "config": config.resolved() if config is not None else None,
+        **(extra or {}),
+    }
+
+
+def write_json(path: Path, data: Any) -> None:
+    """Write ``data`` as indented JSON, replacing the file only once it is complete."""
+    partial = path.with_name(path.name + ".partial")
+    partial.write_text(json.dumps(data, indent=2, default=str) + "\n", encoding="utf-8")
+    partial.replace(path)
+
+
+def _row(index: int, problem: Any, proposal: Proposal, outcome: Outcome,
+         learn_timings: Mapping[str, float], engine: Engine) -> dict[str, Any]:
+    matches = proposal.retrieval.matches if proposal.retrieval is not None else ()
+    timings = {**proposal.timings, "learn": sum(learn_timings.values())}
+    row: dict[str, Any] = {
+        "query": index,
+        **{f"q_{key}": value for key, value in engine.workload.describe(problem).items()},
+        "source": proposal.source,
+        "fallback_reason": proposal.fallback_reason or "",
+        "retrieved": len(matches),
+        "best_similarity": matches[0].similarity if matches else "",
+        "solution_cost": proposal.solution.cost if proposal.solution is not None else "",
+        "success": outcome.success,
+        "outcome_cost": "" if outcome.cost is None else outcome.cost,
+        **{f"ms_{phase}": round(timings[phase] * 1000, 4) if phase in timings else ""
+           for phase in PHASES},
+    }
+    for metric in engine.metrics:
+        row.update(metric.measure(problem, proposal, outcome, engine.ctx))
+    return row
+
+
+def _numbers(rows: Sequence[Mapping[str, Any]], key: str) -> list[float]:
+    return [float(r[key]) for r in rows if isinstance(r.get(key), int | float)
+            and not isinstance(r.get(key), bool)]
+
+
+def summarise(rows: Sequence[Mapping[str, Any]], engine: Engine, seconds: float
+              ) -> dict[str, Any]:
+    """The run's summary: counters, success rate, median phase times and metric means."""
+    summary: dict[str, Any] = {**engine.stats.as_dict(), "seconds": round(seconds, 3)}
+    summary["success_rate"] = (sum(bool(r["success"]) for r in rows) / len(rows)) if rows else 0.0
+    costs = _numbers(rows, "outcome_cost")
+    summary["mean_outcome_cost"] = statistics.fmean(costs) if costs else None
+    summary["median_ms"] = {
+        phase: statistics.median(values) for phase in PHASES
+        if (values := _numbers(rows, f"ms_{phase}"))
+    }
+    builtin = {"query", "best_similarity", "solution_cost", "outcome_cost", "retrieved"}
+    summary["metric_means"] = {
+        key: statistics.fmean(values) for key in (rows[0] if rows else {})
+        if key not in builtin and not key.startswith(("ms_", "q_"))
+        and (values := _numbers(rows, key))
+    }
+    return summary
+
+
+def run_workload(engine: Engine, out_dir: Path, *, overrides: Sequence[str] = (),
+                 progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+    """Run the engine's workload, writing results, summary and manifest into ``out_dir``.
+
+    ``progress(done, total)`` is called after each query. Returns the summary.
+    """
+    if engine.workload is None:
+        raise ConfigError(str(engine.config.source or "configuration"),
+                          ["workload: required to run; name the workload component that "
+                           "produces the queries"])
+    out_dir.mkdir(parents=True, exist_ok=True)
+    write_json(out_dir / "manifest.json", manifest(
+        engine.config, engine.plugins, seed=engine.config.seed,
+        extra={"overrides": list(overrides)}))
+    total = len(engine.workload)
+    rows: list[dict[str, Any]] = []
+    started = time.perf_counter()
+    with (out_dir / "results.csv").open("w", newline="", encoding="utf-8") as handle:
+        writer: csv.DictWriter[str] | None = None
+        for index, problem in enumerate(engine.workload.queries(engine.ctx)):
+            proposal = engine.solve(problem)
+            outcome = _execute(engine, problem, proposal)
+            learn_timings = engine.learn(problem, proposal, outcome)
+            row = _row(index, problem, proposal, outcome, learn_timings, engine)
+            if writer is None:
+                writer = csv.DictWriter(handle, fieldnames=list(row))
+                writer.writeheader()
+            elif row.keys() != set(writer.fieldnames):
+                raise PluginError(f"query {index}: the workload's describe() or a metric gave "
+                                  f"columns {sorted(row)} instead of {sorted(writer.fieldnames)}")
+            writer.writerow(row)
+            handle.flush()
+            rows.append(row)
+            if progress is not None:
+                progress(index + 1, total)
+    summary = summarise(rows, engine, time.perf_counter() - started)
+    write_json(out_dir / "summary.json", summary)
+    return summary
+
+
+def _execute(engine: Engine, problem: Any, proposal: Proposal) -> Outcome:
+    try:
+        outcome = engine.workload.execute(problem, proposal, engine.ctx)
+    except CbrError:
+        raise
+    except Exception as exc:
+        ref = engine.config.workload
+        raise PluginError(f"workload {ref.name!r} failed to execute query {engine.ctx.step}: "
+                          f"{type(exc).__name__}: {exc}") from exc
+    if not isinstance(outcome, Outcome):
+        raise PluginError(f"workload {engine.config.workload.name!r} returned "
+                          f"{type(outcome).__name__} from execute(), expected Outcome")
+    return outcome

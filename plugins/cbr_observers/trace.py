@@ -1,0 +1,95 @@
+"""The ``trace`` observer: one JSON line per phase call, with its duration and result."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Generator
+from pathlib import Path
+from typing import IO, Any
+
+import attrs
+
+from cbrcore.context import Context
+from cbrcore.errors import ConfigError
+from cbrcore.hookspecs import hookimpl
+from cbrcore.model import Retrieval, Revision, Solution
+from cbrcore.options import option
+
+
+@attrs.frozen
+class TraceOptions:
+    file: Path | None = option(
+        None, "Where to write the trace (JSON lines). Relative paths resolve against the config "
+        "file; default: trace.jsonl in the run's output folder.")
+
+
+def _summary(result: Any) -> dict[str, Any]:
+    if isinstance(result, Retrieval):
+        best = result.matches[0] if result.matches else None
+        return {"matches": len(result.matches),
+                "best": None if best is None else {"case": best.case.id,
+                                                   "similarity": best.similarity}}
+    if isinstance(result, Solution):
+        return {"cost": result.cost, "cases": list(result.cases)}
+    if isinstance(result, Revision):
+        return {"accepted": result.accepted, "reason": result.reason}
+    return {}
+
+
+class Trace:
+    """Trace every phase: query index, phase, wall time in ms, outcome and a result summary.
+
+    A wrapper around each phase hook, so it measures the configured component and sees its
+    result or its exception. Lines are flushed as written: a killed run keeps its trace.
+    """
+
+    def __init__(self, options: TraceOptions, ctx: Context) -> None:
+        path = options.file
+        if path is None:
+            if ctx.out_dir is None:
+                raise ConfigError("observers", [
+                    "observers: trace needs a 'file' when the engine has no output folder"])
+            path = ctx.out_dir / "trace.jsonl"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self._handle: IO[str] = path.open("a", encoding="utf-8")
+
+    def _watch(self, phase: str, ctx: Context) -> Generator[None, Any, Any]:
+        started = time.perf_counter()
+        record: dict[str, Any] = {"step": ctx.step, "phase": phase}
+        try:
+            result = yield
+        except BaseException as exc:
+            record.update(error=f"{type(exc).__name__}: {exc}")
+            raise
+        else:
+            record.update(_summary(result))
+            return result
+        finally:
+            record["ms"] = round((time.perf_counter() - started) * 1000, 4)
+            self._handle.write(json.dumps(record) + "\n")
+            self._handle.flush()
+
+    @hookimpl(wrapper=True)
+    def cbr_retrieve(self, ctx: Context) -> Generator[None, Any, Any]:
+        return (yield from self._watch("retrieve", ctx))
+
+    @hookimpl(wrapper=True)
+    def cbr_reuse(self, ctx: Context) -> Generator[None, Any, Any]:
+        return (yield from self._watch("reuse", ctx))
+
+    @hookimpl(wrapper=True)
+    def cbr_revise(self, ctx: Context) -> Generator[None, Any, Any]:
+        return (yield from self._watch("revise", ctx))
+
+    @hookimpl(wrapper=True)
+    def cbr_solve(self, ctx: Context) -> Generator[None, Any, Any]:
+        return (yield from self._watch("solve", ctx))
+
+    @hookimpl(wrapper=True)
+    def cbr_retain(self, ctx: Context) -> Generator[None, Any, Any]:
+        return (yield from self._watch("retain", ctx))
+
+    @hookimpl(wrapper=True)
+    def cbr_forget(self, ctx: Context) -> Generator[None, Any, Any]:
+        return (yield from self._watch("forget", ctx))
