@@ -18,6 +18,7 @@ from cbrcore.cli import casebase, commands
 from cbrcore.errors import CbrError
 from cbrcore.plugins import current
 
+
 def _options(
     traceback_: bool = typer.Option(False, "--traceback", help="Show tracebacks of errors."),
 ) -> None:
