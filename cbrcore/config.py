@@ -104,6 +104,7 @@ class _Marks:
 
     def __init__(self, node: yaml.Node | None) -> None:
         self.marks: dict[str, yaml.Mark] = {}
+        self.duplicates: list[str] = []
         if node is not None:
             self._walk(node, "")
 
@@ -112,18 +113,23 @@ class _Marks:
         if isinstance(node, yaml.MappingNode):
             for key, value in node.value:
                 child = f"{path}.{key.value}" if path else str(key.value)
+                if child in self.marks:  # PyYAML keeps the last of two equal keys silently
+                    self.duplicates.append(f"{child}{self.at(key.start_mark)}: key written twice")
                 self._walk(value, child)
                 self.marks.setdefault(child, key.start_mark)
         elif isinstance(node, yaml.SequenceNode):
             for index, item in enumerate(node.value):
                 self._walk(item, f"{path}.{index}" if path else str(index))
 
+    @staticmethod
+    def at(mark: yaml.Mark | None) -> str:
+        return f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
+
     def where(self, path: str) -> str:
         probe = path
         while probe not in self.marks and probe:
             probe = probe.rpartition(".")[0]
-        mark = self.marks.get(probe)
-        return f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
+        return self.at(self.marks.get(probe))
 
 
 def read_yaml(path: Path) -> tuple[Any, _Marks]:
@@ -142,7 +148,10 @@ def read_yaml(path: Path) -> tuple[Any, _Marks]:
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
         problem = getattr(exc, "problem", None) or str(exc)
         raise ConfigError(str(path), [f"{where}malformed YAML: {problem}"]) from None
-    return data, _Marks(node)
+    marks = _Marks(node)
+    if marks.duplicates:
+        raise ConfigError(str(path), marks.duplicates)
+    return data, marks
 
 
 def apply_overrides(data: Any, overrides: Sequence[str], source: str) -> Any:
@@ -183,6 +192,8 @@ def apply_overrides(data: Any, overrides: Sequence[str], source: str) -> Any:
 def _descend(node: Any, part: str, path: str) -> tuple[Any, str | None]:
     if isinstance(node, list):
         if part.isdigit() and int(part) < len(node):
+            if isinstance(node[int(part)], str):  # a list item given by name gains options
+                node[int(part)] = {"use": node[int(part)]}
             return node[int(part)], None
         return node, f"{path}: no list item {part}"
     if not isinstance(node, dict):

@@ -143,6 +143,8 @@ class Engine:
         self._pm = new_plugin_manager()
         self._owners: dict[str, str] = {}
         self._slots: dict[str, str] = {}
+        self.components: dict[str, Any] = {}
+        """The built phase components and observers by YAML path (``retrieve``, ``retain.0``)."""
         self.casebase: CaseStore | None = None
         self._closed = False
         try:
@@ -152,7 +154,9 @@ class Engine:
             for slot in ("retrieve", "reuse", "revise", "solver"):
                 self._register(getattr(config, slot))
             for slot in ("retain", "forget", "observers"):
-                for ref in getattr(config, slot):
+                # pluggy calls the last registered first: register backwards so collect-all
+                # phases run in the order the configuration lists them
+                for ref in reversed(getattr(config, slot)):
                     self._register(ref)
             self.workload = self._build(config.workload)
             self.metrics = [self._build(ref) for ref in config.metrics]
@@ -198,6 +202,7 @@ class Engine:
         name = f"{ref.path}:{ref.name}"
         self._pm.register(instance, name=name)
         self._owners[name] = f"{ref.name} ({plugin})"
+        self.components[ref.path] = instance
         self._slots[ref.kind] = ref.name
 
     def solve(self, problem: Any) -> Proposal:
@@ -263,7 +268,8 @@ class Engine:
         if self._closed:
             return
         self._closed = True
-        parts = [*self._pm.get_plugins(), getattr(self, "workload", None),
+        # list_name_plugin, unlike get_plugins, neither hashes components nor loses their order
+        parts = [*(p for _, p in self._pm.list_name_plugin()), getattr(self, "workload", None),
                  *getattr(self, "metrics", ()), getattr(self, "world", None), self.casebase]
         for part in parts:
             close = getattr(part, "close", None)

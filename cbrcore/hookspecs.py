@@ -108,9 +108,10 @@ def cbr_retain(problem: Any, solution: Solution, outcome: Outcome, casebase: Cas
                ctx: Context) -> None:
     """Retain: store what is worth keeping from a carried-out solution.
 
-    Collect-all: every configured retainer runs, in the same case base transaction as the forget
-    step that follows, so a crash keeps all or none of one learn step. ``solution`` is what was
-    executed (the outcome's solution when it has one, else the proposal's). Return value ignored.
+    Collect-all: every configured retainer runs, in the order the configuration lists them and
+    in the same case base transaction as the forget step that follows, so a crash keeps all or
+    none of one learn step. ``solution`` is what was executed (the outcome's solution when it
+    has one, else the proposal's). Return value ignored.
     """
 
 
@@ -118,8 +119,8 @@ def cbr_retain(problem: Any, solution: Solution, outcome: Outcome, casebase: Cas
 def cbr_forget(casebase: CaseStore, ctx: Context) -> None:
     """Forget: maintain the case base after a retain (capacity limits, forgetting strategies).
 
-    Collect-all: every configured forgetter runs, inside the learn step's transaction, after all
-    retainers. Return value ignored.
+    Collect-all: every configured forgetter runs, in the order the configuration lists them,
+    inside the learn step's transaction, after all retainers. Return value ignored.
     """
 
 

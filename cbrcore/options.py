@@ -52,7 +52,7 @@ def _strict(kind: type, label: str, accept: tuple[type, ...]) -> Callable[[Any, 
 
 def _literal(value: Any, kind: Any) -> Any:
     allowed = typing.get_args(kind)
-    if value not in allowed or isinstance(value, bool) != any(isinstance(a, bool) for a in allowed):
+    if not any(type(value) is type(a) and value == a for a in allowed):
         raise ValueError(f"expected one of {', '.join(map(repr, allowed))}, got {value!r}")
     return value
 
@@ -105,9 +105,9 @@ _VALIDATOR_MESSAGE = re.compile(r"^'(?P<field>\w+)' (?P<rest>must .*)$", re.S)
 def _walk(exc: BaseException, path: str) -> Iterator[tuple[str, str]]:
     if isinstance(exc, ForbiddenExtraKeysError):
         fields = [a.name for a in attrs.fields(exc.cl)] if attrs.has(exc.cl) else []
-        expected = ", ".join(fields) if fields else "no options"
+        expected = f"one of: {', '.join(fields)}" if fields else "no options"
         for key in sorted(exc.extra_fields):
-            yield f"{path}.{key}", f"unknown key; expected one of: {expected}"
+            yield f"{path}.{key}", f"unknown key; expected {expected}"
     elif isinstance(exc, ClassValidationError | IterableValidationError):
         noted, plain = exc.group_exceptions()
         for inner, note in noted:

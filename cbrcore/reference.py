@@ -7,6 +7,8 @@ module's output (``cbr reference config`` and ``cbr reference hooks``); a test k
 from __future__ import annotations
 
 import inspect
+import re
+import types
 import typing
 from collections.abc import Iterable
 
@@ -33,11 +35,28 @@ retrieve: {use: nearest, k: 3}
 """
 
 
+_ROLE = re.compile(r":(?:\w+:)?\w+:`(?P<tilde>~?)(?P<text>[^`<]+?)(?:\s*<[^>]*>)?`")
+_LITERAL = re.compile(r"``(?P<text>[^`]+)``")
+
+
+def _markdown(text: str) -> str:
+    """Docstring text with its reST markup (``code``, :class:`~a.B`) written as markdown."""
+
+    def role(match: re.Match[str]) -> str:
+        text = match["text"].strip()
+        return f"`{text.rsplit('.', 1)[-1] if match['tilde'] else text}`"
+
+    return _LITERAL.sub(r"`\g<text>`", _ROLE.sub(role, text))
+
+
 def _type_name(kind: object) -> str:
     if isinstance(kind, str):
-        return kind
+        return kind.replace("|", "\\|")
     if typing.get_origin(kind) is typing.Literal:
         return " \\| ".join(repr(a) for a in typing.get_args(kind))
+    if typing.get_origin(kind) in (typing.Union, types.UnionType):
+        return " \\| ".join("None" if a is type(None) else _type_name(a)
+                             for a in typing.get_args(kind))
     text = getattr(kind, "__name__", None) if typing.get_origin(kind) is None else None
     return text or str(kind).replace("typing.", "").replace("|", "\\|")
 
@@ -52,14 +71,15 @@ def _default(field: attrs.Attribute) -> str:
 
 def _component_section(component: Component) -> list[str]:
     lines = [f"### `{component.name}`", "", f"Plugin: `{component.plugin}`.", ""]
-    doc = inspect.cleandoc(component.doc) if component.doc else ""
+    doc = _markdown(inspect.cleandoc(component.doc)) if component.doc else ""
     if doc:
         lines += [doc, ""]
     if component.options is NoOptions or not attrs.fields(component.options):
         return [*lines, "No options.", ""]
     lines += ["| option | type | default | meaning |", "|---|---|---|---|"]
-    for field in attrs.fields(component.options):
-        meaning = field.metadata.get("doc", "").replace("\n", " ").replace("|", "\\|")
+    # resolved as when options are read, so the text does not depend on whether they were
+    for field in attrs.fields(attrs.resolve_types(component.options)):
+        meaning = _markdown(field.metadata.get("doc", "")).replace("\n", " ").replace("|", "\\|")
         lines.append(f"| `{field.name}` | {_type_name(field.type)} | {_default(field)} "
                      f"| {meaning} |")
     return [*lines, ""]
@@ -85,7 +105,7 @@ def config_reference(components: Iterable[Component]) -> str:
         lines += [f"## {kind} ({where})", "", description[0].upper() + description[1:] + ".", ""]
         listed = sorted(by_kind.get(kind, []), key=lambda c: c.name)
         if not listed:
-            lines += ["No built-in component of this kind is installed.", ""]
+            lines += ["No component of this kind is installed.", ""]
         for component in listed:
             lines += _component_section(component)
     return "\n".join(lines).rstrip("\n") + "\n"
@@ -93,12 +113,12 @@ def config_reference(components: Iterable[Component]) -> str:
 
 def hook_reference() -> str:
     """The hook reference: every hookspec with its signature, kind and contract."""
-    lines = ["# Hook reference", "", inspect.cleandoc(hookspecs.__doc__ or ""), ""]
+    lines = ["# Hook reference", "", _markdown(inspect.cleandoc(hookspecs.__doc__ or "")), ""]
     for name in (*hookspecs.PLUGIN_HOOKS, *hookspecs.PHASE_HOOKS.values()):
         function = getattr(hookspecs, name)
         opts = getattr(function, f"{hookspecs.PROJECT}_spec")
         signature = str(inspect.signature(function)).replace("'", "")
         kind = "firstresult" if opts.get("firstresult") else "collect-all"
         lines += [f"## `{name}`", "", "```python", f"def {name}{signature}", "```", "",
-                  f"*{kind}*", "", inspect.cleandoc(function.__doc__ or ""), ""]
+                  f"*{kind}*", "", _markdown(inspect.cleandoc(function.__doc__ or "")), ""]
     return "\n".join(lines).rstrip("\n") + "\n"

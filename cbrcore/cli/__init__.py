@@ -10,7 +10,6 @@ import sys
 import traceback
 from collections.abc import Sequence
 
-import click
 import typer
 from rich.console import Console
 
@@ -45,12 +44,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         command = typer.main.get_command(build_app())
         result = command.main(args, prog_name="cbr", standalone_mode=False)
-    except click.exceptions.Exit as exc:
+    except typer.Exit as exc:
         return exc.exit_code
-    except click.ClickException as exc:
+    except typer.TyperException as exc:  # usage errors, raised by typer's copy of click
         exc.show()
         return exc.exit_code
-    except click.Abort:
+    except typer.Abort:
         err.print("Aborted.")
         return 1
     except CbrError as exc:

@@ -1,0 +1,60 @@
+"""The components cbrcore itself supplies: the case base stores."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import attrs
+
+from cbrcore.casebase import MemoryStore, SQLiteStore
+from cbrcore.context import Context
+from cbrcore.errors import ConfigError
+from cbrcore.hookspecs import hookimpl
+from cbrcore.options import option
+from cbrcore.registry import NoOptions, Registry
+
+
+@attrs.frozen
+class SQLiteOptions:
+    """Options of the ``sqlite`` store."""
+
+    path: Path | None = option(
+        None,
+        "Case base file; relative paths resolve against the config file. "
+        "Default: casebase.sqlite in the run's output folder.",
+    )
+    busy_timeout: float = option(
+        5.0,
+        "Seconds to wait for another process's write lock before giving up.",
+        validator=attrs.validators.ge(0),
+    )
+
+
+def memory_store(options: NoOptions, ctx: Context) -> MemoryStore:
+    """An in-memory case base: fast, and gone when the run ends.
+
+    Behaves like the sqlite store (transactions, revisions, JSON-only contents) without a file,
+    so it suits tests, benchmarks and runs that start from an empty case base every time.
+    """
+    return MemoryStore()
+
+
+def sqlite_store(options: SQLiteOptions, ctx: Context) -> SQLiteStore:
+    """A case base in a SQLite file: survives crashes and can be shared by processes.
+
+    The file is created when missing. One that is not a cbrcore case base, is corrupt or has
+    another schema version is refused and left untouched.
+    """
+    path = options.path
+    if path is None:
+        if ctx.out_dir is None:
+            raise ConfigError("casebase.path",
+                              ["casebase.path: required when the engine has no output folder"])
+        path = ctx.out_dir / "casebase.sqlite"
+    return SQLiteStore(path, busy_timeout=options.busy_timeout)
+
+
+@hookimpl
+def cbr_register(registry: Registry) -> None:
+    registry.add("store", "memory", memory_store)
+    registry.add("store", "sqlite", sqlite_store, options=SQLiteOptions)

@@ -1,0 +1,451 @@
+"""Plain data in and out of case bases.
+
+Two things live here. First, the rule every store applies to what it is given: case contents and
+plugin meta values must be plain JSON data (dicts with string keys, lists, strings, numbers,
+booleans, None). NaN and infinity are refused rather than stored: they are not JSON, and a value
+that silently turned into ``null`` or broke the export would be worse than an error at the point
+where it was produced. Tuples are refused too, because they would come back as lists.
+
+Second, the plain-text export format, YAML or JSON::
+
+    format: cbrcore-casebase
+    schema: 1
+    revision: 42
+    meta: {grid.index: ...}
+    cases:
+    - {id: 1, kind: case, problem: ..., solution: ..., meta: {}, uses: 3, created: 1, last_used: 40}
+
+Importing into an empty store keeps ids and revision stamps, so an exported case base imports back
+equal. Importing with ``append`` adds the document's cases as new cases of a store that already
+holds some.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Iterable, Iterator, Mapping
+from pathlib import Path
+from typing import Any, Literal, Protocol, TextIO, runtime_checkable
+
+import attrs
+import yaml
+
+from cbrcore.casebase.store import CaseStore
+from cbrcore.errors import CaseBaseError
+from cbrcore.model import JSON, Case
+
+FORMAT = "cbrcore-casebase"
+"""The ``format`` value that marks an exported case base."""
+
+SCHEMA = 1
+"""The version of the export document (and of the SQLite schema) this cbrcore reads and writes."""
+
+REVISION_KEY = "cbrcore.revision"
+"""The meta key a store keeps its revision under; plugins cannot use it."""
+
+Format = Literal["yaml", "json"]
+FORMATS: tuple[Format, ...] = ("yaml", "json")
+_SUFFIXES: dict[str, Format] = {".yaml": "yaml", ".yml": "yaml", ".json": "json"}
+_CASE_KEYS = ("id", "kind", "problem", "solution", "meta", "uses", "created", "last_used")
+_MAX_LISTED = 20
+
+
+def is_json(value: Any) -> bool:
+    """Whether ``value`` is plain JSON data (the fast test; :func:`json_problems` says why not)."""
+    if value is None or isinstance(value, str | int):
+        return True
+    if isinstance(value, float):
+        return math.isfinite(value)
+    if isinstance(value, list):
+        return all(is_json(item) for item in value)
+    if isinstance(value, dict):
+        return all(isinstance(k, str) and is_json(v) for k, v in value.items())
+    return False
+
+
+def _step(path: str, key: str) -> str:
+    return f"{path}.{key}" if key.isidentifier() else f"{path}[{key!r}]"
+
+
+def json_problems(value: Any, path: str) -> Iterator[str]:
+    """Why ``value`` is not plain JSON data: one ``"path: reason"`` per offending item."""
+    if value is None or isinstance(value, str | int):
+        return
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            yield f"{path}: {value!r} is not JSON data (NaN and infinity cannot be stored)"
+    elif isinstance(value, list):
+        for index, item in enumerate(value):
+            yield from json_problems(item, f"{path}[{index}]")
+    elif isinstance(value, dict):
+        for key, item in value.items():
+            if isinstance(key, str):
+                yield from json_problems(item, _step(path, key))
+            else:
+                yield f"{path}: key {key!r} is not a string (JSON object keys are strings)"
+    elif isinstance(value, tuple):
+        yield f"{path}: a tuple is not JSON data; use a list"
+    else:
+        yield f"{path}: {type(value).__name__} {_short(value)} is not JSON data"
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _is_unicode(text: str) -> bool:
+    # kinds and meta keys are stored as SQLite text, which must be valid UTF-8
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+def _is_count(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def case_problems(case: Case, revision: int | None) -> list[str]:
+    """What keeps ``case`` from being stored in a case base at ``revision``, one line each.
+
+    ``revision`` bounds the case's revision stamps: a case cannot be created or used after the
+    revision that stores it. None leaves the stamps unbounded.
+    """
+    problems: list[str] = []
+    if not isinstance(case.kind, str) or not case.kind:
+        problems.append(f"kind: expected a non-empty string, got {_short(case.kind)}")
+    elif not _is_unicode(case.kind):
+        problems.append(f"kind: {case.kind!r} is not valid Unicode text")
+    for field in ("problem", "solution"):
+        value = getattr(case, field)
+        if not is_json(value):
+            problems.extend(json_problems(value, field))
+    if not isinstance(case.meta, Mapping):
+        problems.append(f"meta: expected a mapping, got {_short(case.meta)}")
+    elif not is_json(dict(case.meta)):
+        problems.extend(json_problems(dict(case.meta), "meta"))
+    if not _is_count(case.uses):
+        problems.append(f"uses: expected a non-negative integer, got {_short(case.uses)}")
+    for field in ("created", "last_used"):
+        stamp = getattr(case, field)
+        if stamp is None:
+            continue
+        if not _is_count(stamp):
+            problems.append(f"{field}: expected a revision number, got {_short(stamp)}")
+        elif revision is not None and stamp > revision:
+            problems.append(f"{field}: revision {stamp} is after the case base's "
+                            f"revision {revision}")
+    return problems
+
+
+def check_case(case: Case, revision: int) -> None:
+    """Raise ValueError naming the case kind and the field when ``case`` cannot be stored."""
+    problems = case_problems(case, revision)
+    if problems:
+        raise ValueError(f"case kind {case.kind!r}: " + "; ".join(problems[:3]))
+
+
+def check_meta(key: str, value: JSON) -> None:
+    """Raise when ``key`` is not a usable meta key or ``value`` is not plain JSON data."""
+    check_meta_key(key)
+    if not is_json(value):
+        raise ValueError(f"meta key {key!r}: " + "; ".join(list(json_problems(value, "value"))[:3]))
+
+
+def check_meta_key(key: str) -> None:
+    """Raise when ``key`` is not a string or is the key reserved for the revision."""
+    if not isinstance(key, str):
+        raise TypeError(f"meta keys are strings, got {key!r}")
+    if not _is_unicode(key):
+        raise ValueError(f"meta key {key!r} is not valid Unicode text")
+    if key == REVISION_KEY:
+        raise ValueError(f"meta key {key!r} is reserved for the case base's revision")
+
+
+@runtime_checkable
+class ExchangeStore(CaseStore, Protocol):
+    """A store that can be exported and imported: it lists its meta and restores a document."""
+
+    def meta_items(self) -> dict[str, JSON]:
+        """Every plugin meta value, by key."""
+        ...
+
+    def restore(self, cases: Iterable[Case], meta: Mapping[str, JSON], revision: int) -> None:
+        """Fill this store, which holds no cases, with ``cases`` keeping their ids and stamps.
+
+        Cases without an id get new ones, cases without ``created`` the restoring transaction's
+        revision. The store's meta is replaced by ``meta``, and the transaction commits as
+        ``revision`` when that is ahead of the store's own clock.
+        """
+        ...
+
+
+@attrs.frozen
+class Document:
+    """A whole case base as plain data: what export writes and import reads."""
+
+    revision: int = 0
+    meta: Mapping[str, JSON] = attrs.field(factory=dict)
+    cases: tuple[Case, ...] = ()
+
+
+def document_of(store: ExchangeStore) -> Document:
+    """A consistent snapshot of ``store`` (read inside one transaction, which writes nothing)."""
+    with store.transaction():
+        return Document(store.revision, store.meta_items(), tuple(store.cases()))
+
+
+def document_to_data(document: Document) -> dict[str, Any]:
+    """The document as the plain mapping that is written to a file."""
+    return {
+        "format": FORMAT,
+        "schema": SCHEMA,
+        "revision": document.revision,
+        "meta": dict(document.meta),
+        "cases": [
+            {
+                "id": case.id,
+                "kind": case.kind,
+                "problem": case.problem,
+                "solution": case.solution,
+                "meta": dict(case.meta),
+                "uses": case.uses,
+                "created": case.created,
+                "last_used": case.last_used,
+            }
+            for case in document.cases
+        ],
+    }
+
+
+def _type_name(value: Any) -> str:
+    return "null" if value is None else type(value).__name__
+
+
+class _Reader:
+    """Collects the problems of a document, each with its path inside the document."""
+
+    def __init__(self) -> None:
+        self.problems: list[str] = []
+
+    def problem(self, path: str, message: str) -> None:
+        self.problems.append(f"{path}: {message}")
+
+    def count(self, value: Any, path: str, *, least: int = 0) -> int | None:
+        if isinstance(value, int) and not isinstance(value, bool) and value >= least:
+            return value
+        self.problem(path, f"expected an integer >= {least}, got {_short(value)}")
+        return None
+
+    def plain(self, value: Any, path: str) -> Any:
+        if not is_json(value):
+            self.problems.extend(json_problems(value, path))
+        return value
+
+    def mapping(self, value: Any, path: str) -> dict[str, Any] | None:
+        if not isinstance(value, dict):
+            self.problem(path, f"expected a mapping, got {_type_name(value)}")
+            return None
+        return self.plain(value, path)
+
+    def stamp(self, value: Any, path: str, revision: int | None) -> int | None:
+        if value is None:
+            return None
+        stamp = self.count(value, path)
+        if stamp is not None and revision is not None and stamp > revision:
+            self.problem(path, f"revision {stamp} is after the document's revision {revision}")
+        return stamp
+
+    def case(self, entry: Any, path: str, revision: int | None, ids: dict[int, str]) -> Case | None:
+        if not isinstance(entry, dict):
+            self.problem(path, f"expected a mapping, got {_type_name(entry)}")
+            return None
+        before = len(self.problems)
+        known = ", ".join(_CASE_KEYS)
+        for key in entry:
+            if key not in _CASE_KEYS:
+                self.problem(f"{path}.{key}", f"unknown key; expected one of: {known}")
+        for key in ("problem", "solution"):
+            if key not in entry:
+                self.problem(f"{path}.{key}", "required key is missing")
+        case_id = entry.get("id")
+        if case_id is not None:
+            case_id = self.count(case_id, f"{path}.id", least=1)
+            if case_id in ids:
+                self.problem(f"{path}.id", f"{case_id} is also the id of {ids[case_id]}")
+            elif case_id is not None:
+                ids[case_id] = path
+        kind = entry.get("kind", "case")
+        if not isinstance(kind, str) or not kind:
+            self.problem(f"{path}.kind", f"expected a non-empty string, got {_short(kind)}")
+        elif not _is_unicode(kind):
+            self.problem(f"{path}.kind", f"{kind!r} is not valid Unicode text")
+        problem = self.plain(entry.get("problem"), f"{path}.problem")
+        solution = self.plain(entry.get("solution"), f"{path}.solution")
+        meta = self.mapping(entry.get("meta", {}), f"{path}.meta")
+        uses = self.count(entry.get("uses", 0), f"{path}.uses")
+        created = self.stamp(entry.get("created"), f"{path}.created", revision)
+        last_used = self.stamp(entry.get("last_used"), f"{path}.last_used", revision)
+        if len(self.problems) > before or meta is None or uses is None:
+            return None
+        return Case(problem, solution, kind, meta, case_id, uses, created, last_used)
+
+
+def document_from_data(data: Any, source: str) -> Document:
+    """Validate a parsed document; CaseBaseError lists every problem with its path in it."""
+    if not isinstance(data, dict):
+        raise CaseBaseError(f"{source}: expected a case base document (a mapping with "
+                            f"format: {FORMAT}), got {_type_name(data)}")
+    reader = _Reader()
+    if data.get("format") != FORMAT:
+        got = "nothing" if "format" not in data else _short(data["format"])
+        reader.problem("format", f"expected {FORMAT!r}, got {got}")
+    schema = data.get("schema")
+    if schema != SCHEMA:
+        reader.problem("schema", f"this cbrcore reads schema {SCHEMA}, the document has "
+                                 f"{_short(schema) if 'schema' in data else 'none'}")
+    for key in data:
+        if key not in ("format", "schema", "revision", "meta", "cases"):
+            reader.problem(str(key), "unknown key; expected format, schema, revision, meta, cases")
+    revision = reader.count(data.get("revision", 0), "revision")
+    meta = reader.mapping(data.get("meta", {}), "meta")
+    for key in meta or {}:
+        if key == REVISION_KEY:
+            reader.problem(_step("meta", key), "this key is reserved for the revision")
+        elif not _is_unicode(key):
+            reader.problem(_step("meta", key), "this key is not valid Unicode text")
+    entries = data.get("cases", [])
+    cases: list[Case] = []
+    if not isinstance(entries, list):
+        reader.problem("cases", f"expected a list, got {_type_name(entries)}")
+        entries = []
+    ids: dict[int, str] = {}
+    for index, entry in enumerate(entries):
+        case = reader.case(entry, f"cases[{index}]", revision, ids)
+        if case is not None:
+            cases.append(case)
+    if reader.problems:
+        listed = reader.problems[:_MAX_LISTED]
+        more = len(reader.problems) - len(listed)
+        lines = "\n".join(f"  - {p}" for p in listed) + (f"\n  ... and {more} more" if more else "")
+        noun = "problem" if len(reader.problems) == 1 else "problems"
+        raise CaseBaseError(f"{source}: not a valid case base document, "
+                            f"{len(reader.problems)} {noun}:\n{lines}")
+    assert revision is not None and meta is not None
+    return Document(revision, meta, tuple(cases))
+
+
+class _Dumper(yaml.SafeDumper):
+    """Writes shared objects out in full instead of as YAML anchors and aliases."""
+
+    def ignore_aliases(self, data: Any) -> bool:
+        return True
+
+
+def _represent_str(dumper: yaml.SafeDumper, text: str) -> yaml.ScalarNode:
+    # PyYAML writes a NEL (U+0085) into single-quoted or plain scalars as a bare line break,
+    # which reads back as a space; double quotes escape it
+    style = '"' if any(c in text for c in "\x85\u2028\u2029") else None
+    return dumper.represent_scalar("tag:yaml.org,2002:str", text, style=style)
+
+
+_Dumper.add_representer(str, _represent_str)
+
+
+def dump_document(document: Document, format: Format = "yaml") -> str:
+    """The document as YAML or JSON text."""
+    data = document_to_data(document)
+    if format == "json":
+        # ASCII escapes keep strings that are not valid Unicode (lone surrogates) writable
+        return json.dumps(data, indent=1, allow_nan=False) + "\n"
+    # the pure-Python dumper escapes what libyaml's cannot encode (lone surrogates)
+    return yaml.dump(data, Dumper=_Dumper, sort_keys=False, allow_unicode=True, width=100)
+
+
+def parse_document(text: str, format: Format, source: str = "<text>") -> Document:
+    """Parse and validate YAML or JSON text; ``source`` names it in error messages."""
+    try:
+        data = json.loads(text) if format == "json" else yaml.load(text, Loader=yaml.SafeLoader)
+    except json.JSONDecodeError as exc:
+        raise CaseBaseError(f"{source}: not valid JSON: {exc}") from exc
+    except yaml.YAMLError as exc:
+        raise CaseBaseError(f"{source}: not valid YAML: {exc}") from exc
+    return document_from_data(data, source)
+
+
+def format_of(path: str | os.PathLike[str]) -> Format:
+    """The format a file's extension calls for."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in _SUFFIXES:
+        raise CaseBaseError(f"{path}: cannot tell the format from the extension {suffix!r}; "
+                            "name the file .yaml, .yml or .json, or give the format")
+    return _SUFFIXES[suffix]
+
+
+def read_document(path: str | os.PathLike[str], format: Format | None = None) -> Document:
+    """Read and validate an exported case base file (format from the extension by default)."""
+    fmt = format or format_of(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError as exc:
+        raise CaseBaseError(f"no such file: {path}") from exc
+    except UnicodeDecodeError as exc:
+        raise CaseBaseError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from exc
+    except OSError as exc:
+        raise CaseBaseError(f"cannot read {path}: {exc.strerror}") from exc
+    return parse_document(text, fmt, str(path))
+
+
+def write_document(document: Document, target: str | os.PathLike[str] | TextIO,
+                   format: Format | None = None) -> None:
+    """Write the document to a file or a text stream.
+
+    A file's format comes from its extension unless given; a stream gets YAML unless told.
+    """
+    if not isinstance(target, str | os.PathLike):
+        target.write(dump_document(document, format or "yaml"))
+        return
+    text = dump_document(document, format or format_of(target))
+    try:
+        Path(target).write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise CaseBaseError(f"cannot write {target}: {exc.strerror}") from exc
+
+
+def load_document(store: ExchangeStore, document: Document, *, append: bool = False) -> int:
+    """Load the document into ``store`` in one transaction; return how many cases it added.
+
+    Without ``append`` the store must hold no cases: it then becomes a copy of the document (ids,
+    revision stamps, meta). With ``append`` the cases are added as new ones (new ids, ``created``
+    is the import's revision, ``last_used`` is cleared since the document's revisions count
+    another case base's transactions; ``uses`` is kept) and the store's meta is left alone.
+    """
+    with store.transaction():
+        if append:
+            for case in document.cases:
+                store.add(attrs.evolve(case, last_used=None))
+        else:
+            held = len(store)
+            if held:
+                raise CaseBaseError(f"{store} already holds {held} cases; refusing to import "
+                                    "over them (append adds the cases with new ids)")
+            store.restore(document.cases, document.meta, document.revision)
+    return len(document.cases)
+
+
+def export_casebase(store: ExchangeStore, target: str | os.PathLike[str] | TextIO,
+                    format: Format | None = None) -> Document:
+    """Write ``store`` to a file or stream (see :func:`write_document`); return what was written."""
+    document = document_of(store)
+    write_document(document, target, format)
+    return document
+
+
+def import_casebase(store: ExchangeStore, path: str | os.PathLike[str],
+                    format: Format | None = None, *, append: bool = False) -> int:
+    """Read an exported file and load it into ``store`` (see :func:`load_document`)."""
+    return load_document(store, read_document(path, format), append=append)

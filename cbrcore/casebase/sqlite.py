@@ -1,0 +1,520 @@
+"""A case store in a SQLite file, safe against crashes and shared between processes."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import operator
+import os
+import sqlite3
+from collections.abc import Iterable, Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+import attrs
+
+from cbrcore.casebase.exchange import (
+    REVISION_KEY,
+    SCHEMA,
+    case_problems,
+    check_case,
+    check_meta,
+    check_meta_key,
+)
+from cbrcore.errors import CaseBaseError
+from cbrcore.model import JSON, Case
+
+APPLICATION_ID = 0x43425243
+"""``PRAGMA application_id`` of a cbrcore case base ("CBRC")."""
+
+SCHEMA_VERSION = SCHEMA
+"""``PRAGMA user_version`` of the case bases this cbrcore reads and writes."""
+
+_HEADER = b"SQLite format 3\x00"
+_COLUMNS = "id, kind, problem, solution, meta, uses, created, last_used"
+_SCHEMA = (
+    # AUTOINCREMENT: ids are never reused, because solutions and plugin meta refer to cases by id
+    """CREATE TABLE cases (
+        id INTEGER PRIMARY KEY AUTOINCREMENT,
+        kind TEXT NOT NULL,
+        problem TEXT NOT NULL,
+        solution TEXT NOT NULL,
+        meta TEXT NOT NULL,
+        uses INTEGER NOT NULL,
+        created INTEGER NOT NULL,
+        last_used INTEGER
+    )""",
+    "CREATE INDEX cases_kind ON cases (kind)",
+    "CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)",
+)
+
+
+class UnusableCaseBase(CaseBaseError):
+    """A file that exists but is no sound case base of this cbrcore's schema.
+
+    It is not SQLite, is corrupt, is some other program's SQLite database, or has another schema
+    version. Such a file is refused without being written to.
+    """
+
+
+def _dumps(value: JSON) -> str:
+    # ASCII escapes keep strings that are not valid Unicode (lone surrogates) storable as UTF-8
+    return json.dumps(value, allow_nan=False, separators=(",", ":"))
+
+
+class SQLiteStore:
+    """A case base in a SQLite file.
+
+    Opening checks the file and refuses, with :class:`~cbrcore.errors.CaseBaseError` naming it,
+    anything that is not a sound cbrcore case base of this schema version (see
+    :class:`UnusableCaseBase`), without writing to it. A missing file is created unless
+    ``create`` is false; so is an empty (zero-byte) one, which is what a process killed while
+    creating a case base leaves behind.
+
+    The file is in WAL mode with ``synchronous=NORMAL``: a commit is in the write-ahead log, in the
+    operating system's hands, before it returns, so a killed process loses nothing it committed;
+    a power cut may lose the last commits but never corrupts the file. Syncing to disk on every
+    commit (``FULL``) would cost more than a fast domain's whole learn step, and losing the last
+    few learned cases on a power cut is harmless.
+
+    Several processes may use one file: writers take turns, waiting up to ``busy_timeout``
+    seconds for the write lock before giving up with a CaseBaseError. Readers never wait.
+    Every transaction starts with the write lock held (``BEGIN IMMEDIATE``), so it never fails
+    halfway for want of it.
+    """
+
+    def __init__(self, path: str | os.PathLike[str], *, busy_timeout: float = 5.0,
+                 create: bool = True) -> None:
+        self.path = Path(path)
+        self.busy_timeout = busy_timeout
+        self._depth = 0
+        self._pending = 0
+        self._wrote = False
+        new = self._inspect_file(create)
+        mode = "rwc" if create else "rw"
+        try:
+            self._conn = sqlite3.connect(f"{self.path.absolute().as_uri()}?mode={mode}", uri=True,
+                                         timeout=busy_timeout, isolation_level=None)
+        except sqlite3.Error as exc:
+            raise self._translate(exc) or CaseBaseError(f"cannot open {self.path}: {exc}") from exc
+        try:
+            if new:
+                self._create_schema()
+            self._validate()
+            if self._value("PRAGMA journal_mode") != "wal":
+                self._rows("PRAGMA journal_mode = WAL")
+            self._run("PRAGMA synchronous = NORMAL")
+        except BaseException:
+            self._conn.close()
+            raise
+
+    def _inspect_file(self, create: bool) -> bool:
+        """Refuse what cannot be a case base before SQLite touches it; True for a new file."""
+        path = self.path
+        try:
+            with path.open("rb") as file:
+                header = file.read(len(_HEADER))
+        except FileNotFoundError:
+            if not create:
+                raise CaseBaseError(f"no case base at {path}") from None
+            if not path.parent.is_dir():
+                raise CaseBaseError(f"cannot create case base {path}: "
+                                    f"folder {path.parent} does not exist") from None
+            return True
+        except IsADirectoryError:
+            raise CaseBaseError(f"{path} is a folder, not a case base") from None
+        except OSError as exc:
+            raise CaseBaseError(f"cannot read {path}: {exc.strerror}") from exc
+        if not header:
+            if not create:
+                raise CaseBaseError(f"no case base at {path}: the file is empty")
+            return True
+        if header != _HEADER:
+            raise UnusableCaseBase(f"{path} is not a case base: not a SQLite database file")
+        return False
+
+    def _create_schema(self) -> None:
+        # another process may be creating the same file: whoever gets the write lock first
+        # creates the schema, the other finds it there
+        with self._errors():
+            self._conn.execute("BEGIN IMMEDIATE")
+            try:
+                if self._value("PRAGMA application_id") == 0 and not self._rows(
+                        "SELECT name FROM sqlite_master"):
+                    self._run(f"PRAGMA application_id = {APPLICATION_ID}")
+                    self._run(f"PRAGMA user_version = {SCHEMA_VERSION}")
+                    for statement in _SCHEMA:
+                        self._run(statement)
+                    self._run("INSERT INTO meta (key, value) VALUES (?, '0')", (REVISION_KEY,))
+                self._conn.execute("COMMIT")
+            except BaseException:
+                self._rollback()
+                raise
+
+    def _validate(self) -> None:
+        application_id = self._value("PRAGMA application_id")
+        if application_id != APPLICATION_ID:
+            raise UnusableCaseBase(f"{self.path} is not a cbrcore case base: it is a SQLite "
+                                   f"database of another application (application_id "
+                                   f"{application_id:#x}, a case base has {APPLICATION_ID:#x})")
+        version = self._value("PRAGMA user_version")
+        if version != SCHEMA_VERSION:
+            which = "a newer" if version > SCHEMA_VERSION else "an older"
+            raise UnusableCaseBase(f"{self.path} has case base schema version {version} (from "
+                                   f"{which} cbrcore); this cbrcore reads version "
+                                   f"{SCHEMA_VERSION}")
+        verdict = [row[0] for row in self._rows("PRAGMA quick_check")]
+        if verdict != ["ok"]:
+            raise UnusableCaseBase(f"{self.path} is corrupt: {'; '.join(verdict[:3])}")
+
+    def __str__(self) -> str:
+        return str(self.path)
+
+    def __repr__(self) -> str:
+        return f"SQLiteStore({str(self.path)!r})"
+
+    def __enter__(self) -> SQLiteStore:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- talking to SQLite ------------------------------------------------------------------
+
+    def _translate(self, exc: sqlite3.Error) -> CaseBaseError | None:
+        """The CaseBaseError for a problem with the file; None for anything else (a bug)."""
+        name = getattr(exc, "sqlite_errorname", "")
+        if name.startswith(("SQLITE_BUSY", "SQLITE_LOCKED")):
+            return CaseBaseError(f"{self.path} is locked by another process (gave up after "
+                                 f"waiting {self.busy_timeout:g} s for it)")
+        if name.startswith("SQLITE_CORRUPT") or name == "SQLITE_NOTADB":
+            return UnusableCaseBase(f"{self.path} is corrupt: {exc}")
+        if name.startswith("SQLITE_READONLY"):
+            return CaseBaseError(f"{self.path} cannot be written: {exc}")
+        if name.startswith(("SQLITE_IOERR", "SQLITE_FULL", "SQLITE_CANTOPEN", "SQLITE_PERM")):
+            return CaseBaseError(f"{self.path}: {exc}")
+        return None
+
+    @contextlib.contextmanager
+    def _errors(self) -> Iterator[None]:
+        try:
+            yield
+        except sqlite3.Error as exc:
+            translated = self._translate(exc)
+            if translated is None:
+                raise
+            raise translated from exc
+
+    def _run(self, sql: str, params: Iterable[Any] = ()) -> sqlite3.Cursor:
+        with self._errors():
+            return self._conn.execute(sql, tuple(params))
+
+    def _rows(self, sql: str, params: Iterable[Any] = ()) -> list[Any]:
+        with self._errors():
+            return self._conn.execute(sql, tuple(params)).fetchall()
+
+    def _value(self, sql: str, params: Iterable[Any] = ()) -> Any:
+        rows = self._rows(sql, params)
+        return rows[0][0] if rows else None
+
+    def _rollback(self) -> None:
+        # the error that got us here says more than a failed rollback would, and SQLite rolls
+        # back by itself when it cannot go on
+        with contextlib.suppress(sqlite3.Error):
+            if self._conn.in_transaction:
+                self._conn.execute("ROLLBACK")
+
+    # -- transactions -----------------------------------------------------------------------
+
+    @property
+    def revision(self) -> int:
+        """The number of write transactions committed so far, by any process."""
+        text = self._value("SELECT value FROM meta WHERE key = ?", (REVISION_KEY,))
+        if text is None:
+            raise UnusableCaseBase(f"{self.path} is corrupt: its revision record is missing")
+        return int(text)
+
+    @contextlib.contextmanager
+    def transaction(self) -> Iterator[None]:
+        """Group writes; commits on normal exit, rolls back if the block raises.
+
+        A nested block joins the outer transaction (nothing commits before the outermost block
+        ends); if a nested block raises, its own writes are undone and the outer block may go on.
+        """
+        if self._depth:
+            with self._savepoint():
+                yield
+            return
+        self._run("BEGIN IMMEDIATE")
+        try:
+            self._pending = self.revision + 1
+            self._wrote = False
+            self._depth = 1
+            try:
+                yield
+            finally:
+                self._depth = 0
+            if self._wrote:
+                self._run("UPDATE meta SET value = ? WHERE key = ?",
+                          (str(self._pending), REVISION_KEY))
+            self._run("COMMIT")
+        except BaseException:
+            self._rollback()
+            raise
+
+    @contextlib.contextmanager
+    def _savepoint(self) -> Iterator[None]:
+        name = f"cbr{self._depth}"
+        saved = (self._pending, self._wrote)
+        self._run(f"SAVEPOINT {name}")
+        self._depth += 1
+        try:
+            yield
+        except BaseException:
+            self._run(f"ROLLBACK TO {name}")
+            self._run(f"RELEASE {name}")
+            self._pending, self._wrote = saved
+            raise
+        finally:
+            self._depth -= 1
+        self._run(f"RELEASE {name}")
+
+    # -- cases ------------------------------------------------------------------------------
+
+    def _row(self, case: Case) -> tuple[Any, ...]:
+        return (case.kind, _dumps(case.problem), _dumps(case.solution), _dumps(dict(case.meta)),
+                case.uses, case.created, case.last_used)
+
+    def _case(self, row: tuple[Any, ...]) -> Case:
+        case_id, kind, problem, solution, meta, uses, created, last_used = row
+        try:
+            return Case(json.loads(problem), json.loads(solution), kind, json.loads(meta),
+                        case_id, uses, created, last_used)
+        except (TypeError, ValueError) as exc:
+            raise UnusableCaseBase(f"{self.path} is corrupt: case {case_id} cannot be decoded "
+                                   f"({exc})") from exc
+
+    def add(self, case: Case) -> Case:
+        """Store a new case; return it with its ``id`` and ``created`` set (given ones ignored).
+
+        ``uses`` and ``last_used`` are kept.
+        """
+        with self.transaction():
+            stored = attrs.evolve(case, id=None, created=self._pending)
+            check_case(stored, self._pending)
+            cursor = self._run(f"INSERT INTO cases ({_COLUMNS}) VALUES (NULL, ?, ?, ?, ?, ?, ?, ?)",
+                               self._row(stored))
+            self._wrote = True
+            return attrs.evolve(stored, id=cursor.lastrowid)
+
+    def replace(self, case: Case) -> None:
+        """Overwrite the stored case with ``case.id``; KeyError if there is none.
+
+        Every field is taken from ``case``, except that ``created`` stays when it is None.
+        """
+        case_id = operator.index(case.id)
+        with self.transaction():
+            old = self.get(case_id)
+            stored = case if case.created is not None else attrs.evolve(case, created=old.created)
+            check_case(stored, self._pending)
+            self._run("UPDATE cases SET kind = ?, problem = ?, solution = ?, meta = ?, uses = ?, "
+                      "created = ?, last_used = ? WHERE id = ?", (*self._row(stored), case_id))
+            self._wrote = True
+
+    def remove(self, ids: Iterable[int]) -> None:
+        """Delete the cases with these ids; KeyError if one is missing (then none is deleted)."""
+        unique = list(dict.fromkeys(operator.index(i) for i in ids))
+        if unique:
+            with self.transaction():
+                self._require(unique)
+                with self._errors():
+                    self._conn.executemany("DELETE FROM cases WHERE id = ?",
+                                           [(i,) for i in unique])
+                self._wrote = True
+
+    def touch(self, ids: Iterable[int]) -> None:
+        """Count one more use of each case (once per distinct id) and stamp its ``last_used``.
+
+        The stamp is the revision the write commits as. KeyError if an id is missing.
+        """
+        unique = list(dict.fromkeys(operator.index(i) for i in ids))
+        if unique:
+            with self.transaction():
+                self._require(unique)
+                with self._errors():
+                    self._conn.executemany(
+                        "UPDATE cases SET uses = uses + 1, last_used = ? WHERE id = ?",
+                        [(self._pending, i) for i in unique])
+                self._wrote = True
+
+    def _require(self, ids: list[int]) -> None:
+        """Raise KeyError for the first of ``ids`` that is not stored."""
+        found: set[int] = set()
+        # SQLite limits the number of parameters of one statement
+        for start in range(0, len(ids), 500):
+            chunk = ids[start:start + 500]
+            marks = ", ".join("?" * len(chunk))
+            found.update(r[0] for r in self._rows(f"SELECT id FROM cases WHERE id IN ({marks})",
+                                                  chunk))
+        for case_id in ids:
+            if case_id not in found:
+                raise KeyError(case_id)
+
+    def get(self, case_id: int) -> Case:
+        """The case with this id; KeyError if there is none."""
+        case_id = operator.index(case_id)
+        rows = self._rows(f"SELECT {_COLUMNS} FROM cases WHERE id = ?", (case_id,))
+        if not rows:
+            raise KeyError(case_id)
+        return self._case(rows[0])
+
+    def cases(self, kind: str | None = None) -> list[Case]:
+        """All cases (of one kind when given), ordered by id."""
+        if kind is None:
+            rows = self._rows(f"SELECT {_COLUMNS} FROM cases ORDER BY id")
+        else:
+            rows = self._rows(f"SELECT {_COLUMNS} FROM cases WHERE kind = ? ORDER BY id", (kind,))
+        return [self._case(row) for row in rows]
+
+    def count(self, kind: str | None = None) -> int:
+        """How many cases (of one kind when given) are stored."""
+        if kind is None:
+            return int(self._value("SELECT count(*) FROM cases"))
+        return int(self._value("SELECT count(*) FROM cases WHERE kind = ?", (kind,)))
+
+    def kind_counts(self) -> dict[str, int]:
+        """How many cases of each kind are stored, by kind."""
+        return dict(self._rows("SELECT kind, count(*) FROM cases GROUP BY kind ORDER BY kind"))
+
+    # -- meta -------------------------------------------------------------------------------
+
+    def get_meta(self, key: str, default: JSON = None) -> JSON:
+        """A plugin's stored value (plain JSON data) under ``key``."""
+        check_meta_key(key)
+        text = self._value("SELECT value FROM meta WHERE key = ?", (key,))
+        return default if text is None else json.loads(text)
+
+    def set_meta(self, key: str, value: JSON) -> None:
+        """Store a plugin's value under ``key``; it commits with the surrounding transaction."""
+        check_meta(key, value)
+        with self.transaction():
+            self._run("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)",
+                      (key, _dumps(value)))
+            self._wrote = True
+
+    def meta_items(self) -> dict[str, JSON]:
+        """Every plugin meta value, by key."""
+        rows = self._rows("SELECT key, value FROM meta WHERE key != ? ORDER BY key",
+                          (REVISION_KEY,))
+        return {key: json.loads(text) for key, text in rows}
+
+    def restore(self, cases: Iterable[Case], meta: Mapping[str, JSON], revision: int) -> None:
+        """Fill this store, which holds no cases, with ``cases`` keeping their ids and stamps.
+
+        Cases without an id get new ones, cases without ``created`` the restoring transaction's
+        revision. The store's meta is replaced by ``meta``, and the transaction commits as
+        ``revision`` when that is ahead of the store's own clock.
+        """
+        with self.transaction():
+            if self.count():
+                raise ValueError("restore needs a store without cases")
+            if revision >= self._pending:
+                # moving the clock forward is a write even when nothing else changes
+                self._pending = revision
+                self._wrote = True
+            cases = list(cases)
+            # cases with ids go in first, so the ids SQLite hands out come after all of them
+            ordered = [c for c in cases if c.id is not None] + [c for c in cases if c.id is None]
+            for case in ordered:
+                stored = case if case.created is not None else attrs.evolve(
+                    case, created=self._pending)
+                check_case(stored, self._pending)
+                case_id = None if case.id is None else operator.index(case.id)
+                try:
+                    self._run(f"INSERT INTO cases ({_COLUMNS}) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                              (case_id, *self._row(stored)))
+                except sqlite3.IntegrityError as exc:
+                    raise ValueError(f"restore got two cases with id {case_id}") from exc
+                self._wrote = True
+            if self._run("DELETE FROM meta WHERE key != ?", (REVISION_KEY,)).rowcount:
+                self._wrote = True
+            for key, value in meta.items():
+                self.set_meta(key, value)
+
+    # -- inspection -------------------------------------------------------------------------
+
+    @property
+    def schema_version(self) -> int:
+        """The schema version recorded in the file."""
+        return int(self._value("PRAGMA user_version"))
+
+    @property
+    def journal_mode(self) -> str:
+        """SQLite's journal mode for the file (``wal`` for every case base this store opened)."""
+        return str(self._value("PRAGMA journal_mode"))
+
+    def check(self) -> list[str]:
+        """Problems found by a full consistency check; empty when the store is sound.
+
+        Runs SQLite's ``integrity_check`` and checks every case and meta value: JSON that
+        decodes, unique ids, sensible use counts and revision stamps no later than the revision.
+        """
+        problems: list[str] = []
+        try:
+            problems += [f"integrity: {row[0]}" for row in self._rows("PRAGMA integrity_check")
+                         if row[0] != "ok"]
+            rows = self._rows(f"SELECT {_COLUMNS} FROM cases ORDER BY id")
+            problems += [f"case {row[0]}: id is used {row[1]} times" for row in self._rows(
+                "SELECT id, count(*) FROM cases GROUP BY id HAVING count(*) > 1")]
+            meta = self._rows("SELECT key, value FROM meta")
+            # read after the cases: the revision only grows, so a sound case is never after it
+            bound = self._pending if self._depth else self._revision_or_problem(problems)
+        except CaseBaseError as exc:
+            return [*problems, str(exc)]
+        for row in rows:
+            problems += self._row_problems(row, bound)
+        for key, text in meta:
+            try:
+                json.loads(text)
+            except (TypeError, ValueError) as exc:
+                problems.append(f"meta key {key!r}: not valid JSON ({exc})")
+        return problems
+
+    def _revision_or_problem(self, problems: list[str]) -> int | None:
+        text = self._value("SELECT value FROM meta WHERE key = ?", (REVISION_KEY,))
+        try:
+            revision = json.loads(text)
+        except (TypeError, ValueError):
+            revision = None
+        if not isinstance(revision, int) or isinstance(revision, bool) or revision < 0:
+            problems.append(f"revision: expected a non-negative integer, got {text!r}")
+            return None
+        return revision
+
+    def _row_problems(self, row: tuple[Any, ...], revision: int | None) -> list[str]:
+        case_id, kind, problem, solution, meta, uses, created, last_used = row
+        problems = []
+        decoded = {}
+        for field, text in (("problem", problem), ("solution", solution), ("meta", meta)):
+            try:
+                decoded[field] = json.loads(text)
+            except (TypeError, ValueError) as exc:
+                problems.append(f"case {case_id}: {field}: not valid JSON ({exc})")
+        if len(decoded) < 3:
+            return problems
+        if created is None:
+            problems.append(f"case {case_id}: created: missing")
+        case = Case(decoded["problem"], decoded["solution"], kind, decoded["meta"], case_id,
+                    uses, created, last_used)
+        problems += [f"case {case_id}: {p}" for p in case_problems(case, revision)]
+        return problems
+
+    def close(self) -> None:
+        """Close the connection; safe to call twice."""
+        self._conn.close()
+
+    def __iter__(self) -> Iterator[Case]:
+        return iter(self.cases())
+
+    def __len__(self) -> int:
+        return self.count()

@@ -1,0 +1,178 @@
+"""The testing kit for plugin authors: a pytest plugin with three fixtures.
+
+Installing cbrcore makes these fixtures available to every pytest run (through the ``pytest11``
+entry point), so a plugin's own test suite can use them without any import:
+
+``cbr_plugins``
+    Load plugin modules for the duration of one test, without installing them.
+``cbr_engine``
+    Build an :class:`~cbrcore.engine.Engine` from YAML text, a mapping or a file; closed after
+    the test.
+``cbr_cli``
+    Run the ``cbr`` command line in-process and capture its exit code, stdout and stderr.
+
+A typical test::
+
+    import my_plugin
+
+    def test_my_retriever(cbr_plugins, cbr_engine):
+        cbr_plugins(my_plugin, entry_points=True)
+        engine = cbr_engine("retrieve: {use: my_retriever, k: 2}\\nsolver: my_solver\\n")
+        proposal = engine.solve(problem)
+        ...
+
+Module-level imports stay light: pytest imports this module in every test session of an
+environment where cbrcore is installed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+import io
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+import pytest
+
+if TYPE_CHECKING:
+    from cbrcore.config import Config
+    from cbrcore.engine import Engine
+    from cbrcore.plugins import Plugins
+    from cbrcore.registry import Registry
+
+
+class CliResult(NamedTuple):
+    """What one in-process ``cbr`` invocation produced."""
+
+    exit_code: int
+    stdout: str
+    stderr: str
+
+
+def _plugin_pair(plugin: Any) -> tuple[str, Any]:
+    if isinstance(plugin, tuple):
+        name, obj = plugin
+        return str(name), obj
+    name = getattr(plugin, "__name__", None)
+    if not isinstance(name, str):
+        raise TypeError(f"cannot name plugin {plugin!r}: pass a (name, plugin) pair")
+    return name, plugin
+
+
+@pytest.fixture
+def cbr_plugins() -> Iterator[Callable[..., Plugins]]:
+    """Temporarily register plugins: ``cbr_plugins(*plugins, entry_points=False, environ=None)``.
+
+    Each plugin is a module or object implementing cbrcore hooks, named by its ``__name__``, or a
+    ``(name, plugin)`` pair to choose the name (and to name objects without ``__name__``, such as
+    class instances). The plugins are loaded with :func:`cbrcore.plugins.load_plugins` and made
+    current with :func:`cbrcore.plugins.use_plugins` until the test ends, so
+    :func:`cbrcore.plugins.current`, :meth:`Engine.from_yaml <cbrcore.engine.Engine.from_yaml>`,
+    the ``cbr_engine`` fixture and the ``cbr_cli`` fixture all see them.
+
+    ``entry_points=True`` loads the installed plugins of the ``cbr`` entry point group as well
+    (cbrcore's own ``core`` and ``observers`` are declared there). ``environ`` replaces
+    ``os.environ`` as the source of ``CBR_PLUGINS``, ``CBR_DISABLE_PLUGINS`` and
+    ``CBR_STRICT_PLUGINS``. A plugin that fails to load is reported in the returned
+    :class:`~cbrcore.plugins.Plugins`' ``failed`` list (with a warning) while the others load,
+    exactly as in the command line.
+
+    Returns the loaded :class:`~cbrcore.plugins.Plugins`. Calling the fixture again within the
+    same test makes the new set current until the test ends.
+    """
+    from cbrcore.plugins import load_plugins, use_plugins
+
+    with contextlib.ExitStack() as stack:
+
+        def register(*plugins: Any, entry_points: bool = False,
+                     environ: Mapping[str, str] | None = None) -> Plugins:
+            loaded = load_plugins([_plugin_pair(p) for p in plugins], entry_points=entry_points,
+                                  environ=environ)
+            return stack.enter_context(use_plugins(loaded))
+
+        yield register
+
+
+def _parse(config: str | Mapping[str, Any], overrides: Sequence[str],
+           registry: Registry) -> Config:
+    import yaml
+
+    from cbrcore.config import _Marks, apply_overrides, parse_config
+
+    if isinstance(config, str):
+        # composing the node tree as well lets problems be reported with line and column
+        marks = _Marks(yaml.compose(config, Loader=yaml.SafeLoader))
+        data = yaml.safe_load(config)
+    else:
+        marks, data = None, copy.deepcopy(dict(config))
+    data = apply_overrides(data, overrides, "configuration")
+    return parse_config(data, registry, marks=marks)
+
+
+@pytest.fixture
+def cbr_engine() -> Iterator[Callable[..., Engine]]:
+    """Build engines: ``cbr_engine(config, *, plugins=None, out_dir=None, overrides=()) -> Engine``.
+
+    ``config`` is YAML text, a mapping of the same shape, or a :class:`~pathlib.Path` to a YAML
+    file. Text and mappings are checked by :func:`cbrcore.config.parse_config` against the
+    registry of ``plugins`` (default: the current plugins, see ``cbr_plugins``), with relative
+    ``Path`` options resolved against the working directory; a path goes through
+    :meth:`Engine.from_yaml <cbrcore.engine.Engine.from_yaml>`, resolving them against the
+    file's folder. ``overrides`` are ``KEY.PATH=VALUE`` strings as given to ``cbr run --set``; a
+    mapping is copied before they apply. ``out_dir`` is the engine's output folder (None: an
+    embedded engine without one). A bad configuration raises
+    :class:`~cbrcore.errors.ConfigError`.
+
+    Every engine built is closed when the test ends.
+    """
+    from cbrcore.engine import Engine
+    from cbrcore.plugins import current
+
+    engines: list[Engine] = []
+
+    def build(config: str | Mapping[str, Any] | Path, *, plugins: Plugins | None = None,
+              out_dir: Path | None = None, overrides: Sequence[str] = ()) -> Engine:
+        plugins = plugins or current()
+        if isinstance(config, Path):
+            engine = Engine.from_yaml(config, overrides=overrides, plugins=plugins,
+                                      out_dir=out_dir)
+        else:
+            parsed = _parse(config, overrides, plugins.registry)
+            engine = Engine(parsed, plugins=plugins, out_dir=out_dir)
+        engines.append(engine)
+        return engine
+
+    yield build
+    for engine in reversed(engines):
+        engine.close()
+
+
+@pytest.fixture
+def cbr_cli() -> Callable[..., CliResult]:
+    """Run the command line in-process: ``cbr_cli(*args) -> CliResult(exit_code, stdout, stderr)``.
+
+    Calls :func:`cbrcore.cli.main` with ``args`` (without the leading ``cbr``) while
+    ``sys.stdout`` and ``sys.stderr`` are captured separately, and returns the exit code the
+    ``cbr`` console script would exit with: 0 on success, 2 for a user error (bad configuration,
+    unknown component, failing plugin, bad usage). The command line sees the current plugins, so
+    plugins registered with ``cbr_plugins`` (including their ``cbr_cli`` commands) take part. An
+    unexpected exception (a bug rather than a user error) propagates to the test.
+    """
+    from cbrcore.cli import main
+
+    def invoke(*args: str) -> CliResult:
+        stdout, stderr = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+            try:
+                code = main(list(args))
+            except SystemExit as exc:  # a plugin command may leave through sys.exit
+                if exc.code is None or isinstance(exc.code, int):
+                    code = exc.code or 0
+                else:
+                    print(exc.code, file=stderr)
+                    code = 1
+        return CliResult(code, stdout.getvalue(), stderr.getvalue())
+
+    return invoke

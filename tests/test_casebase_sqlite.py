@@ -1,0 +1,246 @@
+"""The SQLite store's promises about files: durability, sharing, and refusing what it cannot use."""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import sqlite3
+import subprocess
+import sys
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+
+import cbrcore
+from cbrcore.casebase import APPLICATION_ID, SCHEMA_VERSION, SQLiteStore, UnusableCaseBase
+from cbrcore.errors import CaseBaseError
+from cbrcore.model import Case
+
+REPO = Path(cbrcore.__file__).resolve().parent.parent
+
+WRITER = """
+import sys
+from cbrcore.casebase import SQLiteStore
+from cbrcore.model import Case
+
+store = SQLiteStore(sys.argv[1], busy_timeout=30)
+for n in range(1, int(sys.argv[2]) + 1):
+    with store.transaction():
+        store.add(Case({"writer": sys.argv[3], "n": n}, list(range(50))))
+        store.set_meta(sys.argv[3], n)
+    print(n, flush=True)
+"""
+
+
+def writer(path: Path, count: int, name: str) -> subprocess.Popen[str]:
+    """A child process adding ``count`` cases one transaction each, printing each commit."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH",
+                                                                                   "")])}
+    return subprocess.Popen([sys.executable, "-c", WRITER, str(path), str(count), name],
+                            stdout=subprocess.PIPE, text=True, env=env)
+
+
+def named(path: Path, rest: str) -> str:
+    """A pattern for a message starting with ``path``."""
+    return re.escape(str(path)) + rest
+
+
+@pytest.fixture
+def casebase(tmp_path: Path) -> Path:
+    """A closed case base file holding a few hundred cases (several pages of them)."""
+    path = tmp_path / "cb.sqlite"
+    with SQLiteStore(path) as store, store.transaction():
+        for n in range(300):
+            kind = "vertex" if n % 2 else "case"
+            store.add(Case({"n": n, "pad": "x" * 40}, [n, n + 1], kind=kind))
+    return path
+
+
+@pytest.fixture
+def unchanged() -> Iterator[Callable[[Path], None]]:
+    """``unchanged(path)`` records a file's bytes; the test fails if they differ at its end."""
+    recorded: dict[Path, bytes] = {}
+    yield lambda path: recorded.setdefault(path, path.read_bytes())
+    for path, content in recorded.items():
+        assert path.read_bytes() == content, f"{path} was modified"
+
+
+def test_a_killed_writer_loses_no_committed_case(tmp_path: Path) -> None:
+    path = tmp_path / "cb.sqlite"
+    child = writer(path, 1_000_000, "w")
+    assert child.stdout is not None
+    last = 0
+    for line in child.stdout:
+        last = int(line)
+        if last >= 150:
+            break
+    child.send_signal(signal.SIGKILL)
+    child.wait()
+    assert child.returncode == -signal.SIGKILL
+    with SQLiteStore(path, create=False) as store:
+        assert store.check() == []
+        count = store.count()
+        assert count >= last
+        assert store.get_meta("w") == count
+        assert [c.problem["n"] for c in store.cases()] == list(range(1, count + 1))
+        assert store.revision == count
+
+
+def test_two_processes_writing_at_once_lose_nothing(tmp_path: Path) -> None:
+    path = tmp_path / "cb.sqlite"
+    children = [writer(path, 100, name) for name in ("a", "b")]
+    for child in children:
+        out, _ = child.communicate(timeout=60)
+        assert child.returncode == 0
+        assert out.split()[-1] == "100"
+    with SQLiteStore(path, create=False) as store:
+        assert store.count() == 200
+        assert store.revision == 200
+        assert store.meta_items() == {"a": 100, "b": 100}
+        for name in ("a", "b"):
+            numbers = [c.problem["n"] for c in store.cases() if c.problem["writer"] == name]
+            assert numbers == list(range(1, 101))
+        assert store.check() == []
+
+
+def test_a_store_sees_other_connections_commits(tmp_path: Path) -> None:
+    path = tmp_path / "cb.sqlite"
+    with SQLiteStore(path) as first, SQLiteStore(path) as second:
+        first.add(Case(1, 1))
+        assert second.revision == 1
+        assert second.get(1) == first.get(1)
+        second.set_meta("k", "v")
+        assert (first.revision, first.get_meta("k")) == (2, "v")
+
+
+def test_a_new_file_is_a_wal_case_base(tmp_path: Path) -> None:
+    path = tmp_path / "cb.sqlite"
+    with SQLiteStore(path) as store:
+        assert (store.journal_mode, store.schema_version) == ("wal", SCHEMA_VERSION)
+    connection = sqlite3.connect(path)
+    assert connection.execute("PRAGMA application_id").fetchone()[0] == APPLICATION_ID
+    connection.close()
+    with SQLiteStore(path, create=False) as store:
+        assert store.revision == 0
+
+
+def test_a_missing_file_is_created_only_when_asked(tmp_path: Path) -> None:
+    path = tmp_path / "cb.sqlite"
+    with pytest.raises(CaseBaseError, match=f"no case base at {path}"):
+        SQLiteStore(path, create=False)
+    assert not path.exists()
+    with pytest.raises(CaseBaseError, match=r"folder .*nowhere does not exist"):
+        SQLiteStore(tmp_path / "nowhere" / "cb.sqlite")
+    with pytest.raises(CaseBaseError, match="is a folder"):
+        SQLiteStore(tmp_path)
+
+
+def test_an_empty_file_is_new_only_when_creating(tmp_path: Path) -> None:
+    path = tmp_path / "cb.sqlite"
+    path.touch()
+    with pytest.raises(CaseBaseError, match=f"no case base at {path}: the file is empty"):
+        SQLiteStore(path, create=False)
+    assert path.stat().st_size == 0
+    with SQLiteStore(path) as store:
+        store.add(Case(1, 1))
+    with SQLiteStore(path, create=False) as store:
+        assert store.count() == 1
+
+
+@pytest.mark.parametrize("content", [b"garbage " * 100, b"short",
+                                     b"SQLite format 3\x00" + b"\xff" * 200])
+def test_a_file_that_is_no_database_is_refused(tmp_path: Path, content: bytes,
+                                               unchanged: Callable[[Path], None]) -> None:
+    path = tmp_path / "cb.sqlite"
+    path.write_bytes(content)
+    unchanged(path)
+    with pytest.raises(UnusableCaseBase, match=named(path, " is (not a case base|corrupt)")):
+        SQLiteStore(path)
+
+
+def test_a_corrupted_case_base_is_refused(casebase: Path,
+                                          unchanged: Callable[[Path], None]) -> None:
+    data = bytearray(casebase.read_bytes())
+    middle = len(data) // 2 // 4096 * 4096
+    data[middle:middle + 4096] = os.urandom(4096)
+    casebase.write_bytes(data)
+    unchanged(casebase)
+    with pytest.raises(UnusableCaseBase, match=named(casebase, " is corrupt")):
+        SQLiteStore(casebase)
+
+
+def test_a_foreign_sqlite_file_is_refused(tmp_path: Path,
+                                          unchanged: Callable[[Path], None]) -> None:
+    path = tmp_path / "other.db"
+    connection = sqlite3.connect(path)
+    connection.execute("CREATE TABLE things (x)")
+    connection.commit()
+    connection.close()
+    unchanged(path)
+    with pytest.raises(UnusableCaseBase, match=named(path, " is not a cbrcore case base")):
+        SQLiteStore(path)
+
+
+def test_another_schema_version_is_refused(casebase: Path,
+                                           unchanged: Callable[[Path], None]) -> None:
+    connection = sqlite3.connect(casebase)
+    connection.execute("PRAGMA user_version = 7")
+    connection.close()
+    unchanged(casebase)
+    with pytest.raises(UnusableCaseBase, match=named(
+            casebase, r" has case base schema version 7 \(from a newer cbrcore\); "
+                      r"this cbrcore reads version 1")):
+        SQLiteStore(casebase)
+
+
+def test_a_write_locked_case_base_times_out(casebase: Path,
+                                            unchanged: Callable[[Path], None]) -> None:
+    unchanged(casebase)
+    other = sqlite3.connect(casebase, isolation_level=None)
+    other.execute("BEGIN EXCLUSIVE")
+    try:
+        with SQLiteStore(casebase, busy_timeout=0.05) as store:
+            assert store.count() == 300
+            with pytest.raises(CaseBaseError, match=named(casebase, " is locked by another")):
+                store.add(Case(1, 1))
+            assert store.count() == 300
+    finally:
+        other.close()
+
+
+def test_an_exclusively_locked_case_base_cannot_be_opened(
+        casebase: Path, unchanged: Callable[[Path], None]) -> None:
+    unchanged(casebase)
+    other = sqlite3.connect(casebase, isolation_level=None)
+    other.execute("PRAGMA locking_mode = EXCLUSIVE")
+    other.execute("BEGIN EXCLUSIVE")
+    try:
+        with pytest.raises(CaseBaseError, match=named(casebase, " is locked by another process")):
+            SQLiteStore(casebase, busy_timeout=0.05)
+    finally:
+        other.close()
+
+
+def test_check_reports_damaged_cases(casebase: Path) -> None:
+    connection = sqlite3.connect(casebase)
+    connection.execute("UPDATE cases SET problem = '{broken' WHERE id = 3")
+    connection.execute("UPDATE cases SET uses = -2, created = 999 WHERE id = 4")
+    connection.execute("UPDATE cases SET last_used = 1000 WHERE id = 5")
+    connection.execute("UPDATE meta SET value = 'x' WHERE key = 'grid'")
+    connection.execute("INSERT INTO meta VALUES ('grid', '[1,')")
+    connection.commit()
+    connection.close()
+    with SQLiteStore(casebase) as store:
+        problems = store.check()
+        with pytest.raises(UnusableCaseBase, match="case 3 cannot be decoded"):
+            store.get(3)
+    assert problems[0].startswith("case 3: problem: not valid JSON")
+    assert problems[1:] == [
+        "case 4: uses: expected a non-negative integer, got -2",
+        "case 4: created: revision 999 is after the case base's revision 1",
+        "case 5: last_used: revision 1000 is after the case base's revision 1",
+        problems[-1],
+    ]
+    assert problems[-1].startswith("meta key 'grid': not valid JSON")

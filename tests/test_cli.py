@@ -1,0 +1,568 @@
+"""The ``cbr`` command line end to end: runs, validation, errors, experiments, references.
+
+The toy domain answers a query x with x². With the toy composition (``radius: 1``,
+``tolerance: 0``, ``limit: 6``) the case base answers x exactly when x itself is stored: the
+tangent from a neighbour x0 = x ± 1 is off by (x - x0)² = 1 and is rejected. ``expected_rows``
+replays that rule over the queries a run recorded to predict every row independently.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import shutil
+import subprocess
+import sys
+from collections.abc import Callable
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import pytest
+import typer
+from matplotlib.figure import Figure
+
+import toy_domain
+from cbrcore import hookimpl
+from cbrcore.context import Context
+from cbrcore.errors import CbrError
+from cbrcore.experiment import ExperimentResult, Size
+from cbrcore.plugins import Plugins
+from cbrcore.reference import config_reference
+from cbrcore.registry import Registry
+from cbrcore.testing import CliResult
+
+Cli = Callable[..., CliResult]
+REJECTED = "revision rejected: error 1 above 0.0"
+UNUSABLE = "no usable retrieval"
+
+
+def expected_rows(xs: list[int], *, limit: int = 6) -> list[dict[str, str]]:
+    """The source, fallback reason, retrieved count and best similarity of each toy query.
+
+    A stored x answers from the case base and gains a use; otherwise x is computed and stored,
+    and beyond ``limit`` cases the least used, then oldest, is forgotten.
+    """
+    stored: dict[int, list[int]] = {}  # x -> [uses, step stored]
+    rows = []
+    for step, x in enumerate(xs):
+        near = [x0 for x0 in stored if abs(x0 - x) <= 1]
+        if x in stored:
+            row = {"source": "casebase", "fallback_reason": "", "best_similarity": "1.0"}
+            stored[x][0] += 1
+        else:
+            row = {"source": "solver:compute", "fallback_reason": REJECTED if near else UNUSABLE,
+                   "best_similarity": "0.5" if near else ""}
+            stored[x] = [0, step]
+        rows.append({**row, "retrieved": str(len(near))})
+        if len(stored) > limit:
+            del stored[min(stored, key=lambda key: stored[key])]
+    return rows
+
+
+def read_rows(path: Path) -> list[dict[str, str]]:
+    with path.open(newline="", encoding="utf-8") as handle:
+        return list(csv.DictReader(handle))
+
+
+def read_json(path: Path) -> Any:
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+def write(path: Path, text: str) -> Path:
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+# -- test-only plugins ----------------------------------------------------------------------
+
+
+class Exploding:
+    """A retriever and a solver that raise: a plugin broken at run time."""
+
+    def __init__(self, options: object, ctx: Context) -> None:
+        pass
+
+
+class ExplodingRetriever(Exploding):
+    @hookimpl
+    def cbr_retrieve(self) -> None:
+        raise RuntimeError("sensor unplugged")
+
+
+class ExplodingSolver(Exploding):
+    @hookimpl
+    def cbr_solve(self) -> None:
+        raise RuntimeError("planner crashed")
+
+
+class Faulty:
+    """Registers components that raise inside their phase."""
+
+    @hookimpl
+    def cbr_register(self, registry: Registry) -> None:
+        registry.add("retriever", "exploding", ExplodingRetriever)
+        registry.add("solver", "exploding", ExplodingSolver)
+
+
+class SumOfSquares:
+    """Sum the squares below n: n is 4 at size ci."""
+
+    def __init__(self, options: object, ctx: Context) -> None:
+        pass
+
+    def run(self, size: Size, out_dir: Path, progress: Callable[[int, int], None]
+            ) -> ExperimentResult:
+        n = 4 if size == "ci" else 100
+        squares = []
+        for i in range(n):
+            squares.append(i * i)
+            progress(i + 1, n)
+        figure = Figure(figsize=(2, 2))
+        figure.add_subplot().plot(range(n), squares)
+        return ExperimentResult(
+            results={"n": n, "sum_of_squares": sum(squares)},
+            table=f"| n | sum of squares |\n|---|---|\n| {n} | {sum(squares)} |",
+            figures={"squares": figure})
+
+
+class Lab:
+    """Registers the ``sum_of_squares`` experiment."""
+
+    @hookimpl
+    def cbr_register(self, registry: Registry) -> None:
+        registry.add("experiment", "sum_of_squares", SumOfSquares)
+
+
+class Greeter:
+    """Adds ``greet``, ``refuse`` and ``leave``, and a ``run`` the built-in must win over."""
+
+    @hookimpl
+    def cbr_cli(self, app: typer.Typer) -> None:
+        @app.command()
+        def greet(name: str, loud: bool = typer.Option(False, "--loud")) -> None:
+            """Greet a robot by name."""
+            text = f"hello {name}"
+            typer.echo(text.upper() if loud else text)
+
+        @app.command()
+        def refuse() -> None:
+            """Always fail with a user error."""
+            raise CbrError("refused on purpose")
+
+        @app.command()
+        def leave(code: int) -> None:
+            """Leave through sys.exit."""
+            sys.exit(code if code else "leaving with a message")
+
+        @app.command(name="run")
+        def hijack() -> None:
+            """Not the run command."""
+            typer.echo("hijacked")
+
+
+@pytest.fixture
+def toy(load_toy: Callable[..., Plugins]) -> Plugins:
+    """The toy domain with the built-ins and this module's test-only plugins."""
+    return load_toy(("faulty", Faulty()), ("lab", Lab()), ("greeter", Greeter()))
+
+
+# -- cbr run --------------------------------------------------------------------------------
+
+
+@pytest.mark.usefixtures("toy")
+def test_run_writes_results_summary_and_manifest(cbr_cli: Cli, toy_config: Path,
+                                                 tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    result = cbr_cli("run", str(toy_config), "--out", str(out))
+
+    assert result.exit_code == 0, result.stderr
+    assert result.stderr == ""
+    assert "toy.yaml: 30 queries" in result.stdout
+    rows = read_rows(out / "results.csv")
+    assert [row["query"] for row in rows] == [str(i) for i in range(30)]
+    xs = [int(row["q_x"]) for row in rows]
+    assert all(0 <= x < 8 for x in xs)
+    keys = ("source", "fallback_reason", "best_similarity", "retrieved")
+    assert [{k: row[k] for k in keys} for row in rows] == expected_rows(xs)
+    assert {row["success"] for row in rows} == {"True"}
+    assert {row["abs_error"] for row in rows} == {"0.0"}
+
+    summary = read_json(out / "summary.json")
+    from_casebase = sum(row["source"] == "casebase" for row in rows)
+    assert from_casebase > 0
+    assert {key: summary[key] for key in ("queries", "from_casebase", "from_solver", "unsolved",
+                                          "learned", "success_rate", "mean_outcome_cost")} == {
+        "queries": 30, "from_casebase": from_casebase, "from_solver": 30 - from_casebase,
+        "unsolved": 0, "learned": 30, "success_rate": 1.0, "mean_outcome_cost": 0.0}
+    assert summary["cbr_share"] == pytest.approx(from_casebase / 30)
+    assert summary["fallback_reasons"] == {
+        reason: count for reason in (UNUSABLE, REJECTED)
+        if (count := sum(row["fallback_reason"] == reason for row in rows))}
+    assert summary["metric_means"] == {"abs_error": 0.0}
+
+    manifest = read_json(out / "manifest.json")
+    assert manifest["seed"] == 3
+    assert manifest["config_file"] == str(toy_config.resolve())
+    assert manifest["overrides"] == []
+    config = manifest["config"]
+    assert config["casebase"]["use"] == "memory"
+    assert {key: value for key, value in config.items() if key != "casebase"} == {
+        "seed": 3,
+        "workload": {"use": "squares", "count": 30, "high": 8},
+        "retrieve": {"use": "nearest", "radius": 1},
+        "reuse": {"use": "tangent"},
+        "revise": {"use": "tolerance", "tolerance": 0.0},
+        "solver": {"use": "compute"},
+        "retain": [{"use": "keep"}],
+        "forget": [{"use": "capacity", "limit": 6}],
+        "metrics": [{"use": "abs_error"}],
+    }
+    assert manifest["cbrcore"] == metadata.version("cbrcore")
+    assert manifest["packages"]["pluggy"] == metadata.version("pluggy")
+    assert [p["name"] for p in manifest["plugins"]] == [
+        "toy", "core", "observers", "faulty", "lab", "greeter"]
+
+
+@pytest.mark.usefixtures("toy")
+def test_run_applies_set_overrides(cbr_cli: Cli, toy_config: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    result = cbr_cli("run", str(toy_config), "--out", str(out), "--set", "workload.count=12",
+                     "-s", "forget.0.limit=2", "--set", "seed=11")
+
+    assert result.exit_code == 0, result.stderr
+    rows = read_rows(out / "results.csv")
+    assert len(rows) == 12
+    xs = [int(row["q_x"]) for row in rows]
+    keys = ("source", "fallback_reason", "best_similarity", "retrieved")
+    assert [{k: row[k] for k in keys} for row in rows] == expected_rows(xs, limit=2)
+    manifest = read_json(out / "manifest.json")
+    assert manifest["seed"] == 11
+    assert manifest["overrides"] == ["workload.count=12", "forget.0.limit=2", "seed=11"]
+    assert manifest["config"]["workload"] == {"use": "squares", "count": 12, "high": 8}
+    assert manifest["config"]["forget"] == [{"use": "capacity", "limit": 2}]
+    assert read_json(out / "summary.json")["queries"] == 12
+
+
+@pytest.mark.usefixtures("toy")
+def test_trace_observer_writes_a_line_per_phase_call(cbr_cli: Cli, tmp_path: Path) -> None:
+    config = write(tmp_path / "traced.yaml", toy_domain.TOY_CONFIG + "observers: [trace]\n")
+    out = tmp_path / "out"
+    result = cbr_cli("run", str(config), "--out", str(out), "--set", "workload.count=15")
+    assert result.exit_code == 0, result.stderr
+
+    rows = read_rows(out / "results.csv")
+    lines = [json.loads(line) for line in
+             (out / "trace.jsonl").read_text(encoding="utf-8").splitlines()]
+    phases: dict[int, list[str]] = {}
+    for line in lines:
+        phases.setdefault(line["step"], []).append(line["phase"])
+        assert "error" not in line and line["ms"] >= 0
+    expected = {
+        "": ["retrieve", "reuse", "revise", "retain", "forget"],
+        REJECTED: ["retrieve", "reuse", "revise", "solve", "retain", "forget"],
+        UNUSABLE: ["retrieve", "solve", "retain", "forget"],
+    }
+    assert phases == {int(row["query"]): expected[row["fallback_reason"]] for row in rows}
+    retrievals = [line for line in lines if line["phase"] == "retrieve"]
+    assert [line["matches"] for line in retrievals] == [int(row["retrieved"]) for row in rows]
+    verdicts = [line["accepted"] for line in lines if line["phase"] == "revise"]
+    assert verdicts == [row["source"] == "casebase" for row in rows if row["retrieved"] != "0"]
+
+
+# -- cbr validate and bad input -------------------------------------------------------------
+
+
+@pytest.mark.usefixtures("toy")
+def test_validate_lists_the_selected_components(cbr_cli: Cli, toy_config: Path) -> None:
+    result = cbr_cli("validate", str(toy_config))
+
+    assert result.exit_code == 0, result.stderr
+    assert result.stdout.splitlines() == [
+        f"{toy_config}: ok",
+        "  seed: 3",
+        "  casebase: memory",
+        "  retrieve: nearest",
+        "  reuse: tangent",
+        "  revise: tolerance",
+        "  solver: compute",
+        "  workload: squares",
+        "  retain: keep",
+        "  forget: capacity",
+        "  metrics: abs_error",
+    ]
+
+
+@pytest.mark.usefixtures("toy")
+def test_validate_applies_overrides(cbr_cli: Cli, toy_config: Path) -> None:
+    result = cbr_cli("validate", str(toy_config), "--set", "solver=exploding")
+    assert result.exit_code == 0, result.stderr
+    assert "  solver: exploding" in result.stdout.splitlines()
+
+
+def _toy_with(old: str, new: str) -> str:
+    assert old in toy_domain.TOY_CONFIG
+    return toy_domain.TOY_CONFIG.replace(old, new)
+
+
+# (configuration text, what the one problem line says)
+BAD_CONFIGS = {
+    "malformed YAML": (
+        _toy_with("reuse: tangent", "reuse: tangent: extra"),
+        "line 5, column 15: malformed YAML: mapping values are not allowed here"),
+    "unknown key": (
+        toy_domain.TOY_CONFIG + "retreive: nearest\n",
+        "retreive (line 11, column 11): unknown key; expected one of: casebase, forget, metrics, "
+        "observers, retain, retrieve, reuse, revise, seed, solver, workload, world"),
+    "unknown option": (
+        _toy_with("radius: 1", "radius: 1, k: 3"),
+        "retrieve.k (line 4, column 40): unknown key; expected one of: radius"),
+    "wrong type": (
+        _toy_with("radius: 1", "radius: '1'"),
+        "retrieve.radius (line 4, column 34): expected an integer, got '1'"),
+    "out of range": (
+        _toy_with("limit: 6", "limit: -2"),
+        "forget.0.limit (line 9, column 33): must be >= 0: -2"),
+    "unknown component": (
+        _toy_with("solver: compute", "solver: teleport"),
+        "solver (line 7, column 9): unknown solver 'teleport'; registered: compute (plugin toy), "
+        "exploding (plugin faulty)"),
+}
+
+
+@pytest.mark.usefixtures("toy")
+@pytest.mark.parametrize("command", ["validate", "run"])
+@pytest.mark.parametrize(("text", "problem"), BAD_CONFIGS.values(), ids=BAD_CONFIGS.keys())
+def test_a_bad_configuration_is_one_clear_message(cbr_cli: Cli, tmp_path: Path, command: str,
+                                                  text: str, problem: str) -> None:
+    config = write(tmp_path / "bad.yaml", text)
+
+    out = ["--out", str(tmp_path / "out")] if command == "run" else []
+    result = cbr_cli(command, str(config), *out)
+
+    assert result.exit_code == 2
+    assert result.stdout == ""
+    assert result.stderr == f"error: {config}: 1 problem:\n  - {problem}\n"
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.usefixtures("toy")
+def test_every_problem_is_reported_at_once(cbr_cli: Cli, tmp_path: Path) -> None:
+    text = _toy_with("radius: 1", "radius: true").replace("limit: 6", "limit: 2.5")
+    config = write(tmp_path / "bad.yaml", text + "seed_: 1\n")
+
+    result = cbr_cli("validate", str(config))
+
+    assert result.exit_code == 2
+    assert result.stderr.splitlines()[0] == f"error: {config}: 3 problems:"
+    assert sorted(result.stderr.splitlines()[1:]) == sorted([
+        "  - seed_ (line 11, column 8): unknown key; expected one of: casebase, forget, metrics, "
+        "observers, retain, retrieve, reuse, revise, seed, solver, workload, world",
+        "  - retrieve.radius (line 4, column 34): expected an integer, got True",
+        "  - forget.0.limit (line 9, column 33): expected an integer, got 2.5",
+    ])
+
+
+@pytest.mark.usefixtures("toy")
+def test_a_missing_file_is_one_clear_message(cbr_cli: Cli, tmp_path: Path) -> None:
+    missing = tmp_path / "nowhere.yaml"
+    for args in (("validate", str(missing)), ("run", str(missing), "--out", str(tmp_path))):
+        result = cbr_cli(*args)
+        assert result.exit_code == 2
+        assert result.stderr == f"error: {missing}: 1 problem:\n  - file not found\n"
+
+
+@pytest.mark.usefixtures("toy")
+@pytest.mark.parametrize(("slot", "phase", "message"), [
+    ("retrieve", "retrieve", "RuntimeError: sensor unplugged"),
+    ("solver", "solve", "RuntimeError: planner crashed"),
+])
+def test_a_plugin_raising_in_a_phase_is_named_with_the_phase(
+        cbr_cli: Cli, toy_config: Path, tmp_path: Path, slot: str, phase: str,
+        message: str) -> None:
+    result = cbr_cli("run", str(toy_config), "--out", str(tmp_path / "out"),
+                     "--set", f"{slot}=exploding")
+
+    assert result.exit_code == 2
+    assert result.stderr == (f"error: plugin 'exploding (faulty)' failed in phase {phase!r}: "
+                             f"{message}\n")
+
+
+@pytest.mark.usefixtures("toy")
+def test_traceback_option_shows_where_an_error_came_from(cbr_cli: Cli, toy_config: Path,
+                                                         tmp_path: Path) -> None:
+    bad = write(tmp_path / "bad.yaml", _toy_with("radius: 1", "radius: -1"))
+    plain = cbr_cli("validate", str(bad))
+    traced = cbr_cli("--traceback", "validate", str(bad))
+
+    assert plain.exit_code == traced.exit_code == 2
+    assert "Traceback" not in plain.stderr
+    assert traced.stderr.startswith("Traceback (most recent call last):")
+    assert "cbrcore.errors.ConfigError" in traced.stderr
+    assert traced.stderr.endswith(plain.stderr)
+
+    phase = cbr_cli("--traceback", "run", str(toy_config), "--out", str(tmp_path / "out"),
+                    "--set", "retrieve=exploding")
+    assert phase.exit_code == 2
+    # the component's own frame is shown, below the PhaseError that names it
+    assert 'raise RuntimeError("sensor unplugged")' in phase.stderr
+    assert "cbrcore.errors.PhaseError" in phase.stderr
+
+
+@pytest.mark.usefixtures("toy")
+@pytest.mark.parametrize(("args", "message"), [
+    (("run", "--bogus"), "No such option: --bogus"),
+    (("validate",), "Missing argument"),
+    (("teleport",), "No such command 'teleport'"),
+    (("experiment", "sum_of_squares", "--size", "huge"), "expected ci or full, got 'huge'"),
+    (("experiment",), "name an experiment, or use --list"),
+    (("reference", "everything"), "expected config or hooks, got 'everything'"),
+])
+def test_usage_errors_exit_with_code_2(cbr_cli: Cli, args: tuple[str, ...],
+                                       message: str) -> None:
+    result = cbr_cli(*args)
+    assert result.exit_code == 2
+    assert message in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def _console_env() -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("CBR_")}
+    return {**env, "NO_COLOR": "1"}
+
+
+@pytest.fixture
+def cbr_script() -> str:
+    """The installed ``cbr`` console script of this interpreter's environment."""
+    found = shutil.which("cbr", path=str(Path(sys.executable).parent))
+    if found is None:
+        found = shutil.which("cbr")
+    assert found is not None, "the cbr console script is not installed"
+    return found
+
+
+def test_console_script_exits_2_without_traceback(cbr_script: str, tmp_path: Path) -> None:
+    config = write(tmp_path / "bad.yaml", "seed: 1\nretreive: nearest\n")
+    expected = (f"error: {config}: 1 problem:\n  - retreive (line 2, column 11): unknown key; "
+                "expected one of: casebase, forget, metrics, observers, retain, retrieve, reuse, "
+                "revise, seed, solver, workload, world\n")
+
+    done = subprocess.run([cbr_script, "validate", str(config)], capture_output=True, text=True,
+                          env=_console_env(), cwd=tmp_path, check=False)
+    assert (done.returncode, done.stdout, done.stderr) == (2, "", expected)
+
+    traced = subprocess.run([cbr_script, "--traceback", "validate", str(config)],
+                            capture_output=True, text=True, env=_console_env(), cwd=tmp_path,
+                            check=False)
+    assert traced.returncode == 2
+    assert traced.stderr.startswith("Traceback (most recent call last):")
+    assert traced.stderr.endswith(expected)
+
+
+# -- cbr experiment -------------------------------------------------------------------------
+
+
+@pytest.mark.usefixtures("toy")
+def test_experiment_list_shows_name_plugin_and_summary(cbr_cli: Cli) -> None:
+    result = cbr_cli("experiment", "--list")
+    assert result.exit_code == 0
+    [line] = [line for line in result.stdout.splitlines() if "sum_of_squares" in line]
+    assert "lab" in line
+    assert "Sum the squares below n: n is 4 at size ci." in line
+
+
+@pytest.mark.usefixtures("toy")
+def test_experiment_writes_results_table_figures_and_manifest(cbr_cli: Cli,
+                                                              tmp_path: Path) -> None:
+    out = tmp_path / "exp"
+    result = cbr_cli("experiment", "sum_of_squares", "--size", "ci", "--out", str(out),
+                     "--seed", "7")
+
+    assert result.exit_code == 0, result.stderr
+    # 0 + 1 + 4 + 9
+    assert read_json(out / "results.json") == {"n": 4, "sum_of_squares": 14}
+    table = "| n | sum of squares |\n|---|---|\n| 4 | 14 |\n"
+    assert (out / "results.md").read_text(encoding="utf-8") == table
+    assert (out / "squares.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    manifest = read_json(out / "manifest.json")
+    assert (manifest["experiment"], manifest["size"], manifest["seed"]) == (
+        "sum_of_squares", "ci", 7)
+    assert manifest["config"] is None
+    assert table in result.stdout
+    written = [line.removeprefix("wrote ") for line in result.stdout.splitlines()
+               if line.startswith("wrote ")]
+    assert sorted(written) == sorted(str(out / name) for name in (
+        "results.json", "results.md", "manifest.json", "squares.png"))
+
+
+@pytest.mark.usefixtures("toy")
+def test_an_unknown_experiment_lists_the_registered_ones(cbr_cli: Cli, tmp_path: Path) -> None:
+    result = cbr_cli("experiment", "nope", "--size", "ci", "--out", str(tmp_path / "exp"))
+    assert result.exit_code == 2
+    assert result.stderr == ("error: unknown experiment 'nope'; registered: sum_of_squares "
+                             "(plugin lab)\n")
+
+
+# -- cbr reference and plugin commands ------------------------------------------------------
+
+
+def test_reference_config_documents_every_component(toy: Plugins, cbr_cli: Cli) -> None:
+    result = cbr_cli("reference", "config")
+
+    assert result.exit_code == 0
+    assert result.stdout == config_reference(toy.registry)
+    lines = result.stdout.splitlines()
+    assert lines[0] == "# Configuration reference"
+    assert "### `nearest`" in lines
+    assert "| `radius` | int | `2` | Largest \\|x - x0\\| of a retrieved case. |" in lines
+    assert "| `limit` | int | `5` | Most cases kept. |" in lines
+
+
+@pytest.mark.usefixtures("toy")
+def test_reference_hooks_documents_every_hook(cbr_cli: Cli) -> None:
+    result = cbr_cli("reference", "hooks")
+
+    assert result.exit_code == 0
+    lines = result.stdout.splitlines()
+    assert lines[0] == "# Hook reference"
+    headings = [line for line in lines if line.startswith("## ")]
+    assert headings == ["## `cbr_register`", "## `cbr_cli`", "## `cbr_retrieve`",
+                        "## `cbr_reuse`", "## `cbr_revise`", "## `cbr_solve`", "## `cbr_retain`",
+                        "## `cbr_forget`"]
+    assert lines.count("*firstresult*") == 4
+    assert lines.count("*collect-all*") == 4
+
+
+@pytest.mark.usefixtures("toy")
+def test_a_plugin_command_appears_and_runs(cbr_cli: Cli) -> None:
+    listing = cbr_cli("--help")
+    assert listing.exit_code == 0
+    assert "greet" in listing.stdout and "Greet a robot by name." in listing.stdout
+
+    assert cbr_cli("greet", "rover") == CliResult(0, "hello rover\n", "")
+    assert cbr_cli("greet", "rover", "--loud") == CliResult(0, "HELLO ROVER\n", "")
+    assert cbr_cli("refuse") == CliResult(2, "", "error: refused on purpose\n")
+
+
+@pytest.mark.usefixtures("toy")
+def test_a_command_leaving_through_sys_exit_keeps_its_exit_code(cbr_cli: Cli) -> None:
+    assert cbr_cli("leave", "3") == CliResult(3, "", "")
+    # as the interpreter does, a message makes exit code 1 and goes to stderr
+    assert cbr_cli("leave", "0") == CliResult(1, "", "leaving with a message\n")
+
+
+@pytest.mark.usefixtures("toy")
+def test_a_plugin_command_cannot_replace_a_builtin(cbr_cli: Cli, toy_config: Path,
+                                                   tmp_path: Path) -> None:
+    result = cbr_cli("run", str(toy_config), "--out", str(tmp_path / "out"))
+    assert result.exit_code == 0
+    assert "hijacked" not in result.stdout
+    assert len(read_rows(tmp_path / "out" / "results.csv")) == 30
+
+
+def test_cli_without_registered_plugins_uses_the_installed_ones(
+        cbr_plugins: Callable[..., Plugins], cbr_cli: Cli) -> None:
+    cbr_plugins(entry_points=True)
+    data = json.loads(cbr_cli("plugins", "--json").stdout)
+    assert [p["name"] for p in data["plugins"]] == ["core", "observers"]

@@ -1,0 +1,412 @@
+"""Loading plugins: entry points, failures, allow- and block-lists, clashes, the testing kit."""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Callable, Iterator
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import attrs
+import pytest
+
+import cbr_observers
+import toy_domain
+from cbrcore import Solution, hookimpl
+from cbrcore.context import Context
+from cbrcore.engine import Engine
+from cbrcore.errors import ConfigError, PluginError
+from cbrcore.plugins import Plugins, current, load_plugins
+from cbrcore.registry import Registry
+from cbrcore.testing import CliResult
+
+CBRCORE_VERSION = metadata.version("cbrcore")
+RAISING_MODULE = "cbr_test_raising_plugin"
+
+
+class Echo:
+    """A solver whose solution is the problem itself."""
+
+    def __init__(self, options: object, ctx: Context) -> None:
+        pass
+
+    @hookimpl
+    def cbr_solve(self, problem: Any) -> Solution:
+        return Solution(problem)
+
+
+class Registers:
+    """A plugin registering an ``Echo`` solver under each of the given names."""
+
+    def __init__(self, *solvers: str) -> None:
+        self.solvers = solvers
+
+    @hookimpl
+    def cbr_register(self, registry: Registry) -> None:
+        for name in self.solvers:
+            registry.add("solver", name, Echo)
+
+
+class Raising:
+    """A plugin that registers a solver and then fails."""
+
+    @hookimpl
+    def cbr_register(self, registry: Registry) -> None:
+        registry.add("solver", "half_registered", Echo)
+        raise RuntimeError("no licence found")
+
+
+def _names(plugins: Plugins) -> list[str]:
+    return [p.name for p in plugins.loaded]
+
+
+def _components(plugins: Plugins) -> set[str]:
+    return {f"{c.kind}:{c.name}:{c.plugin}" for c in plugins.registry}
+
+
+# -- plugins given in code ------------------------------------------------------------------
+
+
+def test_plugins_load_in_order_with_their_hooks_and_components() -> None:
+    plugins = load_plugins([("a", Registers("one", "two")), ("toy", toy_domain)],
+                           entry_points=False, environ={})
+
+    assert _names(plugins) == ["a", "toy"]
+    first = plugins.info("a")
+    assert first.module == "Registers"
+    assert (first.distribution, first.version) == (None, None)
+    assert first.hooks == ("cbr_register", "cbr_solve")
+    assert first.components == ("solver:one", "solver:two")
+    toy = plugins.info("toy")
+    assert toy.module == "toy_domain"
+    assert toy.hooks == ("cbr_forget", "cbr_register", "cbr_retain", "cbr_retrieve",
+                         "cbr_reuse", "cbr_revise", "cbr_solve")
+    assert plugins.failed == [] and plugins.skipped == []
+
+
+def test_a_plugin_whose_register_raises_is_reported_and_the_rest_load() -> None:
+    with pytest.warns(UserWarning, match="plugin 'bad' failed to register: RuntimeError"):
+        plugins = load_plugins([("a", Registers("one")), ("bad", Raising()),
+                                ("c", Registers("three"))], entry_points=False, environ={})
+
+    assert _names(plugins) == ["a", "c"]
+    [failure] = plugins.failed
+    assert (failure.name, failure.stage, failure.distribution) == ("bad", "register", None)
+    assert failure.error == "RuntimeError: no licence found"
+    # what it registered before raising is withdrawn, and its hooks are gone
+    assert _components(plugins) == {"solver:one:a", "solver:three:c"}
+    assert plugins.pm.get_plugin("bad") is None
+
+
+def test_a_plugin_with_an_invalid_hook_fails_to_import() -> None:
+    class WrongArguments:
+        @hookimpl
+        def cbr_register(self, registry: Registry, unexpected: int) -> None:
+            """Declares an argument the hookspec does not have."""
+
+    with pytest.warns(UserWarning, match="plugin 'wrong' failed to import"):
+        plugins = load_plugins([("wrong", WrongArguments()), ("a", Registers("one"))],
+                               entry_points=False, environ={})
+
+    assert _names(plugins) == ["a"]
+    [failure] = plugins.failed
+    assert (failure.name, failure.stage) == ("wrong", "import")
+    assert "unexpected" in failure.error
+
+
+@pytest.mark.parametrize("flag", ["1", "yes"])
+def test_strict_plugins_make_a_failure_fatal(flag: str) -> None:
+    with pytest.raises(PluginError, match=r"^plugin 'bad' failed to register: RuntimeError: "
+                                          r"no licence found$"):
+        load_plugins([("a", Registers("one")), ("bad", Raising())], entry_points=False,
+                     environ={"CBR_STRICT_PLUGINS": flag})
+
+
+def test_strict_zero_is_not_strict() -> None:
+    with pytest.warns(UserWarning):
+        plugins = load_plugins([("bad", Raising())], entry_points=False,
+                               environ={"CBR_STRICT_PLUGINS": "0"})
+    assert [f.name for f in plugins.failed] == ["bad"]
+
+
+def test_allow_list_loads_only_the_named_plugins() -> None:
+    plugins = load_plugins([("a", Registers("one")), ("b", Registers("two")),
+                            ("c", Registers("three"))], entry_points=False,
+                           environ={"CBR_PLUGINS": " a , c "})
+    assert _names(plugins) == ["a", "c"]
+    assert plugins.skipped == ["b"]
+    assert _components(plugins) == {"solver:one:a", "solver:three:c"}
+
+
+def test_block_list_skips_the_named_plugins_even_when_allowed() -> None:
+    plugins = load_plugins([("a", Registers("one")), ("b", Registers("two")),
+                            ("c", Registers("three"))], entry_points=False,
+                           environ={"CBR_PLUGINS": "a,b", "CBR_DISABLE_PLUGINS": "b"})
+    assert _names(plugins) == ["a"]
+    assert plugins.skipped == ["b", "c"]
+
+
+def test_a_skipped_plugin_is_never_registered() -> None:
+    plugins = load_plugins([("bad", Raising()), ("a", Registers("one"))], entry_points=False,
+                           environ={"CBR_DISABLE_PLUGINS": "bad"})
+    assert plugins.failed == []
+    assert _names(plugins) == ["a"]
+
+
+def test_a_duplicate_component_name_fails_the_second_plugin() -> None:
+    with pytest.warns(UserWarning, match="plugin 'b' failed to register"):
+        plugins = load_plugins([("a", Registers("echo")), ("b", Registers("other", "echo"))],
+                               entry_points=False, environ={})
+
+    assert _names(plugins) == ["a"]
+    [failure] = plugins.failed
+    assert (failure.name, failure.stage) == ("b", "register")
+    assert failure.error == "PluginError: solver 'echo' is already registered by plugin 'a'"
+    assert _components(plugins) == {"solver:echo:a"}
+
+
+def test_a_plugin_name_taken_twice_fails_the_second() -> None:
+    with pytest.warns(UserWarning, match="plugin 'a' failed to load"):
+        plugins = load_plugins([("a", Registers("one")), ("a", Registers("two"))],
+                               entry_points=False, environ={})
+
+    assert _names(plugins) == ["a"]
+    assert plugins.info("a").components == ("solver:one",)
+    [failure] = plugins.failed
+    assert (failure.name, failure.stage) == ("a", "load")
+    assert failure.error == "the plugin name is already taken by a plugin registered in code"
+
+
+# -- installed entry points -----------------------------------------------------------------
+
+
+def _dist_info(site: Path, name: str, version: str, entry_points: str) -> None:
+    info = site / f"{name.replace('-', '_')}-{version}.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {name}\nVersion: {version}\n",
+                                   encoding="utf-8")
+    (info / "entry_points.txt").write_text(f"[cbr]\n{entry_points}\n", encoding="utf-8")
+
+
+@pytest.fixture
+def broken_site(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
+    """Two installed distributions with broken ``cbr`` plugins on ``sys.path``.
+
+    ``missing`` (cbr-missing 1.0) points at a module that does not exist; ``raising``
+    (cbr-raising 2.0) is importable but its ``cbr_register`` raises.
+    """
+    site = tmp_path / "site"
+    site.mkdir()
+    _dist_info(site, "cbr-missing", "1.0", "missing = cbr_test_no_such_module")
+    _dist_info(site, "cbr-raising", "2.0", f"raising = {RAISING_MODULE}")
+    (site / f"{RAISING_MODULE}.py").write_text(
+        "from cbrcore import hookimpl\n\n\n"
+        "@hookimpl\n"
+        "def cbr_register(registry):\n"
+        "    raise ValueError('cannot find the robot')\n",
+        encoding="utf-8")
+    monkeypatch.syspath_prepend(str(site))
+    yield site
+    sys.modules.pop(RAISING_MODULE, None)
+
+
+def test_builtin_plugins_load_from_the_installed_entry_points() -> None:
+    plugins = load_plugins(environ={})
+
+    assert plugins.failed == []
+    core = plugins.info("core")
+    assert (core.module, core.distribution, core.version) == (
+        "cbrcore.builtins", "cbrcore", CBRCORE_VERSION)
+    assert {"store:memory", "store:sqlite"} <= set(core.components)
+    observers = plugins.info("observers")
+    assert (observers.module, observers.distribution) == ("cbr_observers", "cbrcore")
+    assert "observer:trace" in observers.components
+    # the trace observer wraps every phase hook
+    assert observers.hooks == ("cbr_forget", "cbr_register", "cbr_retain", "cbr_retrieve",
+                               "cbr_reuse", "cbr_revise", "cbr_solve")
+
+
+def test_broken_entry_points_are_reported_with_their_distribution(broken_site: Path) -> None:
+    with pytest.warns(UserWarning) as warned:
+        plugins = load_plugins(environ={})
+
+    assert {"core", "observers"} <= set(_names(plugins))
+    assert not {"missing", "raising"} & set(_names(plugins))
+    failed = {f.name: f for f in plugins.failed}
+    assert set(failed) == {"missing", "raising"}
+    missing = failed["missing"]
+    assert (missing.distribution, missing.version, missing.stage) == (
+        "cbr-missing", "1.0", "import")
+    assert missing.error == "ModuleNotFoundError: No module named 'cbr_test_no_such_module'"
+    raising = failed["raising"]
+    assert (raising.distribution, raising.version, raising.stage) == (
+        "cbr-raising", "2.0", "register")
+    assert raising.error == "ValueError: cannot find the robot"
+    messages = {str(w.message) for w in warned}
+    assert ("plugin 'missing' from cbr-missing 1.0 failed to import: ModuleNotFoundError: "
+            "No module named 'cbr_test_no_such_module'") in messages
+    assert ("plugin 'raising' from cbr-raising 2.0 failed to register: ValueError: "
+            "cannot find the robot") in messages
+
+
+def test_strict_entry_point_failure_names_plugin_and_distribution(broken_site: Path) -> None:
+    # entry points load in name order, so 'missing' is the first failure
+    with pytest.raises(PluginError, match=r"^plugin 'missing' from cbr-missing 1\.0 failed to "
+                                          r"import: ModuleNotFoundError"):
+        load_plugins(environ={"CBR_STRICT_PLUGINS": "1"})
+
+
+def test_allow_list_avoids_importing_broken_entry_points(broken_site: Path) -> None:
+    plugins = load_plugins(environ={"CBR_PLUGINS": "observers"})
+    assert _names(plugins) == ["observers"]
+    assert plugins.failed == []
+    assert {"core", "missing", "raising"} <= set(plugins.skipped)
+    assert RAISING_MODULE not in sys.modules
+
+
+def test_block_list_disables_broken_entry_points(broken_site: Path) -> None:
+    plugins = load_plugins(environ={"CBR_DISABLE_PLUGINS": "missing,raising"})
+    assert plugins.failed == []
+    assert {"core", "observers"} <= set(_names(plugins))
+    assert plugins.skipped == ["missing", "raising"]
+
+
+def test_a_code_plugin_cannot_take_an_entry_point_name() -> None:
+    with pytest.warns(UserWarning, match="plugin 'core' failed to load"):
+        plugins = load_plugins([("core", Registers("one"))], environ={})
+    assert plugins.info("core").module == "cbrcore.builtins"
+    [failure] = plugins.failed
+    assert failure.error == "the plugin name is already taken by cbrcore"
+
+
+def test_a_code_plugin_cannot_take_a_builtin_component_name() -> None:
+    class Store:
+        @hookimpl
+        def cbr_register(self, registry: Registry) -> None:
+            registry.add("store", "memory", Echo)
+
+    with pytest.warns(UserWarning, match="plugin 'shadow' failed to register"):
+        plugins = load_plugins([("shadow", Store())], environ={})
+    [failure] = plugins.failed
+    assert failure.error == "PluginError: store 'memory' is already registered by plugin 'core'"
+    assert plugins.registry.get("store", "memory").plugin == "core"
+
+
+# -- what the command line shows ------------------------------------------------------------
+
+
+def test_cli_plugins_json_lists_loaded_and_failed(
+        cbr_plugins: Callable[..., Plugins], cbr_cli: Callable[..., CliResult]) -> None:
+    with pytest.warns(UserWarning):
+        cbr_plugins(("good", Registers("one")), ("bad", Raising()))
+
+    result = cbr_cli("plugins", "--json")
+
+    assert result.exit_code == 0
+    assert json.loads(result.stdout) == {
+        "plugins": [{"name": "good", "module": "Registers", "distribution": None,
+                     "version": None, "hooks": ["cbr_register", "cbr_solve"],
+                     "components": ["solver:one"]}],
+        "failed": [{"name": "bad", "distribution": None, "version": None, "stage": "register",
+                    "error": "RuntimeError: no licence found"}],
+        "skipped": [],
+    }
+
+
+def test_cli_plugins_lists_broken_entry_points(
+        broken_site: Path, cbr_plugins: Callable[..., Plugins],
+        cbr_cli: Callable[..., CliResult]) -> None:
+    with pytest.warns(UserWarning):
+        cbr_plugins(entry_points=True, environ={"CBR_DISABLE_PLUGINS": "observers"})
+
+    data = json.loads(cbr_cli("plugins", "--json").stdout)
+    assert [p["name"] for p in data["plugins"]] == ["core"]
+    assert data["skipped"] == ["observers"]
+    assert {(f["name"], f["distribution"], f["version"], f["stage"]) for f in data["failed"]} == {
+        ("missing", "cbr-missing", "1.0", "import"), ("raising", "cbr-raising", "2.0", "register")}
+
+    table = cbr_cli("plugins")
+    assert table.exit_code == 0
+    assert ("failed: plugin 'raising' from cbr-raising 2.0 failed to register: ValueError: "
+            "cannot find the robot") in table.stdout
+    assert "skipped by CBR_PLUGINS / CBR_DISABLE_PLUGINS: observers" in table.stdout
+
+
+# -- the testing kit ------------------------------------------------------------------------
+
+
+def test_cbr_plugins_names_modules_and_makes_them_current(
+        cbr_plugins: Callable[..., Plugins]) -> None:
+    plugins = cbr_plugins(toy_domain, ("watch", cbr_observers))
+
+    assert _names(plugins) == ["toy_domain", "watch"]
+    assert current() is plugins
+    again = cbr_plugins(toy_domain, entry_points=True)
+    assert current() is again
+    assert _names(again) == ["core", "observers", "toy_domain"]
+
+
+def test_cbr_plugins_needs_a_name_for_objects_without_one(
+        cbr_plugins: Callable[..., Plugins]) -> None:
+    with pytest.raises(TypeError, match=r"pass a \(name, plugin\) pair"):
+        cbr_plugins(Registers("one"))
+
+
+@attrs.define
+class Closing:
+    """A solver that records when it is closed."""
+
+    log: list[str]
+
+    @hookimpl
+    def cbr_solve(self, problem: Any) -> Solution:
+        return Solution(problem)
+
+    def close(self) -> None:
+        self.log.append("closed")
+
+
+@pytest.fixture
+def close_log() -> Iterator[list[str]]:
+    """A log of closed components, checked after the test's other fixtures are torn down."""
+    log: list[str] = []
+    yield log
+    assert log == ["closed"]
+
+
+def test_cbr_engine_closes_its_engines(close_log: list[str], cbr_plugins: Callable[..., Plugins],
+                                       cbr_engine: Callable[..., Engine]) -> None:
+    class Plugin:
+        @hookimpl
+        def cbr_register(self, registry: Registry) -> None:
+            registry.add("solver", "closing", lambda options, ctx: Closing(close_log))
+
+    cbr_plugins(("closing", Plugin()), entry_points=True)
+    engine = cbr_engine("solver: closing\n")
+    assert engine.solve(5).solution == Solution(5)
+    assert close_log == []
+
+
+@pytest.mark.usefixtures("toy_plugins")
+def test_cbr_engine_reads_text_mappings_and_files_alike(
+        cbr_engine: Callable[..., Engine], toy_config: Path) -> None:
+    import yaml
+
+    engines = [cbr_engine(toy_domain.TOY_CONFIG, overrides=["retrieve.radius=2"]),
+               cbr_engine(yaml.safe_load(toy_domain.TOY_CONFIG), overrides=["retrieve.radius=2"]),
+               cbr_engine(toy_config, overrides=["retrieve.radius=2"])]
+
+    resolved = [engine.config.resolved() for engine in engines]
+    assert resolved[0] == resolved[1] == resolved[2]
+    assert resolved[0]["retrieve"] == {"use": "nearest", "radius": 2}
+    assert resolved[0]["seed"] == 3
+
+
+@pytest.mark.usefixtures("toy_plugins")
+def test_cbr_engine_reports_problems_with_line_and_column(
+        cbr_engine: Callable[..., Engine]) -> None:
+    with pytest.raises(ConfigError) as raised:
+        cbr_engine("seed: 1\nretrieve: {use: nearest, radius: -1}\n")
+    assert raised.value.problems == ["retrieve.radius (line 2, column 34): must be >= 0: -1"]
