@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import math
+import sqlite3
 from pathlib import Path
 from typing import Any
 
@@ -31,9 +32,10 @@ from cbrcore.model import Case
 
 json_data = st.recursive(
     st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False, allow_infinity=False)
-    | st.text(),
-    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(), inner, max_size=4),
-    max_leaves=10,
+    | st.text(max_size=8),
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=6), inner,
+                                                                 max_size=3),
+    max_leaves=8,
 )
 new_cases = st.builds(Case, problem=json_data, solution=json_data,
                       kind=st.sampled_from(["case", "vertex", "segment"]),
@@ -52,7 +54,7 @@ def filled(cases: list[Case], meta: dict[str, Any], removed: int) -> MemoryStore
     return store
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=25, deadline=None)
 @given(cases=st.lists(new_cases, max_size=5), meta=st.dictionaries(st.text(), json_data,
                                                                      max_size=3),
        removed=st.integers(0, 2), format=st.sampled_from(["yaml", "json"]))
@@ -92,6 +94,34 @@ def test_export_to_a_stream_is_yaml_unless_told() -> None:
     stream = io.StringIO()
     export_casebase(store, stream, "json")
     assert stream.getvalue().startswith("{")
+
+
+class BusyStore(MemoryStore):
+    """A store where another writer commits while the cases are being read, once."""
+
+    def cases(self, kind: str | None = None) -> list[Case]:
+        if not self.count():
+            self.add(Case("from elsewhere", 1))
+        return super().cases(kind)
+
+
+def test_an_export_never_mixes_two_revisions() -> None:
+    store = BusyStore()
+    document = document_of(store)
+    assert (document.revision, len(document.cases)) == (1, 1)
+
+
+def test_an_export_does_not_wait_for_writers(tmp_path: Path) -> None:
+    path = tmp_path / "cb.sqlite"
+    with SQLiteStore(path) as store:
+        store.add(Case(1, 1))
+    other = sqlite3.connect(path, isolation_level=None)
+    other.execute("BEGIN EXCLUSIVE")
+    try:
+        with SQLiteStore(path, busy_timeout=0.01) as store:
+            assert document_of(store).revision == 1
+    finally:
+        other.close()
 
 
 def test_the_format_comes_from_the_extension(tmp_path: Path) -> None:

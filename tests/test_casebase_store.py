@@ -380,5 +380,5 @@ class StoresAgree(RuleBasedStateMachine):
 
 
 TestStoresAgree = StoresAgree.TestCase
-TestStoresAgree.settings = settings(max_examples=25, stateful_step_count=10, deadline=None,
+TestStoresAgree.settings = settings(max_examples=20, stateful_step_count=10, deadline=None,
                                     suppress_health_check=[HealthCheck.too_slow])

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+import os
 import re
 import stat
 import subprocess
@@ -105,3 +107,88 @@ def test_config_validates_and_runs(config: Path, tmp_path: Path,
     for name in ("results.csv", "summary.json", "manifest.json"):
         assert (out / name).is_file(), name
     assert (out / "results.csv").stat().st_size > 0
+
+
+# -- the plugin guide's example package -------------------------------------------------------
+
+GUIDE = ROOT / "docs" / "plugins.md"
+EXAMPLE_FILE = re.compile(r"^```\w+\n(# cbr-openfloor/(\S+)\n.*?)^```$", re.S | re.M)
+
+
+def _environ(**extra: str) -> dict[str, str]:
+    environ = {k: v for k, v in os.environ.items() if not k.startswith(("CBR_", "PYTEST_"))}
+    return {**environ, **extra}
+
+
+@pytest.fixture(scope="module")
+def guide_example(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """The guide's package written out from docs/plugins.md and installed into a folder."""
+    work = tmp_path_factory.mktemp("guide")
+    package = work / "cbr-openfloor"
+    for match in EXAMPLE_FILE.finditer(GUIDE.read_text(encoding="utf-8")):
+        path = package / match[2]
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(match[1], encoding="utf-8")
+    site = work / "site"
+    done = subprocess.run(
+        [sys.executable, "-m", "pip", "install", "--no-deps", "--no-build-isolation",
+         "--no-index", "--disable-pip-version-check", "--quiet", "--target", str(site),
+         str(package)],
+        capture_output=True, text=True, timeout=300, check=False)
+    assert done.returncode == 0, done.stdout + done.stderr
+    return package, site
+
+
+def test_guide_example_has_every_file(guide_example: tuple[Path, Path]) -> None:
+    package, _ = guide_example
+    files = sorted(p.relative_to(package).as_posix() for p in package.rglob("*") if p.is_file())
+    assert files == ["floor.yaml", "pyproject.toml", "src/cbr_openfloor/__init__.py",
+                     "src/cbr_openfloor/cycle.py", "src/cbr_openfloor/experiment.py",
+                     "src/cbr_openfloor/floor.py", "src/cbr_openfloor/observe.py",
+                     "tests/test_openfloor.py"]
+
+
+def test_guide_example_is_lint_clean(guide_example: tuple[Path, Path]) -> None:
+    package, _ = guide_example
+    result = subprocess.run(
+        [sys.executable, "-m", "ruff", "check", "--no-cache", "--isolated", "--line-length",
+         "100", "--select", "E,F,W,I,UP,B,SIM,RUF", "."],
+        cwd=package, capture_output=True, text=True, timeout=120, check=False)
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_guide_example_tests_pass(guide_example: tuple[Path, Path]) -> None:
+    package, site = guide_example
+    result = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "tests"],
+        cwd=package, env=_environ(PYTHONPATH=str(site)), capture_output=True, text=True,
+        timeout=300, check=False)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "6 passed" in result.stdout
+
+
+def test_guide_example_runs_through_its_entry_point(guide_example: tuple[Path, Path],
+                                                   tmp_path: Path) -> None:
+    package, site = guide_example
+
+    def cbr(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run([sys.executable, "-m", "cbrcore", *args], cwd=tmp_path,
+                              env=_environ(PYTHONPATH=str(site)), capture_output=True, text=True,
+                              timeout=300, check=False)
+
+    listed = cbr("plugins", "--json")
+    assert listed.returncode == 0, listed.stderr
+    plugins = {p["name"]: p for p in json.loads(listed.stdout)["plugins"]}
+    assert plugins["openfloor"]["distribution"] == "cbr-openfloor"
+
+    config = package / "floor.yaml"
+    assert cbr("validate", str(config)).returncode == 0
+    for out in ("first", "second"):
+        done = cbr("run", str(config), "--out", out)
+        assert done.returncode == 0, done.stderr
+    first, second = (json.loads((tmp_path / out / "summary.json").read_text(encoding="utf-8"))
+                     for out in ("first", "second"))
+    assert first["queries"] == second["queries"] == 200
+    assert second["cbr_share"] > first["cbr_share"]  # the second run starts with the kept cases
+    assert json.loads((tmp_path / "first" / "phase_counts.json").read_text())["retrieve"] == 200
+    assert cbr("floor-path", "0,0", "3,1").stdout == "0,0 1,1 2,1 3,1\n"

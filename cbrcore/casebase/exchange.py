@@ -157,7 +157,7 @@ def check_meta(key: str, value: JSON) -> None:
 
 
 def check_meta_key(key: str) -> None:
-    """Raise when ``key`` is not a string or is the key reserved for the revision."""
+    """Raise when ``key`` is not a string of valid Unicode or is reserved for the revision."""
     if not isinstance(key, str):
         raise TypeError(f"meta keys are strings, got {key!r}")
     if not _is_unicode(key):
@@ -194,7 +194,16 @@ class Document:
 
 
 def document_of(store: ExchangeStore) -> Document:
-    """A consistent snapshot of ``store`` (read inside one transaction, which writes nothing)."""
+    """A consistent snapshot of ``store``.
+
+    It is read without locking when no commit lands meanwhile (the revision would have moved),
+    so a case base that another process keeps busy, or that may not be written, can be exported.
+    Otherwise it is read again inside a transaction, which holds writers off and writes nothing.
+    """
+    revision = store.revision
+    document = Document(revision, store.meta_items(), tuple(store.cases()))
+    if store.revision == revision:
+        return document
     with store.transaction():
         return Document(store.revision, store.meta_items(), tuple(store.cases()))
 

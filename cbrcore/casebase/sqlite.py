@@ -136,20 +136,19 @@ class SQLiteStore:
     def _create_schema(self) -> None:
         # another process may be creating the same file: whoever gets the write lock first
         # creates the schema, the other finds it there
-        with self._errors():
-            self._conn.execute("BEGIN IMMEDIATE")
-            try:
-                if self._value("PRAGMA application_id") == 0 and not self._rows(
-                        "SELECT name FROM sqlite_master"):
-                    self._run(f"PRAGMA application_id = {APPLICATION_ID}")
-                    self._run(f"PRAGMA user_version = {SCHEMA_VERSION}")
-                    for statement in _SCHEMA:
-                        self._run(statement)
-                    self._run("INSERT INTO meta (key, value) VALUES (?, '0')", (REVISION_KEY,))
-                self._conn.execute("COMMIT")
-            except BaseException:
-                self._rollback()
-                raise
+        self._run("BEGIN IMMEDIATE")
+        try:
+            if self._value("PRAGMA application_id") == 0 and not self._rows(
+                    "SELECT name FROM sqlite_master"):
+                self._run(f"PRAGMA application_id = {APPLICATION_ID}")
+                self._run(f"PRAGMA user_version = {SCHEMA_VERSION}")
+                for statement in _SCHEMA:
+                    self._run(statement)
+                self._run("INSERT INTO meta (key, value) VALUES (?, '0')", (REVISION_KEY,))
+            self._run("COMMIT")
+        except BaseException:
+            self._rollback()
+            raise
 
     def _validate(self) -> None:
         application_id = self._value("PRAGMA application_id")
