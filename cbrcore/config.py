@@ -132,14 +132,8 @@ class _Marks:
         return self.at(self.marks.get(probe))
 
 
-def read_yaml(path: Path) -> tuple[Any, _Marks]:
-    """Parse a YAML file safely; errors name the file and the line and column of the fault."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError(str(path), ["file not found"]) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(str(path), [f"cannot read the file: {exc}"]) from None
+def parse_yaml(text: str, label: str) -> tuple[Any, _Marks]:
+    """Parse YAML text safely; errors name ``label`` and the line and column of the fault."""
     try:
         node = yaml.compose(text, Loader=yaml.SafeLoader)
         data = yaml.safe_load(text)
@@ -147,11 +141,22 @@ def read_yaml(path: Path) -> tuple[Any, _Marks]:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
         problem = getattr(exc, "problem", None) or str(exc)
-        raise ConfigError(str(path), [f"{where}malformed YAML: {problem}"]) from None
+        raise ConfigError(label, [f"{where}malformed YAML: {problem}"]) from None
     marks = _Marks(node)
     if marks.duplicates:
-        raise ConfigError(str(path), marks.duplicates)
+        raise ConfigError(label, marks.duplicates)
     return data, marks
+
+
+def read_yaml(path: Path) -> tuple[Any, _Marks]:
+    """Read and parse a YAML file; errors name the file."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(str(path), ["file not found"]) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(str(path), [f"cannot read the file: {exc}"]) from None
+    return parse_yaml(text, str(path))
 
 
 def apply_overrides(data: Any, overrides: Sequence[str], source: str) -> Any:
@@ -269,3 +274,11 @@ def load_config(path: Path | str, registry: Registry, overrides: Sequence[str] =
     data, marks = read_yaml(path)
     data = apply_overrides(data, overrides, str(path))
     return parse_config(data, registry, source=path, marks=marks)
+
+
+def config_from_text(text: str, registry: Registry, overrides: Sequence[str] = ()) -> Config:
+    """Check a configuration given as YAML text; relative paths resolve against the working
+    directory."""
+    data, marks = parse_yaml(text, "configuration")
+    data = apply_overrides(data, overrides, "configuration")
+    return parse_config(data, registry, marks=marks)

@@ -26,8 +26,8 @@ random choice of the run derives. Every other key is a slot naming a component, 
 name or as a mapping whose `use` key names it and whose other keys are its options:
 
 ```yaml
-retrieve: nearest            # default options
-retrieve: {use: nearest, k: 3}
+casebase: sqlite                               # by name: every option at its default
+observers: [{use: trace, file: trace.jsonl}]   # `use` names it, the other keys are options
 ```
 
 | key | takes | component kind |

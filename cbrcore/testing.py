@@ -97,18 +97,12 @@ def cbr_plugins() -> Iterator[Callable[..., Plugins]]:
 
 def _parse(config: str | Mapping[str, Any], overrides: Sequence[str],
            registry: Registry) -> Config:
-    import yaml
-
-    from cbrcore.config import _Marks, apply_overrides, parse_config
+    from cbrcore.config import apply_overrides, config_from_text, parse_config
 
     if isinstance(config, str):
-        # composing the node tree as well lets problems be reported with line and column
-        marks = _Marks(yaml.compose(config, Loader=yaml.SafeLoader))
-        data = yaml.safe_load(config)
-    else:
-        marks, data = None, copy.deepcopy(dict(config))
-    data = apply_overrides(data, overrides, "configuration")
-    return parse_config(data, registry, marks=marks)
+        return config_from_text(config, registry, overrides)
+    data = apply_overrides(copy.deepcopy(dict(config)), overrides, "configuration")
+    return parse_config(data, registry)
 
 
 @pytest.fixture

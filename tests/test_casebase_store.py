@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, invariant, rule
 
 import cbrcore.builtins
-from cbrcore.casebase import CaseStore, ExchangeStore, MemoryStore, SQLiteStore, open_store
+from cbrcore.casebase import CaseStore, MemoryStore, SQLiteStore, open_store
 from cbrcore.context import Context
 from cbrcore.errors import ConfigError
 from cbrcore.model import Case
@@ -27,25 +27,24 @@ class Boom(Exception):
 
 
 @pytest.fixture(params=["memory", "sqlite"])
-def store(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[ExchangeStore]:
+def store(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[CaseStore]:
     opened = MemoryStore() if request.param == "memory" else SQLiteStore(tmp_path / "cb.sqlite")
     yield opened
     opened.close()
 
 
-def state(store: ExchangeStore) -> tuple[Any, ...]:
+def state(store: CaseStore) -> tuple[Any, ...]:
     return store.revision, store.cases(), store.meta_items()
 
 
-def test_both_stores_implement_the_protocol(store: ExchangeStore) -> None:
+def test_both_stores_implement_the_protocol(store: CaseStore) -> None:
     assert isinstance(store, CaseStore)
-    assert isinstance(store, ExchangeStore)
     assert store.revision == 0
     assert len(store) == 0
     assert store.check() == []
 
 
-def test_add_outside_a_transaction_commits_each_case(store: ExchangeStore) -> None:
+def test_add_outside_a_transaction_commits_each_case(store: CaseStore) -> None:
     first = store.add(Case({"start": [0, 0]}, [[0, 0], [1, 0]], id=99, created=42))
     second = store.add(Case("p", "s", kind="vertex", uses=2))
     assert (first.id, first.created, second.id, second.created) == (1, 1, 2, 2)
@@ -56,14 +55,14 @@ def test_add_outside_a_transaction_commits_each_case(store: ExchangeStore) -> No
     assert list(store) == [first, second]
 
 
-def test_ids_are_never_reused(store: ExchangeStore) -> None:
+def test_ids_are_never_reused(store: CaseStore) -> None:
     for n in range(3):
         store.add(Case(n, n))
     store.remove([3])
     assert store.add(Case(3, 3)).id == 4
 
 
-def test_replace_overwrites_and_keeps_created_when_none(store: ExchangeStore) -> None:
+def test_replace_overwrites_and_keeps_created_when_none(store: CaseStore) -> None:
     case = store.add(Case("p", "s"))
     store.replace(attrs.evolve(case, solution="better", meta={"why": "shorter"}))
     assert store.get(case.id).solution == "better"
@@ -72,14 +71,14 @@ def test_replace_overwrites_and_keeps_created_when_none(store: ExchangeStore) ->
     assert store.get(case.id) == Case("q", "t", "other", {}, case.id, 5, 1, None)
 
 
-def test_replace_of_a_missing_case_raises_and_writes_nothing(store: ExchangeStore) -> None:
+def test_replace_of_a_missing_case_raises_and_writes_nothing(store: CaseStore) -> None:
     store.add(Case("p", "s"))
     with pytest.raises(KeyError):
         store.replace(Case("p", "s", id=7))
     assert store.revision == 1
 
 
-def test_remove_is_all_or_nothing(store: ExchangeStore) -> None:
+def test_remove_is_all_or_nothing(store: CaseStore) -> None:
     for n in range(3):
         store.add(Case(n, n))
     with pytest.raises(KeyError):
@@ -95,7 +94,7 @@ def test_remove_is_all_or_nothing(store: ExchangeStore) -> None:
         store.get(1)
 
 
-def test_touch_counts_uses_and_stamps_the_committing_revision(store: ExchangeStore) -> None:
+def test_touch_counts_uses_and_stamps_the_committing_revision(store: CaseStore) -> None:
     a = store.add(Case("a", 1))
     b = store.add(Case("b", 2))
     store.touch([a.id, a.id])
@@ -115,7 +114,7 @@ def test_touch_counts_uses_and_stamps_the_committing_revision(store: ExchangeSto
     assert store.revision == 4
 
 
-def test_cases_and_counts_by_kind(store: ExchangeStore) -> None:
+def test_cases_and_counts_by_kind(store: CaseStore) -> None:
     for kind in ["vertex", "segment", "vertex"]:
         store.add(Case(kind, None, kind=kind))
     assert [c.id for c in store.cases("vertex")] == [1, 3]
@@ -125,7 +124,7 @@ def test_cases_and_counts_by_kind(store: ExchangeStore) -> None:
     assert len(store) == 3
 
 
-def test_meta_values_are_plain_data_copied_in_and_out(store: ExchangeStore) -> None:
+def test_meta_values_are_plain_data_copied_in_and_out(store: CaseStore) -> None:
     assert store.get_meta("index") is None
     assert store.get_meta("index", {"built": False}) == {"built": False}
     value = {"built_at": 0, "ids": [1, 2]}
@@ -139,14 +138,14 @@ def test_meta_values_are_plain_data_copied_in_and_out(store: ExchangeStore) -> N
     assert store.revision == 1
 
 
-def test_the_revision_key_is_reserved(store: ExchangeStore) -> None:
+def test_the_revision_key_is_reserved(store: CaseStore) -> None:
     with pytest.raises(ValueError, match="reserved"):
         store.set_meta("cbrcore.revision", 5)
     with pytest.raises(ValueError, match="reserved"):
         store.get_meta("cbrcore.revision")
 
 
-def test_a_transaction_commits_once(store: ExchangeStore) -> None:
+def test_a_transaction_commits_once(store: CaseStore) -> None:
     with store.transaction():
         cases = [store.add(Case(n, n)) for n in range(3)]
         store.set_meta("k", 1)
@@ -156,7 +155,7 @@ def test_a_transaction_commits_once(store: ExchangeStore) -> None:
     assert store.cases() == cases
 
 
-def test_read_only_and_empty_transactions_do_not_count(store: ExchangeStore) -> None:
+def test_read_only_and_empty_transactions_do_not_count(store: CaseStore) -> None:
     store.add(Case(1, 1))
     with store.transaction():
         store.cases()
@@ -166,7 +165,7 @@ def test_read_only_and_empty_transactions_do_not_count(store: ExchangeStore) -> 
     assert store.revision == 1
 
 
-def test_a_raising_transaction_leaves_no_trace(store: ExchangeStore) -> None:
+def test_a_raising_transaction_leaves_no_trace(store: CaseStore) -> None:
     kept = store.add(Case("kept", 1))
     store.set_meta("k", "before")
     before = state(store)
@@ -182,7 +181,7 @@ def test_a_raising_transaction_leaves_no_trace(store: ExchangeStore) -> None:
     assert store.add(Case("next", 3)).id == 2
 
 
-def test_nested_blocks_join_the_outer_transaction(store: ExchangeStore) -> None:
+def test_nested_blocks_join_the_outer_transaction(store: CaseStore) -> None:
     with store.transaction():
         store.add(Case("outer", 1))
         with store.transaction():
@@ -202,7 +201,7 @@ def test_nested_blocks_join_the_outer_transaction(store: ExchangeStore) -> None:
     assert store.revision == 1
 
 
-def test_a_nested_block_that_only_undid_its_writes_does_not_count(store: ExchangeStore) -> None:
+def test_a_nested_block_that_only_undid_its_writes_does_not_count(store: CaseStore) -> None:
     with store.transaction():
         try:
             with store.transaction():
@@ -214,7 +213,7 @@ def test_a_nested_block_that_only_undid_its_writes_does_not_count(store: Exchang
     assert store.count() == 0
 
 
-def test_an_outer_failure_undoes_committed_nested_blocks(store: ExchangeStore) -> None:
+def test_an_outer_failure_undoes_committed_nested_blocks(store: CaseStore) -> None:
     with pytest.raises(Boom), store.transaction():
         with store.transaction():
             store.add(Case("inner", 1))
@@ -232,20 +231,20 @@ def test_an_outer_failure_undoes_committed_nested_blocks(store: ExchangeStore) -
     (Case(1, 1, uses=-1), r"uses: expected a non-negative integer"),
     (Case(1, 1, last_used=5), r"last_used: revision 5 is after the case base's revision 1"),
 ])
-def test_contents_that_are_not_plain_data_are_refused(store: ExchangeStore, case: Case,
+def test_contents_that_are_not_plain_data_are_refused(store: CaseStore, case: Case,
                                                        expected: str) -> None:
     with pytest.raises(ValueError, match=expected):
         store.add(case)
     assert (store.revision, store.count()) == (0, 0)
 
 
-def test_meta_values_must_be_plain_data(store: ExchangeStore) -> None:
+def test_meta_values_must_be_plain_data(store: CaseStore) -> None:
     with pytest.raises(ValueError, match=r"meta key 'k': value\[0\]: nan is not JSON"):
         store.set_meta("k", [math.nan])
     assert store.revision == 0
 
 
-def test_restore_keeps_ids_and_stamps(store: ExchangeStore) -> None:
+def test_restore_keeps_ids_and_stamps(store: CaseStore) -> None:
     store.set_meta("old", 1)
     cases = [Case("b", 2, id=5, uses=1, created=2, last_used=7), Case("a", 1, id=2, created=1),
              Case("new", 3)]
@@ -312,7 +311,7 @@ operations = st.one_of(
 )
 
 
-def apply(store: ExchangeStore, operation: tuple[Any, ...]) -> Any:
+def apply(store: CaseStore, operation: tuple[Any, ...]) -> Any:
     """Run one operation; return its result or the name of the error it raised."""
     name, *args = operation
     try:
@@ -335,7 +334,7 @@ class StoresAgree(RuleBasedStateMachine):
     def __init__(self) -> None:
         super().__init__()
         self.folder = tempfile.TemporaryDirectory()
-        self.stores: list[ExchangeStore] = [MemoryStore(),
+        self.stores: list[CaseStore] = [MemoryStore(),
                                             SQLiteStore(Path(self.folder.name) / "cb.sqlite")]
 
     def teardown(self) -> None:

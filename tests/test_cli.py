@@ -566,3 +566,36 @@ def test_cli_without_registered_plugins_uses_the_installed_ones(
     cbr_plugins(entry_points=True)
     data = json.loads(cbr_cli("plugins", "--json").stdout)
     assert [p["name"] for p in data["plugins"]] == ["core", "observers"]
+
+
+@pytest.mark.usefixtures("toy")
+@pytest.mark.parametrize(("content", "reason"), [
+    (b"this is no database, just text " * 200, "not a SQLite database file"),
+    (None, "schema version 99"),
+], ids=["not-sqlite", "other-schema"])
+def test_run_refuses_an_unusable_case_base_and_leaves_it_as_it_was(
+        cbr_cli: Cli, toy_config: Path, tmp_path: Path, content: bytes | None,
+        reason: str) -> None:
+    """A corrupt file or one of another schema version stops the run with exit code 2, a message
+    naming the file, and the file's bytes untouched."""
+    path = tmp_path / "cases.sqlite"
+    if content is None:
+        import sqlite3
+
+        from cbrcore.casebase import SQLiteStore
+
+        SQLiteStore(path).close()
+        with sqlite3.connect(path) as raw:
+            raw.execute("PRAGMA user_version = 99")
+        raw.close()
+    else:
+        path.write_bytes(content)
+    before = path.read_bytes()
+
+    result = cbr_cli("run", str(toy_config), "--out", str(tmp_path / "out"),
+                     "--set", f"casebase={{use: sqlite, path: {path}}}")
+
+    assert result.exit_code == 2
+    assert str(path) in result.stderr and reason in result.stderr
+    assert "Traceback" not in result.stderr
+    assert path.read_bytes() == before

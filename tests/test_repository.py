@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import shutil
 import stat
 import subprocess
 import sys
@@ -130,10 +131,11 @@ def guide_example(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(match[1], encoding="utf-8")
     site = work / "site"
+    # install from a copy, so the build leaves no build/ or egg-info folder in the package
     done = subprocess.run(
         [sys.executable, "-m", "pip", "install", "--no-deps", "--no-build-isolation",
          "--no-index", "--disable-pip-version-check", "--quiet", "--target", str(site),
-         str(package)],
+         str(shutil.copytree(package, work / "build"))],
         capture_output=True, text=True, timeout=300, check=False)
     assert done.returncode == 0, done.stdout + done.stderr
     return package, site

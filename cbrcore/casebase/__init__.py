@@ -5,10 +5,7 @@ from __future__ import annotations
 import os
 
 from cbrcore.casebase.exchange import (
-    FORMATS,
     Document,
-    ExchangeStore,
-    Format,
     document_of,
     dump_document,
     export_casebase,
@@ -34,12 +31,9 @@ def open_store(path: str | os.PathLike[str] | None = None, *, create: bool = Tru
 
 __all__ = [
     "APPLICATION_ID",
-    "FORMATS",
     "SCHEMA_VERSION",
     "CaseStore",
     "Document",
-    "ExchangeStore",
-    "Format",
     "MemoryStore",
     "SQLiteStore",
     "UnusableCaseBase",

@@ -1,12 +1,6 @@
-"""Plain data in and out of case bases.
+"""Plain data in and out of case bases: the plain-text export format, YAML or JSON.
 
-Two things live here. First, the rule every store applies to what it is given: case contents and
-plugin meta values must be plain JSON data (dicts with string keys, lists, strings, numbers,
-booleans, None). NaN and infinity are refused rather than stored: they are not JSON, and a value
-that silently turned into ``null`` or broke the export would be worse than an error at the point
-where it was produced. Tuples are refused too, because they would come back as lists.
-
-Second, the plain-text export format, YAML or JSON::
+An exported case base looks like this::
 
     format: cbrcore-casebase
     schema: 1
@@ -17,21 +11,22 @@ Second, the plain-text export format, YAML or JSON::
 
 Importing into an empty store keeps ids and revision stamps, so an exported case base imports back
 equal. Importing with ``append`` adds the document's cases as new cases of a store that already
-holds some.
+holds some. A document is checked against the same rules as a store's contents
+(:mod:`cbrcore.casebase.data`).
 """
 
 from __future__ import annotations
 
 import json
-import math
 import os
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Literal, Protocol, TextIO, runtime_checkable
+from typing import Any, Literal, TextIO
 
 import attrs
 import yaml
 
+from cbrcore.casebase.data import REVISION_KEY, _is_unicode, _short, _step, is_json, json_problems
 from cbrcore.casebase.store import CaseStore
 from cbrcore.errors import CaseBaseError
 from cbrcore.model import JSON, Case
@@ -42,146 +37,10 @@ FORMAT = "cbrcore-casebase"
 SCHEMA = 1
 """The version of the export document (and of the SQLite schema) this cbrcore reads and writes."""
 
-REVISION_KEY = "cbrcore.revision"
-"""The meta key a store keeps its revision under; plugins cannot use it."""
-
 Format = Literal["yaml", "json"]
-FORMATS: tuple[Format, ...] = ("yaml", "json")
 _SUFFIXES: dict[str, Format] = {".yaml": "yaml", ".yml": "yaml", ".json": "json"}
 _CASE_KEYS = ("id", "kind", "problem", "solution", "meta", "uses", "created", "last_used")
 _MAX_LISTED = 20
-
-
-def is_json(value: Any) -> bool:
-    """Whether ``value`` is plain JSON data (the fast test; :func:`json_problems` says why not)."""
-    if value is None or isinstance(value, str | int):
-        return True
-    if isinstance(value, float):
-        return math.isfinite(value)
-    if isinstance(value, list):
-        return all(is_json(item) for item in value)
-    if isinstance(value, dict):
-        return all(isinstance(k, str) and is_json(v) for k, v in value.items())
-    return False
-
-
-def _step(path: str, key: str) -> str:
-    return f"{path}.{key}" if key.isidentifier() else f"{path}[{key!r}]"
-
-
-def json_problems(value: Any, path: str) -> Iterator[str]:
-    """Why ``value`` is not plain JSON data: one ``"path: reason"`` per offending item."""
-    if value is None or isinstance(value, str | int):
-        return
-    if isinstance(value, float):
-        if not math.isfinite(value):
-            yield f"{path}: {value!r} is not JSON data (NaN and infinity cannot be stored)"
-    elif isinstance(value, list):
-        for index, item in enumerate(value):
-            yield from json_problems(item, f"{path}[{index}]")
-    elif isinstance(value, dict):
-        for key, item in value.items():
-            if isinstance(key, str):
-                yield from json_problems(item, _step(path, key))
-            else:
-                yield f"{path}: key {key!r} is not a string (JSON object keys are strings)"
-    elif isinstance(value, tuple):
-        yield f"{path}: a tuple is not JSON data; use a list"
-    else:
-        yield f"{path}: {type(value).__name__} {_short(value)} is not JSON data"
-
-
-def _short(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-def _is_unicode(text: str) -> bool:
-    # kinds and meta keys are stored as SQLite text, which must be valid UTF-8
-    try:
-        text.encode("utf-8")
-    except UnicodeEncodeError:
-        return False
-    return True
-
-
-def _is_count(value: Any) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
-
-
-def case_problems(case: Case, revision: int | None) -> list[str]:
-    """What keeps ``case`` from being stored in a case base at ``revision``, one line each.
-
-    ``revision`` bounds the case's revision stamps: a case cannot be created or used after the
-    revision that stores it. None leaves the stamps unbounded.
-    """
-    problems: list[str] = []
-    if not isinstance(case.kind, str) or not case.kind:
-        problems.append(f"kind: expected a non-empty string, got {_short(case.kind)}")
-    elif not _is_unicode(case.kind):
-        problems.append(f"kind: {case.kind!r} is not valid Unicode text")
-    for field in ("problem", "solution"):
-        value = getattr(case, field)
-        if not is_json(value):
-            problems.extend(json_problems(value, field))
-    if not isinstance(case.meta, Mapping):
-        problems.append(f"meta: expected a mapping, got {_short(case.meta)}")
-    elif not is_json(dict(case.meta)):
-        problems.extend(json_problems(dict(case.meta), "meta"))
-    if not _is_count(case.uses):
-        problems.append(f"uses: expected a non-negative integer, got {_short(case.uses)}")
-    for field in ("created", "last_used"):
-        stamp = getattr(case, field)
-        if stamp is None:
-            continue
-        if not _is_count(stamp):
-            problems.append(f"{field}: expected a revision number, got {_short(stamp)}")
-        elif revision is not None and stamp > revision:
-            problems.append(f"{field}: revision {stamp} is after the case base's "
-                            f"revision {revision}")
-    return problems
-
-
-def check_case(case: Case, revision: int) -> None:
-    """Raise ValueError naming the case kind and the field when ``case`` cannot be stored."""
-    problems = case_problems(case, revision)
-    if problems:
-        raise ValueError(f"case kind {case.kind!r}: " + "; ".join(problems[:3]))
-
-
-def check_meta(key: str, value: JSON) -> None:
-    """Raise when ``key`` is not a usable meta key or ``value`` is not plain JSON data."""
-    check_meta_key(key)
-    if not is_json(value):
-        raise ValueError(f"meta key {key!r}: " + "; ".join(list(json_problems(value, "value"))[:3]))
-
-
-def check_meta_key(key: str) -> None:
-    """Raise when ``key`` is not a string of valid Unicode or is reserved for the revision."""
-    if not isinstance(key, str):
-        raise TypeError(f"meta keys are strings, got {key!r}")
-    if not _is_unicode(key):
-        raise ValueError(f"meta key {key!r} is not valid Unicode text")
-    if key == REVISION_KEY:
-        raise ValueError(f"meta key {key!r} is reserved for the case base's revision")
-
-
-@runtime_checkable
-class ExchangeStore(CaseStore, Protocol):
-    """A store that can be exported and imported: it lists its meta and restores a document."""
-
-    def meta_items(self) -> dict[str, JSON]:
-        """Every plugin meta value, by key."""
-        ...
-
-    def restore(self, cases: Iterable[Case], meta: Mapping[str, JSON], revision: int) -> None:
-        """Fill this store, which holds no cases, with ``cases`` keeping their ids and stamps.
-
-        Cases without an id get new ones, cases without ``created`` the restoring transaction's
-        revision. The store's meta is replaced by ``meta``, and the transaction commits as
-        ``revision`` when that is ahead of the store's own clock.
-        """
-        ...
 
 
 @attrs.frozen
@@ -193,7 +52,7 @@ class Document:
     cases: tuple[Case, ...] = ()
 
 
-def document_of(store: ExchangeStore) -> Document:
+def document_of(store: CaseStore) -> Document:
     """A consistent snapshot of ``store``.
 
     It is read without locking when no commit lands meanwhile (the revision would have moved),
@@ -425,7 +284,7 @@ def write_document(document: Document, target: str | os.PathLike[str] | TextIO,
         raise CaseBaseError(f"cannot write {target}: {exc.strerror}") from exc
 
 
-def load_document(store: ExchangeStore, document: Document, *, append: bool = False) -> int:
+def load_document(store: CaseStore, document: Document, *, append: bool = False) -> int:
     """Load the document into ``store`` in one transaction; return how many cases it added.
 
     Without ``append`` the store must hold no cases: it then becomes a copy of the document (ids,
@@ -446,7 +305,7 @@ def load_document(store: ExchangeStore, document: Document, *, append: bool = Fa
     return len(document.cases)
 
 
-def export_casebase(store: ExchangeStore, target: str | os.PathLike[str] | TextIO,
+def export_casebase(store: CaseStore, target: str | os.PathLike[str] | TextIO,
                     format: Format | None = None) -> Document:
     """Write ``store`` to a file or stream (see :func:`write_document`); return what was written."""
     document = document_of(store)
@@ -454,7 +313,7 @@ def export_casebase(store: ExchangeStore, target: str | os.PathLike[str] | TextI
     return document
 
 
-def import_casebase(store: ExchangeStore, path: str | os.PathLike[str],
+def import_casebase(store: CaseStore, path: str | os.PathLike[str],
                     format: Format | None = None, *, append: bool = False) -> int:
     """Read an exported file and load it into ``store`` (see :func:`load_document`)."""
     return load_document(store, read_document(path, format), append=append)

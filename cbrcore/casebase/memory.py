@@ -9,7 +9,7 @@ from collections.abc import Iterable, Iterator, Mapping
 
 import attrs
 
-from cbrcore.casebase.exchange import case_problems, check_case, check_meta, check_meta_key
+from cbrcore.casebase.data import case_problems, check_case, check_meta, check_meta_key
 from cbrcore.model import JSON, Case
 
 

@@ -13,14 +13,14 @@ from typing import Any
 
 import attrs
 
-from cbrcore.casebase.exchange import (
+from cbrcore.casebase.data import (
     REVISION_KEY,
-    SCHEMA,
     case_problems,
     check_case,
     check_meta,
     check_meta_key,
 )
+from cbrcore.casebase.exchange import SCHEMA
 from cbrcore.errors import CaseBaseError
 from cbrcore.model import JSON, Case
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from contextlib import AbstractContextManager
 from typing import Protocol, runtime_checkable
 
@@ -58,12 +58,29 @@ class CaseStore(Protocol):
         """How many cases (of one kind when given) are stored."""
         ...
 
+    def kind_counts(self) -> dict[str, int]:
+        """How many cases of each kind are stored, by kind."""
+        ...
+
     def get_meta(self, key: str, default: JSON = None) -> JSON:
         """A plugin's stored value (plain JSON data) under ``key``."""
         ...
 
     def set_meta(self, key: str, value: JSON) -> None:
         """Store a plugin's value under ``key``; it commits with the surrounding transaction."""
+        ...
+
+    def meta_items(self) -> dict[str, JSON]:
+        """Every plugin meta value, by key."""
+        ...
+
+    def restore(self, cases: Iterable[Case], meta: Mapping[str, JSON], revision: int) -> None:
+        """Fill this store, which holds no cases, with ``cases`` keeping their ids and stamps.
+
+        Cases without an id get new ones, cases without ``created`` the restoring transaction's
+        revision. The store's meta is replaced by ``meta``, and the transaction commits as
+        ``revision`` when that is ahead of the store's own clock.
+        """
         ...
 
     def check(self) -> list[str]:
