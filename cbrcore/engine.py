@@ -147,6 +147,8 @@ class Engine:
         """The built phase components and observers by YAML path (``retrieve``, ``retain.0``)."""
         self.casebase: CaseStore | None = None
         self._closed = False
+        if out_dir is not None:
+            out_dir.mkdir(parents=True, exist_ok=True)
         try:
             self.world = self._build(config.world)
             self.ctx.world = self.world

@@ -599,3 +599,18 @@ def test_run_refuses_an_unusable_case_base_and_leaves_it_as_it_was(
     assert str(path) in result.stderr and reason in result.stderr
     assert "Traceback" not in result.stderr
     assert path.read_bytes() == before
+
+
+@pytest.mark.usefixtures("toy")
+def test_run_keeps_the_default_sqlite_case_base_in_a_new_output_folder(
+        cbr_cli: Cli, toy_config: Path, tmp_path: Path) -> None:
+    """``casebase: sqlite`` without a path puts casebase.sqlite in the (new) output folder, holding
+    what the run retained: every distinct x of the run that the limit of 6 kept."""
+    out = tmp_path / "new" / "run"
+    result = cbr_cli("run", str(toy_config), "--out", str(out), "--set", "casebase=sqlite")
+    assert result.exit_code == 0, result.stderr
+
+    with (out / "results.csv").open(newline="") as handle:
+        xs = [int(row["q_x"]) for row in csv.DictReader(handle)]
+    info = cbr_cli("casebase", "info", str(out / "casebase.sqlite"), "--json")
+    assert json.loads(info.stdout)["kinds"] == {toy_domain.KIND: min(6, len(set(xs)))}
