@@ -202,7 +202,10 @@ class Engine:
         if wanted is None and not hooks:
             raise PluginError(f"{label} implements no phase hook to observe")
         name = f"{ref.path}:{ref.name}"
-        self._pm.register(instance, name=name)
+        try:
+            self._pm.register(instance, name=name)
+        except pluggy.PluginValidationError as exc:  # e.g. an argument the hookspec lacks
+            raise PluginError(f"{label}: {exc}") from exc
         self._owners[name] = f"{ref.name} ({plugin})"
         self.components[ref.path] = instance
         self._slots[ref.kind] = ref.name

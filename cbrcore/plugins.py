@@ -150,6 +150,9 @@ def load_plugins(extra: Sequence[tuple[str, Any]] = (), *, entry_points: bool = 
             continue
         try:
             obj = source.load() if isinstance(source, metadata.EntryPoint) else source
+            if plugins.pm.is_registered(obj):
+                # a plugin's own tests pass its module in code while it is installed too
+                continue
             plugins.pm.register(obj, name=name)
         except Exception as exc:  # a broken plugin must not stop the others
             fail(name, dist, "import", f"{type(exc).__name__}: {exc}")

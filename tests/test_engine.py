@@ -130,6 +130,17 @@ class ClosingRetriever(_Component):
         self.log.append("retriever closed")
 
 
+class Misnamed:
+    """A retriever asking for an argument the hookspec does not have."""
+
+    def __init__(self, options: object, ctx: Context) -> None:
+        pass
+
+    @hookimpl
+    def cbr_retrieve(self, problem: int, case_base: CaseStore) -> Retrieval:
+        return Retrieval()
+
+
 class FaultyPlugin:
     """The test-only components, registered by a plugin named ``faulty``."""
 
@@ -164,6 +175,7 @@ class FaultyPlugin:
         registry.add("reviser", "repair", Repair)
         registry.add("retriever", "hookless", _Component)
         registry.add("retriever", "greedy", Greedy)
+        registry.add("retriever", "misnamed", Misnamed)
         registry.add("retriever", "reuses", _returning("cbr_reuse", None))
         registry.add("retriever", "closing", self._closing_retriever)
         registry.add("observer", "nosy", NosyObserver)
@@ -551,6 +563,7 @@ def test_a_component_returning_the_wrong_type_gives_a_phase_error(
 
 
 @pytest.mark.parametrize(("config", "message"), [
+    ("retrieve: misnamed\n", "cbr_retrieve"),
     ("retrieve: hookless\n", "must implement exactly cbr_retrieve; it implements no phase hook"),
     ("retrieve: greedy\n", "must implement exactly cbr_retrieve; it implements cbr_retrieve, "
                            "cbr_reuse (cbr_reuse besides)"),

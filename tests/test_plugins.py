@@ -281,6 +281,19 @@ def test_a_code_plugin_cannot_take_an_entry_point_name() -> None:
     assert failure.error == "the plugin name is already taken by cbrcore"
 
 
+def test_an_installed_plugin_passed_in_code_too_loads_once() -> None:
+    """A plugin's own tests may pass its installed module in code: it keeps its entry point
+    name and registers its components once, with no failure."""
+    import cbrcore.builtins
+
+    plugins = load_plugins([("mine", cbrcore.builtins)], environ={})
+
+    assert plugins.failed == []
+    assert [p.name for p in plugins.loaded].count("core") == 1
+    assert "mine" not in [p.name for p in plugins.loaded]
+    assert [c.name for c in plugins.registry if c.kind == "store"] == ["memory", "sqlite"]
+
+
 def test_a_code_plugin_cannot_take_a_builtin_component_name() -> None:
     class Store:
         @hookimpl

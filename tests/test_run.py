@@ -265,14 +265,14 @@ def test_a_workload_failing_to_execute_is_a_plugin_error(plugins: Plugins,
 
 
 def test_a_run_without_a_workload_is_a_config_error(plugins: Plugins, tmp_path: Path) -> None:
-    """Nothing to run: a ConfigError naming the slot, and no output folder is created."""
+    """Nothing to run: a ConfigError naming the slot, raised before any output is written."""
     out_dir = tmp_path / "out"
     with engine_for(plugins, "solver: compute\n", out_dir) as engine, \
             pytest.raises(ConfigError) as caught:
         run_workload(engine, out_dir)
     (problem,) = caught.value.problems
     assert problem.startswith("workload: required to run")
-    assert not out_dir.exists()
+    assert list(out_dir.iterdir()) == []
 
 
 def test_a_second_run_continues_from_the_sqlite_case_base(plugins: Plugins,

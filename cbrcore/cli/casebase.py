@@ -35,8 +35,8 @@ CaseBasePath = Annotated[Path, typer.Argument(help="The case base file (SQLite).
                                               show_default=False)]
 FormatOption = Annotated[
     TextFormat | None,
-    typer.Option("--format", help="yaml or json; default: from the file's extension (yaml on "
-                 "standard output).", show_default=False),
+    typer.Option("--format", help="yaml or json; default: from the file's extension (export "
+                 "to standard output writes yaml).", show_default=False),
 ]
 
 
