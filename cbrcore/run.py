@@ -105,7 +105,7 @@ def write_json(path: Path, data: Any) -> None:
 def _row(index: int, problem: Any, proposal: Proposal, outcome: Outcome,
          learn_timings: Mapping[str, float], engine: Engine) -> dict[str, Any]:
     matches = proposal.retrieval.matches if proposal.retrieval is not None else ()
-    timings = {**proposal.timings, **learn_timings, "learn": sum(learn_timings.values())}
+    timings = {**proposal.timings, **learn_timings}
     row: dict[str, Any] = {
         "query": index,
         **{f"q_{key}": value for key, value in engine.workload.describe(problem).items()},

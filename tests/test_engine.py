@@ -490,7 +490,9 @@ def test_learning_a_solver_answer_touches_no_case(build: Callable[..., Engine]) 
     """A solution from the solver was built from no case: no use is counted."""
     engine = build(FULL_CYCLE, 3)
     proposal = engine.solve(4)
-    engine.learn(4, proposal, execute(4, proposal))
+    timings = engine.learn(4, proposal, execute(4, proposal))
+    assert set(timings) == {"retain", "forget", "learn"}
+    assert timings["learn"] >= timings["retain"] + timings["forget"]
     assert engine.casebase.get(_case_id(engine, 3)).uses == 0
     assert engine.casebase.get(_case_id(engine, 4)).solution == 16
 

@@ -175,9 +175,9 @@ def test_rows_follow_the_toy_rules(
             assert (row["source"], row["fallback_reason"]) == ("solver:compute", REJECTED)
             assert int(row["retrieved"]) >= 1 and row["best_similarity"] == "0.5"
         assert row["ms_retrieve"] and row["ms_retain"] and row["ms_forget"]
+        # the whole learn step holds its retain and forget phases (4 decimals are written)
         learn = float(row["ms_learn"])
-        assert learn == pytest.approx(float(row["ms_retain"]) + float(row["ms_forget"]),
-                                      abs=2e-4)
+        assert learn >= float(row["ms_retain"]) + float(row["ms_forget"]) - 2e-4
         seen.add(row["q_x"])
 
 
