@@ -50,3 +50,10 @@ def toy_config(tmp_path: Path) -> Path:
     path = tmp_path / "toy.yaml"
     path.write_text(toy_domain.TOY_CONFIG, encoding="utf-8")
     return path
+
+
+def installed_plugins() -> list[str]:
+    """The names of the plugins the installed distributions declare, as they load: sorted."""
+    from importlib import metadata
+
+    return sorted({ep.name for ep in metadata.entry_points(group="cbr")})

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import re
 import sys
+from importlib import metadata
 from pathlib import Path
 from typing import Any
 
@@ -393,8 +394,13 @@ def _sections(markdown: str) -> dict[str, str]:
     return dict(zip(parts[1::2], parts[2::2], strict=True))
 
 
+BUILTIN = sorted(ep.name for ep in metadata.distribution("cbrcore").entry_points
+                 if ep.group == "cbr")
+
+
 def _builtin_plugins() -> Plugins:
-    return load_plugins(environ={"CBR_PLUGINS": "core,observers", "CBR_STRICT_PLUGINS": "1"})
+    """The plugins the cbrcore distribution itself declares."""
+    return load_plugins(environ={"CBR_PLUGINS": ",".join(BUILTIN), "CBR_STRICT_PLUGINS": "1"})
 
 
 def test_the_configuration_reference_is_current() -> None:
@@ -402,7 +408,8 @@ def test_the_configuration_reference_is_current() -> None:
     if not CONFIGURATION_MD.exists():
         pytest.skip("docs/reference/configuration.md is not generated yet (cbr reference config)")
     plugins = _builtin_plugins()
-    assert sorted(p.name for p in plugins.loaded) == ["core", "observers"]
+    assert sorted(p.name for p in plugins.loaded) == BUILTIN
+    assert {"core", "observers", "grid", "solvers"} <= set(BUILTIN)
     assert CONFIGURATION_MD.read_text(encoding="utf-8") == config_reference(plugins.registry)
 
 

@@ -1,0 +1,176 @@
+"""A rectangular grid of cells carrying a risk each, and the rules for moving on it.
+
+Cells are (x, y) = (column, row); arrays are indexed ``[y, x]``. A cell's risk lies in [0, 1]:
+0 is free space, values in between a known hazard (terrain quality, past collisions), 1 an
+obstacle. A robot moves to any of its 8 neighbours per step. A diagonal step passes the two
+orthogonal cells beside it; by default both must be passable (the Moving AI rule, no corner
+cutting). With ``corner_cutting`` a diagonal step may pass one blocked orthogonal cell, but it
+never squeezes between two, since a robot cannot pass through the shared corner of two obstacles.
+"""
+
+from __future__ import annotations
+
+import attrs
+import numpy as np
+from numpy.typing import ArrayLike
+
+from cbr_grid.costs import CostModel
+from cbr_grid.query import Cell, path_array
+from cbrcore.errors import CbrError
+
+_LISTED = 5
+"""How many offending cells or steps a problem message lists before summarising the rest."""
+
+
+def _risk_array(value: ArrayLike) -> np.ndarray:
+    """A private, read-only float64 copy of ``value`` after checking it is a valid risk map."""
+    try:
+        risk = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise CbrError(f"grid risk must be an array of numbers: {exc}") from exc
+    if risk.ndim != 2:
+        raise CbrError(f"grid risk must be 2-D (height, width), got shape {risk.shape}")
+    if risk.size == 0:
+        raise CbrError(f"grid risk must have at least one cell, got shape {risk.shape}")
+    bad = ~np.isfinite(risk) | (risk < 0) | (risk > 1)
+    if bad.any():
+        y, x = (int(i) for i in np.argwhere(bad)[0])
+        raise CbrError(f"grid risk must be finite and within [0, 1]; {int(bad.sum())} cell(s) "
+                       f"are not, the first is ({x}, {y}) with {float(risk[y, x])!r}")
+    risk.setflags(write=False)
+    return risk
+
+
+def _listing(items: list[str]) -> str:
+    shown = ", ".join(items[:_LISTED])
+    return shown if len(items) <= _LISTED else f"{shown} and {len(items) - _LISTED} more"
+
+
+@attrs.frozen(eq=False, repr=False)
+class Grid:
+    """A rectangular grid world: per-cell risk (1 = obstacle) and the corner cutting rule.
+
+    ``risk`` is copied and made read-only: a changed map is a new grid (``attrs.evolve``), so
+    the derived ``passable`` and ``factor`` arrays can be computed once.
+    """
+
+    risk: np.ndarray = attrs.field(converter=_risk_array)
+    corner_cutting: bool = attrs.field(default=False,
+                                       validator=attrs.validators.instance_of(bool))
+    cost_model: CostModel = attrs.field(factory=CostModel,
+                                        validator=attrs.validators.instance_of(CostModel))
+    passable: np.ndarray = attrs.field(init=False)
+    """Boolean mask (height, width): True where risk < 1."""
+    factor: np.ndarray = attrs.field(init=False)
+    """The cost model's per-cell step cost factor (see :mod:`cbr_grid.costs`)."""
+
+    @passable.default
+    def _passable(self) -> np.ndarray:
+        mask = self.risk < 1
+        mask.setflags(write=False)
+        return mask
+
+    @factor.default
+    def _factor(self) -> np.ndarray:
+        values = self.cost_model.factor(self.risk)
+        values.setflags(write=False)
+        return values
+
+    @property
+    def width(self) -> int:
+        """Number of columns (x runs over 0 .. width-1)."""
+        return int(self.risk.shape[1])
+
+    @property
+    def height(self) -> int:
+        """Number of rows (y runs over 0 .. height-1)."""
+        return int(self.risk.shape[0])
+
+    def __repr__(self) -> str:
+        return (f"Grid({self.width}x{self.height}, {int(self.passable.sum())} passable, "
+                f"corner_cutting={self.corner_cutting}, cost_model={self.cost_model!r})")
+
+    def inside(self, cells: ArrayLike) -> np.ndarray:
+        """Boolean array, one entry per (x, y) row of ``cells``: is the cell on the grid."""
+        xy = path_array(cells)
+        return ((xy[:, 0] >= 0) & (xy[:, 0] < self.width)
+                & (xy[:, 1] >= 0) & (xy[:, 1] < self.height))
+
+    def in_bounds(self, cell: Cell) -> bool:
+        """Whether ``cell`` (x, y) lies on the grid."""
+        return bool(self.inside(cell)[0])
+
+    def check_cell(self, cell: object, what: str) -> Cell:
+        """``cell`` as an (x, y) tuple of ints, or a CbrError saying why ``what`` can't be there."""
+        try:
+            xy = np.asarray(cell)
+            ok = xy.shape == (2,) and np.issubdtype(xy.dtype, np.integer)
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise CbrError(f"{what} must be a cell (x, y) of two integers, got {cell!r}")
+        x, y = int(xy[0]), int(xy[1])
+        if not self.in_bounds((x, y)):
+            raise CbrError(f"{what} ({x}, {y}) is outside the {self.width}x{self.height} grid "
+                           f"(x in 0..{self.width - 1}, y in 0..{self.height - 1})")
+        if not self.passable[y, x]:
+            raise CbrError(f"{what} ({x}, {y}) is on an obstacle")
+        return x, y
+
+    def step_allowed(self, a: ArrayLike, b: ArrayLike) -> np.ndarray:
+        """Boolean array: may the robot step from each cell of ``a`` to the matching cell of ``b``.
+
+        A step is allowed when both cells are on the grid and passable, they are 8-neighbours,
+        and a diagonal step respects the corner cutting rule of the module docstring.
+        """
+        src, dst = path_array(a), path_array(b)
+        delta = dst - src
+        ok = (self.inside(src) & self.inside(dst)
+              & (np.abs(delta).max(axis=1) == 1))
+        # clip so that rows already refused can still be indexed without wrapping around
+        sx, sy = np.clip(src[:, 0], 0, self.width - 1), np.clip(src[:, 1], 0, self.height - 1)
+        dx, dy = np.clip(dst[:, 0], 0, self.width - 1), np.clip(dst[:, 1], 0, self.height - 1)
+        ok &= self.passable[sy, sx] & self.passable[dy, dx]
+        # the orthogonal cells a diagonal step passes: (x + dx, y) and (x, y + dy)
+        side_a = self.passable[sy, dx]
+        side_b = self.passable[dy, sx]
+        corners = (side_a | side_b) if self.corner_cutting else (side_a & side_b)
+        diagonal = np.abs(delta).sum(axis=1) == 2
+        return ok & (~diagonal | corners)
+
+    def path_problems(self, path: ArrayLike) -> list[str]:
+        """What makes ``path`` (a sequence of (x, y) cells) not a valid path; empty if valid."""
+        cells = path_array(path)
+        if len(cells) == 0:
+            return ["the path has no cells"]
+        problems: list[str] = []
+        outside = ~self.inside(cells)
+        if outside.any():
+            listed = [f"{i}: ({x}, {y})" for i, (x, y) in zip(
+                np.flatnonzero(outside), cells[outside].tolist(), strict=True)]
+            problems.append(f"cells outside the {self.width}x{self.height} grid at "
+                            f"{_listing(listed)}")
+        inner = cells[~outside]
+        blocked = np.zeros(len(cells), dtype=bool)
+        blocked[~outside] = ~self.passable[inner[:, 1], inner[:, 0]]
+        if blocked.any():
+            listed = [f"{i}: ({x}, {y})" for i, (x, y) in zip(
+                np.flatnonzero(blocked), cells[blocked].tolist(), strict=True)]
+            problems.append(f"cells on obstacles at {_listing(listed)}")
+        steps = np.diff(cells, axis=0)
+        jumps = np.abs(steps).max(axis=1, initial=0) != 1
+        if jumps.any():
+            listed = [f"{i}: ({cells[i][0]}, {cells[i][1]}) to ({cells[i + 1][0]}, "
+                      f"{cells[i + 1][1]})" for i in np.flatnonzero(jumps).tolist()]
+            problems.append(f"steps that are not moves to an 8-neighbour cell at "
+                            f"{_listing(listed)}")
+        # corner cutting is judged only on steps whose cells are otherwise fine
+        fine = ~jumps & ~(outside | blocked)[:-1] & ~(outside | blocked)[1:]
+        cut = fine & ~self.step_allowed(cells[:-1], cells[1:])
+        if cut.any():
+            listed = [f"{i}: ({cells[i][0]}, {cells[i][1]}) to ({cells[i + 1][0]}, "
+                      f"{cells[i + 1][1]})" for i in np.flatnonzero(cut).tolist()]
+            rule = ("between two blocked cells" if self.corner_cutting
+                    else "past a blocked corner")
+            problems.append(f"diagonal steps {rule} at {_listing(listed)}")
+        return problems
