@@ -162,8 +162,9 @@ def test_risk_free_shortest_path_cost_is_octile_distance(dx: int, dy: int) -> No
 @given(st.lists(st.sampled_from(STEPS), min_size=1, max_size=20),
        st.integers(0, 2**32 - 1))
 def test_cost_grows_with_risk(steps: list[tuple[int, int]], seed: int) -> None:
-    path = np.concatenate(([[0, 0]], np.cumsum(steps, axis=0))) + 10
-    risky = Grid(np.random.default_rng(seed).uniform(0, 0.99, (21, 21)))
+    # up to 20 steps from the centre of a 41x41 grid stay on it
+    path = np.concatenate(([[0, 0]], np.cumsum(steps, axis=0))) + 20
+    risky = Grid(np.random.default_rng(seed).uniform(0, 0.99, (41, 41)))
     assert path_cost(risky, path) >= path_length(path) - 1e-9
     heavier = Grid(risky.risk, cost_model=CostModel(risk_weight=2.0))
     assert path_cost(heavier, path) >= path_cost(risky, path) - 1e-9
