@@ -17,7 +17,7 @@ box of cells; its working arrays then cover only the window.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import attrs
 import numba
@@ -97,14 +97,16 @@ def _heuristic(x: int, y: int, goals: np.ndarray, scale: float) -> float:
 
 @numba.njit(cache=True)
 def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: int, sy: int,
-            goals: np.ndarray, x0: int, y0: int, x1: int, y1: int, informed: bool
-            ) -> tuple[bool, np.ndarray, float, int]:
+            goals: np.ndarray, x0: int, y0: int, x1: int, y1: int, informed: bool,
+            table: np.ndarray) -> tuple[bool, np.ndarray, float, int]:
     """Search from (sx, sy) to the nearest goal inside the window [x0, x1] x [y0, y1].
 
     Returns (found, path, cost, expanded). ``informed`` selects A* (octile heuristic scaled by
-    the smallest passable factor in the window) over Dijkstra. The caller guarantees that the
-    window lies inside the grid, the start inside the window and the goals on the grid. The
-    cells a diagonal step passes beside it are judged on the whole grid, window or not.
+    the smallest passable factor in the window) over Dijkstra; a non-empty ``table`` gives A* its
+    heuristic instead, one value per window cell in the window's row-major order. The caller
+    guarantees that the window lies inside the grid, the start inside the window and the goals
+    on the grid. The cells a diagonal step passes beside it are judged on the whole grid, window
+    or not.
     """
     ww = x1 - x0 + 1
     n = ww * (y1 - y0 + 1)
@@ -140,7 +142,13 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
 
     start = (sy - y0) * ww + (sx - x0)
     dist[start] = 0.0
-    keys[0] = _heuristic(sx, sy, targets, scale) if informed else 0.0
+    tabled = table.shape[0] > 0
+    if not informed:
+        keys[0] = 0.0
+    elif tabled:
+        keys[0] = table[start]
+    else:
+        keys[0] = _heuristic(sx, sy, targets, scale)
     items[0] = start
     size = 1
     expanded = 0
@@ -183,7 +191,11 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
             if size == keys.shape[0]:
                 keys = np.concatenate((keys, np.empty_like(keys)))
                 items = np.concatenate((items, np.empty_like(items)))
-            key = g + _heuristic(nx, ny, targets, scale) if informed else g
+            key = g
+            if tabled:
+                key += table[other]
+            elif informed:
+                key += _heuristic(nx, ny, targets, scale)
             _push(keys, items, size, key, other)
             size += 1
 
@@ -204,9 +216,21 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
     return True, path, dist[reached], expanded
 
 
+# Builds an A* heuristic table for (factor, passable, corner_cutting, goals, (x0, y0, x1, y1)).
+HeuristicTable = Callable[[np.ndarray, np.ndarray, bool, np.ndarray, tuple[int, int, int, int]],
+                          np.ndarray]
+
+_NO_TABLE = np.empty(0, dtype=np.float64)
+
+
 def _run(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, start: Sequence[int],
-         goals: object, window: Sequence[int] | None, informed: bool) -> SearchResult | None:
-    """Check and convert the arguments of :func:`dijkstra` and :func:`astar`, then search."""
+         goals: object, window: Sequence[int] | None, informed: bool,
+         heuristic: HeuristicTable | None = None) -> SearchResult | None:
+    """Check and convert the arguments of :func:`dijkstra` and :func:`astar`, then search.
+
+    ``heuristic``, given, builds the A* heuristic table from the checked arrays, the goals and
+    the clipped window (see :func:`_search`).
+    """
     factor = np.ascontiguousarray(factor, dtype=np.float64)
     passable = np.ascontiguousarray(passable, dtype=np.bool_)
     if factor.ndim != 2 or factor.shape != passable.shape:
@@ -227,8 +251,13 @@ def _run(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, start: 
         x0, y0, x1, y1 = max(wx0, 0), max(wy0, 0), min(wx1, w - 1), min(wy1, h - 1)
     if not (x0 <= sx <= x1 and y0 <= sy <= y1):
         return None
+    table = _NO_TABLE
+    if heuristic is not None:
+        table = np.ascontiguousarray(
+            heuristic(factor, passable, bool(corner_cutting), targets, (x0, y0, x1, y1)),
+            dtype=np.float64).reshape(-1)
     found, path, cost, expanded = _search(factor, passable, bool(corner_cutting), sx, sy, targets,
-                                          x0, y0, x1, y1, informed)
+                                          x0, y0, x1, y1, informed, table)
     return SearchResult(path, float(cost), int(expanded)) if found else None
 
 

@@ -1,0 +1,48 @@
+"""Pictures of grids: the map in grey levels, and a path over it with its start and goal."""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.figure import Figure
+from numpy.typing import ArrayLike
+
+from cbr_grid.grid import Grid
+from cbr_grid.query import Cell, path_array
+
+_INCHES_PER_CELL = 0.12
+_MIN_INCHES, _MAX_INCHES = 4.0, 12.0
+
+
+def draw_grid(grid: Grid, path: ArrayLike | None = None, start: Cell | None = None,
+              goal: Cell | None = None) -> Figure:
+    """A figure of ``grid``: free cells white, risk as grey levels, obstacles black.
+
+    ``path`` (a sequence of (x, y) cells) is drawn as a line through the cell centres, ``start``
+    as a green circle and ``goal`` as a red cross. Row 0 is at the top, as in a map file.
+    """
+    longest = max(grid.width, grid.height)
+    inches = min(max(longest * _INCHES_PER_CELL, _MIN_INCHES), _MAX_INCHES)
+    figure = Figure(figsize=(inches * grid.width / longest + 1, inches * grid.height / longest))
+    axes = figure.add_subplot()
+    # 1 - risk maps free space to white and obstacles (risk 1) to black under the grey colormap
+    axes.imshow(1.0 - grid.risk, cmap="gray", vmin=0.0, vmax=1.0, interpolation="nearest",
+                origin="upper")
+    if path is not None:
+        cells = path_array(path)
+        axes.plot(cells[:, 0], cells[:, 1], color="tab:blue", linewidth=1.5, label="path")
+    if start is not None:
+        axes.plot(*start, marker="o", color="tab:green", markersize=7, linestyle="none",
+                  label="start")
+    if goal is not None:
+        axes.plot(*goal, marker="X", color="tab:red", markersize=8, linestyle="none",
+                  label="goal")
+    if path is not None or start is not None or goal is not None:
+        axes.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
+    axes.set_xlim(-0.5, grid.width - 0.5)
+    axes.set_ylim(grid.height - 0.5, -0.5)
+    axes.set_xlabel("x")
+    axes.set_ylabel("y")
+    axes.set_xticks(np.unique(np.linspace(0, grid.width - 1, 5).round()))
+    axes.set_yticks(np.unique(np.linspace(0, grid.height - 1, 5).round()))
+    figure.tight_layout()
+    return figure

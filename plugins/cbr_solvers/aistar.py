@@ -1,0 +1,211 @@
+"""Ai*: A* guided by an integer distance map propagated from the goals.
+
+Before searching, Ai* propagates a wavefront from the goal cells over the passable cells of the
+search window in 8 directions, under the same corner rule as the search (:mod:`cbr_solvers.search`).
+The map counts integer steps: an orthogonal step adds 3 and a diagonal step 4, the 3-4 chamfer
+distance. This is our reading of "an integer approximation of the distance ... constructed using
+8-direction propagation" with "a maximum error of distance estimation of about 8 percent": on an
+open map a diagonal run of n cells measures 4n/3 instead of n·sqrt(2), short by
+(sqrt(2) - 4/3)·n = 0.0809·n, about 8 percent of the run's side (5.7 percent of its length);
+orthogonal runs are exact.
+
+A* then uses ``h(c) = D(c) / 3 · fmin``, ``D`` the integer map and ``fmin`` the smallest cost
+factor of a passable cell in the window. Both maps are shortest paths over the same moves, and no
+step of the integer map (1 or 4/3 after dividing by 3) is longer than the step's length (1 or
+sqrt(2)), whose cost is at least its length times ``fmin``. So the heuristic never overestimates
+and is consistent: with this scaling Ai* is admissible and returns an optimal path, the same cost
+as Dijkstra. On a risk-free map the heuristic is at least 4/(3·sqrt(2)) of the true cost, a
+relative error of at most 1 - 4/(3·sqrt(2)) = 5.72 percent (:data:`RISK_FREE_ERROR_BOUND`).
+With factors between ``fmin`` and ``fmax`` in the window the true cost is at most ``fmax`` times
+the path's length, so the error is at most 1 - 4/(3·sqrt(2))·fmin/fmax (:func:`error_bound`).
+:func:`heuristic_error` measures the error on a given map.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numba
+import numpy as np
+
+from cbr_solvers.search import _DX, _DY, SQRT2, SearchResult, _pop, _push, _run
+
+# Integer step lengths of the distance map: orthogonal and diagonal.
+ORTHOGONAL_STEPS = 3
+DIAGONAL_STEPS = 4
+
+# The largest relative error of the heuristic on a risk-free map: a diagonal step's 4/3 against
+# its sqrt(2).
+RISK_FREE_ERROR_BOUND = 1.0 - DIAGONAL_STEPS / (ORTHOGONAL_STEPS * math.sqrt(2.0))
+
+_INITIAL_HEAP = 1024
+
+
+@numba.njit(cache=True)
+def _propagate(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
+               goals: np.ndarray, x0: int, y0: int, x1: int, y1: int, exact: bool) -> np.ndarray:
+    """Distances from the goals to every cell of the window [x0, x1] x [y0, y1], row-major.
+
+    ``exact`` selects the step costs of the cost contract; otherwise a step adds the integer
+    ``ORTHOGONAL_STEPS`` or ``DIAGONAL_STEPS``. Goals off the window or blocked are ignored; cells
+    that no goal reaches inside the window stay infinite. Step costs are symmetric, so the
+    distance from the goals is the cost to reach them.
+    """
+    ww = x1 - x0 + 1
+    n = ww * (y1 - y0 + 1)
+    dist = np.full(n, np.inf)
+    closed = np.zeros(n, dtype=np.bool_)
+    keys = np.empty(_INITIAL_HEAP, dtype=np.float64)
+    items = np.empty(_INITIAL_HEAP, dtype=np.int64)
+    size = 0
+    for k in range(goals.shape[0]):
+        gx, gy = goals[k, 0], goals[k, 1]
+        if not (x0 <= gx <= x1 and y0 <= gy <= y1 and passable[gy, gx]):
+            continue
+        cell = (gy - y0) * ww + (gx - x0)
+        if dist[cell] == 0.0:
+            continue
+        dist[cell] = 0.0
+        if size == keys.shape[0]:
+            keys = np.concatenate((keys, np.empty_like(keys)))
+            items = np.concatenate((items, np.empty_like(items)))
+        _push(keys, items, size, 0.0, cell)
+        size += 1
+
+    # The wavefront advances in order of distance; integer distances are exact in float64.
+    while size > 0:
+        cell = _pop(keys, items, size)
+        size -= 1
+        if closed[cell]:
+            continue  # a stale entry of a cell reached again more cheaply
+        closed[cell] = True
+        cx = x0 + cell % ww
+        cy = y0 + cell // ww
+        here = dist[cell]
+        for d in range(8):
+            nx, ny = cx + _DX[d], cy + _DY[d]
+            if nx < x0 or nx > x1 or ny < y0 or ny > y1 or not passable[ny, nx]:
+                continue
+            diagonal = d >= 4
+            if diagonal:
+                beside_x, beside_y = passable[cy, nx], passable[ny, cx]
+                if not ((beside_x or beside_y) if corner_cutting else (beside_x and beside_y)):
+                    continue
+            other = (ny - y0) * ww + (nx - x0)
+            if closed[other]:
+                continue
+            if exact:
+                step = (SQRT2 if diagonal else 1.0) * (factor[cy, cx] + factor[ny, nx]) * 0.5
+            else:
+                step = float(DIAGONAL_STEPS if diagonal else ORTHOGONAL_STEPS)
+            g = here + step
+            if g >= dist[other]:
+                continue
+            dist[other] = g
+            if size == keys.shape[0]:
+                keys = np.concatenate((keys, np.empty_like(keys)))
+                items = np.concatenate((items, np.empty_like(items)))
+            _push(keys, items, size, g, other)
+            size += 1
+    return dist
+
+
+def _window(passable: np.ndarray, window: Sequence[int] | None) -> tuple[int, int, int, int]:
+    """The inclusive window (x0, y0, x1, y1) clipped to the grid; the whole grid by default."""
+    h, w = passable.shape
+    if window is None:
+        return 0, 0, w - 1, h - 1
+    wx0, wy0, wx1, wy1 = (int(v) for v in window)
+    return max(wx0, 0), max(wy0, 0), min(wx1, w - 1), min(wy1, h - 1)
+
+
+def _goal_array(goals: object) -> np.ndarray:
+    return np.ascontiguousarray(np.asarray(goals, dtype=np.int64).reshape(-1, 2))
+
+
+def _heuristic_table(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
+                     goals: np.ndarray, window: tuple[int, int, int, int]) -> np.ndarray:
+    """Ai*'s heuristic over the window, row-major: the integer map / 3 times the least factor."""
+    x0, y0, x1, y1 = window
+    inside = factor[y0:y1 + 1, x0:x1 + 1][passable[y0:y1 + 1, x0:x1 + 1]]
+    # An empty or invalid window is the search's to refuse; any finite scale serves until then.
+    fmin = float(inside.min()) if inside.size else 1.0
+    steps = _propagate(factor, passable, corner_cutting, goals, x0, y0, x1, y1, False)
+    return steps * (fmin / ORTHOGONAL_STEPS)
+
+
+def distance_map(passable: np.ndarray, corner_cutting: bool, goals: object,
+                 window: Sequence[int] | None = None) -> np.ndarray:
+    """Ai*'s integer distance map from ``goals``: 3 per orthogonal step, 4 per diagonal step.
+
+    Returns an int64 array over the window (the whole grid by default), indexed ``[y, x]`` from
+    the window's corner, with -1 where no goal can be reached inside the window.
+    """
+    passable = np.ascontiguousarray(passable, dtype=np.bool_)
+    x0, y0, x1, y1 = _window(passable, window)
+    dist = _propagate(np.ones(passable.shape), passable, bool(corner_cutting),
+                      _goal_array(goals), x0, y0, x1, y1, False)
+    steps = np.where(np.isinf(dist), -1, dist).astype(np.int64)
+    return steps.reshape(y1 - y0 + 1, x1 - x0 + 1)
+
+
+def heuristic_map(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, goals: object,
+                  window: Sequence[int] | None = None) -> np.ndarray:
+    """The heuristic Ai* gives each cell of the window, in cost units (inf where unreachable)."""
+    factor = np.ascontiguousarray(factor, dtype=np.float64)
+    passable = np.ascontiguousarray(passable, dtype=np.bool_)
+    box = _window(passable, window)
+    table = _heuristic_table(factor, passable, bool(corner_cutting), _goal_array(goals), box)
+    return table.reshape(box[3] - box[1] + 1, box[2] - box[0] + 1)
+
+
+def cost_map(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, goals: object,
+             window: Sequence[int] | None = None) -> np.ndarray:
+    """The exact cheapest cost from each cell of the window to the goals (Dijkstra from them)."""
+    factor = np.ascontiguousarray(factor, dtype=np.float64)
+    passable = np.ascontiguousarray(passable, dtype=np.bool_)
+    x0, y0, x1, y1 = _window(passable, window)
+    dist = _propagate(factor, passable, bool(corner_cutting), _goal_array(goals),
+                      x0, y0, x1, y1, True)
+    return dist.reshape(y1 - y0 + 1, x1 - x0 + 1)
+
+
+def heuristic_error(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
+                    goals: object, window: Sequence[int] | None = None) -> float:
+    """The largest relative error (true - h) / true of Ai*'s heuristic over the window.
+
+    ``true`` is the exact cost to the goals (:func:`cost_map`), taken over the cells that reach
+    a goal, goals excluded. A negative error at some cell would mean an overestimate there; the
+    scaling of this module never gives one. Returns 0 when no other cell reaches a goal.
+    """
+    true = cost_map(factor, passable, corner_cutting, goals, window)
+    estimate = heuristic_map(factor, passable, corner_cutting, goals, window)
+    reached = np.isfinite(true) & (true > 0)
+    if not reached.any():
+        return 0.0
+    return float(((true[reached] - estimate[reached]) / true[reached]).max())
+
+
+def error_bound(factor: np.ndarray, passable: np.ndarray,
+                window: Sequence[int] | None = None) -> float:
+    """The largest relative error Ai*'s heuristic can have over the window, from its factors."""
+    passable = np.asarray(passable, dtype=np.bool_)
+    x0, y0, x1, y1 = _window(passable, window)
+    inside = np.asarray(factor, dtype=np.float64)[y0:y1 + 1, x0:x1 + 1][
+        passable[y0:y1 + 1, x0:x1 + 1]]
+    if not inside.size:
+        return 0.0
+    return 1.0 - (1.0 - RISK_FREE_ERROR_BOUND) * float(inside.min() / inside.max())
+
+
+def aistar(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, start: Sequence[int],
+           goals: object, window: Sequence[int] | None = None) -> SearchResult | None:
+    """The cheapest path from ``start`` to the nearest of ``goals`` by Ai*.
+
+    Arguments and result as for :func:`cbr_solvers.search.astar`. The heuristic is the integer
+    distance map to the goals divided by 3 and times the smallest passable factor in the window;
+    it is admissible and consistent, so the cost is optimal.
+    """
+    return _run(factor, passable, corner_cutting, start, goals, window, informed=True,
+                heuristic=_heuristic_table)

@@ -1,0 +1,182 @@
+"""``cbr plan`` and ``cbr map show`` through the installed plugins: paths, errors, pictures."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from cbr_grid.costs import path_length, turns
+from cbr_grid.movingai import Scenario, load_scen
+from cbrcore.plugins import Plugins
+from cbrcore.testing import CliResult
+
+Cli = Callable[..., CliResult]
+
+MOVINGAI = Path(__file__).resolve().parents[2] / "shared" / "data" / "movingai"
+ARENA = MOVINGAI / "maps" / "dao" / "arena.map"
+ARENA_SCEN = MOVINGAI / "scenarios" / "dao" / "arena.map.scen"
+KEYS = {"solver", "length", "cost", "turns", "time_ms", "expanded", "path"}
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+# A wall down column 2 keeps the right half out of reach of the left half.
+WALLED = """type octile
+height 3
+width 5
+map
+..@..
+..@..
+..@..
+"""
+
+pytestmark = pytest.mark.skipif(not ARENA_SCEN.is_file(),
+                                reason=f"no Moving AI data at {MOVINGAI}")
+
+
+@pytest.fixture(autouse=True)
+def installed(cbr_plugins: Callable[..., Plugins]) -> Plugins:
+    """The installed plugins, grid and solvers among them, made current for every test."""
+    return cbr_plugins(entry_points=True)
+
+
+@pytest.fixture
+def walled(tmp_path: Path) -> Path:
+    path = tmp_path / "walled.map"
+    path.write_text(WALLED, encoding="ascii")
+    return path
+
+
+def longest_scenario() -> Scenario:
+    """The arena scenario with the longest optimal path: the most turns to get right."""
+    return max(load_scen(ARENA_SCEN), key=lambda scenario: scenario.optimal)
+
+
+def cell_option(cell: tuple[int, int]) -> str:
+    return f"{cell[0]},{cell[1]}"
+
+
+@pytest.mark.parametrize("solver", ["dijkstra", "astar"])
+def test_plan_prints_an_optimal_path_as_json(cbr_cli: Cli, solver: str) -> None:
+    scenario = longest_scenario()
+    result = cbr_cli("plan", str(ARENA), "--start", cell_option(scenario.start), "--goal",
+                     cell_option(scenario.goal), "--solver", solver, "--json")
+    assert result.exit_code == 0, result.stderr
+    record = json.loads(result.stdout)
+    assert set(record) == KEYS
+    assert record["solver"] == solver
+    path = [tuple(cell) for cell in record["path"]]
+    assert path[0] == scenario.start
+    assert path[-1] == scenario.goal
+    assert scenario.agrees(record["length"])
+    assert record["length"] == pytest.approx(path_length(path))
+    # on a map without risk a path's cost is its length
+    assert record["cost"] == pytest.approx(record["length"])
+    assert record["turns"] == turns(path)
+    assert isinstance(record["expanded"], int)
+    assert record["expanded"] >= len(path)
+    assert record["time_ms"] >= 0
+
+
+def test_plan_prints_the_metrics_as_text(cbr_cli: Cli) -> None:
+    scenario = longest_scenario()
+    result = cbr_cli("plan", str(ARENA), "--start", cell_option(scenario.start), "--goal",
+                     cell_option(scenario.goal))
+    assert result.exit_code == 0, result.stderr
+    values = dict(line.split() for line in result.stdout.splitlines())
+    assert list(values) == ["length", "cost", "turns", "time_ms", "expanded"]
+    assert scenario.agrees(float(values["length"]))
+
+
+def test_plan_without_a_path_exits_1(cbr_cli: Cli, walled: Path) -> None:
+    result = cbr_cli("plan", str(walled), "--start", "0,0", "--goal", "4,2", "--json")
+    assert result.exit_code == 1
+    assert result.stdout == ""
+    assert f"no path from (0, 0) to (4, 2) on {walled}" in result.stderr
+
+
+@pytest.mark.parametrize(("start", "goal", "message"), [
+    ("5,0", "0,2", "start (5, 0) is outside the 5x3 grid"),
+    ("0,0", "0,-1", "goal (0, -1) is outside the 5x3 grid"),
+    ("2,1", "0,0", "start (2, 1) is on an obstacle"),
+    ("0,0", "2,2", "goal (2, 2) is on an obstacle"),
+])
+def test_plan_names_a_bad_cell(cbr_cli: Cli, walled: Path, start: str, goal: str,
+                               message: str) -> None:
+    result = cbr_cli("plan", str(walled), "--start", start, "--goal", goal)
+    assert result.exit_code == 2
+    assert f"error: {message}" in result.stderr
+
+
+@pytest.mark.parametrize("written", ["1,x", "1", "1,2,3", ""])
+def test_plan_refuses_a_malformed_cell(cbr_cli: Cli, walled: Path, written: str) -> None:
+    result = cbr_cli("plan", str(walled), "--start", written, "--goal", "0,0")
+    assert result.exit_code == 2
+    assert "Invalid value for '--start'" in result.stderr
+    assert "X,Y" in result.stderr
+
+
+@pytest.mark.parametrize("args", [
+    ("--start", "0,0"),
+    ("--goal", "0,0"),
+    ("--start", "0,0", "--goal", "1,1", "--limit", "3"),
+    ("--scen", str(ARENA_SCEN), "--start", "0,0"),
+    ("--scen", str(ARENA_SCEN), "--plot", "out.png"),
+])
+def test_plan_refuses_options_that_do_not_go_together(cbr_cli: Cli, args: tuple[str, ...]
+                                                      ) -> None:
+    result = cbr_cli("plan", str(ARENA), *args)
+    assert result.exit_code == 2
+    assert "Invalid value" in result.stderr
+
+
+def test_plan_scen_prints_a_line_per_scenario_and_a_summary(cbr_cli: Cli) -> None:
+    result = cbr_cli("plan", str(ARENA), "--scen", str(ARENA_SCEN), "--limit", "5", "--json")
+    assert result.exit_code == 0, result.stderr
+    *records, summary = [json.loads(line) for line in result.stdout.splitlines()]
+    assert len(records) == 5
+    scenarios = load_scen(ARENA_SCEN)
+    optimal = {(s.start, s.goal): s for s in scenarios}
+    for record in records:
+        assert set(record) == {*KEYS, "optimal"}
+        scenario = optimal[tuple(record["path"][0]), tuple(record["path"][-1])]
+        assert record["optimal"] == scenario.optimal
+        assert scenario.agrees(record["length"])
+    # spread over the buckets: the first scenario of the first bucket and the last of the last
+    by_bucket = sorted(scenarios, key=lambda scenario: scenario.bucket)
+    assert records[0]["optimal"] == by_bucket[0].optimal
+    assert records[-1]["optimal"] == by_bucket[-1].optimal
+    assert summary["matched"] == 5
+    assert summary["total"] == 5
+    assert math.isfinite(summary["median_time_ms"])
+
+
+def test_map_show_draws_the_map(cbr_cli: Cli, tmp_path: Path) -> None:
+    out = tmp_path / "arena.png"
+    result = cbr_cli("map", "show", str(ARENA), "--plot", str(out))
+    assert result.exit_code == 0, result.stderr
+    assert f"{ARENA}: 49x49" in result.stdout
+    data = out.read_bytes()
+    assert data.startswith(PNG_SIGNATURE)
+    assert len(data) > len(PNG_SIGNATURE)
+
+
+def test_plan_plot_draws_the_path(cbr_cli: Cli, tmp_path: Path) -> None:
+    scenario = longest_scenario()
+    out = tmp_path / "path.png"
+    result = cbr_cli("plan", str(ARENA), "--start", cell_option(scenario.start), "--goal",
+                     cell_option(scenario.goal), "--plot", str(out), "--json")
+    assert result.exit_code == 0, result.stderr
+    assert set(json.loads(result.stdout)) == KEYS
+    data = out.read_bytes()
+    assert data.startswith(PNG_SIGNATURE)
+    assert len(data) > len(PNG_SIGNATURE)
+
+
+def test_a_plot_that_cannot_be_written_is_a_user_error(cbr_cli: Cli, tmp_path: Path) -> None:
+    out = tmp_path / "missing" / "arena.png"
+    result = cbr_cli("map", "show", str(ARENA), "--plot", str(out))
+    assert result.exit_code == 2
+    assert f"error: {out}: cannot write the picture" in result.stderr
