@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal
 
 import attrs
 
+from cbr_grid.formats import load_grid
+from cbr_grid.generate import generate
 from cbr_grid.grid import Grid
 from cbr_grid.movingai import load_map
 from cbrcore.context import Context
@@ -31,6 +34,60 @@ def movingai_world(options: MovingAIOptions, ctx: Context) -> Grid:
     return load_map(options.map, corner_cutting=options.corner_cutting)
 
 
+_UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
+
+
+@attrs.frozen
+class MapFileOptions:
+    path: Path = option(doc="The map file (relative to the configuration file): .map (Moving AI), "
+                        ".yaml (ROS map_server), .png, .npy (risk array) or .grid (text).")
+    corner_cutting: bool = option(
+        False, "Let a diagonal step pass one blocked orthogonal cell.")
+    unknown_risk: float = option(
+        1.0, "ROS maps: the risk of cells neither free nor occupied (1 treats them as obstacles).",
+        validator=_UNIT)
+    threshold: float = option(
+        0.5, "PNG images: pixels darker than this luminance (0 black, 1 white) are obstacles.",
+        validator=_UNIT)
+
+
+def map_file_world(options: MapFileOptions, ctx: Context) -> Grid:
+    """A grid read from a .map, .yaml (ROS map_server), .png, .npy or .grid file.
+
+    The extension chooses the loader; the file's top row becomes y = 0 (see cbr_grid.formats).
+    """
+    return load_grid(options.path, corner_cutting=options.corner_cutting,
+                     unknown_risk=options.unknown_risk, threshold=options.threshold)
+
+
+@attrs.frozen
+class GeneratedOptions:
+    kind: Literal["random", "office", "maze"] = option(
+        doc="The layout: random obstacles, an office of rooms and corridors, or a perfect maze.")
+    width: int = option(64, "Columns (at least 3).", validator=attrs.validators.ge(3))
+    height: int = option(64, "Rows (at least 3).", validator=attrs.validators.ge(3))
+    density: float = option(0.2, "random: the fraction of cells that are obstacles.",
+                            validator=_UNIT)
+    terrain: float = option(
+        0.0, "The amount of smooth terrain risk added to free cells, in [0, 1); 0 adds none.",
+        validator=attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.lt(1.0)))
+    corner_cutting: bool = option(
+        False, "Let a diagonal step pass one blocked orthogonal cell.")
+
+
+def generated_world(options: GeneratedOptions, ctx: Context) -> Grid:
+    """A grid generated from the run's seed: random obstacles, an office or a perfect maze.
+
+    The layout and the optional terrain risk draw from independent streams of ``ctx.seed``, so
+    the same seed always gives the same grid (see cbr_grid.generate).
+    """
+    return generate(options.kind, options.width, options.height, ctx.seed,
+                    density=options.density, terrain=options.terrain,
+                    corner_cutting=options.corner_cutting)
+
+
 @hookimpl
 def cbr_register(registry: Registry) -> None:
     registry.add("world", "movingai", movingai_world, options=MovingAIOptions)
+    registry.add("world", "map_file", map_file_world, options=MapFileOptions)
+    registry.add("world", "generated", generated_world, options=GeneratedOptions)

@@ -1,0 +1,238 @@
+"""Grid file formats: ROS map_server maps with P2/P5 greymaps, PNG, NumPy and text grids."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib.image
+import numpy as np
+import pytest
+
+import cbr_grid
+from cbr_grid.formats import load_grid, load_npy, load_pgm, load_png, load_ros, load_text
+from cbr_grid.grid import Grid
+from cbrcore.context import Context
+from cbrcore.errors import CbrError, ConfigError
+from cbrcore.options import paths_relative_to, structure_options
+from cbrcore.registry import Registry
+
+# with occupied_thresh 0.65 and free_thresh 0.2, p = (255 - v) / 255 reads these pixels as
+# occupied (0: p 1, 50: p 0.80), free (255: p 0, 230: p 0.098) and unknown (128: p 127/255,
+# 200: p 55/255, 100: p 155/255, 166: p 89/255)
+PIXELS = [[0, 255, 128, 230], [200, 100, 50, 166]]
+U = 0.5  # the unknown risk the trinary test asks for
+TRINARY = [[1, 0, U, 0], [U, U, 1, U]]
+SCALE = [[1, 0, 127 / 255, 0], [55 / 255, 155 / 255, 1, 89 / 255]]
+# negated, p = v / 255: 0 and 50 (0.196) free, 255, 230 (0.90) and 166 (0.651) occupied,
+# 128 (0.502), 200 (0.784 > 0.65: occupied) and 100 (0.392) as marked
+NEGATED = [[0, 1, U, 1], [1, U, 0, 1]]
+
+P2 = b"P2\n# a hand-made map\n4 2\n255\n0 255 128 230\n200 100 50 166\n"
+P5 = b"P5\n4 2\n# comment in the header\n255\n" + np.array(PIXELS, dtype=np.uint8).tobytes()
+
+
+def write(folder: Path, name: str, data: bytes | str) -> Path:
+    path = folder / name
+    path.write_bytes(data.encode() if isinstance(data, str) else data)
+    return path
+
+
+def ros_yaml(folder: Path, image: str, *, negate: int = 0, mode: str | None = None,
+             occupied: float = 0.65, free: float = 0.2, name: str = "map.yaml") -> Path:
+    text = (f"image: {image}\nresolution: 0.05\norigin: [-1.0, -2.5, 0.0]\n"
+            f"negate: {negate}\noccupied_thresh: {occupied}\nfree_thresh: {free}\n")
+    if mode is not None:
+        text += f"mode: {mode}\n"
+    return write(folder, name, text)
+
+
+@pytest.mark.parametrize("data", [P2, P5], ids=["P2", "P5"])
+def test_pgm_pixels_read_top_row_first(tmp_path: Path, data: bytes) -> None:
+    values, maxval = load_pgm(write(tmp_path, "map.pgm", data))
+    assert maxval == 255
+    np.testing.assert_array_equal(values, PIXELS)
+
+
+@pytest.mark.parametrize("data", [P2, P5], ids=["P2", "P5"])
+def test_ros_trinary(tmp_path: Path, data: bytes) -> None:
+    write(tmp_path, "map.pgm", data)
+    grid = load_ros(ros_yaml(tmp_path, "map.pgm"), unknown_risk=U)
+    np.testing.assert_array_equal(grid.risk, TRINARY)
+    # by default unknown cells are obstacles
+    default = load_ros(ros_yaml(tmp_path, "map.pgm", mode="trinary"))
+    np.testing.assert_array_equal(default.risk, np.where(np.array(TRINARY) == U, 1, TRINARY))
+
+
+def test_ros_scale_gives_in_between_cells_their_occupancy(tmp_path: Path) -> None:
+    write(tmp_path, "map.pgm", P5)
+    grid = load_ros(ros_yaml(tmp_path, "map.pgm", mode="scale"))
+    np.testing.assert_allclose(grid.risk, SCALE, rtol=0, atol=1e-15)
+
+
+def test_ros_negate(tmp_path: Path) -> None:
+    write(tmp_path, "map.pgm", P2)
+    grid = load_ros(ros_yaml(tmp_path, "map.pgm", negate=1), unknown_risk=U)
+    np.testing.assert_array_equal(grid.risk, NEGATED)
+
+
+def test_ros_thresholds_move_the_bands(tmp_path: Path) -> None:
+    write(tmp_path, "map.pgm", P2)
+    # free below 0.5, occupied above 0.55: 128 (0.498) and 200 become free, 100 (0.608) occupied
+    grid = load_ros(ros_yaml(tmp_path, "map.pgm", occupied=0.55, free=0.5), unknown_risk=U)
+    np.testing.assert_array_equal(grid.risk, [[1, 0, 0, 0], [0, 1, 1, 0]])
+
+
+def test_ros_image_path_is_relative_to_the_yaml_file(tmp_path: Path, monkeypatch:
+                                                     pytest.MonkeyPatch) -> None:
+    (tmp_path / "maps").mkdir()
+    write(tmp_path / "maps", "map.pgm", P2)
+    path = ros_yaml(tmp_path / "maps", "map.pgm")
+    monkeypatch.chdir(tmp_path)
+    grid = load_grid(Path("maps/map.yaml"), corner_cutting=True)
+    assert (grid.width, grid.height, grid.corner_cutting) == (4, 2, True)
+    assert load_grid(path).risk.tolist() == grid.risk.tolist()
+
+
+def test_ros_with_a_png_image_averages_channels(tmp_path: Path) -> None:
+    # red averages to 1/3 (p 2/3, occupied); white is free; black is occupied
+    rgb = np.array([[[1.0, 0, 0], [1, 1, 1], [0, 0, 0]]])
+    matplotlib.image.imsave(tmp_path / "map.png", rgb)
+    grid = load_ros(ros_yaml(tmp_path, "map.png"))
+    np.testing.assert_array_equal(grid.risk, [[1, 0, 1]])
+
+
+def test_png_luminance_threshold(tmp_path: Path) -> None:
+    grey = np.array([[0.0, 1.0, 0.3], [0.7, 0.49, 0.51]])
+    path = tmp_path / "grey.png"
+    matplotlib.image.imsave(path, grey, cmap="gray", vmin=0, vmax=1)
+    grid = load_grid(path)
+    np.testing.assert_array_equal(grid.risk, [[1, 0, 1], [0, 1, 0]])
+
+    # luminance of red is 0.299, of green 0.587
+    rgb = np.array([[[1.0, 0, 0], [0, 1, 0]]])
+    matplotlib.image.imsave(tmp_path / "rgb.png", rgb)
+    np.testing.assert_array_equal(load_png(tmp_path / "rgb.png").risk, [[1, 0]])
+    np.testing.assert_array_equal(load_png(tmp_path / "rgb.png", threshold=0.25).risk, [[0, 0]])
+    np.testing.assert_array_equal(load_png(tmp_path / "rgb.png", threshold=0.6).risk, [[1, 1]])
+
+
+def test_npy(tmp_path: Path) -> None:
+    risk = np.array([[0.0, 0.25, 1.0], [0.5, 0.0, 0.0]])
+    np.save(tmp_path / "risk.npy", risk)
+    grid = load_grid(tmp_path / "risk.npy", corner_cutting=True)
+    np.testing.assert_array_equal(grid.risk, risk)
+    assert grid.corner_cutting
+    np.testing.assert_array_equal(load_npy(tmp_path / "risk.npy").risk, risk)
+
+
+def test_text_grid(tmp_path: Path) -> None:
+    path = write(tmp_path, "small.grid", "..#\r\n.5#\r\n90.\r\n\r\n")
+    grid = load_grid(path)
+    np.testing.assert_array_equal(grid.risk, [[0, 0, 1], [0, 0.5, 1], [0.9, 0, 0]])
+    assert load_text(write(tmp_path, "one.grid", "#.")).risk.tolist() == [[1, 0]]
+
+
+def test_map_extension_reads_moving_ai(tmp_path: Path) -> None:
+    path = write(tmp_path, "small.map", "type octile\nheight 1\nwidth 3\nmap\n.@.\n")
+    assert load_grid(path).risk.tolist() == [[0, 1, 0]]
+
+
+@pytest.mark.parametrize(("name", "data", "message"), [
+    ("bad.pgm", b"P6\n1 1\n255\n\x00", "line 1: expected the magic number P2 or P5, got 'P6'"),
+    ("bad.pgm", b"\n# only a comment\nP4", "line 3: expected the magic number P2 or P5, "
+     "got 'P4'"),
+    ("bad.pgm", b"", "line 1: expected the magic number P2 or P5, the file ends"),
+    ("bad.pgm", b"P2\n0 2\n255\n", "line 2: expected a positive width, got '0'"),
+    ("bad.pgm", b"P2\n1 1\n", "expected a maximum value from 1 to 255, the file ends"),
+    ("bad.pgm", b"P2\n1 1\n65535\n0\n", "line 3: expected a maximum value from 1 to 255 "
+     "(8-bit pixels), got 65535"),
+    ("bad.pgm", b"P5\n2 2\n255\n\x00\x00\x00", "expected 4 pixel bytes (2x2) after the header, "
+     "got 3"),
+    ("bad.pgm", b"P2\n2 1\n255\n0 x\n", "line 4: expected a pixel value, got 'x'"),
+    ("bad.pgm", b"P2\n2 1\n255\n0\n", "expected 2 pixel values (2x1) after the header, got 1"),
+    ("bad.pgm", b"P2\n2 2\n15\n0 0\n0 16\n", "line 5: expected pixel values up to the maximum "
+     "15, got 16 at (1, 1)"),
+])
+def test_bad_pgm(tmp_path: Path, name: str, data: bytes, message: str) -> None:
+    path = write(tmp_path, name, data)
+    with pytest.raises(CbrError) as error:
+        load_pgm(path)
+    assert str(error.value).startswith(str(path))
+    assert message in str(error.value)
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("- a list\n", "line 1: expected a YAML mapping"),
+    ("image: [\n", "expected a YAML map description, got invalid YAML"),
+    ("resolution: 0.05\n", "expected a 'image' entry (an image file name), it is missing"),
+    ("image: map.pgm\nresolution: 0\n", "line 2: expected 'resolution' to be a positive number"),
+    ("image: map.pgm\nresolution: 0.1\norigin: [0, 0]\n", "line 3: expected 'origin' to be a "
+     "list of three numbers"),
+    ("image: map.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nnegate: 2\n",
+     "line 4: expected 'negate' to be 0 or 1, got 2"),
+    ("image: map.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.5\n"
+     "free_thresh: 0.6\n", "line 6: expected 'free_thresh' to be a number within "
+     "[0, occupied_thresh = 0.5], got 0.6"),
+    ("image: map.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.6\n"
+     "free_thresh: 0.2\nmode: raw\n", "line 7: expected 'mode' to be trinary or scale, got 'raw'"),
+    ("image: map.pgm\nsize: 3\n", "line 2: expected only the keys"),
+])
+def test_bad_ros_yaml(tmp_path: Path, text: str, message: str) -> None:
+    write(tmp_path, "map.pgm", P2)
+    path = write(tmp_path, "map.yaml", text)
+    with pytest.raises(CbrError) as error:
+        load_ros(path)
+    assert str(error.value).startswith(str(path))
+    assert message in str(error.value)
+
+
+def test_ros_missing_or_unreadable_image_names_the_image(tmp_path: Path) -> None:
+    with pytest.raises(CbrError, match=r"missing\.pgm: cannot read"):
+        load_ros(ros_yaml(tmp_path, "missing.pgm"))
+    write(tmp_path, "broken.png", b"not a png at all")
+    with pytest.raises(CbrError, match=r"broken\.png: cannot read the image"):
+        load_ros(ros_yaml(tmp_path, "broken.png"))
+
+
+def test_bad_png_npy_and_text(tmp_path: Path) -> None:
+    cases: list[tuple[Path, str]] = [
+        (write(tmp_path, "broken.png", b"\x89PNG garbage"), "cannot read the image"),
+        (tmp_path / "missing.png", "cannot read: no such file"),
+        (write(tmp_path, "text.npy", b"not numpy"), "expected a NumPy array file"),
+        (write(tmp_path, "ragged.grid", "...\n..\n"), "line 2: expected a row of 3 cells like "
+         "line 1, got 2"),
+        (write(tmp_path, "char.grid", "..\n.x\n"), "line 2: expected '.', '#' or a digit at "
+         "column 2, got 'x'"),
+        (write(tmp_path, "empty.grid", "\n\n"), "line 1: expected a row of cells"),
+        (write(tmp_path, "map.txt", ".."), "expected a map file ending in .map"),
+    ]
+    np.save(tmp_path / "cube.npy", np.zeros((2, 2, 2)))
+    cases.append((tmp_path / "cube.npy", "grid risk must be 2-D"))
+    np.save(tmp_path / "high.npy", np.array([[0.0, 1.5]]))
+    cases.append((tmp_path / "high.npy", "the first is (1, 0) with 1.5"))
+    np.save(tmp_path / "words.npy", np.array([["a"]]))
+    cases.append((tmp_path / "words.npy", "expected a numeric array"))
+    for path, message in cases:
+        with pytest.raises(CbrError) as error:
+            load_grid(path)
+        assert str(error.value).startswith(str(path)), path
+        assert message in str(error.value), path
+    with pytest.raises(CbrError, match="threshold must be within"):
+        load_png(tmp_path / "x.png", threshold=2)
+
+
+def test_map_file_world_component(tmp_path: Path) -> None:
+    write(tmp_path, "small.grid", ".#\n3.\n")
+    registry = Registry()
+    cbr_grid.cbr_register(registry=registry)
+    component = registry.get("world", "map_file")
+    with paths_relative_to(tmp_path):
+        options = structure_options(component.options, {"path": "small.grid",
+                                                        "corner_cutting": True}, "world")
+    world = registry.create("world", "map_file", options, Context(registry=registry, seed=0))
+    assert isinstance(world, Grid)
+    assert world.corner_cutting
+    np.testing.assert_array_equal(world.risk, [[0, 1], [0.3, 0]])
+    with pytest.raises(ConfigError) as error:
+        structure_options(component.options, {"path": "a.png", "threshold": 1.5}, "world")
+    assert error.value.problems == ["world.threshold: must be <= 1.0: 1.5"]
