@@ -19,6 +19,7 @@ from cbr_grid.grid import Grid
 from cbr_grid.movingai import Scenario, load_map, load_scen
 from cbr_grid.query import GridQuery
 from cbr_solvers import AStar, Dijkstra, GridSolver
+from cbr_solvers import search as search_module
 from cbr_solvers.search import SearchResult, astar, dijkstra
 from cbrcore.context import Context
 from cbrcore.engine import Engine
@@ -318,3 +319,82 @@ def test_solver_components_avoid_risk(factory: type[GridSolver]) -> None:
         solver.cbr_solve(GridQuery((5, 1), (0, 0)), ctx)
     with pytest.raises(CbrError, match="grid world"):
         factory(NoOptions(), Context(registry=Registry(), seed=0, world=None))
+
+
+def frozen(array: np.ndarray) -> np.ndarray:
+    array = np.array(array)
+    array.setflags(write=False)
+    return array
+
+
+def test_the_heuristic_scale_is_remembered_only_for_read_only_grids() -> None:
+    rng = np.random.default_rng(5)
+    passable = rng.random((30, 40)) > 0.2
+    passable[0, 0] = passable[29, 39] = True
+    factor = 1.0 + 4.0 * rng.random((30, 40))
+    factor[~passable] = 0.01  # smaller than any passable factor: must not set the scale
+    writable_base = factor.copy()
+    read_only_view = writable_base[:, :]
+    read_only_view.setflags(write=False)  # its data can still change through the base
+    for array_factor, array_passable, kept in ((factor, passable, False),
+                                               (read_only_view, frozen(passable), False),
+                                               (frozen(factor), frozen(passable), True)):
+        search_module._SCALES.clear()
+        expected = dijkstra(array_factor, array_passable, False, (0, 0), [(39, 29)])
+        for _ in range(2):
+            found = astar(array_factor, array_passable, False, (0, 0), [(39, 29)])
+            assert found is not None and expected is not None
+            assert math.isclose(found.cost, expected.cost, rel_tol=1e-12)
+        assert bool(search_module._SCALES) is kept
+        if kept:
+            (scale,) = [entry[2] for entry in search_module._SCALES.values()]
+            assert scale == array_factor[array_passable].min()
+
+
+def test_a_remembered_scale_does_not_outlive_its_grid() -> None:
+    search_module._SCALES.clear()
+    passable = frozen(np.ones((8, 8), dtype=bool))
+    for value in (3.0, 1.0, 0.5, 2.0):
+        factor = frozen(np.full((8, 8), value))
+        found = astar(factor, passable, False, (0, 0), [(7, 3)])
+        assert found is not None and math.isclose(found.cost, value * (4 + 3 * math.sqrt(2)))
+        del factor, found
+    assert len(search_module._SCALES) <= search_module._SCALES_KEPT
+
+
+def test_working_arrays_survive_interleaved_searches_and_wraparound() -> None:
+    rng = np.random.default_rng(11)
+    grids = []
+    for h, w in ((12, 17), (40, 9), (25, 25)):
+        passable = rng.random((h, w)) > 0.25
+        factor = 1.0 + rng.random((h, w))
+        grids.append((factor, passable))
+    workspace = search_module._WORKSPACE
+    for round_ in range(3):
+        if round_ == 2:
+            workspace.generation = np.iinfo(np.int32).max - 6  # wraps within this round
+        for factor, passable in grids * 2:
+            h, w = passable.shape
+            start = tuple(int(v) for v in rng.integers(0, (w, h)))
+            goals = rng.integers(0, (w, h), size=(2, 2))
+            window = (1, 1, w - 2, h - 2) if rng.random() < 0.5 else None
+            expected = reference_cost(factor, passable, False, start, goals, window)
+            for search in (dijkstra, astar):
+                result = search(factor, passable, False, start, goals, window)
+                if math.isinf(expected):
+                    assert result is None
+                else:
+                    assert result is not None
+                    assert math.isclose(result.cost, expected, rel_tol=1e-9)
+                    check_path(result, factor, passable, False, start, goals, window)
+    assert 0 < workspace.generation < np.iinfo(np.int32).max - 6
+
+
+@pytest.mark.parametrize("bad", [0.0, -1.0, math.nan, math.inf])
+def test_bad_factors_are_refused_on_large_grids(bad: float) -> None:
+    passable = np.ones((80, 80), dtype=bool)  # above the kernel's small-window scan
+    factor = np.full((80, 80), bad)
+    for arrays in ((factor, passable), (frozen(factor), frozen(passable))):
+        for search in (dijkstra, astar):
+            with pytest.raises(ValueError, match="finite and positive"):
+                search(*arrays, False, (0, 0), [(79, 79)])

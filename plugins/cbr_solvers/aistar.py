@@ -29,7 +29,7 @@ from collections.abc import Sequence
 import numba
 import numpy as np
 
-from cbr_solvers.search import _DX, _DY, SQRT2, SearchResult, _pop, _push, _run
+from cbr_solvers.search import _DX, _DY, SQRT2, SearchResult, _min_factor, _pop, _push, _run
 
 # Integer step lengths of the distance map: orthogonal and diagonal.
 ORTHOGONAL_STEPS = 3
@@ -128,9 +128,17 @@ def _heuristic_table(factor: np.ndarray, passable: np.ndarray, corner_cutting: b
                      goals: np.ndarray, window: tuple[int, int, int, int]) -> np.ndarray:
     """Ai*'s heuristic over the window, row-major: the integer map / 3 times the least factor."""
     x0, y0, x1, y1 = window
-    inside = factor[y0:y1 + 1, x0:x1 + 1][passable[y0:y1 + 1, x0:x1 + 1]]
-    # An empty or invalid window is the search's to refuse; any finite scale serves until then.
-    fmin = float(inside.min()) if inside.size else 1.0
+    h, w = passable.shape
+    # Refuses a factor <= 0 or NaN; an empty window has no start to search from, so any finite
+    # scale serves.
+    fmin = _min_factor(factor, passable, window, window == (0, 0, w - 1, h - 1))
+    if fmin < 0.0:  # a small window, left to scan
+        inside = factor[y0:y1 + 1, x0:x1 + 1][passable[y0:y1 + 1, x0:x1 + 1]]
+        fmin = float(inside.min()) if inside.size else np.inf
+        if not fmin > 0.0:
+            raise ValueError("factor must be finite and positive on passable cells")
+    if fmin == np.inf:
+        fmin = 1.0
     steps = _propagate(factor, passable, corner_cutting, goals, x0, y0, x1, y1, False)
     return steps * (fmin / ORTHOGONAL_STEPS)
 

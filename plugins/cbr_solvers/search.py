@@ -11,12 +11,18 @@ octile lengths.
 Both searches share one numba kernel (compiled once per process, cached on disk) with a binary
 heap over flat cell indices and lazy deletion: an improved cell is pushed again and its stale
 entries are skipped when popped. The search may be limited to a window, an inclusive bounding
-box of cells; its working arrays then cover only the window.
+box of cells. The working arrays are kept per thread and reused: a generation stamp, not a fill,
+marks what one search has seen, so a call costs in proportion to the cells it touches rather than
+to the grid. A*'s heuristic scale (the least passable factor) is a vectorised reduction over the
+window, remembered for whole grids given as read-only arrays (those of ``cbr_grid.grid.Grid``);
+Dijkstra needs none.
 """
 
 from __future__ import annotations
 
 import math
+import threading
+import weakref
 from collections.abc import Callable, Sequence
 
 import attrs
@@ -97,50 +103,59 @@ def _heuristic(x: int, y: int, goals: np.ndarray, scale: float) -> float:
 
 @numba.njit(cache=True)
 def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: int, sy: int,
-            goals: np.ndarray, x0: int, y0: int, x1: int, y1: int, informed: bool,
-            table: np.ndarray) -> tuple[bool, np.ndarray, float, int]:
+            goals: np.ndarray, x0: int, y0: int, x1: int, y1: int, informed: bool, scale: float,
+            table: np.ndarray, stamp: np.ndarray, dist: np.ndarray, parent: np.ndarray,
+            goal_mark: np.ndarray, generation: int) -> tuple[bool, np.ndarray, float, int]:
     """Search from (sx, sy) to the nearest goal inside the window [x0, x1] x [y0, y1].
 
-    Returns (found, path, cost, expanded). ``informed`` selects A* (octile heuristic scaled by
-    the smallest passable factor in the window) over Dijkstra; a non-empty ``table`` gives A* its
-    heuristic instead, one value per window cell in the window's row-major order. The caller
-    guarantees that the window lies inside the grid, the start inside the window and the goals
-    on the grid. The cells a diagonal step passes beside it are judged on the whole grid, window
-    or not.
+    Returns (found, path, cost, expanded). ``informed`` selects A* (octile heuristic times
+    ``scale``, at most the smallest passable factor in the window, or that factor found here
+    when ``scale`` is negative) over Dijkstra; a non-empty
+    ``table`` gives A* its heuristic instead, one value per window cell in the window's
+    row-major order. The caller guarantees that the window lies inside the grid, the start inside
+    the window and the goals on the grid. The cells a diagonal step passes beside it are judged
+    on the whole grid, window or not. A factor that is not finite and positive raises ValueError
+    when the search meets its cell.
+
+    ``stamp``, ``dist``, ``parent`` and ``goal_mark`` are reused working arrays of at least the
+    window's size, indexed like ``table``. Nothing is cleared between searches: a cell has been
+    reached in this search iff ``stamp == generation`` (then ``dist`` and ``parent`` are its
+    own), settled iff ``stamp == generation + 1``, and is a goal iff ``goal_mark == generation``;
+    older stamps are below ``generation``.
     """
     ww = x1 - x0 + 1
-    n = ww * (y1 - y0 + 1)
+    settled = generation + 1
 
-    # The smallest factor keeps the heuristic admissible: no step is cheaper than its length
-    # times it. Reading the window also checks the factors the search can meet.
-    scale = np.inf
-    for y in range(y0, y1 + 1):
-        for x in range(x0, x1 + 1):
-            if passable[y, x]:
-                f = factor[y, x]
-                if not (f > 0.0 and f < np.inf):
-                    raise ValueError("factor must be finite and positive on passable cells")
-                scale = min(scale, f)
+    if informed and scale < 0.0:
+        # Left to the kernel on small windows, where numpy's call overhead would dominate.
+        scale = np.inf
+        for y in range(y0, y1 + 1):
+            for x in range(x0, x1 + 1):
+                if passable[y, x]:
+                    f = factor[y, x]
+                    if not (f > 0.0 and f < np.inf):
+                        raise ValueError("factor must be finite and positive on passable cells")
+                    scale = min(scale, f)
 
-    is_goal = np.zeros(n, dtype=np.bool_)
     inside = np.zeros(goals.shape[0], dtype=np.bool_)
     for k in range(goals.shape[0]):
         gx, gy = goals[k, 0], goals[k, 1]
         if x0 <= gx <= x1 and y0 <= gy <= y1 and passable[gy, gx]:
-            is_goal[(gy - y0) * ww + (gx - x0)] = True
+            goal_mark[(gy - y0) * ww + (gx - x0)] = generation
             inside[k] = True
     targets = goals[inside]
     empty = np.empty((0, 2), dtype=np.int64)
     if targets.shape[0] == 0 or not passable[sy, sx]:
         return False, empty, np.inf, 0
+    fs = factor[sy, sx]
+    if not (fs > 0.0 and fs < np.inf):
+        raise ValueError("factor must be finite and positive on passable cells")
 
-    dist = np.full(n, np.inf)
-    parent = np.full(n, -1, dtype=np.int64)
-    closed = np.zeros(n, dtype=np.bool_)
     keys = np.empty(_INITIAL_HEAP, dtype=np.float64)
     items = np.empty(_INITIAL_HEAP, dtype=np.int64)
 
     start = (sy - y0) * ww + (sx - x0)
+    stamp[start] = generation
     dist[start] = 0.0
     tabled = table.shape[0] > 0
     if not informed:
@@ -157,11 +172,11 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
     while size > 0:
         cell = _pop(keys, items, size)
         size -= 1
-        if closed[cell]:
+        if stamp[cell] == settled:
             continue  # a stale entry of a cell settled through a cheaper push
-        closed[cell] = True
+        stamp[cell] = settled
         expanded += 1
-        if is_goal[cell]:
+        if goal_mark[cell] == generation:
             reached = cell
             break
 
@@ -180,12 +195,17 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
                 if not ((beside_x or beside_y) if corner_cutting else (beside_x and beside_y)):
                     continue
             other = (ny - y0) * ww + (nx - x0)
-            if closed[other]:
+            mark = stamp[other]
+            if mark == settled:
                 continue
+            fn = factor[ny, nx]
+            if not (fn > 0.0 and fn < np.inf):
+                raise ValueError("factor must be finite and positive on passable cells")
             length = SQRT2 if diagonal else 1.0
-            g = here + length * (fc + factor[ny, nx]) * 0.5
-            if g >= dist[other]:
+            g = here + length * (fc + fn) * 0.5
+            if mark == generation and g >= dist[other]:
                 continue
+            stamp[other] = generation
             dist[other] = g
             parent[other] = cell
             if size == keys.shape[0]:
@@ -214,6 +234,94 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
         path[i, 1] = y0 + cell // ww
         cell = parent[cell]
     return True, path, dist[reached], expanded
+
+
+class _Workspace(threading.local):
+    """The working arrays of :func:`_search`, kept per thread and reused across searches.
+
+    They grow to the largest window searched and are never cleared: each search takes a new
+    generation (two stamp values), so its work is proportional to the cells it touches, not to
+    the window. Kept per thread, a search may run in each thread; the kernel holds the GIL.
+    """
+
+    def __init__(self) -> None:
+        self.stamp = np.zeros(0, dtype=np.int32)
+        self.goal_mark = np.zeros(0, dtype=np.int32)
+        self.dist = np.empty(0, dtype=np.float64)
+        self.parent = np.empty(0, dtype=np.int64)
+        self.generation = 0
+
+    def take(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+        """Arrays of at least ``n`` cells and a fresh generation for one search."""
+        if self.stamp.shape[0] < n:
+            self.stamp = np.zeros(n, dtype=np.int32)
+            self.goal_mark = np.zeros(n, dtype=np.int32)
+            self.dist = np.empty(n, dtype=np.float64)
+            self.parent = np.empty(n, dtype=np.int64)
+            self.generation = 0
+        self.generation += 2
+        if self.generation >= np.iinfo(np.int32).max - 2:
+            self.stamp[:] = 0
+            self.goal_mark[:] = 0
+            self.generation = 2
+        return self.stamp, self.dist, self.parent, self.goal_mark, self.generation
+
+
+_WORKSPACE = _Workspace()
+
+# The smallest passable factor of whole read-only grids: (id(factor), id(passable)) -> (weak
+# references to both, value). The references tell a live array from a new one at a reused id.
+_SCALES: dict[tuple[int, int], tuple[weakref.ref, weakref.ref, float]] = {}
+_SCALES_KEPT = 8
+# Windows of at most this many cells that cannot be remembered are scanned by the kernel.
+_SMALL_WINDOW = 4096
+
+
+def _frozen(array: np.ndarray) -> bool:
+    """Whether no one can write ``array``'s data through numpy: it and every base read-only."""
+    while isinstance(array, np.ndarray):
+        if array.flags.writeable:
+            return False
+        array = array.base
+    return array is None
+
+
+def _min_factor(factor: np.ndarray, passable: np.ndarray, window: tuple[int, int, int, int],
+                whole: bool) -> float:
+    """The smallest factor of a passable cell in the window (inf if none); ValueError if not > 0.
+
+    For the whole grid of read-only arrays (a :class:`cbr_grid.grid.Grid`'s) the value is
+    remembered per pair of arrays. Returns -1 for a small window that is not remembered: the
+    kernel then finds the value itself.
+    """
+    # Read-only now, the arrays may be made writable again later: check at every call.
+    whole = whole and _frozen(factor) and _frozen(passable)
+    key = (id(factor), id(passable))
+    if whole:
+        known = _SCALES.get(key)
+        if known is not None and known[0]() is factor and known[1]() is passable:
+            return known[2]
+    x0, y0, x1, y1 = window
+    if not whole and (x1 - x0 + 1) * (y1 - y0 + 1) <= _SMALL_WINDOW:
+        return -1.0
+    region, open_ = factor[y0:y1 + 1, x0:x1 + 1], passable[y0:y1 + 1, x0:x1 + 1]
+    value = np.inf
+    if region.size:
+        # Fast path: the least factor of the window, if a passable cell has it (NaN fails here).
+        value = float(region.min())
+        attained = region == value
+        attained &= open_
+        if not (value > 0.0 and attained.any()):
+            value = float(np.where(open_, region, np.inf).min())
+    # Also NaN, and only infinite factors; other infinite ones are refused when the search meets
+    # them.
+    if not value > 0.0 or (value == np.inf and open_.any()):
+        raise ValueError("factor must be finite and positive on passable cells")
+    if whole:
+        if len(_SCALES) >= _SCALES_KEPT:
+            _SCALES.pop(next(iter(_SCALES)))
+        _SCALES[key] = (weakref.ref(factor), weakref.ref(passable), value)
+    return value
 
 
 # Builds an A* heuristic table for (factor, passable, corner_cutting, goals, (x0, y0, x1, y1)).
@@ -251,13 +359,22 @@ def _run(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, start: 
         x0, y0, x1, y1 = max(wx0, 0), max(wy0, 0), min(wx1, w - 1), min(wy1, h - 1)
     if not (x0 <= sx <= x1 and y0 <= sy <= y1):
         return None
+    box = (x0, y0, x1, y1)
     table = _NO_TABLE
+    scale = 1.0
     if heuristic is not None:
         table = np.ascontiguousarray(
-            heuristic(factor, passable, bool(corner_cutting), targets, (x0, y0, x1, y1)),
+            heuristic(factor, passable, bool(corner_cutting), targets, box),
             dtype=np.float64).reshape(-1)
+    elif informed:
+        whole = box == (0, 0, w - 1, h - 1)
+        scale = _min_factor(factor, passable, box, whole)
+        if scale == np.inf:
+            return None  # no passable cell in the window, so neither start nor goal
+    stamp, dist, parent, goal_mark, generation = _WORKSPACE.take((x1 - x0 + 1) * (y1 - y0 + 1))
     found, path, cost, expanded = _search(factor, passable, bool(corner_cutting), sx, sy, targets,
-                                          x0, y0, x1, y1, informed, table)
+                                          x0, y0, x1, y1, informed, scale, table, stamp, dist,
+                                          parent, goal_mark, generation)
     return SearchResult(path, float(cost), int(expanded)) if found else None
 
 
@@ -269,7 +386,8 @@ def dijkstra(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sta
     first goal it settles, the cheapest to reach), ``window`` an optional inclusive bounding box
     (x0, y0, x1, y1), clipped to the grid, that the path must stay in. Returns None when no goal
     can be reached (also when the start is blocked or outside the window). Raises ValueError for
-    cells outside the grid and for factors that are not finite and positive on passable cells.
+    cells outside the grid and for a factor that is not finite and positive on a passable cell
+    the search meets.
     """
     return _run(factor, passable, corner_cutting, start, goals, window, informed=False)
 
@@ -280,6 +398,7 @@ def astar(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, start:
 
     Arguments and result as for :func:`dijkstra`. The heuristic is the octile distance to the
     nearest goal times the smallest factor of a passable cell in the window, which no step can
-    undercut, so it is admissible and consistent and the cost is optimal.
+    undercut, so it is admissible and consistent and the cost is optimal. Besides the cells it
+    meets, a factor that is NaN or not positive on any passable cell of the window is refused.
     """
     return _run(factor, passable, corner_cutting, start, goals, window, informed=True)
