@@ -29,7 +29,17 @@ from collections.abc import Sequence
 import numba
 import numpy as np
 
-from cbr_solvers.search import _DX, _DY, SQRT2, SearchResult, _min_factor, _pop, _push, _run
+from cbr_solvers.search import (
+    _DX,
+    _DY,
+    SQRT2,
+    SearchResult,
+    _min_factor,
+    _move,
+    _pop,
+    _push,
+    _run,
+)
 
 # Integer step lengths of the distance map: orthogonal and diagonal.
 ORTHOGONAL_STEPS = 3
@@ -84,14 +94,10 @@ def _propagate(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
         cy = y0 + cell // ww
         here = dist[cell]
         for d in range(8):
-            nx, ny = cx + _DX[d], cy + _DY[d]
-            if nx < x0 or nx > x1 or ny < y0 or ny > y1 or not passable[ny, nx]:
+            if not _move(passable, corner_cutting, cx, cy, d, x0, y0, x1, y1):
                 continue
+            nx, ny = cx + _DX[d], cy + _DY[d]
             diagonal = d >= 4
-            if diagonal:
-                beside_x, beside_y = passable[cy, nx], passable[ny, cx]
-                if not ((beside_x or beside_y) if corner_cutting else (beside_x and beside_y)):
-                    continue
             other = (ny - y0) * ww + (nx - x0)
             if closed[other]:
                 continue

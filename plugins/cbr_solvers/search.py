@@ -90,6 +90,20 @@ def _pop(keys: np.ndarray, items: np.ndarray, size: int) -> int:
     return top
 
 
+@numba.njit(cache=True, inline="always")
+def _move(passable: np.ndarray, corner_cutting: bool, cx: int, cy: int, d: int, x0: int, y0: int,
+          x1: int, y1: int) -> bool:
+    """Whether the step from (cx, cy) in direction ``d`` stays in the window on passable cells
+    and passes the corner rule."""
+    nx, ny = cx + _DX[d], cy + _DY[d]
+    if nx < x0 or nx > x1 or ny < y0 or ny > y1 or not passable[ny, nx]:
+        return False
+    if d < 4:
+        return True
+    beside_x, beside_y = passable[cy, nx], passable[ny, cx]
+    return (beside_x or beside_y) if corner_cutting else (beside_x and beside_y)
+
+
 @numba.njit(cache=True)
 def _heuristic(x: int, y: int, goals: np.ndarray, scale: float) -> float:
     best = np.inf
@@ -185,15 +199,10 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
         here = dist[cell]
         fc = factor[cy, cx]
         for d in range(8):
-            dx, dy = _DX[d], _DY[d]
-            nx, ny = cx + dx, cy + dy
-            if nx < x0 or nx > x1 or ny < y0 or ny > y1 or not passable[ny, nx]:
+            if not _move(passable, corner_cutting, cx, cy, d, x0, y0, x1, y1):
                 continue
+            nx, ny = cx + _DX[d], cy + _DY[d]
             diagonal = d >= 4
-            if diagonal:
-                beside_x, beside_y = passable[cy, nx], passable[ny, cx]
-                if not ((beside_x or beside_y) if corner_cutting else (beside_x and beside_y)):
-                    continue
             other = (ny - y0) * ww + (nx - x0)
             mark = stamp[other]
             if mark == settled:
