@@ -17,6 +17,7 @@ import csv
 import datetime as dt
 import json
 import platform
+import re
 import statistics
 import sys
 import time
@@ -34,8 +35,6 @@ from cbrcore.model import Outcome, Proposal
 from cbrcore.plugins import Plugins
 
 PHASES = (*PHASE_HOOKS, "learn")
-_DEPENDENCIES = ("attrs", "cattrs", "pluggy", "pyyaml", "typer", "rich", "numpy", "networkx",
-                 "matplotlib")
 
 
 @runtime_checkable
@@ -69,6 +68,15 @@ class Metric(Protocol):
         ...
 
 
+def _dependencies() -> list[str]:
+    """The distributions cbrcore requires (its extras left out), as its metadata names them."""
+    try:
+        required = metadata.requires("cbrcore") or []
+    except metadata.PackageNotFoundError:
+        return []
+    return [re.match(r"[A-Za-z0-9_.-]+", line)[0] for line in required if "extra ==" not in line]
+
+
 def manifest(config: Config | None, plugins: Plugins, *, seed: int,
              extra: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """What a run or an experiment needs recorded to be repeated."""
@@ -86,7 +94,7 @@ def manifest(config: Config | None, plugins: Plugins, *, seed: int,
         "python": platform.python_version(),
         "platform": platform.platform(),
         "cbrcore": version("cbrcore"),
-        "packages": {name: version(name) for name in _DEPENDENCIES},
+        "packages": {name: version(name) for name in _dependencies()},
         "plugins": [{"name": p.name, "distribution": p.distribution, "version": p.version}
                     for p in plugins.loaded],
         "config_file": str(config.source) if config is not None and config.source else None,
