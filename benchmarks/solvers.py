@@ -16,6 +16,14 @@ with a note (``pip install -e '.[bench]'`` installs them).
                                  [--quick] [--data DIR] [--out benchmarks/results]
 
 Writes ``solvers.json`` and ``solvers.md`` into the output folder.
+
+With ``--genetic`` it runs instead the genetic algorithm planner (``cbr_solvers.genetic``, a
+stochastic solver that may miss the goal and is rarely optimal) on small random maps with about
+20% obstacles, one map and one query per seed, and compares it with Dijkstra's optimal cost:
+success rate, cost ratios and times per map size. It writes ``genetic.json`` and ``genetic.md``.
+
+    python benchmarks/solvers.py --genetic [--ga-sizes 32 64] [--ga-queries 30]
+                                 [--out benchmarks/results]
 """
 
 from __future__ import annotations
@@ -33,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from cbr_grid.movingai import load_map, load_scen
+from cbr_solvers.genetic import genetic
 from cbr_solvers.search import astar, dijkstra
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "movingai"
@@ -351,6 +360,87 @@ def table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def bench_genetic(size: int, count: int) -> dict[str, Any]:
+    """The genetic planner with its default options on ``count`` random size x size maps."""
+    factor = np.ones((size, size))
+    ratios: list[float] = []
+    times: list[float] = []
+    optimal_times: list[float] = []
+    expanded: list[int] = []
+    optimal = 0
+    for number in range(count):
+        seed = size * 1000 + number
+        passable = random_map(size, seed)
+        [(start, goal)] = random_queries(passable, 1, seed)
+        started = time.perf_counter()
+        best = dijkstra(factor, passable, False, start, [goal])
+        optimal_times.append((time.perf_counter() - started) * 1e3)
+        started = time.perf_counter()
+        found = genetic(factor, passable, False, start, [goal], seed=number)
+        times.append((time.perf_counter() - started) * 1e3)
+        assert best is not None, "random_queries gives joined cells"
+        if found is None:
+            continue
+        ratio = found.cost / best.cost
+        assert ratio >= 1 - 1e-9, f"the genetic path beats Dijkstra's optimum on seed {seed}"
+        ratios.append(ratio)
+        optimal += ratio <= 1 + 1e-9
+        expanded.append(found.expanded)
+    return {
+        "map": f"random {size}x{size}",
+        "queries": count,
+        "reached": len(ratios),
+        "success_rate": len(ratios) / count if count else None,
+        "optimal": optimal,
+        "median_cost_ratio": statistics.median(ratios) if ratios else None,
+        "max_cost_ratio": max(ratios) if ratios else None,
+        "median_ms": statistics.median(times) if times else None,
+        "dijkstra_median_ms": statistics.median(optimal_times) if optimal_times else None,
+        "median_genes_decoded": statistics.median(expanded) if expanded else None,
+        "samples_ms": times,
+        "cost_ratios": ratios,
+    }
+
+
+def genetic_table(rows: list[dict[str, Any]]) -> str:
+    lines = ["| map | queries | reached | success rate | optimal | median cost ratio | "
+             "max cost ratio | GA ms | Dijkstra ms | genes decoded |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for row in rows:
+        lines.append(
+            f"| {row['map']} | {row['queries']} | {row['reached']} | "
+            f"{_cell(row['success_rate'])} | {row['optimal']} | "
+            f"{_cell(row['median_cost_ratio'], 3)} | {_cell(row['max_cost_ratio'], 3)} | "
+            f"{_cell(row['median_ms'], 1)} | {_cell(row['dijkstra_median_ms'], 3)} | "
+            f"{_cell(row['median_genes_decoded'], 0)} |")
+    return "\n".join(lines)
+
+
+def main_genetic(sizes: list[int], queries: int, out: Path) -> None:
+    """The ``--genetic`` run: write genetic.json and genetic.md into ``out``."""
+    started = time.perf_counter()
+    genetic(np.ones((2, 2)), np.ones((2, 2), dtype=bool), False, (0, 0), [(1, 1)])
+    first_call = time.perf_counter() - started
+    rows = []
+    for size in sizes:
+        rows.append(bench_genetic(size, queries))
+        print(f"random {size}: {rows[-1]['reached']}/{queries} reached", flush=True)
+    result = {"sizes": sizes, "queries": queries, "first_call_s": first_call, "maps": rows}
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "genetic.json").write_text(json.dumps(result, indent=2) + "\n")
+    text = "\n\n".join([
+        genetic_table(rows),
+        "Default options (50000 generations, population 50, mutation 1, Euclidean distance), "
+        "seeds 0, 1, ... per map size. A cost ratio is the genetic path's cost over Dijkstra's "
+        "optimal one, over the queries that reached the goal; optimal counts those at ratio 1. "
+        "Times are one run per query, medians in milliseconds; genes decoded is the median "
+        "`expanded` of the genetic runs.",
+        f"One-time cost: first call of the genetic kernel (numba cache load or compile) "
+        f"{first_call:.2f} s."])
+    (out / "genetic.md").write_text(text + "\n")
+    print(text)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--limit", type=int, default=10, help="scenarios per Moving AI file")
@@ -366,7 +456,16 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true",
                         help="a smoke run: 2 scenarios per file, one 200 map, 3 queries, 2 repeats")
     parser.add_argument("--out", type=Path, default=Path("benchmarks/results"))
+    parser.add_argument("--genetic", action="store_true",
+                        help="run the genetic planner against Dijkstra's optimum instead")
+    parser.add_argument("--ga-sizes", type=int, nargs="*", default=[32, 64],
+                        help="with --genetic: sides of the random maps")
+    parser.add_argument("--ga-queries", type=int, default=30,
+                        help="with --genetic: queries (each on its own map) per size")
     args = parser.parse_args()
+    if args.genetic:
+        main_genetic(args.ga_sizes, args.ga_queries, args.out)
+        return
     if args.quick:
         args.limit, args.sizes, args.queries, args.repeats, args.nx_queries = 2, [200], 3, 2, 2
 

@@ -1,17 +1,19 @@
-"""Model-based path planners on grids: the ``dijkstra``, ``astar`` and ``aistar`` solvers.
+"""Model-based path planners on grids: the ``dijkstra``, ``astar``, ``aistar`` and ``genetic``
+solvers.
 
 Each answers a :class:`cbr_grid.query.GridQuery` on the run's grid world
-(:class:`cbr_grid.grid.Grid`) with the compiled searches of :mod:`cbr_solvers.search` and
-:mod:`cbr_solvers.aistar`, under the grid's step cost contract (its ``factor``, ``passable`` and
-``corner_cutting``).
+(:class:`cbr_grid.grid.Grid`) with the compiled searches of :mod:`cbr_solvers.search`,
+:mod:`cbr_solvers.aistar` and :mod:`cbr_solvers.genetic`, under the grid's step cost contract
+(its ``factor``, ``passable`` and ``corner_cutting``).
 """
 
 from __future__ import annotations
 
 import importlib
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Literal
 
+import attrs
 import typer
 
 from cbr_grid.grid import Grid
@@ -21,9 +23,11 @@ from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Solution
+from cbrcore.options import option
 from cbrcore.registry import Registry
 
-SEARCH_MODULES = {"dijkstra": "search", "astar": "search", "aistar": "aistar"}
+SEARCH_MODULES = {"dijkstra": "search", "astar": "search", "aistar": "aistar",
+                  "genetic": "genetic"}
 """Each grid search by name, and the module of cbr_solvers that holds its function."""
 
 
@@ -33,7 +37,7 @@ def load_search(name: str) -> Callable[..., Any]:
 
 
 class GridSolver:
-    """Plan the cheapest path of a grid query by a compiled grid search."""
+    """Plan a path of a grid query by a compiled grid search."""
 
     name = ""
 
@@ -43,12 +47,17 @@ class GridSolver:
                            f"{type(ctx.world).__name__}")
         self.search = load_search(self.name)
 
+    def search_options(self, ctx: Context) -> dict[str, Any]:
+        """The keyword arguments of one search call beyond the grid, start and goals."""
+        return {}
+
     @hookimpl
     def cbr_solve(self, problem: GridQuery, ctx: Context) -> Solution | None:
         grid: Grid = ctx.world
         start = grid.check_cell(problem.start, "start")
         goal = grid.check_cell(problem.goal, "goal")
-        result = self.search(grid.factor, grid.passable, grid.corner_cutting, start, [goal])
+        result = self.search(grid.factor, grid.passable, grid.corner_cutting, start, [goal],
+                             **self.search_options(ctx))
         if result is None:
             return None
         return Solution(result.path.tolist(), cost=result.cost,
@@ -73,11 +82,54 @@ class AiStar(GridSolver):
     name = "aistar"
 
 
+@attrs.frozen
+class GeneticOptions:
+    generations: int = option(
+        50_000, "The most children made (one per generation of the steady-state algorithm).",
+        validator=attrs.validators.ge(0))
+    population: int = option(50, "Chromosomes in the population (at least 2).",
+                             validator=attrs.validators.ge(2))
+    mutation: float = option(
+        1.0, "The probability that a child has one gene, selected at random, changed.",
+        validator=attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0)))
+    distance: Literal["euclidean", "octile"] = option(
+        "euclidean", "How far a chromosome's last cell is from the goal, the first criterion of "
+        "its fitness.")
+    seed: int | None = option(
+        None, "The random seed of every query (an integer >= 0); null draws one per query from "
+        "the run's seeded generator.",
+        validator=attrs.validators.optional(attrs.validators.ge(0)))
+
+
+class Genetic(GridSolver):
+    """A path by the genetic algorithm of direction-coded chromosomes (not always the cheapest).
+
+    Lexicographic fitness (distance of the last cell reached to the goal, then cost), binary
+    tournaments, uniform crossover, one-gene mutation and replacement of the worst chromosome.
+    Gives no solution when the best chromosome does not reach the goal.
+    """
+
+    name = "genetic"
+
+    def __init__(self, options: GeneticOptions, ctx: Context) -> None:
+        super().__init__(options, ctx)
+        self.options = options
+
+    def search_options(self, ctx: Context) -> dict[str, Any]:
+        seed = self.options.seed
+        if seed is None:
+            seed = int(ctx.rng.integers(2**32))
+        return {"generations": self.options.generations, "population": self.options.population,
+                "mutation": self.options.mutation, "distance": self.options.distance,
+                "seed": seed}
+
+
 @hookimpl
 def cbr_register(registry: Registry) -> None:
     registry.add("solver", "dijkstra", Dijkstra)
     registry.add("solver", "astar", AStar)
     registry.add("solver", "aistar", AiStar)
+    registry.add("solver", "genetic", Genetic, options=GeneticOptions)
 
 
 @hookimpl

@@ -9,6 +9,7 @@ stays cheap.
 from __future__ import annotations
 
 import enum
+import functools
 import json
 import statistics
 import time
@@ -32,6 +33,7 @@ class SolverName(enum.StrEnum):
     dijkstra = "dijkstra"
     astar = "astar"
     aistar = "aistar"
+    genetic = "genetic"
 
 
 MapPath = Annotated[Path, typer.Argument(metavar="MAP", help="The Moving AI .map file.",
@@ -157,6 +159,9 @@ def plan(
         "buckets (default: all).", show_default=False)] = None,
     solver: Annotated[SolverName, typer.Option("--solver", help="The search to plan with.")]
     = SolverName.astar,
+    seed: Annotated[int | None, typer.Option(
+        "--seed", min=0, help="With --solver genetic: the random seed (default 0).",
+        show_default=False)] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON objects.")] = False,
     plot: PlotPath = None,
 ) -> None:
@@ -174,10 +179,14 @@ def plan(
         if plot is not None:
             raise typer.BadParameter("--plot draws one path, not the scenarios of --scen",
                                      param_hint="'--plot'")
+    if seed is not None and solver is not SolverName.genetic:
+        raise typer.BadParameter("--seed applies to --solver genetic only", param_hint="'--seed'")
     start_cell = None if start is None else _cell(start, "--start")
     goal_cell = None if goal is None else _cell(goal, "--goal")
     grid = load_map(map_file)
     search = _searcher(solver)
+    if seed is not None:
+        search = functools.partial(search, seed=seed)
     if scen is not None:
         _plan_scenarios(search, solver, grid, scen, limit, as_json)
         return
