@@ -9,6 +9,7 @@ import attrs
 import numpy as np
 
 if TYPE_CHECKING:
+    from cbrcore.casebase.store import CaseStore
     from cbrcore.registry import Registry
 
 
@@ -21,7 +22,9 @@ class Context:
     same seed repeats. ``step`` is the index of the query being handled. ``out_dir`` is the run's
     output folder, None when the engine is embedded without one. ``registry`` lets a component
     build another (a reuser's local search solver). ``shared`` is scratch space for components of
-    one plugin family that must share state within a run.
+    one plugin family that must share state within a run. ``casebase`` is the run's case base
+    (None while the world and the case base are being built), for components that keep state
+    derived from it (a case graph, a learned map) and load it when they are built.
     """
 
     registry: Registry
@@ -29,6 +32,7 @@ class Context:
     world: Any = None
     step: int = 0
     out_dir: Path | None = None
+    casebase: CaseStore | None = None
     config_dir: Path = attrs.field(factory=Path.cwd)
     rng: np.random.Generator = attrs.field()
     shared: dict[str, Any] = attrs.field(factory=dict)

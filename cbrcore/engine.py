@@ -153,6 +153,7 @@ class Engine:
             self.world = self._build(config.world)
             self.ctx.world = self.world
             self.casebase = self._build(config.casebase)
+            self.ctx.casebase = self.casebase
             for slot in ("retrieve", "reuse", "revise", "solver"):
                 self._register(getattr(config, slot))
             for slot in ("retain", "forget", "observers"):

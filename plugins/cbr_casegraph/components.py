@@ -1,0 +1,260 @@
+"""The case graph's components: retrieve, reuse, revise, retain and three forgetting strategies.
+
+Every component works on the run's one graph (:mod:`cbr_casegraph.state`); each phase hook is
+called once per query and hands the work to the vectorised or compiled code of
+:mod:`cbr_casegraph.graph` and :mod:`cbr_casegraph.planner`.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import attrs
+import numpy as np
+
+from cbr_casegraph.graph import SEGMENT
+from cbr_casegraph.planner import Failure, Neighbourhoods, Settings, adapt, neighbourhoods
+from cbr_casegraph.state import state_of
+from cbr_grid.costs import path_length
+from cbr_grid.distances import distance
+from cbr_grid.grid import Grid
+from cbr_grid.query import GridQuery
+from cbrcore.casebase.store import CaseStore
+from cbrcore.context import Context
+from cbrcore.hookspecs import hookimpl
+from cbrcore.model import Case, Match, Outcome, Retrieval, Revision, Solution
+from cbrcore.options import option
+
+_POSITIVE = attrs.validators.ge(1)
+_UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
+DistanceName = Literal["euclidean", "manhattan", "octile", "chebyshev"]
+
+
+@attrs.frozen
+class RetrieveOptions:
+    delta: int = option(10, "Radius of the neighbourhoods N(start, delta) and N(goal, delta) in "
+                        "the Chebyshev distance (eqs. 9-10), in cells.", validator=_POSITIVE)
+    selective: bool = option(
+        False, "Selective adaptation: use only the cases with an end point within 3·delta of "
+        "the start (goal); full adaptation (false) uses every case meeting the neighbourhood.")
+
+
+class CaseGraphRetriever:
+    """The cases meeting the neighbourhoods of start and goal (eq. 11)."""
+
+    def __init__(self, options: RetrieveOptions, ctx: Context) -> None:
+        self.options = options
+        state_of(ctx)
+
+    @hookimpl
+    def cbr_retrieve(self, problem: GridQuery, casebase: CaseStore, ctx: Context) -> Retrieval:
+        graph = state_of(ctx).sync(ctx.world)
+        settings = Settings(delta=self.options.delta, selective=self.options.selective)
+        start, goal = ctx.world.check_cell(problem.start, "start"), ctx.world.check_cell(
+            problem.goal, "goal")
+        found = neighbourhoods(graph, start, goal, settings)
+        if isinstance(found, Failure):
+            return Retrieval((), payload=found)
+        matches = []
+        for end, cell, edges in (("start", start, found.start), ("goal", goal, found.goal)):
+            a, b = graph.ends(edges)
+            # the Chebyshev distance from the terminal to the nearest cell of the segment
+            near = _segment_distance(a, b, np.asarray(cell))
+            records = zip(edges.tolist(), a.tolist(), b.tolist(), graph.costs(edges).tolist(),
+                          graph.risks(edges).tolist(), graph.uses(edges).tolist(),
+                          graph.created(edges).tolist(), near.tolist(), strict=True)
+            for edge, pa, pb, cost, risk, uses, created, d in records:
+                case = Case({"a": pa, "b": pb}, {"cost": cost, "risk": risk}, kind=SEGMENT,
+                            id=edge, uses=uses, created=created)
+                matches.append(Match(case, 1.0 / (1.0 + d), {f"{end}_distance": float(d)}))
+        matches.sort(key=lambda m: -m.similarity)
+        return Retrieval(tuple(matches), payload=(settings, found))
+
+
+def _segment_distance(a: np.ndarray, b: np.ndarray, cell: np.ndarray) -> np.ndarray:
+    """Chebyshev distance from ``cell`` to the nearest cell of each straight segment a-b."""
+    d = np.sign(b - a)
+    k = np.abs(b - a).max(axis=1)
+    # the best position along a straight 8-direction run is the clamped projection
+    denom = np.maximum((d * d).sum(axis=1), 1)
+    t = np.clip(np.rint(((cell - a) * d).sum(axis=1) / denom), 0, k)
+    best = np.abs(a + t[:, None] * d - cell).max(axis=1)
+    for shift in (-1, 1):  # the rounding can miss by one step on diagonal runs
+        u = np.clip(t + shift, 0, k)
+        best = np.minimum(best, np.abs(a + u[:, None] * d - cell).max(axis=1))
+    return best
+
+
+@attrs.frozen
+class ReuseOptions:
+    connector: Literal["dijkstra", "astar", "genetic"] = option(
+        "dijkstra", "The local search that makes the temporary edges from start and goal to the "
+        "nearest cells of the cases: one Dijkstra sweep serves every case; A* and the genetic "
+        "algorithm search once per case.")
+    margin: int | None = option(
+        None, "How far beyond N(., delta) the local search may go, in cells (default delta // 2).",
+        validator=attrs.validators.optional(attrs.validators.ge(0)))
+    graph_search: Literal["dijkstra", "astar"] = option(
+        "astar", "The search for the best path in the extended case graph (step 6); both find "
+        "the cheapest path.")
+
+
+class CaseGraphReuser:
+    """Adaptation: temporary edges to the retrieved cases, then the best path in the graph."""
+
+    def __init__(self, options: ReuseOptions, ctx: Context) -> None:
+        self.options = options
+        self.search = None
+        if options.connector != "dijkstra":
+            from cbr_solvers import load_search
+
+            self.search = load_search(options.connector)
+        state_of(ctx)
+
+    @hookimpl
+    def cbr_reuse(self, problem: GridQuery, retrieval: Retrieval, ctx: Context
+                  ) -> Solution | None:
+        settings, found = retrieval.payload
+        assert isinstance(found, Neighbourhoods)
+        settings = attrs.evolve(settings, connector=self.options.connector,
+                                margin=self.options.margin,
+                                graph_search=self.options.graph_search)
+        graph = state_of(ctx).graph
+        result = adapt(graph, tuple(problem.start), tuple(problem.goal), found, settings,
+                       self.search)
+        if isinstance(result, Failure):
+            return None
+        return Solution(result.path.tolist(), cost=result.cost, cases=result.edges,
+                        detail=result.detail)
+
+
+@attrs.frozen
+class QualityOptions:
+    max_ratio: float = option(
+        1.5, "Largest accepted ratio of the path's length to the ideal length (step 7).",
+        validator=attrs.validators.ge(1.0))
+    ideal: DistanceName = option(
+        "octile", "The distance between start and goal taken as the ideal length: a lower "
+        "bound of any path's length (octile and Chebyshev are exact bounds on an 8-connected "
+        "grid, Euclidean too; Manhattan is not a lower bound).")
+
+
+class PathQuality:
+    """Step 7: accept a valid path whose length is within max_ratio of the ideal length."""
+
+    def __init__(self, options: QualityOptions, ctx: Context) -> None:
+        self.options = options
+        self.ideal = distance(options.ideal)
+
+    @hookimpl
+    def cbr_revise(self, problem: GridQuery, solution: Solution, ctx: Context) -> Revision:
+        grid: Grid = ctx.world
+        problems = grid.path_problems(solution.value)
+        if problems:
+            return Revision(False, "invalid on the current map: " + "; ".join(problems))
+        path = np.asarray(solution.value)
+        if tuple(path[0]) != tuple(problem.start) or tuple(path[-1]) != tuple(problem.goal):
+            return Revision(False, "does not connect start and goal")
+        ideal = float(np.ravel(self.ideal(problem.start, problem.goal))[0])
+        ratio = path_length(path) / ideal if ideal > 0 else 1.0
+        if ratio > self.options.max_ratio:
+            # one reason per cause, so that the run's fallback counts group them
+            return Revision(False, f"length ratio above {self.options.max_ratio}")
+        return Revision(True)
+
+
+@attrs.frozen
+class RetainOptions:
+    similarity_delta: int | None = option(
+        1, "Skip a new segment when a stored one has its ends within this distance of its "
+        "ends (eq. 12); null stores every new segment.",
+        validator=attrs.validators.optional(attrs.validators.ge(0)))
+    distance: DistanceName = option("chebyshev", "The distance of eq. (12).")
+
+
+class CaseGraphRetainer:
+    """Retain a traversed path segment by segment; keep segment costs on the learned map."""
+
+    def __init__(self, options: RetainOptions, ctx: Context) -> None:
+        self.options = options
+        state_of(ctx)
+
+    @hookimpl
+    def cbr_retain(self, solution: Solution, outcome: Outcome, ctx: Context) -> None:
+        state = state_of(ctx)
+        graph = state.changing()
+        changes = outcome.detail.get("risk_changes")
+        if ctx.world is not graph.grid:
+            cells = None if changes is None else [change[:2] for change in changes]
+            graph.set_grid(ctx.world, cells)
+        graph.record_use(solution.cases)
+        if outcome.success and len(solution.value) > 1:
+            graph.add_path(solution.value, similarity_delta=self.options.similarity_delta,
+                           distance=self.options.distance)
+
+
+class RedundantVertices:
+    """Maintenance: delete vertices lying in the middle of a straight edge."""
+
+    def __init__(self, options: object, ctx: Context) -> None:
+        state_of(ctx)
+
+    @hookimpl
+    def cbr_forget(self, ctx: Context) -> None:
+        state_of(ctx).changing().merge_redundant()
+
+
+@attrs.frozen
+class RiskyOptions:
+    max_risk: float = option(
+        0.5, "Forget the segments whose mean cell risk reaches this value, and those crossing "
+        "an obstacle of the current map.", validator=_UNIT)
+
+
+class RiskySegments:
+    """Forgetting the worst cases: the most risky segments."""
+
+    def __init__(self, options: RiskyOptions, ctx: Context) -> None:
+        self.options = options
+        state_of(ctx)
+
+    @hookimpl
+    def cbr_forget(self, ctx: Context) -> None:
+        graph = state_of(ctx).graph
+        edges = graph.edge_ids()
+        worst = edges[(graph.risks(edges) >= self.options.max_risk)
+                      | ~np.isfinite(graph.costs(edges))]
+        if len(worst):
+            state_of(ctx).changing().remove(worst)
+
+
+@attrs.frozen
+class LimitOptions:
+    max_coverage: float = option(
+        0.15, "The most vertices kept, as a share of the map's cells.", validator=_UNIT)
+
+
+class VertexLimit:
+    """A vertex limit per map size: forget the worst segments until the graph fits it.
+
+    Worst first: the highest mean risk, then the fewest uses, then the oldest.
+    """
+
+    def __init__(self, options: LimitOptions, ctx: Context) -> None:
+        self.options = options
+        state_of(ctx)
+
+    @hookimpl
+    def cbr_forget(self, ctx: Context) -> None:
+        state = state_of(ctx)
+        graph = state.graph
+        limit = int(self.options.max_coverage * graph.vertex_at.size)
+        if graph.vertex_count <= limit:
+            return
+        graph = state.changing()
+        edges = graph.edge_ids()
+        order = np.lexsort((graph.created(edges), graph.uses(edges), -graph.risks(edges)))
+        for start in range(0, len(order), 16):
+            graph.remove(edges[order[start:start + 16]])
+            if graph.vertex_count <= limit:
+                break

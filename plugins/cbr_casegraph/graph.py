@@ -1,0 +1,578 @@
+"""The case graph: straight path segments as cases, meeting only at their end points.
+
+Vertices are cells; an edge is a straight segment (see :mod:`cbr_casegraph.geometry`) between
+two vertices whose interior cells belong to no other edge and are no vertex. Two grids of the map's
+size index it: ``vertex_at`` (the vertex on each cell, or -1) and ``owner`` (the edge whose
+interior covers each cell, or -1), so "which cases does this cell touch" costs one lookup and a
+path is cut into new segments with array operations.
+
+A segment is never stored twice over the same cells: where a retained path runs along a stored
+edge it reuses that edge, where it crosses or leaves one the edge is split there, and the path's
+own new stretches are cut at their turns (eq. 7 of the papers). Each edge carries its cost under
+the grid's step cost contract (``cbr_grid.costs``), the mean risk of its cells, its use count and
+its creation stamp. The cost is infinite while a cell of the edge is an obstacle on the current
+map, which keeps the edge out of every search until the map clears or the edge is forgotten.
+
+The graph writes through to a case base (:class:`cbrcore.casebase.store.CaseStore`) when it has
+one: every edge is a case of kind ``segment`` whose id is the edge's id, so the graph survives
+across runs and commits with the engine's learn transaction. Without a store (experiments that
+build graphs in bulk) edges are numbered by the graph itself.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Iterable, Sequence
+
+import attrs
+import numpy as np
+from numpy.typing import ArrayLike
+
+from cbr_casegraph.geometry import (
+    direction,
+    is_straight,
+    segment_cells,
+    segments_cells,
+    without_loops,
+)
+from cbr_grid.distances import distance as distance_function
+from cbr_grid.grid import Grid
+from cbrcore.casebase.store import CaseStore
+from cbrcore.errors import CbrError
+from cbrcore.model import Case
+
+SEGMENT = "segment"
+"""The case kind of a case graph edge."""
+
+SQRT2 = math.sqrt(2.0)
+
+Cell = tuple[int, int]
+
+
+def _grown(array: np.ndarray, size: int, fill: float | int | bool) -> np.ndarray:
+    """``array`` with room for at least ``size`` entries, new ones set to ``fill``."""
+    if size <= len(array):
+        return array
+    bigger = np.full(max(size, 2 * len(array), 64), fill, dtype=array.dtype)
+    bigger[:len(array)] = array
+    return bigger
+
+
+def segment_costs(grid: Grid, starts: ArrayLike, ends: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Cost and mean cell risk of straight segments on ``grid``.
+
+    The cost is the sum of the step costs of the segment's cells under the grid's cost contract,
+    infinite when a cell is an obstacle or a diagonal step would cut a blocked corner.
+    """
+    cells, offsets = segments_cells(np.asarray(starts), np.asarray(ends))
+    count = len(offsets) - 1
+    if count == 0:
+        return np.zeros(0), np.zeros(0)
+    x, y = cells[:, 0], cells[:, 1]
+    factor = grid.factor[y, x]
+    risk = grid.risk[y, x]
+    first = offsets[:-1]
+    # steps: between consecutive cells of one segment (not across segment boundaries)
+    inner = np.ones(len(cells), dtype=bool)
+    inner[first] = False
+    to = np.flatnonzero(inner)
+    fro = to - 1
+    length = np.where((x[to] != x[fro]) & (y[to] != y[fro]), SQRT2, 1.0)
+    step = length * (factor[fro] + factor[to]) / 2
+    allowed = grid.step_allowed(cells[fro], cells[to])
+    owner = np.repeat(np.arange(count), np.diff(offsets))
+    cost = np.zeros(count)
+    np.add.at(cost, owner[to], step)
+    blocked = np.zeros(count, dtype=bool)
+    np.logical_or.at(blocked, owner, ~grid.passable[y, x])
+    np.logical_or.at(blocked, owner[to], ~allowed)
+    cost[blocked] = np.inf
+    mean_risk = np.bincount(owner, weights=risk, minlength=count) / np.diff(offsets)
+    return cost, mean_risk
+
+
+@attrs.frozen
+class Adjacency:
+    """The graph in compressed sparse row form for the compiled searches.
+
+    ``indptr``/``target``/``weight``/``edge`` list, for each vertex index v, the edges leaving
+    it in ``indptr[v]:indptr[v+1]``: the vertex at the other end, the edge's cost and its id.
+    ``xy`` holds each vertex's cell.
+    """
+
+    indptr: np.ndarray
+    target: np.ndarray
+    weight: np.ndarray
+    edge: np.ndarray
+    xy: np.ndarray
+
+
+class CaseGraph:
+    """A case graph on a grid of ``width`` x ``height`` cells, optionally backed by a store."""
+
+    def __init__(self, grid: Grid, store: CaseStore | None = None) -> None:
+        self.grid = grid
+        self.store = store
+        shape = grid.risk.shape
+        self.vertex_at = np.full(shape, -1, dtype=np.int64)
+        self.owner = np.full(shape, -1, dtype=np.int64)
+        self._vx = np.zeros(0, dtype=np.int64)
+        self._vy = np.zeros(0, dtype=np.int64)
+        self._vertices = 0
+        self._free_vertices: list[int] = []
+        self._incident: dict[int, set[int]] = {}
+        # edges by id: end vertices, cost, risk, uses, creation stamp, liveness
+        self._ea = np.zeros(0, dtype=np.int64)
+        self._eb = np.zeros(0, dtype=np.int64)
+        self._cost = np.zeros(0)
+        self._risk = np.zeros(0)
+        self._uses = np.zeros(0, dtype=np.int64)
+        self._created = np.zeros(0, dtype=np.int64)
+        self._alive = np.zeros(0, dtype=bool)
+        self._next_id = 0
+        self._clock = 0
+        self._adjacency: Adjacency | None = None
+        self._scale: float | None = None
+
+    # -- loading ---------------------------------------------------------------------------
+
+    @classmethod
+    def load(cls, grid: Grid, store: CaseStore) -> CaseGraph:
+        """The graph stored in ``store``, its costs taken from ``grid``.
+
+        Raises CbrError naming the case when a stored segment does not fit the grid (another
+        map's case base) or two segments overlap.
+        """
+        graph = cls(grid, store)
+        cases = store.cases(SEGMENT)
+        for case in cases:
+            a, b = graph._segment_of(case)
+            cells = segment_cells(a, b)
+            taken = (graph.owner[cells[:, 1], cells[:, 0]] >= 0)
+            taken[1:-1] |= graph.vertex_at[cells[1:-1, 1], cells[1:-1, 0]] >= 0
+            if taken.any():
+                x, y = cells[np.flatnonzero(taken)[0]]
+                raise CbrError(f"case base {_name(store)}: segment case {case.id} overlaps another "
+                               f"segment at cell ({x}, {y}); the case graph is inconsistent")
+            graph._insert(case.id, graph._vertex(a), graph._vertex(b), uses=case.uses,
+                          created=case.created or 0, cost=0.0, risk=0.0)
+        graph.refresh()
+        return graph
+
+    def _segment_of(self, case: Case) -> tuple[Cell, Cell]:
+        try:
+            a = (int(case.problem["a"][0]), int(case.problem["a"][1]))
+            b = (int(case.problem["b"][0]), int(case.problem["b"][1]))
+        except (KeyError, IndexError, TypeError, ValueError):
+            raise CbrError(f"case base {_name(self.store)}: segment case {case.id} has problem "
+                           f"{case.problem!r}; expected {{'a': [x, y], 'b': [x, y]}}") from None
+        w, h = self.grid.width, self.grid.height
+        for cell in (a, b):
+            if not (0 <= cell[0] < w and 0 <= cell[1] < h):
+                raise CbrError(f"case base {_name(self.store)}: segment case {case.id} has end "
+                               f"{cell} outside the {w}x{h} map; the case base belongs to "
+                               "another map")
+        if not is_straight(a, b):
+            raise CbrError(f"case base {_name(self.store)}: segment case {case.id} from {a} to "
+                           f"{b} is not a straight line in one of the 8 grid directions")
+        return a, b
+
+    # -- size and queries ------------------------------------------------------------------
+
+    @property
+    def vertex_count(self) -> int:
+        return self._vertices - len(self._free_vertices)
+
+    @property
+    def edge_count(self) -> int:
+        return int(self._alive[:self._next_id].sum())
+
+    def coverage(self) -> float:
+        """The share of the map's cells that are vertices (the papers' coverage)."""
+        return self.vertex_count / self.vertex_at.size
+
+    def edge_ids(self) -> np.ndarray:
+        """The ids of the edges, ascending."""
+        return np.flatnonzero(self._alive[:self._next_id])
+
+    def ends(self, edges: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """The (n, 2) end cells a and b of the given edges."""
+        edges = np.asarray(edges, dtype=np.int64)
+        a, b = self._ea[edges], self._eb[edges]
+        return (np.stack([self._vx[a], self._vy[a]], axis=1),
+                np.stack([self._vx[b], self._vy[b]], axis=1))
+
+    def edge(self, edge: int) -> dict[str, object]:
+        """One edge's record: ends, cost, risk, uses, created."""
+        if not (0 <= edge < self._next_id and self._alive[edge]):
+            raise KeyError(edge)
+        a, b = self.ends([edge])
+        return {"a": tuple(a[0].tolist()), "b": tuple(b[0].tolist()),
+                "cost": float(self._cost[edge]), "risk": float(self._risk[edge]),
+                "uses": int(self._uses[edge]), "created": int(self._created[edge])}
+
+    def costs(self, edges: ArrayLike) -> np.ndarray:
+        return self._cost[np.asarray(edges, dtype=np.int64)]
+
+    def risks(self, edges: ArrayLike) -> np.ndarray:
+        return self._risk[np.asarray(edges, dtype=np.int64)]
+
+    def uses(self, edges: ArrayLike) -> np.ndarray:
+        return self._uses[np.asarray(edges, dtype=np.int64)]
+
+    def created(self, edges: ArrayLike) -> np.ndarray:
+        return self._created[np.asarray(edges, dtype=np.int64)]
+
+    def edges_at(self, cell: Cell) -> list[int]:
+        """The edges containing ``cell``: the one it is inside of, or those meeting at it."""
+        x, y = cell
+        inside = int(self.owner[y, x])
+        if inside >= 0:
+            return [inside]
+        vertex = int(self.vertex_at[y, x])
+        return sorted(self._incident.get(vertex, ())) if vertex >= 0 else []
+
+    def vertices(self) -> np.ndarray:
+        """The (n, 2) cells of the vertices."""
+        live = self.vertex_at[self.vertex_at >= 0]
+        return np.stack([self._vx[live], self._vy[live]], axis=1)
+
+    def degree(self, cell: Cell) -> int:
+        vertex = int(self.vertex_at[cell[1], cell[0]])
+        return len(self._incident.get(vertex, ())) if vertex >= 0 else 0
+
+    def meeting(self, cell: Cell, delta: int, *, selective: bool = False) -> np.ndarray:
+        """The edges that meet the neighbourhood N(cell, delta), eqs. (9)-(11).
+
+        The neighbourhood is the square of cells within Chebyshev distance ``delta``. Full
+        adaptation takes every edge with a cell in it; selective adaptation only those of them
+        with an end point within ``3·delta`` (the triple extended neighbourhood). The cell
+        indexes answer both by looking at the square's cells, not at every edge. Returns edge
+        ids, ascending.
+        """
+        x0, y0, x1, y1 = self._square(cell, delta)
+        inside = self.owner[y0:y1 + 1, x0:x1 + 1]
+        corners = self.vertex_at[y0:y1 + 1, x0:x1 + 1]
+        found = set(np.unique(inside[inside >= 0]).tolist())
+        for vertex in corners[corners >= 0].tolist():
+            found.update(self._incident[vertex])
+        edges = np.array(sorted(found), dtype=np.int64)
+        if selective and len(edges):
+            a, b = self.ends(edges)
+            reach = 3 * delta
+            near = ((np.abs(a - cell).max(axis=1) <= reach)
+                    | (np.abs(b - cell).max(axis=1) <= reach))
+            edges = edges[near]
+        return edges
+
+    def _square(self, cell: Cell, radius: int) -> tuple[int, int, int, int]:
+        h, w = self.owner.shape
+        return (max(cell[0] - radius, 0), max(cell[1] - radius, 0),
+                min(cell[0] + radius, w - 1), min(cell[1] + radius, h - 1))
+
+    def adjacency(self) -> Adjacency:
+        """The graph in CSR form, cached until the graph changes."""
+        if self._adjacency is None:
+            edges = self.edge_ids()
+            a, b = self._ea[edges], self._eb[edges]
+            source = np.concatenate([a, b])
+            order = np.argsort(source, kind="stable")
+            indptr = np.zeros(self._vertices + 1, dtype=np.int64)
+            np.cumsum(np.bincount(source, minlength=self._vertices), out=indptr[1:])
+            self._adjacency = Adjacency(
+                indptr, np.concatenate([b, a])[order], np.tile(self._cost[edges], 2)[order],
+                np.tile(edges, 2)[order],
+                np.stack([self._vx[:self._vertices], self._vy[:self._vertices]], axis=1))
+        return self._adjacency
+
+    def vertex_index(self, cell: Cell) -> int:
+        """The index of the vertex on ``cell`` in :meth:`adjacency`, or -1."""
+        return int(self.vertex_at[cell[1], cell[0]])
+
+    def heuristic_scale(self) -> float:
+        """The least cost factor of a passable cell: no step costs less per unit of length."""
+        if self._scale is None:
+            factors = self.grid.factor[self.grid.passable]
+            self._scale = float(factors.min()) if factors.size else 1.0
+        return self._scale
+
+    # -- changes ---------------------------------------------------------------------------
+
+    def set_grid(self, grid: Grid, cells: ArrayLike | None = None) -> None:
+        """Take a changed map; recompute the edges through ``cells`` (all edges when None)."""
+        if grid.risk.shape != self.owner.shape:
+            raise CbrError(f"the map changed size from {self.owner.shape[1]}x"
+                           f"{self.owner.shape[0]} to {grid.width}x{grid.height}")
+        self.grid = grid
+        self._scale = None
+        if cells is None:
+            self.refresh()
+            return
+        touched: set[int] = set()
+        for x, y in np.asarray(cells, dtype=np.int64).reshape(-1, 2).tolist():
+            touched.update(self.edges_at((x, y)))
+        if touched:
+            self.refresh(sorted(touched))
+
+    def refresh(self, edges: Sequence[int] | None = None) -> None:
+        """Recompute cost and risk of ``edges`` (all when None) from the current map."""
+        ids = self.edge_ids() if edges is None else np.asarray(edges, dtype=np.int64)
+        if len(ids) == 0:
+            return
+        a, b = self.ends(ids)
+        cost, risk = segment_costs(self.grid, a, b)
+        changed = (cost != self._cost[ids]) | (risk != self._risk[ids])
+        self._cost[ids], self._risk[ids] = cost, risk
+        if changed.any():
+            self._adjacency = None
+            if edges is not None:
+                self._write_costs(ids[changed])
+
+    def record_use(self, edges: Iterable[int]) -> None:
+        """Count one more use of each edge still in the graph (the store counts its own)."""
+        for edge in edges:
+            if 0 <= edge < self._next_id and self._alive[edge]:
+                self._uses[edge] += 1
+
+    def add_path(self, path: ArrayLike, *, similarity_delta: int | None = None,
+                 distance: str = "chebyshev") -> list[int]:
+        """Retain a traversed path: store its new straight stretches as edges.
+
+        Where the path runs along stored edges nothing is added; where a new stretch starts,
+        ends or crosses the graph, the edge there is split so that segments meet only at
+        their end points; new stretches are cut at their turns. With ``similarity_delta`` a
+        new segment is skipped when a stored one is similar to it by eq. (12) under the named
+        distance. The path must be a valid path on the map. Returns the ids of the new edges.
+        """
+        cells = without_loops(path)
+        if len(cells) < 2:
+            return []
+        new_steps = self._new_steps(cells)
+        added: list[int] = []
+        for first, last in _runs(new_steps):
+            # the stretch of cells first..last (inclusive) consists of new steps only
+            stretch = cells[first:last + 1]
+            cuts = _turns(stretch)
+            on_graph = ((self.vertex_at[stretch[:, 1], stretch[:, 0]] >= 0)
+                        | (self.owner[stretch[:, 1], stretch[:, 0]] >= 0))
+            cuts[on_graph] = True
+            points = np.flatnonzero(cuts)
+            for i, j in itertools.pairwise(points):
+                a = (int(stretch[i, 0]), int(stretch[i, 1]))
+                b = (int(stretch[j, 0]), int(stretch[j, 1]))
+                if similarity_delta is not None and self._similar(a, b, similarity_delta,
+                                                                  distance):
+                    continue
+                edge = self._connect(a, b)
+                if edge is not None:
+                    added.append(edge)
+        return added
+
+    def remove(self, edges: Iterable[int]) -> None:
+        """Forget these edges; vertices left without edges disappear."""
+        ids = sorted(set(int(e) for e in edges))
+        for edge in ids:
+            if not (0 <= edge < self._next_id and self._alive[edge]):
+                raise KeyError(edge)
+        if self.store is not None and ids:
+            self.store.remove(ids)
+        for edge in ids:
+            self._drop(edge)
+
+    def merge_redundant(self) -> int:
+        """Delete the vertices in the middle of a straight edge: degree 2, both edges collinear.
+
+        Returns how many vertices were removed.
+        """
+        merged = 0
+        for vertex in [v for v, edges in self._incident.items() if len(edges) == 2]:
+            edges = self._incident.get(vertex)
+            if edges is None or len(edges) != 2:
+                continue
+            e1, e2 = sorted(edges)
+            far1 = self._other(e1, vertex)
+            far2 = self._other(e2, vertex)
+            here = (self._vx[vertex], self._vy[vertex])
+            p1, p2 = (self._vx[far1], self._vy[far1]), (self._vx[far2], self._vy[far2])
+            if not np.array_equal(direction(p1, here), direction(here, p2)):
+                continue
+            if far1 == far2:
+                continue
+            uses = int(max(self._uses[e1], self._uses[e2]))
+            created = int(min(self._created[e1], self._created[e2]))
+            self.remove([e1, e2])
+            self._connect((int(p1[0]), int(p1[1])), (int(p2[0]), int(p2[1])), uses=uses,
+                          created=created)
+            merged += 1
+        return merged
+
+    # -- internals -------------------------------------------------------------------------
+
+    def _new_steps(self, cells: np.ndarray) -> np.ndarray:
+        """For each step of the path: True unless it runs along a stored edge."""
+        x, y = cells[:, 0], cells[:, 1]
+        inside = self.owner[y, x]
+        vertex = self.vertex_at[y, x]
+        new = np.ones(len(cells) - 1, dtype=bool)
+        both = (inside[:-1] >= 0) & (inside[1:] >= 0)
+        new[both] = inside[:-1][both] != inside[1:][both]
+        # steps touching a vertex: along an edge when that edge holds both cells
+        for i in np.flatnonzero((vertex[:-1] >= 0) | (vertex[1:] >= 0)).tolist():
+            first = self.edges_at((int(x[i]), int(y[i])))
+            second = self.edges_at((int(x[i + 1]), int(y[i + 1])))
+            new[i] = not set(first) & set(second)
+        return new
+
+    def _similar(self, a: Cell, b: Cell, delta: int, distance: str) -> bool:
+        """Eq. (12): some stored segment has its ends within ``delta`` of a and b."""
+        edges = self.edge_ids()
+        if len(edges) == 0:
+            return False
+        ka, kb = self.ends(edges)
+        d = distance_function(distance)
+        forward = (d(ka, a) <= delta) & (d(kb, b) <= delta)
+        backward = (d(kb, a) <= delta) & (d(ka, b) <= delta)
+        return bool((forward | backward).any())
+
+    def _connect(self, a: Cell, b: Cell, *, uses: int = 0, created: int | None = None
+                 ) -> int | None:
+        """Add the straight edge a-b (splitting edges at its ends); None if it exists."""
+        va, vb = self._vertex(a), self._vertex(b)
+        if self._incident.get(va, set()) & self._incident.get(vb, set()):
+            return None
+        cost, risk = segment_costs(self.grid, [a], [b])
+        if created is None:
+            created = self._stamp()
+        case_id = None
+        if self.store is not None:
+            case_id = self.store.add(self._case(a, b, float(cost[0]), float(risk[0]),
+                                                uses)).id
+        return self._insert(case_id, va, vb, uses=uses, created=created, cost=float(cost[0]),
+                            risk=float(risk[0]))
+
+    def _case(self, a: Cell, b: Cell, cost: float, risk: float, uses: int) -> Case:
+        length = float(np.hypot(b[0] - a[0], b[1] - a[1]))
+        return Case({"a": list(a), "b": list(b)},
+                    {"cost": cost if math.isfinite(cost) else None, "risk": risk,
+                     "length": length}, kind=SEGMENT, uses=uses)
+
+    def _stamp(self) -> int:
+        if self.store is not None:
+            return self.store.revision + 1
+        self._clock += 1
+        return self._clock
+
+    def _insert(self, case_id: int | None, va: int, vb: int, *, uses: int, created: int,
+                cost: float, risk: float) -> int:
+        edge = self._next_id if case_id is None else case_id
+        size = edge + 1
+        self._ea = _grown(self._ea, size, -1)
+        self._eb = _grown(self._eb, size, -1)
+        self._cost = _grown(self._cost, size, np.inf)
+        self._risk = _grown(self._risk, size, 0.0)
+        self._uses = _grown(self._uses, size, 0)
+        self._created = _grown(self._created, size, 0)
+        self._alive = _grown(self._alive, size, False)
+        self._ea[edge], self._eb[edge] = va, vb
+        self._cost[edge], self._risk[edge] = cost, risk
+        self._uses[edge], self._created[edge] = uses, created
+        self._alive[edge] = True
+        self._next_id = max(self._next_id, size)
+        self._incident.setdefault(va, set()).add(edge)
+        self._incident.setdefault(vb, set()).add(edge)
+        cells = segment_cells((self._vx[va], self._vy[va]), (self._vx[vb], self._vy[vb]))[1:-1]
+        self.owner[cells[:, 1], cells[:, 0]] = edge
+        self._adjacency = None
+        return edge
+
+    def _drop(self, edge: int, *, keep_vertices: bool = False) -> None:
+        va, vb = int(self._ea[edge]), int(self._eb[edge])
+        cells = segment_cells((self._vx[va], self._vy[va]), (self._vx[vb], self._vy[vb]))[1:-1]
+        self.owner[cells[:, 1], cells[:, 0]] = -1
+        self._alive[edge] = False
+        for vertex in (va, vb):
+            incident = self._incident[vertex]
+            incident.discard(edge)
+            if not incident and not keep_vertices:
+                del self._incident[vertex]
+                self.vertex_at[self._vy[vertex], self._vx[vertex]] = -1
+                self._free_vertices.append(vertex)
+        self._adjacency = None
+
+    def _other(self, edge: int, vertex: int) -> int:
+        a = int(self._ea[edge])
+        return int(self._eb[edge]) if a == vertex else a
+
+    def _vertex(self, cell: Cell) -> int:
+        """The vertex on ``cell``, made if needed (splitting the edge through the cell)."""
+        x, y = int(cell[0]), int(cell[1])
+        vertex = int(self.vertex_at[y, x])
+        if vertex >= 0:
+            return vertex
+        through = int(self.owner[y, x])
+        if self._free_vertices:
+            vertex = self._free_vertices.pop()
+        else:
+            vertex = self._vertices
+            self._vertices += 1
+            self._vx = _grown(self._vx, self._vertices, 0)
+            self._vy = _grown(self._vy, self._vertices, 0)
+        self._vx[vertex], self._vy[vertex] = x, y
+        self.vertex_at[y, x] = vertex
+        self._adjacency = None
+        if through >= 0:
+            self._split(through, vertex)
+        return vertex
+
+    def _split(self, edge: int, vertex: int) -> None:
+        """Replace ``edge`` by its two parts on either side of ``vertex``."""
+        va, vb = int(self._ea[edge]), int(self._eb[edge])
+        uses, created = int(self._uses[edge]), int(self._created[edge])
+        a = (int(self._vx[va]), int(self._vy[va]))
+        b = (int(self._vx[vb]), int(self._vy[vb]))
+        here = (int(self._vx[vertex]), int(self._vy[vertex]))
+        if self.store is not None:
+            self.store.remove([edge])
+        # the ends stay vertices even when this was their only edge: its parts come back now
+        self._drop(edge, keep_vertices=True)
+        for p, q, vp, vq in ((a, here, va, vertex), (here, b, vertex, vb)):
+            cost, risk = segment_costs(self.grid, [p], [q])
+            case_id = None
+            if self.store is not None:
+                case_id = self.store.add(self._case(p, q, float(cost[0]), float(risk[0]),
+                                                    uses)).id
+            self._insert(case_id, vp, vq, uses=uses, created=created, cost=float(cost[0]),
+                         risk=float(risk[0]))
+
+    def _write_costs(self, edges: np.ndarray) -> None:
+        if self.store is None:
+            return
+        for edge in edges.tolist():
+            case = self.store.get(edge)
+            solution = dict(case.solution)
+            cost = float(self._cost[edge])
+            solution["cost"] = cost if math.isfinite(cost) else None
+            solution["risk"] = float(self._risk[edge])
+            self.store.replace(attrs.evolve(case, solution=solution))
+
+
+def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
+    """Maximal runs of True steps as (first cell, last cell) index pairs of the path."""
+    padded = np.concatenate([[False], flags, [False]])
+    change = np.flatnonzero(padded[1:] != padded[:-1])
+    return [(int(s), int(e)) for s, e in zip(change[::2], change[1::2], strict=True)]
+
+
+def _turns(stretch: np.ndarray) -> np.ndarray:
+    """Flags over the cells of a stretch: its ends and the cells where the direction changes."""
+    cuts = np.zeros(len(stretch), dtype=bool)
+    cuts[0] = cuts[-1] = True
+    steps = np.diff(stretch, axis=0)
+    cuts[1:-1] = np.any(steps[1:] != steps[:-1], axis=1)
+    return cuts
+
+
+def _name(store: CaseStore | None) -> str:
+    path = getattr(store, "path", None)
+    return str(path) if path is not None else type(store).__name__

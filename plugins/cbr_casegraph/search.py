@@ -1,0 +1,145 @@
+"""Compiled searches of the planner: the best path in the extended case graph, and the descent
+of a local cost map back to its source.
+
+The extended graph G' of the planning algorithm is the stored graph (its cached CSR arrays,
+never modified by a query) plus a small overlay of virtual vertices and temporary edges made for
+one query: the start, the goal, the points where they attach to stored edges, and the parts of
+those edges on either side. The kernel walks both edge lists, so building G' costs in proportion
+to the overlay and removing it costs nothing.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from cbr_solvers.search import _DX, _DY, _move, _pop, _push
+
+SQRT2 = math.sqrt(2.0)
+
+
+@numba.njit(cache=True)
+def graph_search(indptr: np.ndarray, target: np.ndarray, weight: np.ndarray, edge: np.ndarray,
+                 o_ptr: np.ndarray, o_target: np.ndarray, o_weight: np.ndarray,
+                 xy: np.ndarray, source: int, goal: int, informed: bool, scale: float
+                 ) -> tuple[bool, float, np.ndarray, np.ndarray, int]:
+    """Dijkstra (or A* when ``informed``) from ``source`` to ``goal`` over base + overlay edges.
+
+    Base edges leave vertex v < len(indptr) - 1 in ``indptr[v]:indptr[v+1]``; overlay edges
+    leave any vertex v in ``o_ptr[v]:o_ptr[v+1]``. ``xy`` gives every vertex's cell for the
+    octile heuristic, scaled by ``scale`` (the least cost factor, so it never overestimates).
+    Returns (found, cost, vertices, codes, settled): the path's vertices from source to goal and,
+    for each of its edges, the base edge id (>= 0) or -(overlay index + 1).
+    """
+    n = o_ptr.shape[0] - 1
+    n_base = indptr.shape[0] - 1
+    dist = np.full(n, np.inf)
+    came = np.full(n, -1, dtype=np.int64)
+    code = np.zeros(n, dtype=np.int64)
+    closed = np.zeros(n, dtype=np.bool_)
+    keys = np.empty(64, dtype=np.float64)
+    items = np.empty(64, dtype=np.int64)
+    gx, gy = xy[goal, 0], xy[goal, 1]
+    dist[source] = 0.0
+    _push(keys, items, 0, 0.0, source)
+    size = 1
+    settled = 0
+    while size > 0:
+        v = _pop(keys, items, size)
+        size -= 1
+        if closed[v]:
+            continue
+        closed[v] = True
+        settled += 1
+        if v == goal:
+            break
+        here = dist[v]
+        for part in range(2):
+            if part == 0:
+                if v >= n_base:
+                    continue
+                lo, hi = indptr[v], indptr[v + 1]
+            else:
+                lo, hi = o_ptr[v], o_ptr[v + 1]
+            for k in range(lo, hi):
+                if part == 0:
+                    u, w, c = target[k], weight[k], edge[k]
+                else:
+                    u, w, c = o_target[k], o_weight[k], -(k + 1)
+                if closed[u] or not w < np.inf:
+                    continue
+                g = here + w
+                if g >= dist[u]:
+                    continue
+                dist[u] = g
+                came[u] = v
+                code[u] = c
+                key = g
+                if informed:
+                    dx = abs(xy[u, 0] - gx)
+                    dy = abs(xy[u, 1] - gy)
+                    key = g + (max(dx, dy) + (SQRT2 - 1.0) * min(dx, dy)) * scale
+                if size == keys.shape[0]:
+                    keys = np.concatenate((keys, np.empty_like(keys)))
+                    items = np.concatenate((items, np.empty_like(items)))
+                _push(keys, items, size, key, u)
+                size += 1
+    if not closed[goal]:
+        return False, np.inf, np.zeros(0, np.int64), np.zeros(0, np.int64), settled
+    count = 1
+    v = goal
+    while v != source:
+        v = came[v]
+        count += 1
+    vertices = np.empty(count, dtype=np.int64)
+    codes = np.empty(count - 1, dtype=np.int64)
+    v = goal
+    for i in range(count - 1, 0, -1):
+        vertices[i] = v
+        codes[i - 1] = code[v]
+        v = came[v]
+    vertices[0] = source
+    return True, dist[goal], vertices, codes, settled
+
+
+@numba.njit(cache=True)
+def descend(cost: np.ndarray, factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
+            x0: int, y0: int, x1: int, y1: int, px: int, py: int) -> np.ndarray:
+    """The cheapest path from the source of a cost map to cell (px, py), source first.
+
+    ``cost`` is the exact cost from the source to each cell of the window [x0, x1] x [y0, y1]
+    (row-major over the window, as ``cbr_solvers.aistar.cost_map`` gives it). From (px, py) the
+    walk steps to the neighbour through which the cell was reached, the one minimising the
+    neighbour's cost plus the step, until it reaches cost 0.
+    """
+    ww = x1 - x0 + 1
+    limit = cost.shape[0] * cost.shape[1] if cost.ndim == 2 else cost.shape[0]
+    flat = cost.ravel()
+    xs = np.empty(limit + 1, dtype=np.int64)
+    ys = np.empty(limit + 1, dtype=np.int64)
+    xs[0], ys[0] = px, py
+    count = 1
+    cx, cy = px, py
+    while flat[(cy - y0) * ww + (cx - x0)] > 0.0 and count <= limit:
+        best = np.inf
+        bx, by = -1, -1
+        for d in range(8):
+            if not _move(passable, corner_cutting, cx, cy, d, x0, y0, x1, y1):
+                continue
+            nx, ny = cx + _DX[d], cy + _DY[d]
+            step = (SQRT2 if d >= 4 else 1.0) * (factor[cy, cx] + factor[ny, nx]) * 0.5
+            value = flat[(ny - y0) * ww + (nx - x0)] + step
+            if value < best:
+                best, bx, by = value, nx, ny
+        if bx < 0:
+            break
+        cx, cy = bx, by
+        xs[count], ys[count] = cx, cy
+        count += 1
+    path = np.empty((count, 2), dtype=np.int64)
+    for i in range(count):
+        path[i, 0] = xs[count - 1 - i]
+        path[i, 1] = ys[count - 1 - i]
+    return path
