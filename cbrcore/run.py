@@ -16,6 +16,7 @@ from __future__ import annotations
 import csv
 import datetime as dt
 import json
+import math
 import platform
 import re
 import statistics
@@ -31,7 +32,7 @@ from cbrcore.context import Context
 from cbrcore.engine import Engine
 from cbrcore.errors import CbrError, ConfigError, PluginError
 from cbrcore.hookspecs import PHASE_HOOKS
-from cbrcore.model import Outcome, Proposal
+from cbrcore.model import CASEBASE, Outcome, Proposal
 from cbrcore.plugins import Plugins
 
 PHASES = (*PHASE_HOOKS, "learn")
@@ -137,9 +138,46 @@ def _numbers(rows: Sequence[Mapping[str, Any]], key: str) -> list[float]:
             and not isinstance(r.get(key), bool)]
 
 
+PLANNING = ("retrieve", "reuse", "revise", "solve")
+"""The phases whose time is the time to answer a query."""
+
+WINDOWS = 10
+"""How many consecutive stretches of queries the summary's ``evolution`` reports."""
+
+
+def _metric_keys(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    builtin = {"query", "best_similarity", "solution_cost", "outcome_cost", "retrieved"}
+    return [key for key in (rows[0] if rows else {})
+            if key not in builtin and not key.startswith(("ms_", "q_"))
+            and _numbers(rows, key)]
+
+
+def evolution(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """How the run changed as it learned: per stretch of consecutive queries, the CBR share,
+    the median planning time (retrieve to solve) and each metric's mean."""
+    stretches = min(WINDOWS, len(rows))
+    keys = _metric_keys(rows)
+    result = []
+    for k in range(stretches):
+        part = rows[k * len(rows) // stretches:(k + 1) * len(rows) // stretches]
+        planning = [sum(float(r[f"ms_{p}"]) for p in PLANNING if r.get(f"ms_{p}") != "")
+                    for r in part]
+        entry: dict[str, Any] = {
+            "first": part[0]["query"], "last": part[-1]["query"],
+            "cbr_share": sum(r["source"] == CASEBASE for r in part) / len(part),
+            "median_plan_ms": statistics.median(planning),
+        }
+        for key in keys:
+            values = [v for v in _numbers(part, key) if math.isfinite(v)]
+            entry[key] = statistics.fmean(values) if values else None
+        result.append(entry)
+    return result
+
+
 def summarise(rows: Sequence[Mapping[str, Any]], engine: Engine, seconds: float
               ) -> dict[str, Any]:
-    """The run's summary: counters, success rate, median phase times and metric means."""
+    """The run's summary: counters, success rate, median phase times, metric means and how
+    they evolved over the run."""
     summary: dict[str, Any] = {**engine.stats.as_dict(), "seconds": round(seconds, 3)}
     summary["success_rate"] = (sum(bool(r["success"]) for r in rows) / len(rows)) if rows else 0.0
     costs = _numbers(rows, "outcome_cost")
@@ -148,12 +186,11 @@ def summarise(rows: Sequence[Mapping[str, Any]], engine: Engine, seconds: float
         phase: statistics.median(values) for phase in PHASES
         if (values := _numbers(rows, f"ms_{phase}"))
     }
-    builtin = {"query", "best_similarity", "solution_cost", "outcome_cost", "retrieved"}
     summary["metric_means"] = {
-        key: statistics.fmean(values) for key in (rows[0] if rows else {})
-        if key not in builtin and not key.startswith(("ms_", "q_"))
-        and (values := _numbers(rows, key))
+        key: statistics.fmean(values) for key in _metric_keys(rows)
+        if (values := [v for v in _numbers(rows, key) if math.isfinite(v)])
     }
+    summary["evolution"] = evolution(rows)
     return summary
 
 

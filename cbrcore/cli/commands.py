@@ -66,6 +66,21 @@ def run(
     for key, value in rows:
         table.add_row(key, str(value))
     _out().print(table)
+    _out().print(_evolution_table(summary["evolution"]))
+
+
+def _evolution_table(stretches: list[dict[str, Any]]) -> Table:
+    """The run's evolution: one row per stretch of queries."""
+    table = Table(title="as the run went on")
+    metrics = [key for key in (stretches[0] if stretches else {})
+               if key not in ("first", "last", "cbr_share", "median_plan_ms")]
+    for column in ("queries", "CBR share", "median plan ms", *metrics):
+        table.add_column(column, justify="right")
+    for entry in stretches:
+        table.add_row(f"{entry['first']}-{entry['last']}", f"{entry['cbr_share']:.1%}",
+                      f"{entry['median_plan_ms']:.3f}",
+                      *("" if entry[key] is None else f"{entry[key]:.4g}" for key in metrics))
+    return table
 
 
 def validate(

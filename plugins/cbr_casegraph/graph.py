@@ -122,6 +122,8 @@ class CaseGraph:
         self._vertices = 0
         self._free_vertices: list[int] = []
         self._incident: dict[int, set[int]] = {}
+        # vertices whose edges changed since the last merge_redundant: the only candidates
+        self._changed: set[int] = set()
         # edges by id: end vertices, cost, risk, uses, creation stamp, liveness
         self._ea = np.zeros(0, dtype=np.int64)
         self._eb = np.zeros(0, dtype=np.int64)
@@ -386,7 +388,8 @@ class CaseGraph:
         Returns how many vertices were removed.
         """
         merged = 0
-        for vertex in [v for v, edges in self._incident.items() if len(edges) == 2]:
+        candidates, self._changed = self._changed, set()
+        for vertex in sorted(candidates):
             edges = self._incident.get(vertex)
             if edges is None or len(edges) != 2:
                 continue
@@ -481,6 +484,7 @@ class CaseGraph:
         self._next_id = max(self._next_id, size)
         self._incident.setdefault(va, set()).add(edge)
         self._incident.setdefault(vb, set()).add(edge)
+        self._changed.update((va, vb))
         cells = segment_cells((self._vx[va], self._vy[va]), (self._vx[vb], self._vy[vb]))[1:-1]
         self.owner[cells[:, 1], cells[:, 0]] = edge
         self._adjacency = None
@@ -491,6 +495,7 @@ class CaseGraph:
         cells = segment_cells((self._vx[va], self._vy[va]), (self._vx[vb], self._vy[vb]))[1:-1]
         self.owner[cells[:, 1], cells[:, 0]] = -1
         self._alive[edge] = False
+        self._changed.update((va, vb))
         for vertex in (va, vb):
             incident = self._incident[vertex]
             incident.discard(edge)
