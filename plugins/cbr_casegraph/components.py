@@ -181,8 +181,7 @@ class CaseGraphRetainer:
 
     @hookimpl
     def cbr_retain(self, solution: Solution, outcome: Outcome, ctx: Context) -> None:
-        state = state_of(ctx)
-        graph = state.changing()
+        graph = state_of(ctx).graph
         changes = outcome.detail.get("risk_changes")
         if ctx.world is not graph.grid:
             cells = None if changes is None else [change[:2] for change in changes]
@@ -201,7 +200,7 @@ class RedundantVertices:
 
     @hookimpl
     def cbr_forget(self, ctx: Context) -> None:
-        state_of(ctx).changing().merge_redundant()
+        state_of(ctx).graph.merge_redundant()
 
 
 @attrs.frozen
@@ -225,7 +224,7 @@ class RiskySegments:
         worst = edges[(graph.risks(edges) >= self.options.max_risk)
                       | ~np.isfinite(graph.costs(edges))]
         if len(worst):
-            state_of(ctx).changing().remove(worst)
+            graph.remove(worst)
 
 
 @attrs.frozen
@@ -246,12 +245,10 @@ class VertexLimit:
 
     @hookimpl
     def cbr_forget(self, ctx: Context) -> None:
-        state = state_of(ctx)
-        graph = state.graph
+        graph = state_of(ctx).graph
         limit = int(self.options.max_coverage * graph.vertex_at.size)
         if graph.vertex_count <= limit:
             return
-        graph = state.changing()
         edges = graph.edge_ids()
         order = np.lexsort((graph.created(edges), graph.uses(edges), -graph.risks(edges)))
         for start in range(0, len(order), 16):

@@ -136,6 +136,8 @@ class CaseGraph:
         self._clock = 0
         self._adjacency: Adjacency | None = None
         self._scale: float | None = None
+        self.writes = 0
+        """How many writes the graph has made to its store."""
 
     # -- loading ---------------------------------------------------------------------------
 
@@ -378,7 +380,7 @@ class CaseGraph:
             if not (0 <= edge < self._next_id and self._alive[edge]):
                 raise KeyError(edge)
         if self.store is not None and ids:
-            self.store.remove(ids)
+            self._written().remove(ids)
         for edge in ids:
             self._drop(edge)
 
@@ -449,7 +451,7 @@ class CaseGraph:
             created = self._stamp()
         case_id = None
         if self.store is not None:
-            case_id = self.store.add(self._case(a, b, float(cost[0]), float(risk[0]),
+            case_id = self._written().add(self._case(a, b, float(cost[0]), float(risk[0]),
                                                 uses)).id
         return self._insert(case_id, va, vb, uses=uses, created=created, cost=float(cost[0]),
                             risk=float(risk[0]))
@@ -459,6 +461,12 @@ class CaseGraph:
         return Case({"a": list(a), "b": list(b)},
                     {"cost": cost if math.isfinite(cost) else None, "risk": risk,
                      "length": length}, kind=SEGMENT, uses=uses)
+
+    def _written(self) -> CaseStore:
+        """The store, for one more write."""
+        assert self.store is not None
+        self.writes += 1
+        return self.store
 
     def _stamp(self) -> int:
         if self.store is not None:
@@ -538,14 +546,14 @@ class CaseGraph:
         b = (int(self._vx[vb]), int(self._vy[vb]))
         here = (int(self._vx[vertex]), int(self._vy[vertex]))
         if self.store is not None:
-            self.store.remove([edge])
+            self._written().remove([edge])
         # the ends stay vertices even when this was their only edge: its parts come back now
         self._drop(edge, keep_vertices=True)
         for p, q, vp, vq in ((a, here, va, vertex), (here, b, vertex, vb)):
             cost, risk = segment_costs(self.grid, [p], [q])
             case_id = None
             if self.store is not None:
-                case_id = self.store.add(self._case(p, q, float(cost[0]), float(risk[0]),
+                case_id = self._written().add(self._case(p, q, float(cost[0]), float(risk[0]),
                                                     uses)).id
             self._insert(case_id, vp, vq, uses=uses, created=created, cost=float(cost[0]),
                          risk=float(risk[0]))
@@ -559,7 +567,7 @@ class CaseGraph:
             cost = float(self._cost[edge])
             solution["cost"] = cost if math.isfinite(cost) else None
             solution["risk"] = float(self._risk[edge])
-            self.store.replace(attrs.evolve(case, solution=solution))
+            self._written().replace(attrs.evolve(case, solution=solution))
 
 
 def _runs(flags: np.ndarray) -> list[tuple[int, int]]:

@@ -5,7 +5,8 @@ written through to it as it changes (:mod:`cbr_casegraph.graph`). The engine com
 writes with the learn step; if a learn step fails, its transaction rolls back while the graph
 in memory already changed, so each query first checks the store's revision: a learn step that
 wrote must have committed exactly one revision, anything else (a rollback, another process
-writing) reloads the graph from the store.
+writing) reloads the graph from the store. A learn step that did not write may have committed
+one revision (the engine counting case uses) or none.
 """
 
 from __future__ import annotations
@@ -23,27 +24,23 @@ KEY = "casegraph"
 
 @attrs.define
 class GraphState:
-    """The run's case graph and what is known of the store's revision."""
+    """The run's case graph and the store revision it was last known to match."""
 
     graph: CaseGraph
     store: CaseStore
     revision: int
-    wrote: bool = False
+    writes: int = 0
 
     def sync(self, world: Grid) -> CaseGraph:
         """The graph, reloaded if the store moved on without it, on the current map."""
         now = self.store.revision
-        expected = {self.revision + 1} if self.wrote else {self.revision, self.revision + 1}
+        wrote = self.graph.writes != self.writes
+        expected = {self.revision + 1} if wrote else {self.revision, self.revision + 1}
         if now not in expected:
             self.graph = CaseGraph.load(world, self.store)
         elif world is not self.graph.grid:
             self.graph.set_grid(world)
-        self.revision, self.wrote = now, False
-        return self.graph
-
-    def changing(self) -> CaseGraph:
-        """The graph, about to be changed inside the learn transaction."""
-        self.wrote = True
+        self.revision, self.writes = now, self.graph.writes
         return self.graph
 
 
