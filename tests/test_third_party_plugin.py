@@ -27,7 +27,7 @@ import pytest
 SAMPLE = Path(__file__).parent / "sample_plugin"
 CONFIG = """\
 seed: 1
-workload: {use: trips, trips: [[0, 5], [1, 5], [0, 4], [9, 2]]}
+workload: {use: corridor_trips, trips: [[0, 5], [1, 5], [0, 4], [9, 2]]}
 retrieve: {use: closest_trip, max_offset: 1}
 reuse: splice
 solver: walk
@@ -85,7 +85,7 @@ def test_listed_with_its_distribution_hooks_and_components(site: Path, tmp_path:
         "version": "0.1.0",
         "hooks": ["cbr_register", "cbr_retain", "cbr_retrieve", "cbr_reuse", "cbr_solve"],
         "components": ["observer:phase_counter", "retainer:remember", "retriever:closest_trip",
-                       "reuser:splice", "solver:walk", "workload:trips"],
+                       "reuser:splice", "solver:walk", "workload:corridor_trips"],
     }
 
 
@@ -103,7 +103,7 @@ def test_validate_accepts_its_components(site: Path, tmp_path: Path) -> None:
         "  retrieve: closest_trip",
         "  reuse: splice",
         "  solver: walk",
-        "  workload: trips",
+        "  workload: corridor_trips",
         "  retain: remember",
         "  observers: phase_counter",
     ]
@@ -128,8 +128,8 @@ def test_disabling_it_removes_its_components(site: Path, tmp_path: Path) -> None
                env={"CBR_DISABLE_PLUGINS": "sample"})
 
     assert done.returncode == 2
-    assert ("workload.use (line 2, column 17): unknown workload 'trips'; registered: none"
-            in done.stderr)
+    assert ("workload.use (line 2, column 17): unknown workload 'corridor_trips'; registered: "
+            "trips (plugin grid)" in done.stderr)
 
 
 def test_run_goes_through_its_hooks(site: Path, tmp_path: Path) -> None:
@@ -160,5 +160,5 @@ def test_run_goes_through_its_hooks(site: Path, tmp_path: Path) -> None:
     assert {"name": "sample", "distribution": "cbr-sample-plugin",
             "version": "0.1.0"} in manifest["plugins"]
     assert manifest["config"]["retrieve"] == {"use": "closest_trip", "max_offset": 1}
-    assert manifest["config"]["workload"] == {"use": "trips",
+    assert manifest["config"]["workload"] == {"use": "corridor_trips",
                                               "trips": [[0, 5], [1, 5], [0, 4], [9, 2]]}

@@ -11,6 +11,7 @@ from cbr_grid.formats import load_grid
 from cbr_grid.generate import generate
 from cbr_grid.grid import Grid
 from cbr_grid.movingai import load_map
+from cbr_grid.trips import PathQuality, PathQualityOptions, RiskMap, Trips, TripsOptions
 from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
 from cbrcore.options import option
@@ -91,3 +92,6 @@ def cbr_register(registry: Registry) -> None:
     registry.add("world", "movingai", movingai_world, options=MovingAIOptions)
     registry.add("world", "map_file", map_file_world, options=MapFileOptions)
     registry.add("world", "generated", generated_world, options=GeneratedOptions)
+    registry.add("workload", "trips", Trips, options=TripsOptions)
+    registry.add("retainer", "risk_map", RiskMap)
+    registry.add("metric", "path_quality", PathQuality, options=PathQualityOptions)

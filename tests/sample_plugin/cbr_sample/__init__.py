@@ -18,7 +18,7 @@ from cbrcore.registry import Registry
 
 @hookimpl
 def cbr_register(registry: Registry) -> None:
-    registry.add("workload", "trips", Trips, options=TripsOptions)
+    registry.add("workload", "corridor_trips", Trips, options=TripsOptions)
     registry.add("retriever", "closest_trip", ClosestTrip, options=ClosestTripOptions)
     registry.add("reuser", "splice", Splice)
     registry.add("solver", "walk", Walk)

@@ -1,0 +1,434 @@
+"""A simulated robot driving random trips on a world that may differ from its map.
+
+The configured world is the robot's *private map*. The *true world* the robot drives on is that
+map as configured plus obstacles the map does not show: ``unknown_static`` cells that are always
+blocked and ``unknown_dynamic`` sites, each blocked during a trip with probability ``appear``.
+Both sets are drawn once, uniformly and without repetition, from the cells free in the configured
+map, from a generator derived from the run's seed, so a seed repeats the same true world (also in
+a later run that continues a case base). Trips never start or end on one of those cells.
+
+Reading of the paper (sections 4.1 and 4.5): when the robot meets an obstacle in a cell, the
+cell's risk in its map rises by ``hit_risk`` (capped at 1, an obstacle), so an obstacle met again
+and again becomes one for later planning; a cell passed safely loses ``pass_relief`` of its risk
+(floored at 0). The workload replaces ``ctx.world`` with the updated map after every trip, so all
+later planning of the run uses what the robot learned; the ``risk_map`` retainer keeps it in the
+case base for later runs, and the ``path_quality`` metric rates proposals on the map they were
+planned on.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from typing import Any
+
+import attrs
+import numpy as np
+
+from cbr_grid.costs import path_cost, path_length, turns
+from cbr_grid.grid import Grid
+from cbr_grid.query import GridQuery, path_array
+from cbrcore.casebase.store import CaseStore
+from cbrcore.context import Context
+from cbrcore.errors import CbrError
+from cbrcore.hookspecs import hookimpl
+from cbrcore.model import Outcome, Proposal, Solution
+from cbrcore.options import option
+
+LEARNED_RISK = "grid.learned_risk"
+"""Case base meta key of the risks the robot learned: ``{"x,y": risk}``."""
+
+CONFIGURED_WORLD = "cbr_grid.configured_world"
+"""``ctx.shared`` key of the world as configured, before learned risks were applied to it."""
+
+PLANNED_WORLD = "cbr_grid.planned_world"
+"""``ctx.shared`` key of the map the last executed proposal was planned on."""
+
+_DECIMALS = 12
+"""Learned risks are rounded so that rises and reliefs that cancel out return exactly."""
+
+_UNIT = attrs.validators.and_(attrs.validators.instance_of(float), attrs.validators.ge(0.0),
+                              attrs.validators.le(1.0))
+_COUNT = attrs.validators.and_(attrs.validators.instance_of(int), attrs.validators.ge(0))
+
+
+def _grid_world(ctx: Context, what: str) -> Grid:
+    if not isinstance(ctx.world, Grid):
+        raise CbrError(f"{what} needs a grid world; the configured world is "
+                       f"{type(ctx.world).__name__}")
+    return ctx.world
+
+
+def _configured_world(ctx: Context, what: str) -> Grid:
+    """The world as configured, even after ``risk_map`` applied learned risks to ``ctx.world``."""
+    grid = ctx.shared.get(CONFIGURED_WORLD)
+    return grid if isinstance(grid, Grid) else _grid_world(ctx, what)
+
+
+def _astar(grid: Grid, passable: np.ndarray, start: tuple[int, int], goals: np.ndarray,
+           window: tuple[int, int, int, int] | None = None) -> np.ndarray | None:
+    # imported here: numba loads with the first search, not with every start of ``cbr``
+    from cbr_solvers.search import astar
+
+    found = astar(grid.factor, passable, grid.corner_cutting, start, goals, window)
+    return None if found is None else found.path
+
+
+@attrs.frozen
+class TripsOptions:
+    count: int = option(1000, "How many trips.", validator=_COUNT)
+    unknown_static: int = option(
+        0, "Obstacles of the true world missing from the robot's map, always present.",
+        validator=_COUNT)
+    unknown_dynamic: int = option(
+        0, "Sites of the true world where an obstacle missing from the map may appear.",
+        validator=_COUNT)
+    appear: float = option(
+        0.5, "The probability that a dynamic site is blocked during one trip.", validator=_UNIT)
+    hit_risk: float = option(
+        0.5, "Risk added to a cell where the robot met an obstacle (capped at 1, an obstacle).",
+        validator=_UNIT)
+    pass_relief: float = option(
+        0.05, "Risk removed from each cell the robot passed safely (floored at 0).",
+        validator=_UNIT)
+    replan_window: int = option(
+        8, "Chebyshev radius of the box around the robot that a local replan stays in.",
+        validator=attrs.validators.and_(attrs.validators.instance_of(int),
+                                        attrs.validators.ge(1)))
+    min_distance: int = option(
+        1, "The least Chebyshev distance between the start and the goal of a trip.",
+        validator=attrs.validators.and_(attrs.validators.instance_of(int),
+                                        attrs.validators.ge(1)))
+
+
+@attrs.frozen
+class _Drive:
+    """What happened on one trip: the cells driven, the cells met and the replans made."""
+
+    driven: np.ndarray
+    met: list[tuple[int, int]]
+    replans: int
+    reached: bool
+    reason: str
+
+
+class Trips:
+    """Random trips driven by a simulated robot on a true world that may hold unknown obstacles.
+
+    The configured world is the robot's map; the true world adds ``unknown_static`` obstacles and
+    ``unknown_dynamic`` sites (each blocked per trip with probability ``appear``) on cells free in
+    that map, placed uniformly from the run's seed. Each trip goes between two random cells free
+    in the current map and holding no unknown obstacle. The robot follows the proposed path;
+    when its next step is blocked it raises the blocked cell's risk by ``hit_risk``, replans
+    locally (A* inside a box of radius ``replan_window`` to the nearest remaining path cell
+    beyond the obstacle, on its map with the cells met on this trip blocked), else globally to
+    the goal, else the trip fails (as it does after 4 steps per map cell). Cells passed safely
+    lose ``pass_relief`` of their risk. The updated map replaces the run's world after every
+    trip. Outcome detail: ``encounters``, ``replans``, ``risk_changes`` ([x, y, new risk] per
+    changed cell) and ``present`` (the dynamic sites blocked on the trip).
+    """
+
+    def __init__(self, options: TripsOptions, ctx: Context) -> None:
+        self.options = options
+        self.configured = _configured_world(ctx, "workload 'trips'")
+        free = np.flatnonzero(self.configured.passable)
+        unknown = options.unknown_static + options.unknown_dynamic
+        if unknown + 2 > len(free):
+            raise CbrError(f"workload 'trips': {options.unknown_static} unknown_static + "
+                           f"{options.unknown_dynamic} unknown_dynamic obstacles leave fewer than "
+                           f"2 of the map's {len(free)} free cells for trips")
+        placement, self._query_rng, self._presence_rng = ctx.spawn_rng().spawn(3)
+        chosen = placement.choice(free, size=unknown, replace=False)
+        width = self.configured.width
+        cells = np.column_stack((chosen % width, chosen // width))
+        self.place(cells[:options.unknown_static], cells[options.unknown_static:])
+
+    def place(self, static: object, dynamic: object) -> None:
+        """Put the true world's unknown obstacles on the given (x, y) cells, replacing the drawn
+        ones: ``static`` always blocked, ``dynamic`` blocked per trip with probability
+        ``appear``. Each must be a distinct cell free in the configured map."""
+        static_cells, dynamic_cells = path_array(static), path_array(dynamic)
+        cells = np.concatenate((static_cells, dynamic_cells))
+        grid = self.configured
+        for x, y in cells.tolist():
+            grid.check_cell((x, y), "an unknown obstacle")
+        if len(np.unique(cells, axis=0)) != len(cells):
+            raise CbrError("workload 'trips': unknown obstacles must be on distinct cells")
+        self.static_unknowns: np.ndarray = static_cells
+        """The (k, 2) cells of the true world's always-present unknown obstacles."""
+        self.dynamic_sites: np.ndarray = dynamic_cells
+        """The (k, 2) cells where an unknown obstacle may appear during a trip."""
+        self._sites = np.zeros(grid.passable.shape, dtype=bool)
+        self._sites[cells[:, 1], cells[:, 0]] = True
+        self._true_static = grid.passable.copy()
+        self._true_static[static_cells[:, 1], static_cells[:, 0]] = False
+        self._true_static.setflags(write=False)
+
+    def __len__(self) -> int:
+        return self.options.count
+
+    def true_passable(self, present: np.ndarray | None = None) -> np.ndarray:
+        """The true world's passable mask (read-only) with the dynamic sites ``present`` ((k, 2))
+        blocked."""
+        if present is None or not len(present):
+            return self._true_static
+        passable = self._true_static.copy()
+        passable[present[:, 1], present[:, 0]] = False
+        passable.setflags(write=False)
+        return passable
+
+    def queries(self, ctx: Context) -> Iterator[GridQuery]:
+        for _ in range(self.options.count):
+            yield self._query(_grid_world(ctx, "workload 'trips'"))
+
+    def _query(self, grid: Grid) -> GridQuery:
+        flat = np.flatnonzero(grid.passable & ~self._sites)
+        xy = np.column_stack((flat % grid.width, flat // grid.width))
+        distance = self.options.min_distance
+        starts = flat[:0]
+        if len(xy):
+            # a cell has a partner far enough iff the farthest extreme coordinate is far enough
+            reach = np.maximum(xy - xy.min(axis=0), xy.max(axis=0) - xy).max(axis=1)
+            starts = np.flatnonzero(reach >= distance)
+        if len(starts) == 0:
+            raise CbrError(f"workload 'trips': no two cells free in the map and holding no "
+                           f"unknown obstacle are at least min_distance {distance} apart "
+                           f"({len(flat)} such cells)")
+        start = xy[self._query_rng.choice(starts)]
+        goal = xy[self._query_rng.choice(np.flatnonzero(np.abs(xy - start).max(axis=1)
+                                                          >= distance))]
+        return GridQuery((int(start[0]), int(start[1])), (int(goal[0]), int(goal[1])))
+
+    def describe(self, problem: GridQuery) -> Mapping[str, Any]:
+        return {"start_x": problem.start[0], "start_y": problem.start[1],
+                "goal_x": problem.goal[0], "goal_y": problem.goal[1]}
+
+    def execute(self, problem: GridQuery, proposal: Proposal, ctx: Context) -> Outcome:
+        grid = _grid_world(ctx, "workload 'trips'")
+        ctx.shared[PLANNED_WORLD] = grid
+        # drawn for every trip, solved or not, so the draws of later trips do not depend on it
+        present = self.dynamic_sites[self._presence_rng.random(len(self.dynamic_sites))
+                                     < self.options.appear]
+        if proposal.solution is None:
+            return Outcome(success=False)
+        path = self._checked(grid, problem, proposal.solution.value)
+        drive = self._drive(grid, self.true_passable(present), path, problem.goal)
+        changes = self._learn(grid, drive)
+        if changes:
+            risk = grid.risk.copy()
+            for x, y, value in changes:
+                risk[y, x] = value
+            ctx.world = attrs.evolve(grid, risk=risk)
+        cost = path_cost(grid, drive.driven)
+        detail = {"encounters": len(drive.met), "replans": drive.replans,
+                  "risk_changes": changes, "present": present.tolist()}
+        if drive.reason:
+            detail["failure"] = drive.reason
+        driven = Solution(drive.driven.tolist(), cost, proposal.solution.cases,
+                          {"encounters": len(drive.met), "replans": drive.replans})
+        return Outcome(success=drive.reached, cost=cost, solution=driven, detail=detail)
+
+    @staticmethod
+    def _checked(grid: Grid, problem: GridQuery, value: object) -> np.ndarray:
+        """The proposed path as an (n, 2) array; a CbrError unless it is a drivable cell path."""
+        path = path_array(value)
+        if len(path) == 0:
+            raise CbrError("workload 'trips': the proposed path has no cells")
+        if not grid.inside(path).all():
+            raise CbrError(f"workload 'trips': the proposed path leaves the "
+                           f"{grid.width}x{grid.height} grid")
+        jumps = np.abs(np.diff(path, axis=0)).max(axis=1, initial=0) != 1
+        if jumps.any():
+            i = int(np.argmax(jumps))
+            raise CbrError(f"workload 'trips': proposed path step {i} from {tuple(path[i])} to "
+                           f"{tuple(path[i + 1])} is not a move to an 8-neighbour")
+        if tuple(path[0]) != tuple(problem.start) or tuple(path[-1]) != tuple(problem.goal):
+            raise CbrError(f"workload 'trips': the proposed path runs from {tuple(path[0])} to "
+                           f"{tuple(path[-1])}, not from the trip's start {problem.start} to "
+                           f"its goal {problem.goal}")
+        return path
+
+    def _drive(self, grid: Grid, true: np.ndarray, path: np.ndarray,
+               goal: tuple[int, int]) -> _Drive:
+        """Follow ``path`` on the true passable mask, replanning around the obstacles met."""
+        plan, legs = path, [path[:1]]
+        met: list[tuple[int, int]] = []
+        replans, driven, limit = 0, 0, 4 * true.size
+        radius = self.options.replan_window
+        while True:
+            k = _first_blocked(true, grid.corner_cutting, plan)
+            end = len(plan) - 1 if k is None else k
+            legs.append(plan[1:end + 1])
+            driven += end
+            if driven > limit:
+                return _Drive(np.concatenate(legs), met, replans, False, "step limit")
+            if k is None:
+                return _Drive(np.concatenate(legs), met, replans, True, "")
+            here = (int(plan[k, 0]), int(plan[k, 1]))
+            for cell in _obstacles_met(true, grid.corner_cutting, plan[k], plan[k + 1]):
+                if cell not in met:
+                    met.append(cell)
+            avoid = grid.passable.copy()
+            xs, ys = np.array(met).T
+            avoid[ys, xs] = False
+            avoid[here[1], here[0]] = True  # the robot stands there, whatever its map says
+            replans += 1
+            beyond = plan[k + 2:] if not true[plan[k + 1, 1], plan[k + 1, 0]] else plan[k + 1:]
+            window = (here[0] - radius, here[1] - radius, here[0] + radius, here[1] + radius)
+            local = _astar(grid, avoid, here, beyond, window) if len(beyond) else None
+            if local is not None:
+                rejoin = int(np.flatnonzero((beyond == local[-1]).all(axis=1))[0])
+                plan = np.concatenate((local, beyond[rejoin + 1:]))
+                continue
+            plan = _astar(grid, avoid, here, np.array([goal]))
+            if plan is None:
+                return _Drive(np.concatenate(legs), met, replans, False, "no path around")
+
+    def _learn(self, grid: Grid, drive: _Drive) -> list[list[Any]]:
+        """The cells whose risk the trip changed, as [x, y, new risk] in row-major order: passed
+        cells relieved, met cells raised."""
+        # only the cells the trip touched are looked at, so a trip costs in proportion to its path
+        flat = np.unique(drive.driven[:, 1] * grid.width + drive.driven[:, 0])
+        passed = np.column_stack((flat % grid.width, flat // grid.width))
+        met = np.array(drive.met, dtype=np.int64).reshape(-1, 2)
+        cells = np.concatenate((passed, met))
+        old = grid.risk[cells[:, 1], cells[:, 0]]
+        # a met cell is never passed, so no cell is both relieved and raised; rounding lets rises
+        # and reliefs that cancel out return exactly to where they started
+        new = np.concatenate((
+            np.maximum(np.round(old[:len(passed)] - self.options.pass_relief, _DECIMALS), 0.0),
+            np.minimum(np.round(old[len(passed):] + self.options.hit_risk, _DECIMALS), 1.0)))
+        # a hit or relief of 0 leaves a cell alone rather than rounding its configured risk
+        amounts = np.repeat([self.options.pass_relief, self.options.hit_risk],
+                            [len(passed), len(met)])
+        changed = (new != old) & (amounts > 0)
+        order = np.lexsort((cells[changed, 0], cells[changed, 1]))
+        return [[int(x), int(y), float(v)] for (x, y), v in zip(
+            cells[changed][order].tolist(), new[changed][order].tolist(), strict=True)]
+
+
+def _first_blocked(passable: np.ndarray, corner_cutting: bool, plan: np.ndarray) -> int | None:
+    """The index of the first cell of ``plan`` whose step to the next one is blocked, if any."""
+    src, dst = plan[:-1], plan[1:]
+    ok = passable[dst[:, 1], dst[:, 0]]
+    side_a = passable[src[:, 1], dst[:, 0]]
+    side_b = passable[dst[:, 1], src[:, 0]]
+    corners = (side_a | side_b) if corner_cutting else (side_a & side_b)
+    ok &= corners | ((src[:, 0] == dst[:, 0]) | (src[:, 1] == dst[:, 1]))
+    bad = np.flatnonzero(~ok)
+    return int(bad[0]) if len(bad) else None
+
+
+def _obstacles_met(passable: np.ndarray, corner_cutting: bool, src: np.ndarray,
+                   dst: np.ndarray) -> list[tuple[int, int]]:
+    """The blocked cells that stop the step from ``src`` to ``dst``."""
+    if not passable[dst[1], dst[0]]:
+        return [(int(dst[0]), int(dst[1]))]
+    # a diagonal step stopped by the orthogonal cells beside it
+    sides = [(int(dst[0]), int(src[1])), (int(src[0]), int(dst[1]))]
+    return [cell for cell in sides if not passable[cell[1], cell[0]]]
+
+
+def _key(x: int, y: int) -> str:
+    return f"{x},{y}"
+
+
+class RiskMap:
+    """Keep the risks the robot learned on trips in the case base, for later runs.
+
+    Built, it applies the risks stored in the case base (meta key ``grid.learned_risk``, a mapping
+    ``{"x,y": risk}``) to the run's world. Each retain merges the outcome's ``risk_changes``
+    (given by the ``trips`` workload) into the stored mapping, which keeps only cells whose risk
+    differs from the configured map, inside the learn step's transaction.
+    """
+
+    def __init__(self, options: object, ctx: Context) -> None:
+        grid = _grid_world(ctx, "retainer 'risk_map'")
+        if ctx.casebase is None:
+            raise CbrError("retainer 'risk_map' needs the run's case base")
+        ctx.shared.setdefault(CONFIGURED_WORLD, grid)
+        self.original = grid.risk
+        learned = self._learned(ctx.casebase, grid)
+        if learned:
+            risk = grid.risk.copy()
+            for (x, y), value in learned.items():
+                risk[y, x] = value
+            ctx.world = attrs.evolve(grid, risk=risk)
+
+    @staticmethod
+    def _learned(casebase: CaseStore, grid: Grid) -> dict[tuple[int, int], float]:
+        stored = casebase.get_meta(LEARNED_RISK, {})
+        where = f"case base {getattr(casebase, 'path', type(casebase).__name__)}"
+        if not isinstance(stored, Mapping):
+            raise CbrError(f"{where}: meta {LEARNED_RISK!r} must map 'x,y' to a risk, got "
+                           f"{type(stored).__name__}")
+        learned: dict[tuple[int, int], float] = {}
+        for key, value in stored.items():
+            try:
+                x, y = (int(part) for part in str(key).split(","))
+            except ValueError:
+                raise CbrError(f"{where}: meta {LEARNED_RISK!r} has key {key!r}, expected a "
+                               f"cell 'x,y'") from None
+            if not grid.in_bounds((x, y)):
+                raise CbrError(f"{where}: learned cell ({x}, {y}) is outside the "
+                               f"{grid.width}x{grid.height} world; the case base was learned "
+                               f"on another map")
+            if isinstance(value, bool) or not isinstance(value, int | float) or not (
+                    0 <= value <= 1):
+                raise CbrError(f"{where}: learned risk of cell ({x}, {y}) must be a number in "
+                               f"[0, 1], got {value!r}")
+            learned[x, y] = float(value)
+        return learned
+
+    @hookimpl
+    def cbr_retain(self, outcome: Outcome, casebase: CaseStore) -> None:
+        changes = outcome.detail.get("risk_changes", ())
+        if not changes:
+            return
+        # read back from the store rather than kept here, so a rolled-back step leaves no trace
+        learned = dict(casebase.get_meta(LEARNED_RISK, {}))
+        for x, y, value in changes:
+            if value == self.original[y, x]:
+                learned.pop(_key(x, y), None)
+            else:
+                learned[_key(x, y)] = float(value)
+        casebase.set_meta(LEARNED_RISK, learned)
+
+
+@attrs.frozen
+class PathQualityOptions:
+    optimal: bool = option(
+        True, "Add optimal_cost (A* on the map the proposal was planned on) and deviation; "
+        "false leaves out both columns, and the search, on big maps.")
+
+
+class PathQuality:
+    """Per query: the proposed path's length, turns and cost, against the optimal cost.
+
+    Columns ``length``, ``turns``, ``cost`` and, with ``optimal``, ``optimal_cost`` and
+    ``deviation`` (cost / optimal_cost - 1); NaN where there is no path. Costs are taken on the
+    map the proposal was planned on: the ``trips`` workload records it before it replaces the
+    run's world with what the robot learned, other workloads leave the world as it is.
+    """
+
+    def __init__(self, options: PathQualityOptions, ctx: Context) -> None:
+        _grid_world(ctx, "metric 'path_quality'")
+        self.optimal = options.optimal
+
+    def measure(self, problem: GridQuery, proposal: Proposal, outcome: Outcome,
+                ctx: Context) -> Mapping[str, float]:
+        planned = ctx.shared.get(PLANNED_WORLD)
+        grid = planned if isinstance(planned, Grid) else _grid_world(ctx, "metric 'path_quality'")
+        nan = float("nan")
+        row = {"length": nan, "turns": nan, "cost": nan}
+        if proposal.solution is not None:
+            path = proposal.solution.value
+            row = {"length": path_length(path), "turns": float(turns(path)),
+                   "cost": path_cost(grid, path)}
+        if self.optimal:
+            optimal = nan
+            if grid.in_bounds(problem.start) and grid.in_bounds(problem.goal):
+                best = _astar(grid, grid.passable, problem.start, np.array([problem.goal]))
+                optimal = nan if best is None else path_cost(grid, best)
+            row["optimal_cost"] = optimal
+            row["deviation"] = row["cost"] / optimal - 1 if optimal > 0 else nan
+        return row

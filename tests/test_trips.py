@@ -1,0 +1,310 @@
+"""The ``trips`` workload, the ``risk_map`` retainer and the ``path_quality`` metric.
+
+Hand-made cases use a 7x5 open map saved as .npy, where the straight path from (0, 2) to (6, 2)
+costs 6 and the cheapest way around one blocked cell of row 2 costs 4 + 2·sqrt(2) ≈ 6.83: a cell
+of row 2 with risk below 0.83 stays on the planned path.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from cbr_grid.grid import Grid
+from cbr_grid.query import GridQuery
+from cbr_grid.trips import LEARNED_RISK, Trips, TripsOptions
+from cbr_solvers import AStar
+from cbrcore.context import Context
+from cbrcore.engine import Engine
+from cbrcore.errors import CbrError, ConfigError
+from cbrcore.model import Outcome, Proposal, Solution
+from cbrcore.plugins import Plugins
+from cbrcore.registry import NoOptions, Registry
+from cbrcore.run import run_workload
+
+OFFICE = {"use": "generated", "kind": "office", "width": 28, "height": 20}
+
+
+@pytest.fixture(autouse=True)
+def grid_plugins(cbr_plugins: Callable[..., Plugins]) -> Plugins:
+    return cbr_plugins(entry_points=True, environ={"CBR_PLUGINS": "core,grid,solvers"})
+
+
+def config(workload: dict[str, Any], **slots: Any) -> dict[str, Any]:
+    return {"seed": 11, "world": OFFICE, "solver": "astar",
+            "workload": {"use": "trips", **workload}, **slots}
+
+
+def drive(engine: Engine) -> list[tuple[GridQuery, Grid, Proposal, Outcome]]:
+    """Run the engine's trips as ``run_workload`` does, keeping each map the trip planned on."""
+    trips = []
+    for problem in engine.workload.queries(engine.ctx):
+        planned_on = engine.ctx.world
+        proposal = engine.solve(problem)
+        outcome = engine.workload.execute(problem, proposal, engine.ctx)
+        engine.learn(problem, proposal, outcome)
+        trips.append((problem, planned_on, proposal, outcome))
+    return trips
+
+
+def true_grid(workload: Trips, outcome: Outcome) -> Grid:
+    """The true world of one trip: the configured map with its unknown obstacles blocked."""
+    risk = workload.configured.risk.copy()
+    for x, y in [*workload.static_unknowns.tolist(), *outcome.detail["present"]]:
+        risk[y, x] = 1.0
+    return Grid(risk, corner_cutting=workload.configured.corner_cutting)
+
+
+def test_a_known_world_is_driven_as_planned(cbr_engine: Callable[..., Engine]) -> None:
+    engine = cbr_engine(config({"count": 25, "min_distance": 5}))
+    world = engine.ctx.world
+
+    trips = drive(engine)
+
+    assert len(trips) == 25
+    for problem, _, proposal, outcome in trips:
+        assert max(abs(a - b) for a, b in zip(problem.start, problem.goal, strict=True)) >= 5
+        assert outcome.success
+        assert outcome.solution.value == proposal.solution.value
+        assert outcome.cost == pytest.approx(proposal.solution.cost)
+        assert outcome.detail["encounters"] == outcome.detail["replans"] == 0
+        assert outcome.detail["risk_changes"] == []
+    assert engine.ctx.world is world
+
+
+def test_unknown_obstacles_are_met_learned_and_driven_around(
+        cbr_engine: Callable[..., Engine]) -> None:
+    engine = cbr_engine(config({"count": 40, "unknown_static": 25, "hit_risk": 0.3}))
+    workload = engine.workload
+    unknown = {tuple(cell) for cell in workload.static_unknowns.tolist()}
+
+    trips = drive(engine)
+
+    assert sum(o.detail["encounters"] for *_, o in trips) > 0
+    for problem, planned_on, _, outcome in trips:
+        driven = outcome.solution.value
+        assert driven[0] == list(problem.start)
+        assert true_grid(workload, outcome).path_problems(driven) == []
+        assert outcome.success == (driven[-1] == list(problem.goal))
+        assert outcome.detail["replans"] >= (outcome.detail["encounters"] > 0)
+        risen = [(x, y, risk) for x, y, risk in outcome.detail["risk_changes"]
+                 if risk > planned_on.risk[y, x]]
+        assert len(risen) == outcome.detail["encounters"]
+        for x, y, risk in risen:
+            assert (x, y) in unknown
+            assert risk == pytest.approx(min(1.0, planned_on.risk[y, x] + 0.3))
+    assert any(o.success and o.detail["encounters"] for *_, o in trips)
+
+
+@pytest.fixture
+def corridor(tmp_path: Path) -> Path:
+    risk = np.zeros((5, 7))
+    risk[2, 5] = 0.08
+    path = tmp_path / "corridor.npy"
+    np.save(path, risk)
+    return path
+
+
+@pytest.mark.parametrize("hit_risk", [0.4, 0.6])
+def test_a_cell_met_twice_adds_up_and_passed_cells_are_relieved(
+        hit_risk: float, corridor: Path, cbr_engine: Callable[..., Engine]) -> None:
+    engine = cbr_engine({"world": {"use": "map_file", "path": str(corridor)}, "solver": "astar",
+                         "workload": {"use": "trips", "hit_risk": hit_risk}})
+    engine.workload.place([(3, 2)], [])
+    problem = GridQuery((0, 2), (6, 2))
+    true = Grid(np.where(np.arange(7) == 3, 1.0, 0.0) * (np.arange(5)[:, None] == 2))
+
+    outcomes = []
+    for _ in range(2):
+        proposal = engine.solve(problem)
+        assert [3, 2] in proposal.solution.value
+        outcomes.append(engine.workload.execute(problem, proposal, engine.ctx))
+
+    first, second = outcomes
+    for outcome in outcomes:
+        assert outcome.success
+        assert outcome.detail["encounters"] == outcome.detail["replans"] == 1
+        assert true.path_problems(outcome.solution.value) == []
+        assert [5, 2] in outcome.solution.value
+    assert first.detail["risk_changes"] == [[3, 2, hit_risk], [5, 2, pytest.approx(0.03)]]
+    assert second.detail["risk_changes"] == [[3, 2, min(1.0, 2 * hit_risk)], [5, 2, 0.0]]
+    assert engine.ctx.world.risk[2, 3] == min(1.0, 2 * hit_risk)
+    assert engine.ctx.world.passable[2, 3] == (2 * hit_risk < 1)
+    assert engine.ctx.world.risk.sum() == min(1.0, 2 * hit_risk)
+
+
+def test_an_unreachable_goal_fails_the_trip(corridor: Path,
+                                            cbr_engine: Callable[..., Engine]) -> None:
+    engine = cbr_engine({"world": {"use": "map_file", "path": str(corridor)}, "solver": "astar",
+                         "workload": {"use": "trips", "pass_relief": 0.0}})
+    engine.workload.place([(3, y) for y in range(5)], [])
+    problem = GridQuery((0, 2), (6, 2))
+
+    outcome = engine.workload.execute(problem, engine.solve(problem), engine.ctx)
+
+    assert not outcome.success
+    assert outcome.detail["failure"] == "no path around"
+    assert outcome.detail["encounters"] == 5
+    assert outcome.solution.value[0] == [0, 2] and outcome.solution.value[-1][0] == 2
+    assert sorted(c[:2] for c in outcome.detail["risk_changes"]) == [[3, y] for y in range(5)]
+    assert engine.workload.execute(problem, Proposal(None, "none"), engine.ctx) == Outcome(False)
+
+
+def test_a_bad_proposal_or_placement_is_refused(corridor: Path,
+                                                cbr_engine: Callable[..., Engine]) -> None:
+    engine = cbr_engine({"world": {"use": "map_file", "path": str(corridor)}, "solver": "astar",
+                         "workload": {"use": "trips"}})
+    problem = GridQuery((0, 2), (6, 2))
+    jump = Proposal(Solution([[0, 2], [2, 2], [6, 2]]), "solver:astar")
+    elsewhere = Proposal(Solution([[0, 2], [1, 2]]), "solver:astar")
+    with pytest.raises(CbrError, match="not a move to an 8-neighbour"):
+        engine.workload.execute(problem, jump, engine.ctx)
+    with pytest.raises(CbrError, match=r"not from the trip's start \(0, 2\) to its goal"):
+        engine.workload.execute(problem, elsewhere, engine.ctx)
+    with pytest.raises(CbrError, match="distinct"):
+        engine.workload.place([(1, 1)], [(1, 1)])
+    with pytest.raises(CbrError, match="outside"):
+        engine.workload.place([(9, 1)], [])
+    with pytest.raises(CbrError, match="leave fewer than 2"):
+        cbr_engine({"world": {"use": "map_file", "path": str(corridor)},
+                    "workload": {"use": "trips", "unknown_static": 30, "unknown_dynamic": 4}})
+    far = cbr_engine({"world": {"use": "map_file", "path": str(corridor)},
+                      "workload": {"use": "trips", "min_distance": 7}})
+    with pytest.raises(CbrError, match="at least min_distance 7 apart"):
+        next(iter(far.workload.queries(far.ctx)))
+    with pytest.raises(ConfigError, match="appear"):
+        cbr_engine({"world": {"use": "map_file", "path": str(corridor)},
+                    "workload": {"use": "trips", "appear": 1.5}})
+
+
+def results(out_dir: Path) -> list[dict[str, str]]:
+    with (out_dir / "results.csv").open(newline="", encoding="utf-8") as handle:
+        return [{k: v for k, v in row.items() if not k.startswith("ms_")}
+                for row in csv.DictReader(handle)]
+
+
+def test_a_seed_repeats_the_run_and_path_quality_rates_the_planned_map(
+        tmp_path: Path, cbr_engine: Callable[..., Engine]) -> None:
+    data = config({"count": 30, "unknown_static": 15, "unknown_dynamic": 10, "appear": 0.5},
+                  metrics=["path_quality"])
+    run_workload(cbr_engine(data), tmp_path / "a")
+    run_workload(cbr_engine(data), tmp_path / "b")
+    other = cbr_engine({**data, "seed": 12})
+    run_workload(other, tmp_path / "c")
+
+    rows = results(tmp_path / "a")
+    assert rows == results(tmp_path / "b")
+    assert rows != results(tmp_path / "c")
+    for row in rows:
+        # A* plans the cheapest path on the map it plans on, which the metric measures against
+        assert float(row["cost"]) == pytest.approx(float(row["optimal_cost"]))
+        assert float(row["deviation"]) == pytest.approx(0.0, abs=1e-9)
+        assert float(row["length"]) >= max(abs(int(row["q_start_x"]) - int(row["q_goal_x"])),
+                                           abs(int(row["q_start_y"]) - int(row["q_goal_y"])))
+        assert float(row["turns"]) >= 0
+    assert any(float(r["outcome_cost"]) > float(r["solution_cost"]) for r in rows)
+
+
+def test_path_quality_without_a_path_or_the_optimal_reference(
+        corridor: Path, cbr_engine: Callable[..., Engine]) -> None:
+    engine = cbr_engine({"world": {"use": "map_file", "path": str(corridor)},
+                         "metrics": ["path_quality", {"use": "path_quality", "optimal": False}]})
+    full, short = engine.metrics
+    problem = GridQuery((0, 2), (6, 2))
+    none = Proposal(None, "none")
+    row = full.measure(problem, none, Outcome(False), engine.ctx)
+    assert set(row) == {"length", "turns", "cost", "optimal_cost", "deviation"}
+    assert math.isnan(row["cost"]) and math.isnan(row["deviation"])
+    assert row["optimal_cost"] == pytest.approx(6.08)
+    detour = Proposal(Solution([[0, 2], [1, 2], [2, 2], [3, 1], [4, 2], [5, 2], [6, 2]]), "x")
+    row = short.measure(problem, detour, Outcome(True), engine.ctx)
+    assert row == {"length": pytest.approx(4 + 2 * math.sqrt(2)), "turns": 3.0,
+                   "cost": pytest.approx(4.08 + 2 * math.sqrt(2))}
+
+
+def test_risk_map_keeps_what_the_robot_learned_for_the_next_run(
+        tmp_path: Path, cbr_engine: Callable[..., Engine]) -> None:
+    store = tmp_path / "cases.sqlite"
+    data = config({"count": 30, "unknown_static": 20, "unknown_dynamic": 5},
+                  casebase={"use": "sqlite", "path": str(store)}, retain=["risk_map"])
+    first = cbr_engine(data)
+    configured = first.world.risk
+    drive(first)
+    learned = first.casebase.get_meta(LEARNED_RISK)
+    final = first.ctx.world.risk
+    first.close()
+
+    assert learned
+    changed = np.argwhere(final != configured)
+    assert sorted(learned) == sorted(f"{x},{y}" for y, x in changed)
+    assert all(final[y, x] == learned[f"{x},{y}"] for y, x in changed)
+    second = cbr_engine(data)
+    assert np.array_equal(second.ctx.world.risk, final)
+    assert np.array_equal(second.world.risk, configured)
+    assert np.array_equal(second.workload.static_unknowns, first.workload.static_unknowns)
+    second.close()
+
+    with pytest.raises(CbrError, match=rf"case base {store}: learned cell \(\d+, \d+\) is "
+                                       r"outside the 10x10 world"):
+        cbr_engine({**data, "world": {**OFFICE, "width": 10, "height": 10}})
+
+
+def test_risk_map_drops_cells_back_at_their_configured_risk(
+        corridor: Path, tmp_path: Path, cbr_engine: Callable[..., Engine]) -> None:
+    engine = cbr_engine({"world": {"use": "map_file", "path": str(corridor)}, "solver": "astar",
+                         "workload": {"use": "trips", "pass_relief": 0.5, "hit_risk": 0.5},
+                         "retain": ["risk_map"]})
+    engine.workload.place([(3, 2)], [])
+    problem = GridQuery((0, 2), (6, 2))
+    proposal = engine.solve(problem)
+    engine.learn(problem, proposal, engine.workload.execute(problem, proposal, engine.ctx))
+    assert engine.casebase.get_meta(LEARNED_RISK) == {"3,2": 0.5, "5,2": 0.0}
+
+    passed = Outcome(True, detail={"risk_changes": [[3, 2, 0.0], [5, 2, 0.08]]})
+    engine.learn(problem, proposal, passed)
+    assert engine.casebase.get_meta(LEARNED_RISK) == {}
+
+
+def small_grids() -> st.SearchStrategy[tuple[Grid, int, int, int]]:
+    def build(width: int, height: int, blocked: list[bool], corner_cutting: bool,
+              static: int, dynamic: int, seed: int) -> tuple[Grid, int, int, int]:
+        risk = np.array(blocked[:width * height], dtype=float).reshape(height, width)
+        free = int((risk < 1).sum())
+        static, dynamic = min(static, max(free - 2, 0)), min(dynamic, max(free - 2 - static, 0))
+        return Grid(risk, corner_cutting=corner_cutting), static, dynamic, seed
+
+    return st.integers(3, 9).flatmap(lambda w: st.integers(3, 9).flatmap(lambda h: st.builds(
+        build, st.just(w), st.just(h),
+        st.lists(st.sampled_from([False, False, False, True]), min_size=w * h, max_size=w * h),
+        st.booleans(), st.integers(0, 8), st.integers(0, 8), st.integers(0, 2**16))))
+
+
+@settings(max_examples=60, deadline=None)
+@given(small_grids())
+def test_a_driven_path_is_valid_on_the_true_world(case: tuple[Grid, int, int, int]) -> None:
+    grid, static, dynamic, seed = case
+    if int(grid.passable.sum()) < 2:
+        return
+    ctx = Context(registry=Registry(), seed=seed, world=grid)
+    workload = Trips(TripsOptions(count=8, unknown_static=static, unknown_dynamic=dynamic,
+                                  replan_window=2), ctx)
+    solver = AStar(NoOptions(), ctx)
+    for problem in workload.queries(ctx):
+        solution = solver.cbr_solve(problem, ctx)
+        outcome = workload.execute(problem, Proposal(solution, "solver:astar"), ctx)
+        if solution is None:
+            assert not outcome.success
+            continue
+        driven = outcome.solution.value
+        assert true_grid(workload, outcome).path_problems(driven) == []
+        assert driven[0] == list(problem.start)
+        assert outcome.success == (driven[-1] == list(problem.goal))
+        assert outcome.success or outcome.detail["failure"]
