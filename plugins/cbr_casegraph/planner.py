@@ -111,7 +111,8 @@ class _Overlay:
 class Neighbourhoods:
     """Retrieval: the cases meeting N(start, delta) and N(goal, delta) (eq. 11).
 
-    A terminal on the graph has the cases through it instead, and needs no temporary edge.
+    ``*_on_graph`` says whether the terminal lies on a stored segment (it then joins the
+    graph there, and is linked to the other cases near it as well).
     """
 
     start: np.ndarray
@@ -130,8 +131,7 @@ def neighbourhoods(graph: CaseGraph, start: Cell, goal: Cell, settings: Settings
     on_graph: list[bool] = []
     for name, cell in (("start", start), ("goal", goal)):
         through = graph.edges_at(cell)
-        cases = (np.array(through, dtype=np.int64) if through
-                 else graph.meeting(cell, delta, selective=settings.selective))
+        cases = graph.meeting(cell, delta, selective=settings.selective)
         cases = cases[np.isfinite(graph.costs(cases))]
         if len(cases) == 0:
             return Failure(f"no case meets the {name}'s neighbourhood")
@@ -154,10 +154,12 @@ def adapt(graph: CaseGraph, start: Cell, goal: Cell, cases: Neighbourhoods, sett
     for name, cell, near, on_graph in (("start", start, cases.start, cases.start_on_graph),
                                        ("goal", goal, cases.goal, cases.goal_on_graph)):
         ends[name] = overlay.vertex(graph, cell)
-        if on_graph:
-            continue
-        links = _connect(graph, cell, near, settings, search)
-        if not links:
+        # A terminal on the graph is linked to the other cases near it too: the segment
+        # through it may be a fragment that leads nowhere (a similar segment was not stored,
+        # or a part was forgotten).
+        links = [link for link in _connect(graph, cell, near, settings, search)
+                 if link[0] != cell]
+        if not links and not on_graph:
             return Failure(f"no local path from the {name} to a case", detail)
         for target, path, cost in links:
             overlay.edges.append((ends[name], overlay.vertex(graph, target), cost, path, -1))
@@ -203,12 +205,10 @@ def _connect(graph: CaseGraph, cell: Cell, cases: np.ndarray, settings: Settings
         costs = cost_map(grid.factor, grid.passable, grid.corner_cutting, [cell], box)
         reach = np.full(len(cells), np.inf)
         reach[near] = costs[cells[near, 1] - y0, cells[near, 0] - x0]
-        # the cheapest cell of each case: the first minimum within its run of cells
+        # the cheapest cells of each case; ties all get an edge, since which of them the best
+        # path should use depends on where it goes next
         best = np.minimum.reduceat(reach, offsets[:-1])
-        hit = np.flatnonzero(reach == np.repeat(best, np.diff(offsets)))
-        first = np.unique(np.searchsorted(offsets, hit, side="right") - 1, return_index=True)[1]
-        chosen = hit[first]
-        chosen = chosen[np.isfinite(reach[chosen])]
+        chosen = np.flatnonzero((reach == np.repeat(best, np.diff(offsets))) & np.isfinite(reach))
         targets = np.unique(cells[chosen], axis=0)
         for x, y in targets.tolist():
             # the path is traced only if the search uses this edge

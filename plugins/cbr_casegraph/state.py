@@ -5,8 +5,10 @@ written through to it as it changes (:mod:`cbr_casegraph.graph`). The engine com
 writes with the learn step; if a learn step fails, its transaction rolls back while the graph
 in memory already changed, so each query first checks the store's revision: a learn step that
 wrote must have committed exactly one revision, anything else (a rollback, another process
-writing) reloads the graph from the store. A learn step that did not write may have committed
-one revision (the engine counting case uses) or none.
+writing) reloads the graph from the store. A learn step in which the graph did not write may
+have committed one revision through other writers of the same step (the engine counting case
+uses, a learned risk map) or none; so one transaction of another process in such a step goes
+unnoticed. Two processes should not share one case graph.
 """
 
 from __future__ import annotations
