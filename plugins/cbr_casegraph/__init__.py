@@ -26,6 +26,7 @@ from cbr_casegraph.components import (
     RiskySegments,
     VertexLimit,
 )
+from cbr_casegraph.experiments import DeviationTable, Share, TimeVsMapSize, TimeVsVertices
 from cbrcore.hookspecs import hookimpl
 from cbrcore.registry import Registry
 
@@ -39,3 +40,7 @@ def cbr_register(registry: Registry) -> None:
     registry.add("forgetter", "redundant_vertices", RedundantVertices)
     registry.add("forgetter", "risky_segments", RiskySegments, options=RiskyOptions)
     registry.add("forgetter", "vertex_limit", VertexLimit, options=LimitOptions)
+    registry.add("experiment", "cbr-share", Share)
+    registry.add("experiment", "deviation-table", DeviationTable)
+    registry.add("experiment", "time-vs-map-size", TimeVsMapSize)
+    registry.add("experiment", "time-vs-vertices", TimeVsVertices)
