@@ -56,6 +56,10 @@ MAX_RATIO = 1.5
 
 METHODS = ("dijkstra", "astar", "aistar")
 
+REPEATS = 3
+"""Runs per CBR query in the timing experiments: a query's time is the median of its runs, so
+that one interruption by another process on a shared machine does not count."""
+
 PAPER_SHARE = {6: 0.50, 10: 0.75, 15: 0.90}
 """Section 6.2: share of tasks planned by CBR at a coverage (percent of cells that are vertices)."""
 
@@ -86,6 +90,11 @@ def make_map(size: int, seed: int) -> Grid:
     return generate("random", size, size, seed, density=DENSITY, terrain=TERRAIN)
 
 
+def _map_info(side: int, seed: int) -> dict[str, Any]:
+    return {"kind": "random", "width": side, "height": side, "density": DENSITY,
+            "terrain": TERRAIN, "seed": seed}
+
+
 def octile(a: Sequence[int], b: Sequence[int]) -> float:
     dx, dy = abs(a[0] - b[0]), abs(a[1] - b[1])
     return max(dx, dy) + (math.sqrt(2) - 1) * min(dx, dy)
@@ -114,11 +123,6 @@ def timed(call: Callable[[], Any]) -> tuple[Any, float]:
     began = time.perf_counter()
     result = call()
     return result, time.perf_counter() - began
-
-
-REPEATS = 3
-"""Runs per CBR query in the timing experiments: a query's time is the median of its runs, so
-that one interruption by another process on a shared machine does not count."""
 
 
 def median_of_runs(call: Callable[[], Any], repeats: int = REPEATS) -> float:
@@ -268,10 +272,6 @@ class Share(_Experiment):
             table="\n".join(table), figures={"cbr_share": figure})
 
 
-def _map_info(side: int, seed: int) -> dict[str, Any]:
-    return {"kind": "random", "width": side, "height": side, "density": DENSITY,
-            "terrain": TERRAIN, "seed": seed}
-
 
 # -- section 6.4: Table 1 ---------------------------------------------------------------------
 
@@ -416,6 +416,8 @@ class TimeVsMapSize(_Experiment):
                 row["cbr_ms"][str(vertices)] = median_ms(seconds)
                 row["tasks"][str(vertices)] = len(tasks)
                 queries.extend(tasks)
+            row["octile_median"] = (float(np.median([octile(s, g) for s, g in queries]))
+                                    if queries else None)
             for method in METHODS:
                 row[f"{method}_ms"] = median_ms(
                     [timed(lambda s=s, g=g, m=method, w=grid: solve(m, w, s, g))[1]
@@ -423,12 +425,13 @@ class TimeVsMapSize(_Experiment):
             rows.append(row)
             progress(step + 1, len(sides))
         lines = ["| map | CBR 1000 ms | CBR 2000 ms | CBR 3000 ms | Dijkstra ms | A* ms "
-                 "| Ai* ms | tasks |", "|---|---|---|---|---|---|---|---|"]
+                 "| Ai* ms | tasks | median octile distance |",
+                 "|---|---|---|---|---|---|---|---|---|"]
         for row in rows:
             cbr = " | ".join(_fmt(row["cbr_ms"][str(v)], 3) for v in self.GRAPHS)
             lines.append(f"| {row['size']}x{row['size']} | {cbr} | {_fmt(row['dijkstra_ms'], 3)} "
                          f"| {_fmt(row['astar_ms'], 3)} | {_fmt(row['aistar_ms'], 3)} "
-                         f"| {sum(row['tasks'].values())} |")
+                         f"| {sum(row['tasks'].values())} | {_fmt(row['octile_median'], 1)} |")
         lines.append("")
         lines.append("The paper gives Fig. 4 only as a plot (600x600 at most): CBR times nearly "
                      "flat in the map size and set by the vertex count, the alternative methods' "
@@ -446,8 +449,10 @@ class TimeVsMapSize(_Experiment):
         axes.grid(True, which="both", alpha=0.3)
         axes.legend(fontsize="small")
         return ExperimentResult(
-            results={"map": {**_map_info(0, self.seed), "width": "size", "height": "size"},
-                     "delta": settings.delta, "max_coverage": MAX_COVERAGE, "rows": rows},
+            results={"map": {"kind": "random", "sides": list(sides), "density": DENSITY,
+                             "terrain": TERRAIN, "seed": self.seed},
+                     "delta": settings.delta, "max_coverage": MAX_COVERAGE,
+                     "repeats": REPEATS, "rows": rows},
             table="\n".join(lines), figures={"time_vs_map_size": figure})
 
 
