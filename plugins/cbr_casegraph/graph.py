@@ -347,31 +347,72 @@ class CaseGraph:
         ends or crosses the graph, the edge there is split so that segments meet only at
         their end points; new stretches are cut at their turns. With ``similarity_delta`` a
         new segment is skipped when a stored one is similar to it by eq. (12) under the named
-        distance. The path must be a valid path on the map. Returns the ids of the new edges.
+        distance. A diagonal step that crosses a stored diagonal step between cells (an X in a
+        2x2 block: the paths intersect without sharing a cell) is cut there too and joined to
+        the stored segment by a one-step edge. The path must be a valid path on the map.
+        Returns the ids of the new edges.
         """
         cells = without_loops(path)
         if len(cells) < 2:
             return []
         new_steps = self._new_steps(cells)
+        crossings = self._crossings(cells, new_steps)
+        forced = np.zeros(len(cells), dtype=bool)
+        forced[[i for i, _ in crossings]] = True
+        # eq. (12) compares with the cases stored before this path: its own segments (the
+        # steps of a staircase are within one cell of each other) are one new case, not
+        # duplicates, and skipping them would cut the path into unconnected pieces
+        stored = self.ends(self.edge_ids()) if similarity_delta is not None else None
         added: list[int] = []
         for first, last in _runs(new_steps):
             # the stretch of cells first..last (inclusive) consists of new steps only
             stretch = cells[first:last + 1]
-            cuts = _turns(stretch)
-            on_graph = ((self.vertex_at[stretch[:, 1], stretch[:, 0]] >= 0)
-                        | (self.owner[stretch[:, 1], stretch[:, 0]] >= 0))
-            cuts[on_graph] = True
+            cuts = _turns(stretch) | forced[first:last + 1]
+            cuts[self._taken(stretch)] = True
             points = np.flatnonzero(cuts)
             for i, j in itertools.pairwise(points):
                 a = (int(stretch[i, 0]), int(stretch[i, 1]))
                 b = (int(stretch[j, 0]), int(stretch[j, 1]))
-                if similarity_delta is not None and self._similar(a, b, similarity_delta,
-                                                                  distance):
+                if stored is not None and _similar(stored, a, b, similarity_delta, distance):
                     continue
                 edge = self._connect(a, b)
                 if edge is not None:
                     added.append(edge)
+        for i, beside in crossings:
+            here = (int(cells[i, 0]), int(cells[i, 1]))
+            if self.vertex_at[here[1], here[0]] >= 0:  # not when its segment was skipped
+                edge = self._connect(here, beside)
+                if edge is not None:
+                    added.append(edge)
         return added
+
+    def _taken(self, cells: np.ndarray) -> np.ndarray:
+        """For each cell: is it a vertex or inside an edge."""
+        x, y = cells[:, 0], cells[:, 1]
+        return (self.vertex_at[y, x] >= 0) | (self.owner[y, x] >= 0)
+
+    def _crossings(self, cells: np.ndarray, new_steps: np.ndarray) -> list[tuple[int, Cell]]:
+        """The new diagonal steps i -> i+1 that cross a stored diagonal step between cells.
+
+        Returns (i, cell): the step's first cell and the stored cell beside it (same row) that
+        a one-step edge joins it to.
+        """
+        steps = np.diff(cells, axis=0)
+        diagonal = new_steps & (np.abs(steps).sum(axis=1) == 2)
+        index = np.flatnonzero(diagonal)
+        if len(index) == 0:
+            return []
+        # the two cells beside a diagonal step p -> q: (q.x, p.y) and (p.x, q.y)
+        side = np.stack([cells[index + 1, 0], cells[index, 1]], axis=1)
+        other = np.stack([cells[index, 0], cells[index + 1, 1]], axis=1)
+        both = self._taken(side) & self._taken(other)
+        found: list[tuple[int, Cell]] = []
+        for k in np.flatnonzero(both).tolist():
+            r = (int(side[k, 0]), int(side[k, 1]))
+            t = (int(other[k, 0]), int(other[k, 1]))
+            if set(self.edges_at(r)) & set(self.edges_at(t)):  # one stored step r -> t
+                found.append((int(index[k]), r))
+        return found
 
     def remove(self, edges: Iterable[int]) -> None:
         """Forget these edges; vertices left without edges disappear."""
@@ -428,17 +469,6 @@ class CaseGraph:
             second = self.edges_at((int(x[i + 1]), int(y[i + 1])))
             new[i] = not set(first) & set(second)
         return new
-
-    def _similar(self, a: Cell, b: Cell, delta: int, distance: str) -> bool:
-        """Eq. (12): some stored segment has its ends within ``delta`` of a and b."""
-        edges = self.edge_ids()
-        if len(edges) == 0:
-            return False
-        ka, kb = self.ends(edges)
-        d = distance_function(distance)
-        forward = (d(ka, a) <= delta) & (d(kb, b) <= delta)
-        backward = (d(kb, a) <= delta) & (d(ka, b) <= delta)
-        return bool((forward | backward).any())
 
     def _connect(self, a: Cell, b: Cell, *, uses: int = 0, created: int | None = None
                  ) -> int | None:
@@ -568,6 +598,19 @@ class CaseGraph:
             solution["cost"] = cost if math.isfinite(cost) else None
             solution["risk"] = float(self._risk[edge])
             self._written().replace(attrs.evolve(case, solution=solution))
+
+
+def _similar(stored: tuple[np.ndarray, np.ndarray], a: Cell, b: Cell, delta: int,
+             distance: str) -> bool:
+    """Eq. (12): one of the ``stored`` segments (their end cells) has its ends within
+    ``delta`` of a and b."""
+    ka, kb = stored
+    if len(ka) == 0:
+        return False
+    d = distance_function(distance)
+    forward = (d(ka, a) <= delta) & (d(kb, b) <= delta)
+    backward = (d(kb, a) <= delta) & (d(ka, b) <= delta)
+    return bool((forward | backward).any())
 
 
 def _runs(flags: np.ndarray) -> list[tuple[int, int]]:

@@ -27,9 +27,8 @@ import attrs
 import numpy as np
 
 from cbr_casegraph.geometry import segments_cells, without_loops
-from cbr_casegraph.graph import CaseGraph, segment_costs
-from cbr_casegraph.search import descend, graph_search
-from cbr_grid.costs import step_costs
+from cbr_casegraph.graph import CaseGraph
+from cbr_casegraph.search import descend, graph_search, path_cost, run_costs, sweep
 from cbr_grid.grid import Grid
 
 Cell = tuple[int, int]
@@ -170,7 +169,7 @@ def adapt(graph: CaseGraph, start: Cell, goal: Cell, cases: Neighbourhoods, sett
     vertices, codes, settled = found
     path, edges = _expand(graph, adjacency, overlay, vertices, codes)
     path = without_loops(path)
-    cost = float(step_costs(graph.grid, path).sum()) if len(path) > 1 else 0.0
+    cost = path_cost(graph.grid.factor, path)
     detail.update(temporary_edges=len(overlay.edges), settled=settled)
     return Plan(path, cost, edges, detail)
 
@@ -200,17 +199,21 @@ def _connect(graph: CaseGraph, cell: Cell, cases: np.ndarray, settings: Settings
     x0, y0, x1, y1 = box
     links: list[tuple[Cell, Trace, float]] = []
     if settings.connector == "dijkstra":
-        from cbr_solvers.aistar import cost_map
-
-        costs = cost_map(grid.factor, grid.passable, grid.corner_cutting, [cell], box)
+        width = x1 - x0 + 1
+        targets = (cells[near, 1] - y0) * width + (cells[near, 0] - x0)
+        flat = sweep(grid.factor, grid.passable, grid.corner_cutting, cell[0], cell[1],
+                     x0, y0, x1, y1, targets)
+        costs = flat.reshape(y1 - y0 + 1, width)
         reach = np.full(len(cells), np.inf)
-        reach[near] = costs[cells[near, 1] - y0, cells[near, 0] - x0]
+        reach[near] = flat[targets]
         # the cheapest cells of each case; ties all get an edge, since which of them the best
         # path should use depends on where it goes next
         best = np.minimum.reduceat(reach, offsets[:-1])
         chosen = np.flatnonzero((reach == np.repeat(best, np.diff(offsets))) & np.isfinite(reach))
-        targets = np.unique(cells[chosen], axis=0)
-        for x, y in targets.tolist():
+        # distinct cells, by flat index (np.unique along an axis is far slower)
+        flat_chosen = np.unique((cells[chosen, 1] - y0) * width + (cells[chosen, 0] - x0))
+        for y, x in zip((flat_chosen // width + y0).tolist(), (flat_chosen % width + x0).tolist(),
+                        strict=True):
             # the path is traced only if the search uses this edge
             def trace(x: int = x, y: int = y) -> np.ndarray:
                 return descend(costs, grid.factor, grid.passable, grid.corner_cutting,
@@ -246,7 +249,9 @@ def _split_edges(graph: CaseGraph, overlay: _Overlay) -> None:
             parts_from.append(p)
             parts_to.append(q)
             chains.append((overlay.vertex(graph, p), overlay.vertex(graph, q), edge))
-    costs, _ = segment_costs(graph.grid, parts_from, parts_to)
+    grid = graph.grid
+    costs = run_costs(grid.factor, grid.passable, grid.corner_cutting,
+                      np.asarray(parts_from, dtype=np.int64), np.asarray(parts_to, dtype=np.int64))
     for (u, v, edge), cost in zip(chains, costs.tolist(), strict=True):
         overlay.edges.append((u, v, cost, None, edge))
 
@@ -292,28 +297,29 @@ def _expand(graph: CaseGraph, adjacency: Any, overlay: _Overlay, vertices: np.nd
     extra = np.asarray(overlay.cells, dtype=np.int64).reshape(-1, 2)
     xy = np.where((vertices < base)[:, None], adjacency.xy[np.minimum(vertices, base - 1)],
                   extra[np.maximum(vertices - base, 0)] if len(extra) else 0)
+    edges = codes.copy()
     traced: dict[int, np.ndarray] = {}
-    used: list[int] = []
-    for i, code in enumerate(codes.tolist()):
-        if code >= 0:
-            used.append(code)
-            continue
-        u, _, _, trace, edge = overlay.edges[-code - 1]
-        if trace is None:
-            used.append(edge)
-        else:
+    for i in np.flatnonzero(codes < 0).tolist():
+        u, _, _, trace, edge = overlay.edges[-int(codes[i]) - 1]
+        edges[i] = edge
+        if trace is not None:
             cells = trace()
             traced[i] = cells if int(vertices[i]) == u else cells[::-1]
-    # every other hop is a straight run between its two vertices: all cut in one go
-    straight = np.array([i for i in range(len(codes)) if i not in traced], dtype=np.int64)
-    cells, offsets = segments_cells(xy[straight], xy[straight + 1])
+    # every other hop is a straight run between its two vertices: runs of them are cut in one
+    # go, each hop's first cell dropped where the previous hop ended on it
     pieces: list[np.ndarray] = []
-    k = 0
-    for i in range(len(codes)):
-        if i in traced:
-            piece = traced[i]
-        else:
-            piece = cells[offsets[k]:offsets[k + 1]]
-            k += 1
-        pieces.append(piece if i == 0 else piece[1:])
+    bounds = [-1, *sorted(traced), len(codes)]
+    for before, after in itertools.pairwise(bounds):
+        if before >= 0:
+            pieces.append(traced[before] if not pieces else traced[before][1:])
+        hops = np.arange(before + 1, after)
+        if len(hops) == 0:
+            continue
+        cells, offsets = segments_cells(xy[hops], xy[hops + 1])
+        keep = np.ones(len(cells), dtype=bool)
+        keep[offsets[1:-1]] = False
+        if pieces:
+            keep[0] = False
+        pieces.append(cells[keep])
+    used = edges[edges >= 0].tolist()
     return np.concatenate(pieces), tuple(dict.fromkeys(used))
