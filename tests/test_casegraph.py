@@ -197,6 +197,31 @@ def test_a_parallel_segment_within_delta_is_skipped_and_one_further_is_kept(reve
     assert edge_set(graph) == {seg((0, 0), (8, 0)), seg((0, 2), (8, 2))}
 
 
+def test_a_staircase_keeps_every_step_though_its_steps_are_similar_to_each_other() -> None:
+    # a staircase right, down, right, down ...: each step lies within one cell of the one two
+    # steps before it, but eq. (12) compares with what was stored before the path
+    #   s-+
+    #     +-+
+    #       +-+
+    stairs = line((0, 0), (1, 0), (1, 1), (2, 1), (2, 2), (3, 2), (3, 3))
+    graph = CaseGraph(free(5, 5))
+    assert len(graph.add_path(stairs, similarity_delta=1)) == 6
+    assert graph.vertex_count == 7
+
+
+def test_a_diagonal_crossing_between_cells_joins_the_two_paths() -> None:
+    # stored: (0, 0) -> (3, 3) diagonally; new: (0, 3) -> (3, 0) diagonally. They cross in the
+    # 2x2 block of (1, 1), (2, 1), (1, 2), (2, 2) without sharing a cell: the new step from
+    # (1, 2) to (2, 1) passes between the stored cells (1, 1) and (2, 2), so the new path is
+    # cut at (1, 2) and joined to (2, 2) by a one-step edge.
+    graph = CaseGraph(free(4, 4))
+    graph.add_path(line((0, 0), (3, 3)))
+    graph.add_path(line((0, 3), (3, 0)))
+    assert edge_set(graph) == {seg((0, 0), (2, 2)), seg((2, 2), (3, 3)), seg((0, 3), (1, 2)),
+                               seg((1, 2), (3, 0)), seg((1, 2), (2, 2))}
+    check_consistent(graph)
+
+
 # The new segment is the stored one (0, 0)-(8, 0) moved by `offset`; its ends are then `offset`
 # away from the stored ends: chebyshev max(dx, dy), euclidean hypot, manhattan dx + dy,
 # octile max + (sqrt 2 - 1) min.
