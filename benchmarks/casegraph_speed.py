@@ -7,8 +7,9 @@ Maps are those of the reproductions (:func:`cbr_casegraph.experiments.make_map`:
 obstacles 15%, terrain risk 0.5). On each, a graph is grown to 3000 vertices from Dijkstra paths
 of random tasks (:func:`cbr_casegraph.build.grow`), and the queries are set so that a CBR path
 lies between them, as in section 6.3 of the paper (start and goal within delta / 2 of random
-vertices, CBR giving an accepted path; :func:`cbr_casegraph.experiments.cbr_tasks`). Each query
-is timed ``--repeats`` times per method and its median kept; the tables give medians over
+vertices, at least a third of the map side apart, CBR giving an accepted path;
+:func:`cbr_casegraph.experiments.cbr_tasks`). Each query is timed ``--repeats`` times per
+method and its median kept; the tables give medians over
 queries and the median over queries of the per-query ratio CBR / A*, and, for scale, A*'s
 median time on 20 tasks between random reachable cells. A cProfile of the CBR queries on the
 largest map shows where the planner's time goes.
@@ -76,7 +77,7 @@ def run_size(side: int, queries: int, repeats: int) -> dict[str, Any]:
     paths = grow(graph, VERTICES, rng, cells=cells)
     build_s = time.perf_counter() - began
     settings = Settings()
-    tasks = cbr_tasks(graph, region_mask(grid, cells), rng, queries, settings)
+    tasks = cbr_tasks(graph, region_mask(grid, cells), rng, queries, settings, side / 3)
     cbr_s, astar_s = [], []
     for start, goal in tasks:
         cbr_s.append(_median_time(lambda s=start, g=goal: plan(graph, s, g, settings), repeats))

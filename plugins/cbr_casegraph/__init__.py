@@ -11,6 +11,8 @@ the ideal, retention adds the new segments and forgetting keeps the graph small
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from cbr_casegraph.components import (
     CaseGraphRetainer,
     CaseGraphRetriever,
@@ -26,9 +28,30 @@ from cbr_casegraph.components import (
     RiskySegments,
     VertexLimit,
 )
-from cbr_casegraph.experiments import DeviationTable, Share, TimeVsMapSize, TimeVsVertices
+from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
 from cbrcore.registry import Registry
+
+EXPERIMENTS = {
+    "cbr-share": ("Share", "Fig. 3: share of random tasks planned by CBR against coverage."),
+    "deviation-table": ("DeviationTable", "Table 1: deviation of CBR, Dijkstra, A* and Ai* "
+                        "from the best cost, length and turns."),
+    "time-vs-map-size": ("TimeVsMapSize", "Fig. 4: planning times of CBR and Dijkstra, A*, Ai* "
+                         "against the map size."),
+    "time-vs-vertices": ("TimeVsVertices", "Fig. 2: CBR planning time against the vertex count, "
+                         "full and selective adaptation."),
+}
+"""The reproductions: name, class in :mod:`cbr_casegraph.experiments`, one-line summary."""
+
+
+def _experiment(cls: str) -> Callable[[object, Context], object]:
+    def build(options: object, ctx: Context) -> object:
+        # numba and the planner load when an experiment runs, not at every start of ``cbr``
+        from cbr_casegraph import experiments
+
+        return getattr(experiments, cls)(options, ctx)
+
+    return build
 
 
 @hookimpl
@@ -40,7 +63,5 @@ def cbr_register(registry: Registry) -> None:
     registry.add("forgetter", "redundant_vertices", RedundantVertices)
     registry.add("forgetter", "risky_segments", RiskySegments, options=RiskyOptions)
     registry.add("forgetter", "vertex_limit", VertexLimit, options=LimitOptions)
-    registry.add("experiment", "cbr-share", Share)
-    registry.add("experiment", "deviation-table", DeviationTable)
-    registry.add("experiment", "time-vs-map-size", TimeVsMapSize)
-    registry.add("experiment", "time-vs-vertices", TimeVsVertices)
+    for name, (cls, doc) in EXPERIMENTS.items():
+        registry.add("experiment", name, _experiment(cls), doc=doc)

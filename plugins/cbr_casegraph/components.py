@@ -7,13 +7,14 @@ called once per query and hands the work to the vectorised or compiled code of
 
 from __future__ import annotations
 
+import importlib
+from types import ModuleType
 from typing import Literal
 
 import attrs
 import numpy as np
 
 from cbr_casegraph.graph import SEGMENT
-from cbr_casegraph.planner import Failure, Neighbourhoods, Settings, adapt, neighbourhoods
 from cbr_casegraph.state import state_of
 from cbr_grid.costs import path_length
 from cbr_grid.distances import distance
@@ -28,6 +29,12 @@ from cbrcore.options import option
 _POSITIVE = attrs.validators.ge(1)
 _UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
 DistanceName = Literal["euclidean", "manhattan", "octile", "chebyshev"]
+
+
+def _planner() -> ModuleType:
+    """The planner module; it loads numba, so only when a query is planned, not at every
+    start of ``cbr``."""
+    return importlib.import_module("cbr_casegraph.planner")
 
 
 @attrs.frozen
@@ -48,12 +55,13 @@ class CaseGraphRetriever:
 
     @hookimpl
     def cbr_retrieve(self, problem: GridQuery, casebase: CaseStore, ctx: Context) -> Retrieval:
+        planner = _planner()
         graph = state_of(ctx).sync(ctx.world)
-        settings = Settings(delta=self.options.delta, selective=self.options.selective)
+        settings = planner.Settings(delta=self.options.delta, selective=self.options.selective)
         start, goal = ctx.world.check_cell(problem.start, "start"), ctx.world.check_cell(
             problem.goal, "goal")
-        found = neighbourhoods(graph, start, goal, settings)
-        if isinstance(found, Failure):
+        found = planner.neighbourhoods(graph, start, goal, settings)
+        if isinstance(found, planner.Failure):
             return Retrieval((), payload=found)
         matches = []
         for end, cell, edges in (("start", start, found.start), ("goal", goal, found.goal)):
@@ -114,15 +122,15 @@ class CaseGraphReuser:
     @hookimpl
     def cbr_reuse(self, problem: GridQuery, retrieval: Retrieval, ctx: Context
                   ) -> Solution | None:
+        planner = _planner()
         settings, found = retrieval.payload
-        assert isinstance(found, Neighbourhoods)
         settings = attrs.evolve(settings, connector=self.options.connector,
                                 margin=self.options.margin,
                                 graph_search=self.options.graph_search)
         graph = state_of(ctx).graph
-        result = adapt(graph, tuple(problem.start), tuple(problem.goal), found, settings,
+        result = planner.adapt(graph, tuple(problem.start), tuple(problem.goal), found, settings,
                        self.search)
-        if isinstance(result, Failure):
+        if isinstance(result, planner.Failure):
             return None
         return Solution(result.path.tolist(), cost=result.cost, cases=result.edges,
                         detail=result.detail)

@@ -141,12 +141,13 @@ def warm_up(grid: Grid, cells: np.ndarray, rng: np.random.Generator) -> None:
 
 
 def cbr_tasks(graph: CaseGraph, region: np.ndarray, rng: np.random.Generator, count: int,
-              settings: Settings) -> list[tuple[Cell, Cell]]:
+              settings: Settings, min_span: float = 0.0) -> list[tuple[Cell, Cell]]:
     """Tasks "set so that a CBR path lies between them" (section 6.3).
 
     Start and goal lie within delta / 2 of two random graph vertices, on reachable cells,
-    farther than delta apart, and CBR plans an accepted path between them. Fewer than ``count``
-    are returned only when 50 times as many draws found no more.
+    farther than delta and at least ``min_span`` (octile) apart, and CBR plans an accepted path
+    between them. Fewer than ``count`` are returned only when 50 times as many draws found no
+    more.
     """
     vertices = graph.vertices()
     height, width = region.shape
@@ -163,6 +164,8 @@ def cbr_tasks(graph: CaseGraph, region: np.ndarray, rng: np.random.Generator, co
             continue
         start = (int(ends[0, 0]), int(ends[0, 1]))
         goal = (int(ends[1, 0]), int(ends[1, 1]))
+        if octile(start, goal) < min_span:
+            continue
         if outcome(plan(graph, start, goal, settings), start, goal) == "cbr":
             tasks.append((start, goal))
     return tasks
@@ -410,7 +413,9 @@ class TimeVsMapSize(_Experiment):
                 except ValueError:
                     # the map is saturated below this count: no such graph on this map
                     continue
-                tasks = cbr_tasks(graph, region, self.rng, per_graph, settings)
+                # tasks across a third of the map at least, so that the alternative methods'
+                # times show what a map of this size costs them, as in Fig. 4
+                tasks = cbr_tasks(graph, region, self.rng, per_graph, settings, side / 3)
                 seconds = [median_of_runs(lambda s=s, g=g, c=graph: plan(c, s, g, settings))
                            for s, g in tasks]
                 row["cbr_ms"][str(vertices)] = median_ms(seconds)
