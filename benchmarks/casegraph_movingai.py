@@ -81,7 +81,7 @@ def run_map(map_path: Path, scen_path: Path, limit: int | None) -> dict[str, Any
     for problem in problems[:half]:
         found = solve(problem)
         if found is not None:
-            graph.add_path(found.path, similarity_delta=1)
+            graph.add_path(found.path)
     build_s = time.perf_counter() - began
     # compile the searches and the planner's kernels before timing
     plan(graph, problems[half].start, problems[half].goal, settings)

@@ -598,12 +598,12 @@ def worlds(draw: st.DrawFn, ties: bool = True
         return [((int(free_cells[i][1]), int(free_cells[i][0])),
                  (int(free_cells[j][1]), int(free_cells[j][0]))) for i, j in picks.tolist()]
 
-    similarity = draw(st.sampled_from([None, 0, 1, 2]))
+    similarity = draw(st.sampled_from([0, 1, 2]))
     return (Grid(risk, corner_cutting=draw(st.booleans())), pairs(draw(st.integers(1, 8))),
             pairs(12), similarity)
 
 
-def retained(grid: Grid, pairs: Sequence[tuple[Cell, Cell]], similarity: int | None,
+def retained(grid: Grid, pairs: Sequence[tuple[Cell, Cell]], similarity: int,
              merge: bool) -> CaseGraph:
     graph = CaseGraph(grid)
     for start, goal in pairs:

@@ -65,7 +65,7 @@ def random_task(cells: np.ndarray, rng: np.random.Generator) -> tuple[tuple[int,
 
 
 def grow(graph: CaseGraph, vertices: int, rng: np.random.Generator, *,
-         solver: Solver = "dijkstra", similarity_delta: int = 1,
+         solver: Solver = "dijkstra", similarity_delta: int = 0,
          cells: np.ndarray | None = None) -> int:
     """Retain the ``solver``'s paths for random tasks until ``graph`` has ``vertices`` vertices.
 

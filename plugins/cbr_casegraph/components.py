@@ -173,10 +173,10 @@ class PathQuality:
 
 @attrs.frozen
 class RetainOptions:
-    similarity_delta: int | None = option(
-        1, "Skip a new segment when a stored one has its ends within this distance of its "
-        "ends (eq. 12); null stores every new segment.",
-        validator=attrs.validators.optional(attrs.validators.ge(0)))
+    similarity_delta: int = option(
+        0, "Skip a new segment when a stored one has its ends within this distance of its "
+        "ends (eq. 12); 0 skips only a segment with the very ends of a stored one.",
+        validator=attrs.validators.ge(0))
     distance: DistanceName = option("chebyshev", "The distance of eq. (12).")
 
 

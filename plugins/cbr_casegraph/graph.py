@@ -339,15 +339,15 @@ class CaseGraph:
             if 0 <= edge < self._next_id and self._alive[edge]:
                 self._uses[edge] += 1
 
-    def add_path(self, path: ArrayLike, *, similarity_delta: int | None = None,
+    def add_path(self, path: ArrayLike, *, similarity_delta: int = 0,
                  distance: str = "chebyshev") -> list[int]:
         """Retain a traversed path: store its new straight stretches as edges.
 
         Where the path runs along stored edges nothing is added; where a new stretch starts,
         ends or crosses the graph, the edge there is split so that segments meet only at
-        their end points; new stretches are cut at their turns. With ``similarity_delta`` a
-        new segment is skipped when a stored one is similar to it by eq. (12) under the named
-        distance. A diagonal step that crosses a stored diagonal step between cells (an X in a
+        their end points; new stretches are cut at their turns. A new segment is skipped
+        when a stored one is similar to it by eq. (12) with ``similarity_delta`` under the
+        named distance. A diagonal step that crosses a stored diagonal step between cells (an X in a
         2x2 block: the paths intersect without sharing a cell) is cut there too and joined to
         the stored segment by a one-step edge. The path must be a valid path on the map.
         Returns the ids of the new edges.
@@ -362,7 +362,7 @@ class CaseGraph:
         # eq. (12) compares with the cases stored before this path: its own segments (the
         # steps of a staircase are within one cell of each other) are one new case, not
         # duplicates, and skipping them would cut the path into unconnected pieces
-        stored = self.ends(self.edge_ids()) if similarity_delta is not None else None
+        stored = self.ends(self.edge_ids())
         added: list[int] = []
         for first, last in _runs(new_steps):
             # the stretch of cells first..last (inclusive) consists of new steps only
@@ -373,7 +373,7 @@ class CaseGraph:
             for i, j in itertools.pairwise(points):
                 a = (int(stretch[i, 0]), int(stretch[i, 1]))
                 b = (int(stretch[j, 0]), int(stretch[j, 1]))
-                if stored is not None and _similar(stored, a, b, similarity_delta, distance):
+                if _similar(stored, a, b, similarity_delta, distance):
                     continue
                 edge = self._connect(a, b)
                 if edge is not None:
