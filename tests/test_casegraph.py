@@ -714,3 +714,51 @@ def test_equally_near_cells_of_a_case_do_not_change_the_plan() -> None:
             costs[name, reverse] = found.cost
     # stored from (0, 0) the Dijkstra connector takes p and pays sqrt 2 more
     assert costs == pytest.approx(dict.fromkeys(costs, best))
+
+
+def test_a_cell_turning_obstacle_beside_a_diagonal_edge_makes_it_infinite() -> None:
+    # the stored diagonal (0, 0)-(3, 3) steps from (1, 1) to (2, 2) past the corner (2, 1);
+    # when (2, 1) becomes an obstacle that step cuts a blocked corner
+    grid = free(4, 4)
+    graph = CaseGraph(grid)
+    graph.add_path(line((0, 0), (3, 3)))
+    risk = grid.risk.copy()
+    risk[1, 2] = 1.0
+    graph.set_grid(Grid(risk), [(2, 1)])
+    assert not np.isfinite(graph.costs(graph.edge_ids())).any()
+
+
+# --- the ideal length of the quality test ---------------------------------------------------
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(0, 2**31 - 1), st.integers(1, 4))
+def test_the_landmark_bound_never_exceeds_the_shortest_length(seed: int, count: int) -> None:
+    from cbr_casegraph.ideal import Landmarks
+    from cbr_grid.costs import path_length
+    from cbr_grid.generate import generate
+
+    grid = generate("office", 24, 20, seed)
+    bound = Landmarks(grid, count)
+    rng = np.random.default_rng(seed)
+    cells = np.argwhere(grid.passable)
+    for _ in range(20):
+        (y1, x1), (y2, x2) = cells[rng.integers(len(cells), size=2)]
+        start, goal = (int(x1), int(y1)), (int(x2), int(y2))
+        found = dijkstra(np.ones(grid.passable.shape), grid.passable, grid.corner_cutting,
+                         start, [goal])
+        if found is not None:
+            assert bound.bound(start, goal) <= path_length(found.path) + 1e-9
+
+
+def test_the_landmark_bound_sees_a_wall_that_the_octile_distance_does_not() -> None:
+    from cbr_casegraph.ideal import Landmarks
+
+    # a wall down column 4 with one gap at the bottom, (4, 9): from (2, 0) to (6, 0) the
+    # shortest path runs through the gap, twice the octile distance from (2, 0) to (4, 9),
+    # 2·(9 + 2·(√2 - 1)) ≈ 19.66, while the octile distance from start to goal is 4; a
+    # landmark in a corner of the map sees the whole detour
+    risk = np.zeros((10, 9))
+    risk[:9, 4] = 1.0
+    shortest = 2 * (9 + 2 * (math.sqrt(2) - 1))
+    assert Landmarks(Grid(risk), 4).bound((2, 0), (6, 0)) == pytest.approx(shortest, abs=1e-4)

@@ -314,8 +314,13 @@ class CaseGraph:
             self.refresh()
             return
         touched: set[int] = set()
+        h, w = self.owner.shape
         for x, y in np.asarray(cells, dtype=np.int64).reshape(-1, 2).tolist():
-            touched.update(self.edges_at((x, y)))
+            # a diagonal step passing beside a cell has its ends on the cell's orthogonal
+            # neighbours: the corner rule makes the cell's change theirs too
+            for cx, cy in ((x, y), (x + 1, y), (x - 1, y), (x, y + 1), (x, y - 1)):
+                if 0 <= cx < w and 0 <= cy < h:
+                    touched.update(self.edges_at((cx, cy)))
         if touched:
             self.refresh(sorted(touched))
 

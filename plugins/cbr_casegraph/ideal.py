@@ -1,0 +1,56 @@
+"""Lower bounds of a path's length between two cells: the ideal length of the quality test.
+
+The test of step 7 compares a path's length with the ideal length between its ends. A
+straight-line distance (octile by default) is a lower bound everywhere, but a weak one where
+walls force detours: between two rooms of an office the best path is often three times the
+octile distance, so a test against it rejects good paths and bad ones alike.
+
+``landmarks`` is the tighter bound of the ALT technique (Goldberg & Harrelson, 2005): the exact
+path lengths from a few landmark cells to every cell are computed once, and by the triangle
+inequality |d(L, s) - d(L, g)| never exceeds d(s, g) for any landmark L. The landmarks are
+picked farthest first (each the reachable cell farthest from those chosen), which spreads them
+to the map's extremes, where the bound is tightest. The tables are built on the first map seen;
+they stay lower bounds when cells later become obstacles, since blocking cells only lengthens
+paths.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cbr_grid.distances import octile
+from cbr_grid.grid import Grid
+from cbr_grid.query import Cell
+
+
+class Landmarks:
+    """Landmark distance tables of a grid, and the lower bound they give."""
+
+    def __init__(self, grid: Grid, count: int) -> None:
+        from cbr_solvers.aistar import cost_map  # compiled: loaded when a bound is first needed
+
+        ones = np.ones(grid.passable.shape)
+        reachable = np.argwhere(grid.passable)
+        tables: list[np.ndarray] = []
+        if len(reachable):
+            # the first landmark: the cell farthest from an arbitrary passable cell
+            y, x = reachable[0]
+            nearest = cost_map(ones, grid.passable, grid.corner_cutting, [(x, y)])
+            for _ in range(count):
+                far = np.where(np.isfinite(nearest), nearest, -1.0)
+                y, x = np.unravel_index(int(np.argmax(far)), far.shape)
+                table = cost_map(ones, grid.passable, grid.corner_cutting, [(int(x), int(y))])
+                tables.append(table.astype(np.float32))
+                nearest = table if len(tables) == 1 else np.minimum(nearest, table)
+        self.tables = (np.stack(tables) if tables
+                       else np.zeros((0, *grid.passable.shape), dtype=np.float32))
+
+    def bound(self, start: Cell, goal: Cell) -> float:
+        """A lower bound of the length of any path from ``start`` to ``goal``."""
+        a = self.tables[:, start[1], start[0]].astype(np.float64)
+        b = self.tables[:, goal[1], goal[0]].astype(np.float64)
+        both = np.isfinite(a) & np.isfinite(b)
+        # the tables hold float32: take off their rounding, so the bound stays below the truth
+        slack = np.abs(a - b) - (a + b) * 1e-7
+        best = float(slack[both].max(initial=0.0))
+        return max(best, float(np.ravel(octile(start, goal))[0]))
