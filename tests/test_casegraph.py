@@ -762,3 +762,19 @@ def test_the_landmark_bound_sees_a_wall_that_the_octile_distance_does_not() -> N
     risk[:9, 4] = 1.0
     shortest = 2 * (9 + 2 * (math.sqrt(2) - 1))
     assert Landmarks(Grid(risk), 4).bound((2, 0), (6, 0)) == pytest.approx(shortest, abs=1e-4)
+
+
+def test_the_genetic_algorithm_can_make_the_temporary_edges() -> None:
+    from cbr_solvers import load_search
+
+    risk = np.zeros((40, 40))
+    risk[10:30, 20] = 1.0
+    grid = Grid(risk)
+    graph = CaseGraph(grid)
+    graph.add_path(dijkstra(grid.factor, grid.passable, False, (2, 20), [(37, 20)]).path)
+    result = plan(graph, (4, 24), (35, 16), Settings(delta=6, connector="genetic"),
+                  load_search("genetic"))
+    assert isinstance(result, Plan)
+    assert grid.path_problems(result.path) == []
+    assert tuple(result.path[0]) == (4, 24) and tuple(result.path[-1]) == (35, 16)
+    assert result.cost == pytest.approx(path_cost(grid, result.path))
