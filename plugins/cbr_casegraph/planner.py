@@ -4,17 +4,19 @@ For a start s and goal g on the current map:
 
 0. When g lies in N(s, delta), the case graph is not used (step 1 of the survey's algorithm).
 1-2. s and g join the graph as vertices; one lying inside a stored edge splits it (virtually).
-3-4. Otherwise each connects by a temporary edge to the nearest cell, within N(., delta), of
-     every case meeting its neighbourhood (E_s, E_g of eq. 11), found by a local search in the
-     window N(., delta + margin); a cell inside a stored edge splits it virtually.
-5.   No case near s or g, or no local path to one: CBR fails.
+3-4. Each connects by temporary edges to the nearest cells, within N(., delta), of every case
+     meeting its neighbourhood (E_s, E_g of eq. 11), found by a local search in the window
+     N(., delta + margin); a cell inside a stored edge splits it virtually. The paper does this
+     only for a terminal off the graph; here a terminal on a segment is linked too, since that
+     segment may lead nowhere.
+5.   No case near s or g, or (for a terminal off the graph) no local path to one: CBR fails.
 6.   The best path in the extended graph G' by Dijkstra or A*.
 8.   No path in G': CBR fails.
 9.   G' exists only for the query: the stored graph is never modified by planning.
 
-The quality test of step 7 is the reviser's (``cbr_casegraph.revise``). The virtual split keeps
-the stored edge in the search as well: its parts cost exactly what it costs, since a step's
-cost depends only on its two cells.
+The quality test of step 7 is the reviser's (``cbr_casegraph.components.PathQuality``). The
+virtual split keeps the stored edge in the search as well: its parts cost exactly what it
+costs, since a step's cost depends only on its two cells.
 """
 
 from __future__ import annotations
@@ -28,8 +30,9 @@ import numpy as np
 
 from cbr_casegraph.geometry import segments_cells, without_loops
 from cbr_casegraph.graph import CaseGraph
-from cbr_casegraph.search import descend, graph_search, path_cost, run_costs, sweep
+from cbr_casegraph.search import descend, graph_search, path_cost, run_costs
 from cbr_grid.grid import Grid
+from cbr_solvers.aistar import cost_map
 
 Cell = tuple[int, int]
 Connector = Literal["dijkstra", "astar", "genetic"]
@@ -87,7 +90,8 @@ class _Overlay:
     base: int
     cells: list[Cell] = attrs.field(factory=list)
     index: dict[Cell, int] = attrs.field(factory=dict)
-    # temporary edges: (u, v, cost, cells from u to v, stored edge it lies on or -1)
+    # temporary edges: (u, v, cost, the cells from u to v on demand (None for the part of a
+    # split stored edge: a straight run), the stored edge it is a part of or -1)
     edges: list[tuple[int, int, float, Trace | None, int]] = attrs.field(factory=list)
     # stored edge -> cells inside it that became virtual vertices
     splits: dict[int, set[Cell]] = attrs.field(factory=dict)
@@ -200,12 +204,11 @@ def _connect(graph: CaseGraph, cell: Cell, cases: np.ndarray, settings: Settings
     links: list[tuple[Cell, Trace, float]] = []
     if settings.connector == "dijkstra":
         width = x1 - x0 + 1
-        targets = (cells[near, 1] - y0) * width + (cells[near, 0] - x0)
-        flat = sweep(grid.factor, grid.passable, grid.corner_cutting, cell[0], cell[1],
-                     x0, y0, x1, y1, targets)
-        costs = flat.reshape(y1 - y0 + 1, width)
+        # one sweep from the cell, stopped once every case cell in N(cell, delta) is settled
+        costs = cost_map(grid.factor, grid.passable, grid.corner_cutting, [cell], box,
+                         wanted=cells[near])
         reach = np.full(len(cells), np.inf)
-        reach[near] = flat[targets]
+        reach[near] = costs[cells[near, 1] - y0, cells[near, 0] - x0]
         # the cheapest cells of each case; ties all get an edge, since which of them the best
         # path should use depends on where it goes next
         best = np.minimum.reduceat(reach, offsets[:-1])

@@ -146,63 +146,6 @@ def descend(cost: np.ndarray, factor: np.ndarray, passable: np.ndarray, corner_c
 
 
 @numba.njit(cache=True)
-def sweep(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: int, sy: int,
-          x0: int, y0: int, x1: int, y1: int, targets: np.ndarray) -> np.ndarray:
-    """Dijkstra from (sx, sy) over the window [x0, x1] x [y0, y1], stopped once every cell of
-    ``targets`` (row-major window indices) is settled or cannot be reached.
-
-    Returns the cost from the source per window cell, row-major; inf where not settled.
-    """
-    ww = x1 - x0 + 1
-    n = ww * (y1 - y0 + 1)
-    dist = np.full(n, np.inf)
-    closed = np.zeros(n, dtype=np.bool_)
-    wanted = np.zeros(n, dtype=np.bool_)
-    left = 0
-    for k in range(targets.shape[0]):
-        if not wanted[targets[k]]:
-            wanted[targets[k]] = True
-            left += 1
-    keys = np.empty(256, dtype=np.float64)
-    items = np.empty(256, dtype=np.int64)
-    start = (sy - y0) * ww + (sx - x0)
-    dist[start] = 0.0
-    _push(keys, items, 0, 0.0, start)
-    size = 1
-    while size > 0 and left > 0:
-        cell = _pop(keys, items, size)
-        size -= 1
-        if closed[cell]:
-            continue
-        closed[cell] = True
-        if wanted[cell]:
-            left -= 1
-        cx = x0 + cell % ww
-        cy = y0 + cell // ww
-        here = dist[cell]
-        for d in range(8):
-            if not _move(passable, corner_cutting, cx, cy, d, x0, y0, x1, y1):
-                continue
-            nx, ny = cx + _DX[d], cy + _DY[d]
-            other = (ny - y0) * ww + (nx - x0)
-            if closed[other]:
-                continue
-            g = here + (SQRT2 if d >= 4 else 1.0) * (factor[cy, cx] + factor[ny, nx]) * 0.5
-            if g >= dist[other]:
-                continue
-            dist[other] = g
-            if size == keys.shape[0]:
-                keys = np.concatenate((keys, np.empty_like(keys)))
-                items = np.concatenate((items, np.empty_like(items)))
-            _push(keys, items, size, g, other)
-            size += 1
-    for cell in range(n):
-        if not closed[cell]:
-            dist[cell] = np.inf
-    return dist
-
-
-@numba.njit(cache=True)
 def run_costs(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
               starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
     """The cost of each straight run starts[k] -> ends[k]; inf when a step is not allowed."""

@@ -51,21 +51,34 @@ RISK_FREE_ERROR_BOUND = 1.0 - DIAGONAL_STEPS / (ORTHOGONAL_STEPS * math.sqrt(2.0
 
 _INITIAL_HEAP = 1024
 
+_ALL = np.zeros(0, dtype=np.int64)
+"""No wanted cells: propagate over the whole window."""
+
 
 @numba.njit(cache=True)
 def _propagate(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
-               goals: np.ndarray, x0: int, y0: int, x1: int, y1: int, exact: bool) -> np.ndarray:
+               goals: np.ndarray, x0: int, y0: int, x1: int, y1: int, exact: bool,
+               wanted: np.ndarray) -> np.ndarray:
     """Distances from the goals to every cell of the window [x0, x1] x [y0, y1], row-major.
 
     ``exact`` selects the step costs of the cost contract; otherwise a step adds the integer
     ``ORTHOGONAL_STEPS`` or ``DIAGONAL_STEPS``. Goals off the window or blocked are ignored; cells
     that no goal reaches inside the window stay infinite. Step costs are symmetric, so the
-    distance from the goals is the cost to reach them.
+    distance from the goals is the cost to reach them. A non-empty ``wanted`` (row-major window
+    indices) stops the wavefront once all of them are settled; the cells not settled by then
+    are left infinite.
     """
     ww = x1 - x0 + 1
     n = ww * (y1 - y0 + 1)
     dist = np.full(n, np.inf)
     closed = np.zeros(n, dtype=np.bool_)
+    want = np.zeros(n, dtype=np.bool_)
+    left = 0
+    for k in range(wanted.shape[0]):
+        if not want[wanted[k]]:
+            want[wanted[k]] = True
+            left += 1
+    stop_early = left > 0
     keys = np.empty(_INITIAL_HEAP, dtype=np.float64)
     items = np.empty(_INITIAL_HEAP, dtype=np.int64)
     size = 0
@@ -90,6 +103,10 @@ def _propagate(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
         if closed[cell]:
             continue  # a stale entry of a cell reached again more cheaply
         closed[cell] = True
+        if want[cell]:
+            left -= 1
+            if left == 0:
+                break
         cx = x0 + cell % ww
         cy = y0 + cell // ww
         here = dist[cell]
@@ -114,6 +131,10 @@ def _propagate(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
                 items = np.concatenate((items, np.empty_like(items)))
             _push(keys, items, size, g, other)
             size += 1
+    if stop_early:
+        for cell in range(n):
+            if not closed[cell]:
+                dist[cell] = np.inf
     return dist
 
 
@@ -145,7 +166,7 @@ def _heuristic_table(factor: np.ndarray, passable: np.ndarray, corner_cutting: b
             raise ValueError("factor must be finite and positive on passable cells")
     if fmin == np.inf:
         fmin = 1.0
-    steps = _propagate(factor, passable, corner_cutting, goals, x0, y0, x1, y1, False)
+    steps = _propagate(factor, passable, corner_cutting, goals, x0, y0, x1, y1, False, _ALL)
     return steps * (fmin / ORTHOGONAL_STEPS)
 
 
@@ -159,7 +180,7 @@ def distance_map(passable: np.ndarray, corner_cutting: bool, goals: object,
     passable = np.ascontiguousarray(passable, dtype=np.bool_)
     x0, y0, x1, y1 = _window(passable, window)
     dist = _propagate(np.ones(passable.shape), passable, bool(corner_cutting),
-                      _goal_array(goals), x0, y0, x1, y1, False)
+                      _goal_array(goals), x0, y0, x1, y1, False, _ALL)
     steps = np.where(np.isinf(dist), -1, dist).astype(np.int64)
     return steps.reshape(y1 - y0 + 1, x1 - x0 + 1)
 
@@ -175,13 +196,22 @@ def heuristic_map(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool
 
 
 def cost_map(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, goals: object,
-             window: Sequence[int] | None = None) -> np.ndarray:
-    """The exact cheapest cost from each cell of the window to the goals (Dijkstra from them)."""
+             window: Sequence[int] | None = None, wanted: object = None) -> np.ndarray:
+    """The exact cheapest cost from each cell of the window to the goals (Dijkstra from them).
+
+    With ``wanted`` cells ((k, 2) of (x, y), inside the window) the wavefront stops once they
+    are all settled: their costs and those of every cell cheaper than the dearest of them are
+    exact, the rest is left infinite.
+    """
     factor = np.ascontiguousarray(factor, dtype=np.float64)
     passable = np.ascontiguousarray(passable, dtype=np.bool_)
     x0, y0, x1, y1 = _window(passable, window)
+    cells = _ALL
+    if wanted is not None:
+        xy = _goal_array(wanted)
+        cells = np.ascontiguousarray((xy[:, 1] - y0) * (x1 - x0 + 1) + (xy[:, 0] - x0))
     dist = _propagate(factor, passable, bool(corner_cutting), _goal_array(goals),
-                      x0, y0, x1, y1, True)
+                      x0, y0, x1, y1, True, cells)
     return dist.reshape(y1 - y0 + 1, x1 - x0 + 1)
 
 

@@ -51,7 +51,7 @@ from collections.abc import Iterable, Sequence
 import numba
 import numpy as np
 
-from cbr_solvers.search import _DX, _DY, SQRT2, SearchResult, _move
+from cbr_solvers.search import _DX, _DY, SQRT2, SearchResult, _move, checked_arguments
 
 DEFAULT_GENERATIONS = 50_000
 DEFAULT_POPULATION = 50
@@ -297,24 +297,8 @@ def genetic(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
     if distance not in DISTANCES:
         raise ValueError(f"distance must be one of {', '.join(DISTANCES)}, got {distance!r}")
-    factor = np.ascontiguousarray(factor, dtype=np.float64)
-    passable = np.ascontiguousarray(passable, dtype=np.bool_)
-    if factor.ndim != 2 or factor.shape != passable.shape:
-        raise ValueError(f"factor {factor.shape} and passable {passable.shape} must be one (h, w)"
-                         " shape")
-    h, w = passable.shape
-    sx, sy = (int(v) for v in start)
-    if not (0 <= sx < w and 0 <= sy < h):
-        raise ValueError(f"start {(sx, sy)} is outside the {w}x{h} grid")
-    targets = np.asarray(goals, dtype=np.int64).reshape(-1, 2)
-    outside = ~((targets >= 0) & (targets < (w, h))).all(axis=1)
-    if outside.any():
-        raise ValueError(f"goal {tuple(targets[outside][0])} is outside the {w}x{h} grid")
-    if window is None:
-        x0, y0, x1, y1 = 0, 0, w - 1, h - 1
-    else:
-        wx0, wy0, wx1, wy1 = (int(v) for v in window)
-        x0, y0, x1, y1 = max(wx0, 0), max(wy0, 0), min(wx1, w - 1), min(wy1, h - 1)
+    factor, passable, (sx, sy), targets, (x0, y0, x1, y1) = checked_arguments(
+        factor, passable, start, goals, window)
     seeds = _encode(seed_paths, (sx, sy), 2 * max(x1 - x0 + 1, y1 - y0 + 1), population)
     if not (x0 <= sx <= x1 and y0 <= sy <= y1) or not passable[sy, sx]:
         return None

@@ -340,13 +340,13 @@ HeuristicTable = Callable[[np.ndarray, np.ndarray, bool, np.ndarray, tuple[int, 
 _NO_TABLE = np.empty(0, dtype=np.float64)
 
 
-def _run(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, start: Sequence[int],
-         goals: object, window: Sequence[int] | None, informed: bool,
-         heuristic: HeuristicTable | None = None) -> SearchResult | None:
-    """Check and convert the arguments of :func:`dijkstra` and :func:`astar`, then search.
-
-    ``heuristic``, given, builds the A* heuristic table from the checked arrays, the goals and
-    the clipped window (see :func:`_search`).
+def checked_arguments(factor: np.ndarray, passable: np.ndarray, start: Sequence[int],
+                      goals: object, window: Sequence[int] | None
+                      ) -> tuple[np.ndarray, np.ndarray, tuple[int, int], np.ndarray,
+                                 tuple[int, int, int, int]]:
+    """The grid searches' arguments checked and converted: contiguous float64 factor and bool
+    passable arrays, the start, the goals as a (k, 2) int64 array and the window clipped to the
+    grid (the whole grid when None). ValueError names what is wrong.
     """
     factor = np.ascontiguousarray(factor, dtype=np.float64)
     passable = np.ascontiguousarray(passable, dtype=np.bool_)
@@ -362,12 +362,26 @@ def _run(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, start: 
     if outside.any():
         raise ValueError(f"goal {tuple(targets[outside][0])} is outside the {w}x{h} grid")
     if window is None:
-        x0, y0, x1, y1 = 0, 0, w - 1, h - 1
+        box = (0, 0, w - 1, h - 1)
     else:
         wx0, wy0, wx1, wy1 = (int(v) for v in window)
-        x0, y0, x1, y1 = max(wx0, 0), max(wy0, 0), min(wx1, w - 1), min(wy1, h - 1)
+        box = (max(wx0, 0), max(wy0, 0), min(wx1, w - 1), min(wy1, h - 1))
+    return factor, passable, (sx, sy), targets, box
+
+
+def _run(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, start: Sequence[int],
+         goals: object, window: Sequence[int] | None, informed: bool,
+         heuristic: HeuristicTable | None = None) -> SearchResult | None:
+    """Check and convert the arguments of :func:`dijkstra` and :func:`astar`, then search.
+
+    ``heuristic``, given, builds the A* heuristic table from the checked arrays, the goals and
+    the clipped window (see :func:`_search`).
+    """
+    factor, passable, (sx, sy), targets, (x0, y0, x1, y1) = checked_arguments(
+        factor, passable, start, goals, window)
     if not (x0 <= sx <= x1 and y0 <= sy <= y1):
         return None
+    h, w = passable.shape
     box = (x0, y0, x1, y1)
     table = _NO_TABLE
     scale = 1.0
