@@ -778,3 +778,17 @@ def test_the_genetic_algorithm_can_make_the_temporary_edges() -> None:
     assert grid.path_problems(result.path) == []
     assert tuple(result.path[0]) == (4, 24) and tuple(result.path[-1]) == (35, 16)
     assert result.cost == pytest.approx(path_cost(grid, result.path))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(-20, 20), st.integers(-20, 20), st.sampled_from(
+    [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)]),
+    st.integers(1, 15), st.integers(-25, 25), st.integers(-25, 25))
+def test_the_retrievers_distance_to_a_segment_is_the_brute_force_minimum(
+        ax: int, ay: int, d: Cell, k: int, cx: int, cy: int) -> None:
+    from cbr_casegraph.components import _segment_distance
+
+    a, b = (ax, ay), (ax + k * d[0], ay + k * d[1])
+    brute = np.abs(segment_cells(a, b) - (cx, cy)).max(axis=1).min()
+    found = _segment_distance(np.array([a]), np.array([b]), np.array([cx, cy]))
+    assert found[0] == brute
