@@ -45,8 +45,6 @@ from cbrcore.model import Case
 SEGMENT = "segment"
 """The case kind of a case graph edge."""
 
-SQRT2 = math.sqrt(2.0)
-
 Cell = tuple[int, int]
 
 
@@ -63,33 +61,21 @@ def segment_costs(grid: Grid, starts: ArrayLike, ends: ArrayLike) -> tuple[np.nd
     """Cost and mean cell risk of straight segments on ``grid``.
 
     The cost is the sum of the step costs of the segment's cells under the grid's cost contract,
-    infinite when a cell is an obstacle or a diagonal step would cut a blocked corner.
+    infinite when a cell is an obstacle or a diagonal step would cut a blocked corner
+    (:func:`cbr_casegraph.search.run_costs`).
     """
-    cells, offsets = segments_cells(np.asarray(starts), np.asarray(ends))
-    count = len(offsets) - 1
-    if count == 0:
+    # compiled: imported here so that loading the plugin does not load numba
+    from cbr_casegraph.search import run_costs
+
+    starts = np.ascontiguousarray(np.asarray(starts, dtype=np.int64).reshape(-1, 2))
+    ends = np.ascontiguousarray(np.asarray(ends, dtype=np.int64).reshape(-1, 2))
+    if len(starts) == 0:
         return np.zeros(0), np.zeros(0)
-    x, y = cells[:, 0], cells[:, 1]
-    factor = grid.factor[y, x]
-    risk = grid.risk[y, x]
-    first = offsets[:-1]
-    # steps: between consecutive cells of one segment (not across segment boundaries)
-    inner = np.ones(len(cells), dtype=bool)
-    inner[first] = False
-    to = np.flatnonzero(inner)
-    fro = to - 1
-    length = np.where((x[to] != x[fro]) & (y[to] != y[fro]), SQRT2, 1.0)
-    step = length * (factor[fro] + factor[to]) / 2
-    allowed = grid.step_allowed(cells[fro], cells[to])
-    owner = np.repeat(np.arange(count), np.diff(offsets))
-    cost = np.zeros(count)
-    np.add.at(cost, owner[to], step)
-    blocked = np.zeros(count, dtype=bool)
-    np.logical_or.at(blocked, owner, ~grid.passable[y, x])
-    np.logical_or.at(blocked, owner[to], ~allowed)
-    cost[blocked] = np.inf
-    mean_risk = np.bincount(owner, weights=risk, minlength=count) / np.diff(offsets)
-    return cost, mean_risk
+    cost = run_costs(grid.factor, grid.passable, grid.corner_cutting, starts, ends)
+    cells, offsets = segments_cells(starts, ends)
+    owner = np.repeat(np.arange(len(starts)), np.diff(offsets))
+    risk = grid.risk[cells[:, 1], cells[:, 0]]
+    return cost, np.bincount(owner, weights=risk, minlength=len(starts)) / np.diff(offsets)
 
 
 @attrs.frozen
@@ -206,15 +192,6 @@ class CaseGraph:
         a, b = self._ea[edges], self._eb[edges]
         return (np.stack([self._vx[a], self._vy[a]], axis=1),
                 np.stack([self._vx[b], self._vy[b]], axis=1))
-
-    def edge(self, edge: int) -> dict[str, object]:
-        """One edge's record: ends, cost, risk, uses, created."""
-        if not (0 <= edge < self._next_id and self._alive[edge]):
-            raise KeyError(edge)
-        a, b = self.ends([edge])
-        return {"a": tuple(a[0].tolist()), "b": tuple(b[0].tolist()),
-                "cost": float(self._cost[edge]), "risk": float(self._risk[edge]),
-                "uses": int(self._uses[edge]), "created": int(self._created[edge])}
 
     def costs(self, edges: ArrayLike) -> np.ndarray:
         return self._cost[np.asarray(edges, dtype=np.int64)]

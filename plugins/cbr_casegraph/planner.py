@@ -231,7 +231,7 @@ def _connect(graph: CaseGraph, cell: Cell, cases: np.ndarray, settings: Settings
         if result is None:
             continue
         target = (int(result.path[-1, 0]), int(result.path[-1, 1]))
-        links.append((target, result.path.__array__, float(result.cost)))
+        links.append((target, lambda path=result.path: path, float(result.cost)))
     return links
 
 
@@ -254,7 +254,8 @@ def _split_edges(graph: CaseGraph, overlay: _Overlay) -> None:
             chains.append((overlay.vertex(graph, p), overlay.vertex(graph, q), edge))
     grid = graph.grid
     costs = run_costs(grid.factor, grid.passable, grid.corner_cutting,
-                      np.asarray(parts_from, dtype=np.int64), np.asarray(parts_to, dtype=np.int64))
+                      np.asarray(parts_from, dtype=np.int64).reshape(-1, 2),
+                      np.asarray(parts_to, dtype=np.int64).reshape(-1, 2))
     for (u, v, edge), cost in zip(chains, costs.tolist(), strict=True):
         overlay.edges.append((u, v, cost, None, edge))
 

@@ -51,7 +51,15 @@ from collections.abc import Iterable, Sequence
 import numba
 import numpy as np
 
-from cbr_solvers.search import _DX, _DY, SQRT2, SearchResult, _move, checked_arguments
+from cbr_solvers.search import (
+    _DX,
+    _DY,
+    SQRT2,
+    SearchResult,
+    _heuristic,
+    _move,
+    checked_arguments,
+)
 
 DEFAULT_GENERATIONS = 50_000
 DEFAULT_POPULATION = 50
@@ -66,12 +74,13 @@ _REVERSE = np.array([1, 0, 3, 2, 7, 6, 5, 4], dtype=np.int64)
 @numba.njit(cache=True)
 def _goal_distance(x: int, y: int, goals: np.ndarray, euclidean: bool) -> float:
     """The distance from (x, y) to the nearest goal; 0 exactly on a goal."""
+    if not euclidean:
+        return _heuristic(x, y, goals, 1.0)
     best = np.inf
     for k in range(goals.shape[0]):
         dx = abs(goals[k, 0] - x)
         dy = abs(goals[k, 1] - y)
-        octile = max(dx, dy) + (SQRT2 - 1.0) * min(dx, dy)
-        best = min(best, math.sqrt(dx * dx + dy * dy) if euclidean else octile)
+        best = min(best, math.sqrt(dx * dx + dy * dy))
     return best
 
 
