@@ -225,6 +225,8 @@ class Engine:
             retrieval = self.hooks.retrieve(problem, self.casebase, self.ctx, timings)
             if retrieval is None or not retrieval.usable:
                 reason = "no usable retrieval"
+                if retrieval is not None and retrieval.reason:
+                    reason = f"{reason}: {retrieval.reason}"
             elif "reuser" not in self._slots:
                 reason = "no reuser configured"
             else:

@@ -60,11 +60,13 @@ class Retrieval:
     ``matches`` is ordered best first. ``payload`` carries retriever-specific working data to the
     reuser of the same plugin family (the neighbourhood sets of a case graph, a landmark mapping),
     so the reuser need not compute it again. A retrieval with no matches is not usable and sends
-    the query to the fallback solver.
+    the query to the fallback solver; its ``reason`` (say, ``"exploring"``, when a retriever
+    chooses to plan anew) is added to the recorded fallback reason.
     """
 
     matches: tuple[Match, ...] = ()
     payload: Any = None
+    reason: str = ""
 
     @property
     def usable(self) -> bool:

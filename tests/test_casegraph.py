@@ -20,12 +20,13 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from cbr_casegraph.geometry import is_straight, segment_cells, without_loops
+from cbr_casegraph.geometry import is_straight, segment_cells
 from cbr_casegraph.graph import SEGMENT, CaseGraph, segment_costs
 from cbr_casegraph.planner import Failure, Plan, Settings, plan
 from cbr_casegraph.state import GraphState
 from cbr_grid.costs import path_cost, step_costs
 from cbr_grid.grid import Grid
+from cbr_grid.query import without_loops
 from cbr_solvers.search import astar, dijkstra
 from cbrcore.casebase.memory import MemoryStore
 from cbrcore.casebase.sqlite import SQLiteStore
@@ -734,9 +735,9 @@ def test_a_cell_turning_obstacle_beside_a_diagonal_edge_makes_it_infinite() -> N
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.integers(0, 2**31 - 1), st.integers(1, 4))
 def test_the_landmark_bound_never_exceeds_the_shortest_length(seed: int, count: int) -> None:
-    from cbr_casegraph.ideal import Landmarks
     from cbr_grid.costs import path_length
     from cbr_grid.generate import generate
+    from cbr_grid.ideal import Landmarks
 
     grid = generate("office", 24, 20, seed)
     bound = Landmarks(grid, count)
@@ -752,7 +753,7 @@ def test_the_landmark_bound_never_exceeds_the_shortest_length(seed: int, count: 
 
 
 def test_the_landmark_bound_sees_a_wall_that_the_octile_distance_does_not() -> None:
-    from cbr_casegraph.ideal import Landmarks
+    from cbr_grid.ideal import Landmarks
 
     # a wall down column 4 with one gap at the bottom, (4, 9): from (2, 0) to (6, 0) the
     # shortest path runs through the gap, twice the octile distance from (2, 0) to (4, 9),

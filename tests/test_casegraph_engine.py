@@ -26,6 +26,7 @@ from cbr_casegraph import components
 from cbr_casegraph.graph import SEGMENT, CaseGraph
 from cbr_casegraph.state import state_of
 from cbr_grid.grid import Grid
+from cbr_grid.quality import QualityTest
 from cbrcore.casebase.sqlite import SQLiteStore
 from cbrcore.engine import Engine
 from cbrcore.run import run_workload
@@ -101,7 +102,7 @@ def counting(calls: Counter[str], name: str, method: Callable[..., Any]) -> Call
 HOOKS = [
     (components.CaseGraphRetriever, "cbr_retrieve"),
     (components.CaseGraphReuser, "cbr_reuse"),
-    (components.PathQuality, "cbr_revise"),
+    (QualityTest, "cbr_revise"),
     (components.CaseGraphRetainer, "cbr_retain"),
     (components.RedundantVertices, "cbr_forget"),
     (components.RiskySegments, "cbr_forget"),
@@ -148,7 +149,7 @@ def test_every_hook_of_the_family_is_called_by_the_engine(
     for name in ("RedundantVertices", "RiskySegments", "VertexLimit", "CaseGraphRetainer"):
         assert calls[name] == queries, name
     # reuse and revision only when retrieval (then reuse) gave something
-    assert 0 < calls["PathQuality"] <= calls["CaseGraphReuser"] < queries
+    assert 0 < calls["QualityTest"] <= calls["CaseGraphReuser"] < queries
     assert summary["from_casebase"] > 0
     assert sum(merged) > 0 and sum(removed) > 0
     with SQLiteStore(tmp_path / "casebase.sqlite", create=False) as store:

@@ -3,10 +3,10 @@
 A traversed path is cut at its turns and at its crossings with stored paths into straight
 segments, the cases, which form one graph (:mod:`cbr_casegraph.graph`). Retrieval takes the
 segments near start and goal, reuse joins start and goal to them by local searches and finds the
-best path through the graph (:mod:`cbr_casegraph.planner`), revision checks its length against
-the ideal, retention adds the new segments and forgetting keeps the graph small
-(:mod:`cbr_casegraph.components`). The reproductions of the papers' experiments are in
-:mod:`cbr_casegraph.experiments`.
+best path through the graph (:mod:`cbr_casegraph.planner`), retention adds the new segments and
+forgetting keeps the graph small (:mod:`cbr_casegraph.components`). Revision is the grid
+family's ``path_quality`` (:mod:`cbr_grid.quality`), shared with the other grid CBR families.
+The reproductions of the papers' experiments are in :mod:`cbr_casegraph.experiments`.
 """
 
 from __future__ import annotations
@@ -18,8 +18,6 @@ from cbr_casegraph.components import (
     CaseGraphRetriever,
     CaseGraphReuser,
     LimitOptions,
-    PathQuality,
-    QualityOptions,
     RedundantVertices,
     RetainOptions,
     RetrieveOptions,
@@ -58,7 +56,6 @@ def _experiment(cls: str) -> Callable[[object, Context], object]:
 def cbr_register(registry: Registry) -> None:
     registry.add("retriever", "casegraph", CaseGraphRetriever, options=RetrieveOptions)
     registry.add("reuser", "casegraph", CaseGraphReuser, options=ReuseOptions)
-    registry.add("reviser", "path_quality", PathQuality, options=QualityOptions)
     registry.add("retainer", "casegraph", CaseGraphRetainer, options=RetainOptions)
     registry.add("forgetter", "redundant_vertices", RedundantVertices)
     registry.add("forgetter", "risky_segments", RiskySegments, options=RiskyOptions)

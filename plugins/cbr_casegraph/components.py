@@ -1,4 +1,4 @@
-"""The case graph's components: retrieve, reuse, revise, retain and three forgetting strategies.
+"""The case graph's components: retrieve, reuse, retain and three forgetting strategies.
 
 Every component works on the run's one graph (:mod:`cbr_casegraph.state`); each phase hook is
 called once per query and hands the work to the vectorised or compiled code of
@@ -15,16 +15,12 @@ import attrs
 import numpy as np
 
 from cbr_casegraph.graph import SEGMENT
-from cbr_casegraph.ideal import Landmarks
 from cbr_casegraph.state import state_of
-from cbr_grid.costs import path_length
-from cbr_grid.distances import distance
-from cbr_grid.grid import Grid
-from cbr_grid.query import Cell, GridQuery
+from cbr_grid.query import GridQuery
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
-from cbrcore.model import Case, Match, Outcome, Retrieval, Revision, Solution
+from cbrcore.model import Case, Match, Outcome, Retrieval, Solution
 from cbrcore.options import option
 
 _POSITIVE = attrs.validators.ge(1)
@@ -135,53 +131,6 @@ class CaseGraphReuser:
             return None
         return Solution(result.path.tolist(), cost=result.cost, cases=result.edges,
                         detail=result.detail)
-
-
-@attrs.frozen
-class QualityOptions:
-    max_ratio: float = option(
-        1.5, "Largest accepted ratio of the path's length to the ideal length (step 7).",
-        validator=attrs.validators.ge(1.0))
-    ideal: Literal["euclidean", "manhattan", "octile", "chebyshev", "landmarks"] = option(
-        "octile", "The ideal length between start and goal, a lower bound of any path's "
-        "length: a straight-line distance (octile and Chebyshev are exact bounds on an "
-        "8-connected grid, Euclidean too; Manhattan is not a lower bound), or 'landmarks', the "
-        "much tighter bound from exact distances to a few landmark cells (for maps of rooms "
-        "and walls; see cbr_casegraph.ideal).")
-    landmarks: int = option(8, "How many landmarks the 'landmarks' bound uses.",
-                            validator=attrs.validators.ge(1))
-
-
-class PathQuality:
-    """Step 7: accept a valid path whose length is within max_ratio of the ideal length."""
-
-    def __init__(self, options: QualityOptions, ctx: Context) -> None:
-        self.options = options
-        self.landmarks: Landmarks | None = None
-        if options.ideal != "landmarks":
-            self.distance = distance(options.ideal)
-
-    def _ideal(self, grid: Grid, start: Cell, goal: Cell) -> float:
-        if self.options.ideal == "landmarks":
-            if self.landmarks is None:
-                self.landmarks = Landmarks(grid, self.options.landmarks)
-            return self.landmarks.bound(start, goal)
-        return float(np.ravel(self.distance(start, goal))[0])
-
-    @hookimpl
-    def cbr_revise(self, problem: GridQuery, solution: Solution, ctx: Context) -> Revision:
-        grid: Grid = ctx.world
-        # one reason per cause, so that the run's fallback counts group them
-        if grid.path_problems(solution.value):
-            return Revision(False, "invalid on the current map")
-        path = np.asarray(solution.value)
-        if tuple(path[0]) != tuple(problem.start) or tuple(path[-1]) != tuple(problem.goal):
-            return Revision(False, "does not connect start and goal")
-        ideal = self._ideal(grid, tuple(problem.start), tuple(problem.goal))
-        ratio = path_length(path) / ideal if ideal > 0 else 1.0
-        if ratio > self.options.max_ratio:
-            return Revision(False, f"length ratio above {self.options.max_ratio}")
-        return Revision(True)
 
 
 @attrs.frozen

@@ -11,8 +11,6 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from cbr_grid.query import path_array
-
 
 def direction(a: ArrayLike, b: ArrayLike) -> np.ndarray:
     """The unit step (dx, dy) from a towards b."""
@@ -47,28 +45,3 @@ def segments_cells(starts: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np
     position = np.arange(offsets[-1]) - offsets[owner]
     cells = starts[owner] + position[:, None] * np.sign(ends - starts)[owner]
     return cells, offsets
-
-
-def without_loops(path: ArrayLike) -> np.ndarray:
-    """The path with every loop cut out: each cell visited once, in order.
-
-    When a cell comes back, everything driven since its first visit is dropped, so the result
-    is still a connected path of the same steps and never costs more.
-    """
-    cells = path_array(path)
-    flat = cells[:, 0] * (int(cells[:, 1].max(initial=0)) + 1) + cells[:, 1]
-    if len(np.unique(flat)) == len(flat):  # the common case, found without a Python loop
-        return cells
-    seen: dict[tuple[int, int], int] = {}
-    kept: list[tuple[int, int]] = []
-    for x, y in cells.tolist():
-        cell = (x, y)
-        if cell in seen:
-            cut = seen[cell] + 1
-            for dropped in kept[cut:]:
-                del seen[dropped]
-            del kept[cut:]
-        else:
-            seen[cell] = len(kept)
-            kept.append(cell)
-    return np.array(kept, dtype=np.int64).reshape(-1, 2)

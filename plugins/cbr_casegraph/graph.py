@@ -34,10 +34,10 @@ from cbr_casegraph.geometry import (
     is_straight,
     segment_cells,
     segments_cells,
-    without_loops,
 )
 from cbr_grid.distances import distance as distance_function
 from cbr_grid.grid import Grid
+from cbr_grid.query import without_loops
 from cbrcore.casebase.store import CaseStore
 from cbrcore.errors import CbrError
 from cbrcore.model import Case

@@ -14,7 +14,7 @@ For a start s and goal g on the current map:
 8.   No path in G': CBR fails.
 9.   G' exists only for the query: the stored graph is never modified by planning.
 
-The quality test of step 7 is the reviser's (``cbr_casegraph.components.PathQuality``). The
+The quality test of step 7 is the reviser's (``cbr_grid.quality.QualityTest``). The
 virtual split keeps the stored edge in the search as well: its parts cost exactly what it
 costs, since a step's cost depends only on its two cells.
 """
@@ -28,10 +28,11 @@ from typing import Any, Literal
 import attrs
 import numpy as np
 
-from cbr_casegraph.geometry import segments_cells, without_loops
+from cbr_casegraph.geometry import segments_cells
 from cbr_casegraph.graph import CaseGraph
 from cbr_casegraph.search import descend, graph_search, path_cost, run_costs
 from cbr_grid.grid import Grid
+from cbr_grid.query import without_loops
 from cbr_solvers.aistar import cost_map
 
 Cell = tuple[int, int]

@@ -1,4 +1,5 @@
-"""The grid world family: grids with per-cell risk, distances, path costs, Moving AI maps."""
+"""The grid world family: grids with per-cell risk, distances, path costs, Moving AI maps, the
+simulated robot of the ``trips`` workload and the ``path_quality`` test of a proposed path."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from cbr_grid.formats import load_grid
 from cbr_grid.generate import generate
 from cbr_grid.grid import Grid
 from cbr_grid.movingai import load_map
+from cbr_grid.quality import QualityOptions, QualityTest
 from cbr_grid.trips import PathQuality, PathQualityOptions, RiskMap, Trips, TripsOptions
 from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
@@ -93,5 +95,6 @@ def cbr_register(registry: Registry) -> None:
     registry.add("world", "map_file", map_file_world, options=MapFileOptions)
     registry.add("world", "generated", generated_world, options=GeneratedOptions)
     registry.add("workload", "trips", Trips, options=TripsOptions)
+    registry.add("reviser", "path_quality", QualityTest, options=QualityOptions)
     registry.add("retainer", "risk_map", RiskMap)
     registry.add("metric", "path_quality", PathQuality, options=PathQualityOptions)

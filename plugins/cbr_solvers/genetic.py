@@ -51,6 +51,7 @@ from collections.abc import Iterable, Sequence
 import numba
 import numpy as np
 
+from cbr_grid.query import without_loops
 from cbr_solvers.search import (
     _DX,
     _DY,
@@ -251,22 +252,6 @@ def _encode(paths: Iterable[object], start: tuple[int, int], length: int,
     return seeds
 
 
-def _without_loops(path: np.ndarray) -> np.ndarray:
-    """``path`` with the stretch between two visits of a cell dropped, repeatedly."""
-    kept: list[tuple[int, int]] = []
-    where: dict[tuple[int, int], int] = {}
-    for x, y in path.tolist():
-        cell = (x, y)
-        if cell in where:
-            for dropped in kept[where[cell] + 1:]:
-                del where[dropped]
-            del kept[where[cell] + 1:]
-        else:
-            where[cell] = len(kept)
-            kept.append(cell)
-    return np.array(kept, dtype=np.int64).reshape(-1, 2)
-
-
 def _cost(factor: np.ndarray, path: np.ndarray) -> float:
     """The cost of ``path`` under the step cost contract."""
     a, b = path[:-1], path[1:]
@@ -332,5 +317,5 @@ def genetic(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
                             y0, x1, y1, distance == "euclidean", cells)
     if left != 0.0:
         return None
-    path = _without_loops(cells[:n])
+    path = without_loops(cells[:n])
     return SearchResult(path, _cost(factor, path), int(expanded))

@@ -1,9 +1,9 @@
 """Lower bounds of a path's length between two cells: the ideal length of the quality test.
 
-The test of step 7 compares a path's length with the ideal length between its ends. A
-straight-line distance (octile by default) is a lower bound everywhere, but a weak one where
-walls force detours: between two rooms of an office the best path is often three times the
-octile distance, so a test against it rejects good paths and bad ones alike.
+The quality test (:mod:`cbr_grid.quality`) compares a path's length with the ideal length
+between its ends. A straight-line distance (octile by default) is a lower bound everywhere, but
+a weak one where walls force detours: between two rooms of an office the best path is often
+three times the octile distance, so a test against it rejects good paths and bad ones alike.
 
 ``landmarks`` is the tighter bound of the ALT technique (Goldberg & Harrelson, 2005): the exact
 path lengths from a few landmark cells to every cell are computed once, and by the triangle

@@ -1,0 +1,74 @@
+"""The quality test of a proposed grid path: the ``path_quality`` reviser.
+
+Shared by every grid CBR family (the case graph, whole-path cases): a reused path is accepted
+when it is valid on the robot's current map, joins start and goal, and is not much longer than
+the ideal length between them (step 7 of the case graph planner; Kruusmaa's "if the proposed
+path is not good enough" test). The ideal length is a lower bound of any path's length: a
+straight-line distance, or the landmark bound of :mod:`cbr_grid.ideal`.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import attrs
+import numpy as np
+
+from cbr_grid.costs import path_length
+from cbr_grid.distances import distance
+from cbr_grid.grid import Grid
+from cbr_grid.ideal import Landmarks
+from cbr_grid.query import Cell, GridQuery
+from cbrcore.context import Context
+from cbrcore.hookspecs import hookimpl
+from cbrcore.model import Revision, Solution
+from cbrcore.options import option
+
+
+@attrs.frozen
+class QualityOptions:
+    max_ratio: float = option(
+        1.5, "Largest accepted ratio of the path's length to the ideal length (step 7).",
+        validator=attrs.validators.ge(1.0))
+    ideal: Literal["euclidean", "manhattan", "octile", "chebyshev", "landmarks"] = option(
+        "octile", "The ideal length between start and goal, a lower bound of any path's "
+        "length: a straight-line distance (octile and Chebyshev are exact bounds on an "
+        "8-connected grid, Euclidean too; Manhattan is not a lower bound), or 'landmarks', the "
+        "much tighter bound from exact distances to a few landmark cells (for maps of rooms "
+        "and walls; see cbr_grid.ideal).")
+    landmarks: int = option(8, "How many landmarks the 'landmarks' bound uses.",
+                            validator=attrs.validators.ge(1))
+
+
+class QualityTest:
+    """Step 7: accept a valid path whose length is within max_ratio of the ideal length."""
+
+    def __init__(self, options: QualityOptions, ctx: Context) -> None:
+        self.options = options
+        self.landmarks: Landmarks | None = None
+        if options.ideal != "landmarks":
+            self.distance = distance(options.ideal)
+
+    def _ideal(self, grid: Grid, start: Cell, goal: Cell) -> float:
+        if self.options.ideal == "landmarks":
+            if self.landmarks is None:
+                self.landmarks = Landmarks(grid, self.options.landmarks)
+            return self.landmarks.bound(start, goal)
+        return float(np.ravel(self.distance(start, goal))[0])
+
+    @hookimpl
+    def cbr_revise(self, problem: GridQuery, solution: Solution, ctx: Context) -> Revision:
+        grid: Grid = ctx.world
+        # one reason per cause, so that the run's fallback counts group them
+        if grid.path_problems(solution.value):
+            return Revision(False, "invalid on the current map")
+        path = np.asarray(solution.value)
+        if tuple(path[0]) != tuple(problem.start) or tuple(path[-1]) != tuple(problem.goal):
+            return Revision(False, "does not connect start and goal")
+        ideal = self._ideal(grid, tuple(problem.start), tuple(problem.goal))
+        ratio = path_length(path) / ideal if ideal > 0 else 1.0
+        if ratio > self.options.max_ratio:
+            return Revision(False, f"length ratio above {self.options.max_ratio}")
+        return Revision(True)
+
+
