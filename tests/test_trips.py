@@ -8,6 +8,7 @@ of row 2 with risk below 0.83 stays on the planned path.
 from __future__ import annotations
 
 import csv
+import itertools
 import math
 from collections.abc import Callable
 from pathlib import Path
@@ -15,12 +16,14 @@ from typing import Any
 
 import numpy as np
 import pytest
+import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from cbr_grid.generate import generate
 from cbr_grid.grid import Grid
 from cbr_grid.query import GridQuery
-from cbr_grid.trips import LEARNED_RISK, Trips, TripsOptions
+from cbr_grid.trips import LEARNED_RISK, Site, Trips, TripsOptions
 from cbr_solvers import AStar
 from cbrcore.context import Context
 from cbrcore.engine import Engine
@@ -58,7 +61,8 @@ def drive(engine: Engine) -> list[tuple[GridQuery, Grid, Proposal, Outcome]]:
 def true_grid(workload: Trips, outcome: Outcome) -> Grid:
     """The true world of one trip: the configured map with its unknown obstacles blocked."""
     risk = workload.configured.risk.copy()
-    for x, y in [*workload.static_unknowns.tolist(), *outcome.detail["present"]]:
+    sites = [cell for i in outcome.detail["sites_present"] for cell in workload.sites[i].tolist()]
+    for x, y in [*workload.static_unknowns.tolist(), *outcome.detail["present"], *sites]:
         risk[y, x] = 1.0
     return Grid(risk, corner_cutting=workload.configured.corner_cutting)
 
@@ -308,3 +312,153 @@ def test_a_driven_path_is_valid_on_the_true_world(case: tuple[Grid, int, int, in
         assert driven[0] == list(problem.start)
         assert outcome.success == (driven[-1] == list(problem.goal))
         assert outcome.success or outcome.detail["failure"]
+
+
+def test_a_seed_gives_the_same_world_and_trips_as_before_sites_and_places() -> None:
+    # recorded with the workload as it was before places, sites and collision_time were added
+    ctx = Context(registry=Registry(), seed=11, world=generate("office", 28, 20, 11))
+    workload = Trips(TripsOptions(count=3, unknown_static=3, unknown_dynamic=4), ctx)
+    solver = AStar(NoOptions(), ctx)
+
+    trips = [(problem, workload.execute(problem, Proposal(solver.cbr_solve(problem, ctx), "a*"),
+                                        ctx)) for problem in workload.queries(ctx)]
+
+    assert workload.static_unknowns.tolist() == [[26, 11], [11, 18], [13, 18]]
+    assert workload.dynamic_sites.tolist() == [[21, 11], [7, 14], [14, 14], [23, 0]]
+    assert [(p.start, p.goal) for p, _ in trips] == [((22, 0), (26, 8)), ((22, 12), (23, 7)),
+                                                      ((14, 16), (2, 0))]
+    assert [o.detail["present"] for _, o in trips] == [
+        [[21, 11], [7, 14], [14, 14], [23, 0]], [[14, 14], [23, 0]], []]
+    assert all(o.detail["sites_present"] == [] for _, o in trips)
+
+
+@pytest.fixture
+def walled(tmp_path: Path) -> Path:
+    """An open 8x6 map but for one obstacle at (1, 1)."""
+    risk = np.zeros((6, 8))
+    risk[1, 1] = 1.0
+    path = tmp_path / "walled.npy"
+    np.save(path, risk)
+    return path
+
+
+def map_config(path: Path, **workload: Any) -> dict[str, Any]:
+    return {"seed": 5, "world": {"use": "map_file", "path": str(path)}, "solver": "astar",
+            "workload": {"use": "trips", **workload}}
+
+
+def test_trips_go_between_the_places(walled: Path, cbr_engine: Callable[..., Engine]) -> None:
+    places = [(0, 0), (7, 5), (3, 2)]
+    engine = cbr_engine(map_config(walled, count=80, places=[list(p) for p in places],
+                                   unknown_static=12, min_distance=7))
+    unknown = {tuple(c) for c in engine.workload.static_unknowns.tolist()}
+
+    trips = drive(engine)
+
+    assert not unknown & set(places)
+    pairs = [(problem.start, problem.goal) for problem, *_ in trips]
+    assert all(start in places and goal in places and start != goal for start, goal in pairs)
+    assert set(pairs) == set(itertools.permutations(places, 2))
+
+
+@pytest.mark.parametrize(("places", "sites", "message"), [
+    ([[0, 0], [8, 1]], [], r"places\[1\] \(8, 1\) is outside the 8x6 grid"),
+    ([[0, 0], [1, 1]], [], r"places\[1\] \(1, 1\) is on an obstacle"),
+    ([[0, 0], [2, 2], [0, 0]], [], r"places\[2\] \(0, 0\) repeats an earlier place"),
+    ([[0, 0]], [], "places must hold at least 2 distinct cells for a trip's start and goal, "
+                   "got 1"),
+    ([[0, 0], [2, 2]], [{"cells": [[3, 3], [2, 2]], "appear": 0.5}],
+     r"places\[1\] \(2, 2\) is on an unknown obstacle or a site"),
+    (None, [{"cells": [[3, 3], [8, 3]], "appear": 0.5}],
+     r"sites\[0\] cell \(8, 3\) is outside the 8x6 grid"),
+    (None, [{"cells": [[3, 3]], "appear": 0.5}, {"cells": [[1, 1]], "appear": 0.5}],
+     r"sites\[1\] cell \(1, 1\) is on an obstacle"),
+    (None, [{"cells": [[3, 3], [3, 4]], "appear": 0.5}, {"cells": [[3, 4]], "appear": 0.5}],
+     r"cell \(3, 4\) holds two unknown obstacles or sites"),
+])
+def test_bad_places_and_sites_are_refused(places: Any, sites: Any, message: str, walled: Path,
+                                          cbr_engine: Callable[..., Engine]) -> None:
+    with pytest.raises(CbrError, match=rf"workload 'trips': {message}"):
+        cbr_engine(map_config(walled, places=places, sites=sites))
+
+
+def test_sites_are_read_from_yaml_and_checked(walled: Path,
+                                              cbr_engine: Callable[..., Engine]) -> None:
+    data = yaml.safe_load(f"""
+        world: {{use: map_file, path: {walled}}}
+        workload:
+          use: trips
+          sites: [{{cells: [[3, 4], [3, 5]], appear: 0.8}}]
+    """)
+    engine = cbr_engine(data)
+    assert engine.workload.options.sites == [Site(cells=[(3, 4), (3, 5)], appear=0.8)]
+    assert [cells.tolist() for cells in engine.workload.sites] == [[[3, 4], [3, 5]]]
+    for site, problem in [({"cells": [], "appear": 0.5},
+                           r"workload\.sites\.0\.cells: must hold at least one cell"),
+                          ({"cells": [[3, 4]], "appear": 1.5},
+                           r"workload\.sites\.0\.appear: must be <= 1"),
+                          ({"cells": [[3, "a"]], "appear": 0.5},
+                           r"workload\.sites\.0\.cells\.0\.1: expected an integer"),
+                          ({"cells": [[3, 4]]}, r"workload\.sites\.0\.appear: required")]:
+        data["workload"]["sites"] = [site]
+        with pytest.raises(ConfigError, match=problem):
+            cbr_engine(data)
+
+
+def test_a_site_blocks_all_its_cells_together_as_often_as_it_appears(
+        walled: Path, cbr_engine: Callable[..., Engine]) -> None:
+    door = [[4, 1], [4, 2], [4, 3], [4, 4]]
+    engine = cbr_engine(map_config(walled, count=40, sites=[
+        {"cells": door, "appear": 1.0}, {"cells": [[6, 0], [6, 1]], "appear": 0.0}]))
+    workload = engine.workload
+
+    trips = drive(engine)
+
+    for _, _, _, outcome in trips:
+        assert outcome.detail["sites_present"] == [0]
+        true = workload.true_passable(np.array(outcome.detail["present"]).reshape(-1, 2),
+                                      outcome.detail["sites_present"])
+        assert not true[[y for _, y in door], [x for x, _ in door]].any()
+        assert true[[0, 1], [6, 6]].all()
+        assert true_grid(workload, outcome).path_problems(outcome.solution.value) == []
+        assert not {tuple(c) for c in door} & {tuple(c) for c in outcome.solution.value}
+    assert any(o.detail["encounters"] for *_, o in trips)
+
+
+def test_sites_appear_independently_with_their_own_probability(
+        corridor: Path, cbr_engine: Callable[..., Engine]) -> None:
+    engine = cbr_engine({"world": {"use": "map_file", "path": str(corridor)},
+                         "workload": {"use": "trips", "pass_relief": 0.0, "sites": [
+                             {"cells": [[5, 4]], "appear": 0.3},
+                             {"cells": [[6, 4], [6, 3]], "appear": 0.6}]}})
+    problem = GridQuery((0, 0), (1, 0))
+    proposal = Proposal(Solution([[0, 0], [1, 0]]), "fixed")
+    n = 4000
+
+    drawn = np.zeros((n, 2), dtype=bool)
+    for i in range(n):
+        present = engine.workload.execute(problem, proposal, engine.ctx).detail["sites_present"]
+        drawn[i, present] = True
+
+    # each frequency within 5 binomial standard deviations of its probability
+    for frequency, p in [(drawn[:, 0].mean(), 0.3), (drawn[:, 1].mean(), 0.6),
+                         (drawn.all(axis=1).mean(), 0.3 * 0.6)]:
+        assert abs(frequency - p) < 5 * math.sqrt(p * (1 - p) / n)
+
+
+def test_travel_time_adds_the_time_lost_at_each_obstacle_met(
+        corridor: Path, cbr_engine: Callable[..., Engine]) -> None:
+    engine = cbr_engine({"world": {"use": "map_file", "path": str(corridor)}, "solver": "astar",
+                         "workload": {"use": "trips", "collision_time": 2.5}})
+    engine.workload.place([(3, 2)], [])
+    problem = GridQuery((0, 2), (6, 2))
+
+    outcome = engine.workload.execute(problem, engine.solve(problem), engine.ctx)
+
+    # stopped at (2, 2) by (3, 2), the robot rejoins its path at (4, 2) by the cheapest way
+    # without cutting the obstacle's corners: one row up or down, 3 steps across and back
+    around = [[[2, row], [3, row], [4, row]] for row in (1, 3)]
+    assert outcome.solution.value in [[[0, 2], [1, 2], [2, 2], *cells, [4, 2], [5, 2], [6, 2]]
+                                      for cells in around]
+    assert outcome.detail["encounters"] == 1
+    assert outcome.detail["travel_time"] == pytest.approx(8 + 2.5)

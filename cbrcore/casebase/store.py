@@ -94,3 +94,18 @@ class CaseStore(Protocol):
     def __iter__(self) -> Iterator[Case]: ...
 
     def __len__(self) -> int: ...
+
+
+def still_current(now: int, known: int, wrote: bool) -> bool:
+    """Whether an in-memory index of a store, matching it at revision ``known``, still matches
+    at revision ``now``.
+
+    For plugins that keep an index of their cases and write through to the store inside the
+    engine's learn step: a step in which the index wrote must have committed exactly one
+    revision (anything else is a rollback, or another process writing), one in which it did not
+    write may have committed one through other writers of the same step (the engine counting
+    case uses) or none. So one transaction of another process in a step without writes goes
+    unnoticed: two processes should not share one such index.
+    """
+    return now == known + 1 if wrote else now in (known, known + 1)
+

@@ -3,12 +3,9 @@
 The graph is loaded from the case base when the first component of the family is built and
 written through to it as it changes (:mod:`cbr_casegraph.graph`). The engine commits those
 writes with the learn step; if a learn step fails, its transaction rolls back while the graph
-in memory already changed, so each query first checks the store's revision: a learn step that
-wrote must have committed exactly one revision, anything else (a rollback, another process
-writing) reloads the graph from the store. A learn step in which the graph did not write may
-have committed one revision through other writers of the same step (the engine counting case
-uses, a learned risk map) or none; so one transaction of another process in such a step goes
-unnoticed. Two processes should not share one case graph.
+in memory already changed, so each query first checks the store's revision
+(:func:`cbrcore.casebase.store.still_current`) and reloads the graph when it moved on without
+it. Two processes should not share one case graph.
 """
 
 from __future__ import annotations
@@ -17,7 +14,7 @@ import attrs
 
 from cbr_casegraph.graph import CaseGraph
 from cbr_grid.grid import Grid
-from cbrcore.casebase.store import CaseStore
+from cbrcore.casebase.store import CaseStore, still_current
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
 
@@ -36,9 +33,7 @@ class GraphState:
     def sync(self, world: Grid) -> CaseGraph:
         """The graph, reloaded if the store moved on without it, on the current map."""
         now = self.store.revision
-        wrote = self.graph.writes != self.writes
-        expected = {self.revision + 1} if wrote else {self.revision, self.revision + 1}
-        if now not in expected:
+        if not still_current(now, self.revision, self.graph.writes != self.writes):
             self.graph = CaseGraph.load(world, self.store)
         elif world is not self.graph.grid:
             self.graph.set_grid(world)

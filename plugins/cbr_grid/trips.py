@@ -1,11 +1,18 @@
-"""A simulated robot driving random trips on a world that may differ from its map.
+"""A simulated robot driving trips on a world that may differ from its map.
 
 The configured world is the robot's *private map*. The *true world* the robot drives on is that
 map as configured plus obstacles the map does not show: ``unknown_static`` cells that are always
-blocked and ``unknown_dynamic`` sites, each blocked during a trip with probability ``appear``.
-Both sets are drawn once, uniformly and without repetition, from the cells free in the configured
-map, from a generator derived from the run's seed, so a seed repeats the same true world (also in
-a later run that continues a case base). Trips never start or end on one of those cells.
+blocked, ``unknown_dynamic`` sites, each blocked during a trip with probability ``appear``, and
+the listed ``sites``: named places (a door of one or more cells, a corridor) blocked during a
+trip, all their cells together, with their own probability. The random cells are drawn once,
+uniformly and without repetition, from the cells free in the configured map that are neither a
+listed site's nor a fixed place's, from a generator derived from the run's seed, so a seed
+repeats the same true world (also in a later run that continues a case base). Trips go between
+random free cells, or between the configured ``places``, and never start or end on an unknown
+obstacle or a site.
+
+Each obstacle met costs the robot ``collision_time`` (stopping, sensing, replanning) besides the
+length it drives: the outcome's ``travel_time`` adds both up, in the time of one straight step.
 
 Reading of the paper (sections 4.1 and 4.5): when the robot meets an obstacle in a cell, the
 cell's risk in its map rises by ``hit_risk`` (capped at 1, an obstacle), so an obstacle met again
@@ -18,7 +25,7 @@ planned on.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
 import attrs
@@ -73,6 +80,26 @@ def _astar(grid: Grid, passable: np.ndarray, start: tuple[int, int], goals: np.n
     return None if found is None else found.path
 
 
+def _some_cells(_: object, attribute: attrs.Attribute, value: list[tuple[int, int]]) -> None:
+    if not value:
+        raise ValueError(f"'{attribute.name}' must hold at least one cell (x, y), got {value!r}")
+
+
+@attrs.frozen
+class Site:
+    """A named place of the true world where an obstacle missing from the map may appear.
+
+    All its ``cells`` are blocked together (a door is its cells), during a trip with probability
+    ``appear``.
+    """
+
+    cells: list[tuple[int, int]] = option(
+        doc="The (x, y) cells blocked together, each free in the configured map.",
+        validator=_some_cells)
+    appear: float = option(
+        doc="The probability that the site is blocked during one trip.", validator=_UNIT)
+
+
 @attrs.frozen
 class TripsOptions:
     count: int = option(1000, "How many trips.", validator=_COUNT)
@@ -98,6 +125,21 @@ class TripsOptions:
         1, "The least Chebyshev distance between the start and the goal of a trip.",
         validator=attrs.validators.and_(attrs.validators.instance_of(int),
                                         attrs.validators.ge(1)))
+    places: list[tuple[int, int]] | None = option(
+        None, "Fixed places (x, y) the trips go between: each trip's start and goal are two "
+        "different places drawn uniformly (seeded), whatever min_distance says; null draws "
+        "random free cells. At least 2 distinct places, each free in the map and on no site.")
+    sites: list[Site] = option(
+        doc="Named places where an obstacle missing from the map appears during a trip with its "
+        "own probability, all its cells together: a door that is often shut, a crowded "
+        "corridor. Each a mapping {cells: [[x, y], ...], appear: probability}; the cells are "
+        "free in the map and are neither another site's nor a random unknown obstacle's.",
+        factory=list)
+    collision_time: float = option(
+        5.0, "Time lost at each obstacle met (stopping, sensing, replanning), in the time of one "
+        "straight step; it adds to the outcome's travel_time.",
+        validator=attrs.validators.and_(attrs.validators.instance_of(float),
+                                        attrs.validators.ge(0.0), attrs.validators.lt(np.inf)))
 
 
 @attrs.frozen
@@ -112,53 +154,114 @@ class _Drive:
 
 
 class Trips:
-    """Random trips driven by a simulated robot on a true world that may hold unknown obstacles.
+    """Trips driven by a simulated robot on a true world that may hold unknown obstacles.
 
-    The configured world is the robot's map; the true world adds ``unknown_static`` obstacles and
-    ``unknown_dynamic`` sites (each blocked per trip with probability ``appear``) on cells free in
-    that map, placed uniformly from the run's seed. Each trip goes between two random cells free
-    in the current map and holding no unknown obstacle. The robot follows the proposed path;
+    The configured world is the robot's map; the true world adds ``unknown_static`` obstacles,
+    ``unknown_dynamic`` sites (each blocked per trip with probability ``appear``) and the listed
+    ``sites`` (each blocked per trip, all its cells together, with its own probability) on cells
+    free in that map, the random ones placed uniformly from the run's seed. Each trip goes
+    between two random cells free in the current map and holding no unknown obstacle or site,
+    or between two different ``places``. The robot follows the proposed path;
     when its next step is blocked it raises the blocked cell's risk by ``hit_risk``, replans
     locally (A* inside a box of radius ``replan_window`` to the nearest remaining path cell
     beyond the obstacle, on its map with the cells met on this trip blocked), else globally to
     the goal, else the trip fails (as it does after 4 steps per map cell). Cells passed safely
     lose ``pass_relief`` of their risk. The updated map replaces the run's world after every
-    trip. Outcome detail: ``encounters``, ``replans``, ``risk_changes`` ([x, y, new risk] per
-    changed cell) and ``present`` (the dynamic sites blocked on the trip).
+    trip. Outcome detail: ``encounters`` (obstacle cells met), ``replans``, ``risk_changes``
+    ([x, y, new risk] per changed cell), ``present`` (the dynamic sites blocked on the trip),
+    ``sites_present`` (the indexes of the listed sites blocked on the trip) and ``travel_time``
+    (the driven path's length plus ``collision_time`` per encounter).
     """
 
     def __init__(self, options: TripsOptions, ctx: Context) -> None:
         self.options = options
         self.configured = _configured_world(ctx, "workload 'trips'")
-        free = np.flatnonzero(self.configured.passable)
+        self.places: np.ndarray | None = self._checked_places(options.places)
+        """The (k, 2) cells trips go between, or None for random free cells."""
+        # the random unknowns keep off the listed sites and the places, so they cannot collide
+        pool = self.configured.passable.copy()
+        for cells in self._site_cells(options.sites):
+            pool[cells[:, 1], cells[:, 0]] = False
+        if self.places is not None:
+            pool[self.places[:, 1], self.places[:, 0]] = False
+        free = np.flatnonzero(pool)
         unknown = options.unknown_static + options.unknown_dynamic
-        if unknown + 2 > len(free):
+        # with places the trips need no free cell of their own
+        spare = 0 if self.places is not None else 2
+        if unknown + spare > len(free):
             raise CbrError(f"workload 'trips': {options.unknown_static} unknown_static + "
                            f"{options.unknown_dynamic} unknown_dynamic obstacles leave fewer than "
-                           f"2 of the map's {len(free)} free cells for trips")
+                           f"{spare} of the map's {len(free)} free cells that are no site or "
+                           f"place for trips")
         placement, self._query_rng, self._presence_rng = ctx.spawn_rng().spawn(3)
         chosen = placement.choice(free, size=unknown, replace=False)
         width = self.configured.width
         cells = np.column_stack((chosen % width, chosen // width))
-        self.place(cells[:options.unknown_static], cells[options.unknown_static:])
+        self.place(cells[:options.unknown_static], cells[options.unknown_static:], options.sites)
 
-    def place(self, static: object, dynamic: object) -> None:
-        """Put the true world's unknown obstacles on the given (x, y) cells, replacing the drawn
-        ones: ``static`` always blocked, ``dynamic`` blocked per trip with probability
-        ``appear``. Each must be a distinct cell free in the configured map."""
+    def _checked_places(self, places: Sequence[tuple[int, int]] | None) -> np.ndarray | None:
+        """The configured places as a (k, 2) array; a CbrError unless they are at least 2
+        distinct cells free in the configured map."""
+        if places is None:
+            return None
+        seen: set[tuple[int, int]] = set()
+        for i, cell in enumerate(places):
+            xy = self.configured.check_cell(cell, f"workload 'trips': places[{i}]")
+            if xy in seen:
+                raise CbrError(f"workload 'trips': places[{i}] {xy} repeats an earlier place; "
+                               f"expected distinct cells")
+            seen.add(xy)
+        if len(seen) < 2:
+            raise CbrError(f"workload 'trips': places must hold at least 2 distinct cells for a "
+                           f"trip's start and goal, got {len(seen)}")
+        return path_array(places)
+
+    def _site_cells(self, sites: Sequence[Site]) -> list[np.ndarray]:
+        """The (k, 2) cells of each site; a CbrError naming the site and the cell unless each is
+        free in the configured map."""
+        groups = [path_array(site.cells) for site in sites]
+        for i, cells in enumerate(groups):
+            for x, y in cells.tolist():
+                self.configured.check_cell((x, y), f"workload 'trips': sites[{i}] cell")
+        return groups
+
+    def place(self, static: object, dynamic: object, sites: Sequence[Site] = ()) -> None:
+        """Put the true world's unknown obstacles on the given (x, y) cells, replacing all of
+        them, the drawn ones and the configured ``sites`` alike: ``static`` always blocked,
+        ``dynamic`` each blocked per trip with probability ``appear`` and each of ``sites``
+        blocked per trip, all its cells together, with its own probability. Every cell must be
+        free in the configured map, distinct from all the others and no place trips go between.
+        """
         static_cells, dynamic_cells = path_array(static), path_array(dynamic)
-        cells = np.concatenate((static_cells, dynamic_cells))
         grid = self.configured
-        for x, y in cells.tolist():
+        for x, y in np.concatenate((static_cells, dynamic_cells)).tolist():
             grid.check_cell((x, y), "an unknown obstacle")
-        if len(np.unique(cells, axis=0)) != len(cells):
-            raise CbrError("workload 'trips': unknown obstacles must be on distinct cells")
+        site_cells = self._site_cells(sites)
+        cells = np.concatenate((static_cells, dynamic_cells, *site_cells))
+        unique, counts = np.unique(cells, axis=0, return_counts=True)
+        if (counts > 1).any():
+            twice = tuple(unique[np.argmax(counts > 1)].tolist())
+            raise CbrError(f"workload 'trips': cell {twice} holds two unknown obstacles or "
+                           f"sites; expected distinct cells")
+        unknown = np.zeros(grid.passable.shape, dtype=bool)
+        unknown[cells[:, 1], cells[:, 0]] = True
+        if self.places is not None:
+            taken = unknown[self.places[:, 1], self.places[:, 0]]
+            if taken.any():
+                i = int(np.argmax(taken))
+                raise CbrError(f"workload 'trips': places[{i}] {tuple(self.places[i].tolist())} "
+                               f"is on an unknown obstacle or a site; expected a cell the "
+                               f"robot can always stand on")
+        # set only once every check passed, so a refused placement leaves the world as it was
+        self._unknown = unknown
         self.static_unknowns: np.ndarray = static_cells
         """The (k, 2) cells of the true world's always-present unknown obstacles."""
         self.dynamic_sites: np.ndarray = dynamic_cells
         """The (k, 2) cells where an unknown obstacle may appear during a trip."""
-        self._sites = np.zeros(grid.passable.shape, dtype=bool)
-        self._sites[cells[:, 1], cells[:, 0]] = True
+        self.sites: list[np.ndarray] = site_cells
+        """The (k, 2) cells of each listed site, blocked together during a trip."""
+        self.site_appear = np.array([site.appear for site in sites], dtype=np.float64)
+        """The probability of each listed site to be blocked during one trip."""
         self._true_static = grid.passable.copy()
         self._true_static[static_cells[:, 1], static_cells[:, 0]] = False
         self._true_static.setflags(write=False)
@@ -166,13 +269,17 @@ class Trips:
     def __len__(self) -> int:
         return self.options.count
 
-    def true_passable(self, present: np.ndarray | None = None) -> np.ndarray:
-        """The true world's passable mask (read-only) with the dynamic sites ``present`` ((k, 2))
-        blocked."""
-        if present is None or not len(present):
+    def true_passable(self, present: np.ndarray | None = None,
+                      sites_present: Sequence[int] = ()) -> np.ndarray:
+        """The true world's passable mask (read-only) with the dynamic sites ``present`` ((k, 2)
+        cells) and the cells of the listed sites of indexes ``sites_present`` blocked."""
+        blocked = [path_array(present if present is not None else []),
+                   *(self.sites[i] for i in sites_present)]
+        cells = np.concatenate(blocked)
+        if not len(cells):
             return self._true_static
         passable = self._true_static.copy()
-        passable[present[:, 1], present[:, 0]] = False
+        passable[cells[:, 1], cells[:, 0]] = False
         passable.setflags(write=False)
         return passable
 
@@ -181,7 +288,11 @@ class Trips:
             yield self._query(_grid_world(ctx, "workload 'trips'"))
 
     def _query(self, grid: Grid) -> GridQuery:
-        flat = np.flatnonzero(grid.passable & ~self._sites)
+        if self.places is not None:
+            start, goal = self.places[self._query_rng.choice(len(self.places), size=2,
+                                                             replace=False)]
+            return GridQuery((int(start[0]), int(start[1])), (int(goal[0]), int(goal[1])))
+        flat = np.flatnonzero(grid.passable & ~self._unknown)
         xy = np.column_stack((flat % grid.width, flat // grid.width))
         distance = self.options.min_distance
         starts = flat[:0]
@@ -208,10 +319,14 @@ class Trips:
         # drawn for every trip, solved or not, so the draws of later trips do not depend on it
         present = self.dynamic_sites[self._presence_rng.random(len(self.dynamic_sites))
                                      < self.options.appear]
+        # drawn after the random sites, and not at all without listed sites, so that a seed
+        # gives the same trips as before sites were configured
+        sites_present = np.flatnonzero(self._presence_rng.random(len(self.site_appear))
+                                       < self.site_appear).tolist() if self.sites else []
         if proposal.solution is None:
             return Outcome(success=False)
         path = self._checked(grid, problem, proposal.solution.value)
-        drive = self._drive(grid, self.true_passable(present), path, problem.goal)
+        drive = self._drive(grid, self.true_passable(present, sites_present), path, problem.goal)
         changes = self._learn(grid, drive)
         if changes:
             risk = grid.risk.copy()
@@ -219,8 +334,10 @@ class Trips:
                 risk[y, x] = value
             ctx.world = attrs.evolve(grid, risk=risk)
         cost = path_cost(grid, drive.driven)
+        travel = path_length(drive.driven) + self.options.collision_time * len(drive.met)
         detail = {"encounters": len(drive.met), "replans": drive.replans,
-                  "risk_changes": changes, "present": present.tolist()}
+                  "risk_changes": changes, "present": present.tolist(),
+                  "sites_present": sites_present, "travel_time": travel}
         if drive.reason:
             detail["failure"] = drive.reason
         driven = Solution(drive.driven.tolist(), cost, proposal.solution.cases,

@@ -1,10 +1,12 @@
-"""Model-based path planners on grids: the ``dijkstra``, ``astar``, ``aistar`` and ``genetic``
-solvers.
+"""Model-based path planners on grids: the ``dijkstra``, ``astar``, ``aistar``, ``genetic`` and
+``randomized`` solvers.
 
 Each answers a :class:`cbr_grid.query.GridQuery` on the run's grid world
 (:class:`cbr_grid.grid.Grid`) with the compiled searches of :mod:`cbr_solvers.search`,
-:mod:`cbr_solvers.aistar` and :mod:`cbr_solvers.genetic`, under the grid's step cost contract
-(its ``factor``, ``passable`` and ``corner_cutting``).
+:mod:`cbr_solvers.aistar`, :mod:`cbr_solvers.genetic` and :mod:`cbr_solvers.randomized`, under
+the grid's step cost contract (its ``factor``, ``passable`` and ``corner_cutting``). The first
+three give a cheapest path; ``genetic`` and ``randomized`` give plausible ones that vary with
+their seed, so that a case base can gather alternative routes.
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ from cbrcore.options import option
 from cbrcore.registry import Registry
 
 SEARCH_MODULES = {"dijkstra": "search", "astar": "search", "aistar": "aistar",
-                  "genetic": "genetic"}
+                  "genetic": "genetic", "randomized": "randomized"}
 """Each grid search by name, and the module of cbr_solvers that holds its function."""
 
 
@@ -124,12 +126,48 @@ class Genetic(GridSolver):
                 "seed": seed}
 
 
+@attrs.frozen
+class RandomizedOptions:
+    noise: float = option(
+        1.0, "Each cell's cost factor is multiplied by a draw from [1, 1 + noise] per query; the "
+        "path costs at most 1 + noise times the cheapest, and 0 gives the cheapest.",
+        validator=attrs.validators.and_(attrs.validators.ge(0.0),
+                                        attrs.validators.lt(float("inf"))))
+    seed: int | None = option(
+        None, "The random seed of every query (an integer >= 0); null draws one per query from "
+        "the run's seeded generator.",
+        validator=attrs.validators.optional(attrs.validators.ge(0)))
+
+
+class Randomized(GridSolver):
+    """A near-cheapest path that varies per query: A* on cost factors scaled by random noise.
+
+    The probabilistic map-based search of Kruusmaa's case-based planner, which gives a
+    different plausible path each time so the case base gains alternative routes. Each cell's
+    factor is multiplied by its own draw from [1, 1 + noise]; the solution's cost is the path's
+    true cost, at most 1 + noise times the cheapest.
+    """
+
+    name = "randomized"
+
+    def __init__(self, options: RandomizedOptions, ctx: Context) -> None:
+        super().__init__(options, ctx)
+        self.options = options
+
+    def search_options(self, ctx: Context) -> dict[str, Any]:
+        seed = self.options.seed
+        if seed is None:
+            seed = int(ctx.rng.integers(2**32))
+        return {"noise": self.options.noise, "seed": seed}
+
+
 @hookimpl
 def cbr_register(registry: Registry) -> None:
     registry.add("solver", "dijkstra", Dijkstra)
     registry.add("solver", "astar", AStar)
     registry.add("solver", "aistar", AiStar)
     registry.add("solver", "genetic", Genetic, options=GeneticOptions)
+    registry.add("solver", "randomized", Randomized, options=RandomizedOptions)
 
 
 @hookimpl

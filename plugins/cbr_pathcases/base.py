@@ -1,0 +1,209 @@
+"""The run's whole-path cases as numpy arrays, written through to the case base.
+
+A case is one traversed path (Kruusmaa & Svensson; Šeda & Dvořák eq. 5): kind ``path``, problem
+``{"start": [x, y], "goal": [x, y]}``, solution the ordered cells ``[[x, y], ...]`` and meta
+``{"cost": F, "length": l, "risk": r, "ideal": g, "traversals": n}`` (:mod:`cbr_pathcases.cost`).
+Retrieval compares a query with every stored end point and retention compares a path with every
+stored path, so both work on the arrays kept here rather than on the store's rows: the end
+points, costs and use stamps as arrays, the cells of all paths concatenated.
+
+Every change goes to the store at once, inside the engine's learn transaction. If that
+transaction rolls back the arrays have already changed, so :meth:`PathBase.sync` reloads them
+when the store's revision moved on without them (:func:`cbrcore.casebase.store.still_current`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+import attrs
+import numpy as np
+
+from cbr_grid.grid import Grid
+from cbrcore.casebase.store import CaseStore, still_current
+from cbrcore.context import Context
+from cbrcore.errors import CbrError
+from cbrcore.model import Case
+
+PATH = "path"
+"""The case kind of a whole traversed path."""
+
+KEY = "cbr_pathcases"
+"""``ctx.shared`` key of the run's :class:`PathBase`."""
+
+_META = ("cost", "length", "risk", "ideal", "traversals")
+
+
+def _int_array(values: Iterable[int]) -> np.ndarray:
+    return np.fromiter(values, dtype=np.int64)
+
+
+def path_case(path: np.ndarray, meta: Mapping[str, Any]) -> Case:
+    """The case of a traversed ``path`` ((n, 2) cells) with its cost ``meta``."""
+    return Case({"start": path[0].tolist(), "goal": path[-1].tolist()}, path.tolist(),
+                kind=PATH, meta=dict(meta))
+
+
+@attrs.define
+class PathBase:
+    """The stored paths, their end points, costs and use stamps, in step with the store.
+
+    Row ``i`` of every array describes the case ``ids[i]``; ``paths[i]`` holds its cells.
+    ``last_used`` is -1 for a case never reused.
+    """
+
+    store: CaseStore
+    ids: np.ndarray
+    starts: np.ndarray
+    goals: np.ndarray
+    costs: np.ndarray
+    traversals: np.ndarray
+    uses: np.ndarray
+    created: np.ndarray
+    last_used: np.ndarray
+    paths: list[np.ndarray]
+    revision: int
+    writes: int = 0
+    """Writes made through this index; :meth:`sync` tells its own writes from a rollback."""
+    _synced_writes: int = 0
+    _concatenated: tuple[np.ndarray, np.ndarray] | None = None
+
+    @classmethod
+    def load(cls, store: CaseStore) -> PathBase:
+        """The path cases of ``store``; CbrError naming the case if one is malformed."""
+        cases = store.cases(PATH)
+        paths, metas = [], []
+        for case in cases:
+            paths.append(_cells(case, store))
+            metas.append(_meta(case, store))
+        ends = np.array([[p[0], p[-1]] for p in paths], dtype=np.int64).reshape(-1, 2, 2)
+        return cls(
+            store, _int_array(c.id or 0 for c in cases), ends[:, 0].copy(), ends[:, 1].copy(),
+            np.array([m["cost"] for m in metas], dtype=float),
+            _int_array(int(m["traversals"]) for m in metas),
+            _int_array(c.uses for c in cases), _int_array(c.created or 0 for c in cases),
+            _int_array(-1 if c.last_used is None else c.last_used for c in cases), paths,
+            store.revision)
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def sync(self) -> PathBase:
+        """This index, or a fresh one from the store if the store moved on without it."""
+        now = self.store.revision
+        if not still_current(now, self.revision, self.writes != self._synced_writes):
+            return PathBase.load(self.store)
+        self.revision, self._synced_writes = now, self.writes
+        return self
+
+    def rows(self, ids: Iterable[int]) -> np.ndarray:
+        """The rows of the cases ``ids`` that are stored (others are left out)."""
+        wanted = _int_array(ids)
+        return np.flatnonzero(np.isin(self.ids, wanted))
+
+    def concatenated(self) -> tuple[np.ndarray, np.ndarray]:
+        """All cells as one (M, 2) array and the (k + 1,) offsets of each path in it."""
+        if self._concatenated is None:
+            lengths = _int_array(len(p) for p in self.paths)
+            offsets = np.concatenate(([0], np.cumsum(lengths))).astype(np.int64)
+            cells = (np.concatenate(self.paths) if self.paths
+                     else np.zeros((0, 2), dtype=np.int64))
+            self._concatenated = (np.ascontiguousarray(cells), offsets)
+        return self._concatenated
+
+    def add(self, path: np.ndarray, meta: Mapping[str, Any]) -> int:
+        """Store ``path`` with its cost ``meta``; return its id."""
+        case = self.store.add(path_case(path, meta))
+        self._write()
+        self.ids = np.append(self.ids, case.id)
+        self.starts = np.vstack((self.starts, path[:1]))
+        self.goals = np.vstack((self.goals, path[-1:]))
+        self.costs = np.append(self.costs, float(meta["cost"]))
+        self.traversals = np.append(self.traversals, int(meta["traversals"]))
+        self.uses = np.append(self.uses, case.uses)
+        self.created = np.append(self.created, case.created)
+        self.last_used = np.append(self.last_used, -1)
+        self.paths.append(path)
+        return int(case.id or 0)
+
+    def remove(self, ids: Iterable[int]) -> None:
+        """Forget the cases ``ids``."""
+        rows = self.rows(ids)
+        if not len(rows):
+            return
+        self.store.remove(self.ids[rows].tolist())
+        self._write()
+        keep = np.ones(len(self.ids), dtype=bool)
+        keep[rows] = False
+        for name in ("ids", "starts", "goals", "costs", "traversals", "uses", "created",
+                     "last_used"):
+            setattr(self, name, getattr(self, name)[keep])
+        self.paths = [p for p, k in zip(self.paths, keep.tolist(), strict=True) if k]
+
+    def set_cost(self, case_id: int, cost: float, traversals: int) -> None:
+        """Record a new cost of case ``case_id``, learned from ``traversals`` traversals."""
+        case = self.store.get(case_id)
+        meta = {**case.meta, "cost": float(cost), "traversals": int(traversals)}
+        self.store.replace(attrs.evolve(case, meta=meta))
+        self._write()
+        row = self.rows([case_id])
+        self.costs[row], self.traversals[row] = cost, traversals
+        self.refresh([case_id])
+
+    def touch(self, ids: Iterable[int]) -> None:
+        """Count one more use of each case ``ids``."""
+        ids = list(ids)
+        if ids:
+            self.store.touch(ids)
+            self._write()
+            self.refresh(ids)
+
+    def refresh(self, ids: Iterable[int]) -> None:
+        """Read the use count and stamps of ``ids`` back from the store (the engine counts the
+        uses of the cases a solution came from)."""
+        for row in self.rows(ids).tolist():
+            case = self.store.get(int(self.ids[row]))
+            self.uses[row] = case.uses
+            self.last_used[row] = -1 if case.last_used is None else case.last_used
+
+    def _write(self) -> None:
+        self.writes += 1
+        self._concatenated = None
+
+
+def _cells(case: Case, store: CaseStore) -> np.ndarray:
+    where = f"case base {getattr(store, 'path', type(store).__name__)}, path case {case.id}"
+    try:
+        path = np.asarray(case.solution, dtype=np.int64)
+    except (TypeError, ValueError):
+        path = np.zeros(0)
+    if path.ndim != 2 or path.shape[1] != 2 or len(path) == 0:
+        raise CbrError(f"{where}: the solution must be a non-empty list of [x, y] cells")
+    if (np.abs(np.diff(path, axis=0)).max(axis=1, initial=0) != 1).any():
+        raise CbrError(f"{where}: the cells must follow each other in 8-neighbour steps")
+    return path
+
+
+def _meta(case: Case, store: CaseStore) -> Mapping[str, Any]:
+    missing = [key for key in _META if not isinstance(case.meta.get(key), int | float)]
+    if missing:
+        where = f"case base {getattr(store, 'path', type(store).__name__)}, path case {case.id}"
+        raise CbrError(f"{where}: meta needs numbers {', '.join(_META)}; missing or not a "
+                       f"number: {', '.join(missing)}")
+    return case.meta
+
+
+def base_of(ctx: Context) -> PathBase:
+    """The run's path cases, loaded from the case base on first use and kept in step with it."""
+    base = ctx.shared.get(KEY)
+    if base is None:
+        if not isinstance(ctx.world, Grid):
+            raise CbrError("whole-path cases plan on a grid world; the configured world is "
+                           f"{type(ctx.world).__name__}")
+        if ctx.casebase is None:
+            raise CbrError("whole-path cases need a case base (the 'casebase' slot)")
+        base = PathBase.load(ctx.casebase)
+    base = base.sync()
+    ctx.shared[KEY] = base
+    return base

@@ -1,0 +1,268 @@
+"""Retrieve, reuse and retain whole traversed paths (Kruusmaa & Svensson; Šeda & Dvořák §4).
+
+Each phase hook runs once per query over the arrays of :mod:`cbr_pathcases.base`: retrieval
+compares the query with every stored end point at once, retention compares the new path with
+every stored path in one compiled call (:mod:`cbr_pathcases.hausdorff`).
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+import attrs
+import numpy as np
+
+from cbr_grid.costs import path_cost
+from cbr_grid.distances import distance
+from cbr_grid.grid import Grid
+from cbr_grid.query import GridQuery, path_array, without_loops
+from cbr_pathcases.base import PATH, base_of
+from cbr_pathcases.cost import Combine, measure
+from cbr_pathcases.selection import Rule, probabilities
+from cbrcore.casebase.store import CaseStore
+from cbrcore.context import Context
+from cbrcore.hookspecs import hookimpl
+from cbrcore.model import Case, Match, Outcome, Retrieval, Solution
+from cbrcore.options import option
+
+DistanceName = Literal["euclidean", "manhattan", "octile", "chebyshev"]
+_UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
+_POSITIVE = attrs.validators.gt(0.0)
+
+
+@attrs.frozen
+class RetrieveOptions:
+    delta: float = option(
+        5.0, "The largest distance from the query's start (goal) to a stored path's start "
+        "(goal), eq. (5); either direction of travel counts.", validator=attrs.validators.ge(0))
+    distance: DistanceName = option(
+        "euclidean", "The distance of eq. (5): euclidean (1), manhattan (2), octile (3) or "
+        "chebyshev (9).")
+    selection: Rule = option(
+        "boltzmann", "How a candidate is chosen from its cost: boltzmann p ∝ exp(-(F - Fmin)/T), "
+        "inverse p ∝ F^(-1/T), or greedy (the cheapest, eq. 5 as written).")
+    temperature: float = option(
+        0.1, "The selection's temperature T; lower prefers the cheap paths more.",
+        validator=_POSITIVE)
+    explore: float = option(
+        0.1, "The probability of planning a new path with the fallback solver instead of "
+        "reusing a stored one (asked only when there is a candidate).", validator=_UNIT)
+    candidates: int = option(
+        8, "How many candidates the retrieval hands on: the chosen one first, then the most "
+        "probable; the reuser tries them in that order.", validator=attrs.validators.ge(1))
+
+
+class PathRetriever:
+    """Eq. (5)/(7): the stored paths with ends within delta of start and goal, one chosen with
+    a probability falling with its cost; or none, to explore."""
+
+    def __init__(self, options: RetrieveOptions, ctx: Context) -> None:
+        self.options = options
+        self.distance = distance(options.distance)
+        self.rng = ctx.spawn_rng()
+        base_of(ctx)
+
+    @hookimpl
+    def cbr_retrieve(self, problem: GridQuery, casebase: CaseStore, ctx: Context) -> Retrieval:
+        base = base_of(ctx)
+        grid: Grid = ctx.world
+        start = np.asarray(grid.check_cell(problem.start, "start"))
+        goal = np.asarray(grid.check_cell(problem.goal, "goal"))
+        # drawn for every query, so that one query's draws never shift a later query's
+        explore = self.rng.random() < self.options.explore
+        delta = self.options.delta
+        forward = ((self.distance(base.starts, start) <= delta)
+                   & (self.distance(base.goals, goal) <= delta))
+        backward = ((self.distance(base.goals, start) <= delta)
+                    & (self.distance(base.starts, goal) <= delta))
+        rows = np.flatnonzero(forward | backward)
+        if not len(rows):
+            return Retrieval(())
+        if explore:
+            return Retrieval((), reason="exploring")
+        p = probabilities(base.costs[rows], self.options.selection, self.options.temperature)
+        chosen = int(self.rng.choice(len(rows), p=p))
+        # the chosen first, then the rest by probability (ties by id)
+        rest = np.lexsort((base.ids[rows], -p))
+        order = [chosen, *(i for i in rest.tolist() if i != chosen)][:self.options.candidates]
+        matches = []
+        for i in order:
+            row = int(rows[i])
+            reverse = not bool(forward[row])
+            path = base.paths[row][::-1] if reverse else base.paths[row]
+            d_start = float(np.ravel(self.distance(path[0], start))[0])
+            d_goal = float(np.ravel(self.distance(path[-1], goal))[0])
+            case = Case({"start": path[0].tolist(), "goal": path[-1].tolist()}, path.tolist(),
+                        kind=PATH, meta={"cost": float(base.costs[row])},
+                        id=int(base.ids[row]), uses=int(base.uses[row]),
+                        created=int(base.created[row]))
+            matches.append(Match(case, 1.0 / (1.0 + d_start + d_goal), {
+                "start_distance": d_start, "goal_distance": d_goal,
+                "cost": float(base.costs[row]), "probability": float(p[i]),
+                "reversed": float(reverse)}))
+        return Retrieval(tuple(matches))
+
+
+@attrs.frozen
+class ReuseOptions:
+    connector: Literal["astar", "dijkstra", "randomized", "genetic"] = option(
+        "astar", "The search that extends the retrieved path from the new start to its first "
+        "cell and from its last cell to the new goal: A*, Dijkstra, the randomised search or "
+        "the genetic algorithm (as in Šeda & Dvořák).")
+    margin: int = option(
+        5, "How far beyond the box around the two cells an extension may go, in cells.",
+        validator=attrs.validators.ge(0))
+    improve: Literal["none", "genetic"] = option(
+        "none", "genetic: seed the genetic algorithm's population with the extended candidate "
+        "paths and return its best path (Šeda & Dvořák's proposed combination); none returns "
+        "the extended chosen path.")
+    generations: int = option(
+        2000, "The genetic algorithm's budget of children, as connector or improver.",
+        validator=attrs.validators.ge(0))
+    noise: float = option(
+        1.0, "The randomised connector's cost noise (see the randomized solver).",
+        validator=attrs.validators.ge(0.0))
+
+
+class PathReuser:
+    """Adaptation: extend the retrieved path to the new start and goal by a grid search."""
+
+    def __init__(self, options: ReuseOptions, ctx: Context) -> None:
+        from cbr_solvers import load_search  # numba loads with the first reuse
+
+        self.options = options
+        self.connect_search = load_search(options.connector)
+        self.genetic = load_search("genetic") if options.improve == "genetic" else None
+        self.rng = ctx.spawn_rng()
+        base_of(ctx)
+
+    def _search_options(self, name: str) -> dict[str, Any]:
+        seed = int(self.rng.integers(2**32))
+        if name == "genetic":
+            return {"generations": self.options.generations, "seed": seed}
+        if name == "randomized":
+            return {"noise": self.options.noise, "seed": seed}
+        return {}
+
+    def _connect(self, grid: Grid, a: np.ndarray, b: np.ndarray) -> np.ndarray | None:
+        """A path from cell ``a`` to cell ``b`` inside their box widened by the margin."""
+        if (a == b).all():
+            return a[None, :]
+        m = self.options.margin
+        window = (*(np.minimum(a, b) - m).tolist(), *(np.maximum(a, b) + m).tolist())
+        found = self.connect_search(grid.factor, grid.passable, grid.corner_cutting,
+                                    tuple(a.tolist()), [tuple(b.tolist())], window,
+                                    **self._search_options(self.options.connector))
+        return None if found is None else found.path
+
+    def _extend(self, grid: Grid, start: np.ndarray, goal: np.ndarray,
+                path: np.ndarray) -> np.ndarray | None:
+        head = self._connect(grid, start, path[0])
+        tail = None if head is None else self._connect(grid, path[-1], goal)
+        if head is None or tail is None:
+            return None
+        # an extension that runs back along the case leaves a loop: cut it
+        return without_loops(np.concatenate((head, path[1:], tail[1:])))
+
+    @hookimpl
+    def cbr_reuse(self, problem: GridQuery, retrieval: Retrieval, ctx: Context
+                  ) -> Solution | None:
+        grid: Grid = ctx.world
+        start, goal = np.asarray(problem.start), np.asarray(problem.goal)
+        extended: list[tuple[Match, np.ndarray]] = []
+        for match in retrieval.matches:
+            path = self._extend(grid, start, goal, path_array(match.case.solution))
+            if path is not None:
+                extended.append((match, path))
+                if self.genetic is None:
+                    break
+        if not extended:
+            return None
+        match, path = extended[0]
+        detail: dict[str, Any] = {"case": match.case.id,
+                                  "probability": match.features.get("probability"),
+                                  "reversed": bool(match.features.get("reversed"))}
+        if self.genetic is not None:
+            found = self.genetic(grid.factor, grid.passable, grid.corner_cutting,
+                                 tuple(problem.start), [tuple(problem.goal)],
+                                 seed_paths=[p for _, p in extended],
+                                 **self._search_options("genetic"))
+            if found is not None and found.cost < path_cost(grid, path):
+                path = found.path
+                detail["improved"] = True
+        return Solution(path.tolist(), cost=path_cost(grid, path), cases=(match.case.id,),
+                        detail=detail)
+
+
+@attrs.frozen
+class RetainOptions:
+    threshold: float = option(
+        2.0, "Paths within this Hausdorff distance are similar (eqs. 6, 8): a new path is kept "
+        "only if no similar stored path costs as little, and replaces the costlier ones.",
+        validator=attrs.validators.ge(0))
+    hausdorff: Literal["symmetric", "directed"] = option(
+        "symmetric", "symmetric: max(D(new, old), D(old, new)); directed: D(new, old) as "
+        "written in eq. (6), so a new path lying along a longer stored one is similar to it.")
+    distance: DistanceName = option(
+        "euclidean", "The cell distance inside the Hausdorff distance: euclidean (1, "
+        "Kruusmaa's), manhattan (2), octile (3) or chebyshev (9).")
+    combine: Combine = option(
+        "ratio", "The cost F(l, r, g): ratio (l + w·r) / g, or sum l + w·r (see "
+        "cbr_pathcases.cost).")
+    risk_weight: float = option(
+        1.0, "The weight w of the risk r in the cost.", validator=attrs.validators.ge(0.0))
+    experience: Literal["mean", "last"] = option(
+        "mean", "A reused path's cost after another traversal: the mean of all its "
+        "traversals' costs, or the last one's.")
+
+
+class PathRetainer:
+    """Eqs. (6)/(8): store a traversed path unless a similar one costs no more; learn the cost
+    of the path that was reused."""
+
+    def __init__(self, options: RetainOptions, ctx: Context) -> None:
+        self.options = options
+        base_of(ctx)
+
+    def cost(self, grid: Grid, path: np.ndarray, outcome: Outcome) -> tuple[float, Any]:
+        """F of ``path`` as the outcome drove it, and the measure behind it."""
+        measured = measure(grid, path, outcome.detail.get("travel_time"))
+        return measured.cost(self.options.combine, self.options.risk_weight), measured
+
+    @hookimpl
+    def cbr_retain(self, solution: Solution, outcome: Outcome, ctx: Context) -> None:
+        from cbr_pathcases.hausdorff import hausdorff  # compiled: loaded with the first retain
+
+        base = base_of(ctx)
+        grid: Grid = ctx.world
+        reused = base.ids[base.rows(solution.cases)].tolist()
+        base.refresh(reused)  # the engine has just counted their use
+        if not outcome.success:
+            # a path that led the robot into a failed trip is not worth following again
+            base.remove(reused)
+            return
+        path = without_loops(solution.value)
+        if len(path) < 2:
+            return
+        cost, measured = self.cost(grid, path, outcome)
+        for case_id in reused:
+            row = int(base.rows([case_id])[0])
+            n = int(base.traversals[row]) + 1
+            old = float(base.costs[row])
+            new = old + (cost - old) / n if self.options.experience == "mean" else cost
+            base.set_cost(case_id, new, n)
+        cells, offsets = base.concatenated()
+        threshold = self.options.threshold
+        forward, backward = hausdorff(path, cells, offsets, distance=self.options.distance,
+                                      limit=threshold)
+        apart = forward if self.options.hausdorff == "directed" else np.maximum(forward, backward)
+        similar = np.flatnonzero(apart <= threshold)
+        if len(similar) and base.costs[similar].min() <= cost:
+            # a duplicate: not stored twice, the best similar path's use count grows instead
+            best = int(base.ids[similar[np.argmin(base.costs[similar])]])
+            if best not in reused:
+                base.touch([best])
+            return
+        base.remove(base.ids[similar].tolist())
+        base.add(path, {"cost": cost, "length": measured.length, "risk": measured.risk,
+                        "ideal": measured.ideal, "traversals": 1})
