@@ -20,6 +20,7 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from cbr_grid.costs import path_length
 from cbr_grid.generate import generate
 from cbr_grid.grid import Grid
 from cbr_grid.query import GridQuery
@@ -462,3 +463,46 @@ def test_travel_time_adds_the_time_lost_at_each_obstacle_met(
                                       for cells in around]
     assert outcome.detail["encounters"] == 1
     assert outcome.detail["travel_time"] == pytest.approx(8 + 2.5)
+
+
+def test_meeting_one_cell_of_a_blocked_site_shows_the_whole_site(
+        corridor: Path, cbr_engine: Callable[..., Engine]) -> None:
+    # a door two cells wide across rows 2-3 of column 3: met at (3, 2), it is seen shut whole,
+    # so the robot stops once and goes round through row 1 or row 4 without trying (3, 3)
+    engine = cbr_engine({"world": {"use": "map_file", "path": str(corridor)}, "solver": "astar",
+                         "workload": {"use": "trips", "collision_time": 2.5, "sites": [
+                             {"cells": [[3, 2], [3, 3]], "appear": 1.0}]}})
+    problem = GridQuery((0, 2), (6, 2))
+
+    outcome = engine.workload.execute(problem, engine.solve(problem), engine.ctx)
+
+    assert outcome.success
+    assert outcome.detail["encounters"] == 2
+    assert outcome.detail["replans"] == 1
+    driven = outcome.solution.value
+    assert [3, 2] not in driven and [3, 3] not in driven
+    assert outcome.detail["travel_time"] == pytest.approx(path_length(driven) + 2.5)
+
+
+def test_the_workload_seed_gives_the_same_trips_whatever_the_other_components(
+        walled: Path, cbr_engine: Callable[..., Engine],
+        cbr_plugins: Callable[..., Plugins]) -> None:
+    cbr_plugins(entry_points=True)
+    sites = [{"cells": [[4, 2], [4, 3]], "appear": 0.5}]
+    config = map_config(walled, count=30, places=[[0, 0], [7, 5], [6, 0]], sites=sites,
+                        unknown_dynamic=3, seed=3)
+    unseeded = {**config, "workload": {**config["workload"], "seed": None}}
+    plain = cbr_engine(config)
+    # a reviser and a retriever built before the workload take generators from the run's seed
+    extra = {"retrieve": {"use": "path_cases", "explore": 0.5}, "reuse": "path_cases",
+             "retain": ["path_cases"], "casebase": "memory"}
+    learning = cbr_engine({**config, **extra})
+
+    def trips(engine: Engine) -> list[Any]:
+        return [(problem.start, problem.goal, outcome.detail["present"],
+                 outcome.detail["sites_present"]) for problem, _, _, outcome in drive(engine)]
+
+    assert plain.workload.dynamic_sites.tolist() == learning.workload.dynamic_sites.tolist()
+    assert trips(plain) == trips(learning)
+    # without it the retriever's generator, spawned first, shifts the workload's
+    assert trips(cbr_engine(unseeded)) != trips(cbr_engine({**unseeded, **extra}))

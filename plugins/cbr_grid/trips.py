@@ -11,8 +11,10 @@ repeats the same true world (also in a later run that continues a case base). Tr
 random free cells, or between the configured ``places``, and never start or end on an unknown
 obstacle or a site.
 
-Each obstacle met costs the robot ``collision_time`` (stopping, sensing, replanning) besides the
-length it drives: the outcome's ``travel_time`` adds both up, in the time of one straight step.
+Each time an obstacle stops the robot it loses ``collision_time`` (stopping, sensing,
+replanning) besides the length it drives: the outcome's ``travel_time`` adds both up, in the time
+of one straight step. Meeting one cell of a listed site, the robot sees the whole site: a shut
+door is shut across its width.
 
 Reading of the paper (sections 4.1 and 4.5): when the robot meets an obstacle in a cell, the
 cell's risk in its map rises by ``hit_risk`` (capped at 1, an obstacle), so an obstacle met again
@@ -136,10 +138,15 @@ class TripsOptions:
         "free in the map and are neither another site's nor a random unknown obstacle's.",
         factory=list)
     collision_time: float = option(
-        5.0, "Time lost at each obstacle met (stopping, sensing, replanning), in the time of one "
-        "straight step; it adds to the outcome's travel_time.",
+        5.0, "Time lost each time an obstacle stops the robot (stopping, sensing, replanning), "
+        "in the time of one straight step; it adds to the outcome's travel_time.",
         validator=attrs.validators.and_(attrs.validators.instance_of(float),
                                         attrs.validators.ge(0.0), attrs.validators.lt(np.inf)))
+    seed: int | None = option(
+        None, "The seed of the true world's random obstacles, the trips and the obstacles' "
+        "presence; null derives one from the run's seed. Give two configurations the same seed "
+        "to drive them on the same trips in the same worlds whatever their other components.",
+        validator=attrs.validators.optional(attrs.validators.ge(0)))
 
 
 @attrs.frozen
@@ -170,7 +177,7 @@ class Trips:
     trip. Outcome detail: ``encounters`` (obstacle cells met), ``replans``, ``risk_changes``
     ([x, y, new risk] per changed cell), ``present`` (the dynamic sites blocked on the trip),
     ``sites_present`` (the indexes of the listed sites blocked on the trip) and ``travel_time``
-    (the driven path's length plus ``collision_time`` per encounter).
+    (the driven path's length plus ``collision_time`` per replan, that is per stop).
     """
 
     def __init__(self, options: TripsOptions, ctx: Context) -> None:
@@ -193,7 +200,8 @@ class Trips:
                            f"{options.unknown_dynamic} unknown_dynamic obstacles leave fewer than "
                            f"{spare} of the map's {len(free)} free cells that are no site or "
                            f"place for trips")
-        placement, self._query_rng, self._presence_rng = ctx.spawn_rng().spawn(3)
+        own = ctx.spawn_rng() if options.seed is None else np.random.default_rng(options.seed)
+        placement, self._query_rng, self._presence_rng = own.spawn(3)
         chosen = placement.choice(free, size=unknown, replace=False)
         width = self.configured.width
         cells = np.column_stack((chosen % width, chosen // width))
@@ -326,7 +334,8 @@ class Trips:
         if proposal.solution is None:
             return Outcome(success=False)
         path = self._checked(grid, problem, proposal.solution.value)
-        drive = self._drive(grid, self.true_passable(present, sites_present), path, problem.goal)
+        drive = self._drive(grid, self.true_passable(present, sites_present), path, problem.goal,
+                            [self.sites[i] for i in sites_present])
         changes = self._learn(grid, drive)
         if changes:
             risk = grid.risk.copy()
@@ -334,7 +343,7 @@ class Trips:
                 risk[y, x] = value
             ctx.world = attrs.evolve(grid, risk=risk)
         cost = path_cost(grid, drive.driven)
-        travel = path_length(drive.driven) + self.options.collision_time * len(drive.met)
+        travel = path_length(drive.driven) + self.options.collision_time * drive.replans
         detail = {"encounters": len(drive.met), "replans": drive.replans,
                   "risk_changes": changes, "present": present.tolist(),
                   "sites_present": sites_present, "travel_time": travel}
@@ -364,9 +373,14 @@ class Trips:
                            f"its goal {problem.goal}")
         return path
 
-    def _drive(self, grid: Grid, true: np.ndarray, path: np.ndarray,
-               goal: tuple[int, int]) -> _Drive:
-        """Follow ``path`` on the true passable mask, replanning around the obstacles met."""
+    def _drive(self, grid: Grid, true: np.ndarray, path: np.ndarray, goal: tuple[int, int],
+               blocked_sites: Sequence[np.ndarray] = ()) -> _Drive:
+        """Follow ``path`` on the true passable mask, replanning around the obstacles met.
+
+        Meeting a cell of one of ``blocked_sites`` (the listed sites blocked on this trip), the
+        robot sees the whole site blocked: a shut door is shut across its width.
+        """
+        site_of = {(x, y): cells for cells in blocked_sites for x, y in cells.tolist()}
         plan, legs = path, [path[:1]]
         met: list[tuple[int, int]] = []
         replans, driven, limit = 0, 0, 4 * true.size
@@ -381,9 +395,11 @@ class Trips:
             if k is None:
                 return _Drive(np.concatenate(legs), met, replans, True, "")
             here = (int(plan[k, 0]), int(plan[k, 1]))
-            for cell in _obstacles_met(true, grid.corner_cutting, plan[k], plan[k + 1]):
-                if cell not in met:
-                    met.append(cell)
+            for hit in _obstacles_met(true, grid.corner_cutting, plan[k], plan[k + 1]):
+                seen = site_of.get(hit)
+                for cell in [hit] if seen is None else map(tuple, seen.tolist()):
+                    if cell not in met:
+                        met.append(cell)
             avoid = grid.passable.copy()
             xs, ys = np.array(met).T
             avoid[ys, xs] = False
