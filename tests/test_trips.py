@@ -479,6 +479,7 @@ def test_meeting_one_cell_of_a_blocked_site_shows_the_whole_site(
     assert outcome.success
     assert outcome.detail["encounters"] == 2
     assert outcome.detail["replans"] == 1
+    assert outcome.detail["stops"] == [[2, 2]]
     driven = outcome.solution.value
     assert [3, 2] not in driven and [3, 3] not in driven
     assert outcome.detail["travel_time"] == pytest.approx(path_length(driven) + 2.5)

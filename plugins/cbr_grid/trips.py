@@ -151,11 +151,12 @@ class TripsOptions:
 
 @attrs.frozen
 class _Drive:
-    """What happened on one trip: the cells driven, the cells met and the replans made."""
+    """What happened on one trip: the cells driven, the cells met and where the robot stood
+    each time an obstacle stopped it (and it replanned)."""
 
     driven: np.ndarray
     met: list[tuple[int, int]]
-    replans: int
+    stops: list[tuple[int, int]]
     reached: bool
     reason: str
 
@@ -174,7 +175,8 @@ class Trips:
     beyond the obstacle, on its map with the cells met on this trip blocked), else globally to
     the goal, else the trip fails (as it does after 4 steps per map cell). Cells passed safely
     lose ``pass_relief`` of their risk. The updated map replaces the run's world after every
-    trip. Outcome detail: ``encounters`` (obstacle cells met), ``replans``, ``risk_changes``
+    trip. Outcome detail: ``encounters`` (obstacle cells met), ``replans``, ``stops`` (the
+    [x, y] cell where the robot stood at each replan), ``risk_changes``
     ([x, y, new risk] per changed cell), ``present`` (the dynamic sites blocked on the trip),
     ``sites_present`` (the indexes of the listed sites blocked on the trip) and ``travel_time``
     (the driven path's length plus ``collision_time`` per replan, that is per stop).
@@ -343,14 +345,15 @@ class Trips:
                 risk[y, x] = value
             ctx.world = attrs.evolve(grid, risk=risk)
         cost = path_cost(grid, drive.driven)
-        travel = path_length(drive.driven) + self.options.collision_time * drive.replans
-        detail = {"encounters": len(drive.met), "replans": drive.replans,
+        travel = path_length(drive.driven) + self.options.collision_time * len(drive.stops)
+        detail = {"encounters": len(drive.met), "replans": len(drive.stops),
+                  "stops": [list(cell) for cell in drive.stops],
                   "risk_changes": changes, "present": present.tolist(),
                   "sites_present": sites_present, "travel_time": travel}
         if drive.reason:
             detail["failure"] = drive.reason
         driven = Solution(drive.driven.tolist(), cost, proposal.solution.cases,
-                          {"encounters": len(drive.met), "replans": drive.replans})
+                          {"encounters": len(drive.met), "replans": len(drive.stops)})
         return Outcome(success=drive.reached, cost=cost, solution=driven, detail=detail)
 
     @staticmethod
@@ -383,7 +386,8 @@ class Trips:
         site_of = {(x, y): cells for cells in blocked_sites for x, y in cells.tolist()}
         plan, legs = path, [path[:1]]
         met: list[tuple[int, int]] = []
-        replans, driven, limit = 0, 0, 4 * true.size
+        stops: list[tuple[int, int]] = []
+        driven, limit = 0, 4 * true.size
         radius = self.options.replan_window
         while True:
             k = _first_blocked(true, grid.corner_cutting, plan)
@@ -391,9 +395,9 @@ class Trips:
             legs.append(plan[1:end + 1])
             driven += end
             if driven > limit:
-                return _Drive(np.concatenate(legs), met, replans, False, "step limit")
+                return _Drive(np.concatenate(legs), met, stops, False, "step limit")
             if k is None:
-                return _Drive(np.concatenate(legs), met, replans, True, "")
+                return _Drive(np.concatenate(legs), met, stops, True, "")
             here = (int(plan[k, 0]), int(plan[k, 1]))
             for hit in _obstacles_met(true, grid.corner_cutting, plan[k], plan[k + 1]):
                 seen = site_of.get(hit)
@@ -404,7 +408,7 @@ class Trips:
             xs, ys = np.array(met).T
             avoid[ys, xs] = False
             avoid[here[1], here[0]] = True  # the robot stands there, whatever its map says
-            replans += 1
+            stops.append(here)
             beyond = plan[k + 2:] if not true[plan[k + 1, 1], plan[k + 1, 0]] else plan[k + 1:]
             window = (here[0] - radius, here[1] - radius, here[0] + radius, here[1] + radius)
             local = _astar(grid, avoid, here, beyond, window) if len(beyond) else None
@@ -414,7 +418,7 @@ class Trips:
                 continue
             plan = _astar(grid, avoid, here, np.array([goal]))
             if plan is None:
-                return _Drive(np.concatenate(legs), met, replans, False, "no path around")
+                return _Drive(np.concatenate(legs), met, stops, False, "no path around")
 
     def _learn(self, grid: Grid, drive: _Drive) -> list[list[Any]]:
         """The cells whose risk the trip changed, as [x, y, new risk] in row-major order: passed

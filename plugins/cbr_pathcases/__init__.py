@@ -27,8 +27,16 @@ from cbr_pathcases.forgetting import (
     NearDuplicateOptions,
     NearDuplicatePaths,
 )
+from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
 from cbrcore.registry import Registry
+
+
+def _learning(options: object, ctx: Context) -> object:
+    # the engine, numba and matplotlib load when the experiment runs, not at every start of cbr
+    from cbr_pathcases.experiments import Learning
+
+    return Learning(options, ctx)
 
 
 @hookimpl
@@ -40,3 +48,6 @@ def cbr_register(registry: Registry) -> None:
         registry.add("forgetter", name, strategy, options=CapacityOptions)
     registry.add("forgetter", "near_duplicate_paths", NearDuplicatePaths,
                  options=NearDuplicateOptions)
+    registry.add("experiment", "path-cases-learning", _learning,
+                 doc="Travel cost of whole-path cases against map-only planning as the robot "
+                 "learns, and the forgetting strategies at a fixed capacity.")

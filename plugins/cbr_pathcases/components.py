@@ -16,7 +16,7 @@ from cbr_grid.costs import path_cost
 from cbr_grid.distances import distance
 from cbr_grid.grid import Grid
 from cbr_grid.query import GridQuery, path_array, without_loops
-from cbr_pathcases.base import PATH, base_of
+from cbr_pathcases.base import PATH, PathBase, base_of
 from cbr_pathcases.cost import Combine, measure
 from cbr_pathcases.selection import Rule, probabilities
 from cbrcore.casebase.store import CaseStore
@@ -212,13 +212,13 @@ class RetainOptions:
     risk_weight: float = option(
         1.0, "The weight w of the risk r in the cost.", validator=attrs.validators.ge(0.0))
     experience: Literal["mean", "last"] = option(
-        "mean", "A reused path's cost after another traversal: the mean of all its "
-        "traversals' costs, or the last one's.")
+        "mean", "A stored path's cost after another traversal (reused, or its very cells "
+        "planned and driven again): the mean of all its traversals' costs, or the last one's.")
 
 
 class PathRetainer:
     """Eqs. (6)/(8): store a traversed path unless a similar one costs no more; learn the cost
-    of the path that was reused."""
+    of the path that was reused, or driven again."""
 
     def __init__(self, options: RetainOptions, ctx: Context) -> None:
         self.options = options
@@ -228,6 +228,14 @@ class PathRetainer:
         """F of ``path`` as the outcome drove it, and the measure behind it."""
         measured = measure(grid, path, outcome.detail.get("travel_time"))
         return measured.cost(self.options.combine, self.options.risk_weight), measured
+
+    def _traversed(self, base: PathBase, case_id: int, cost: float) -> None:
+        """Fold one more traversal of cost ``cost`` into the cost of case ``case_id``."""
+        row = int(base.rows([case_id])[0])
+        n = int(base.traversals[row]) + 1
+        old = float(base.costs[row])
+        new = old + (cost - old) / n if self.options.experience == "mean" else cost
+        base.set_cost(case_id, new, n)
 
     @hookimpl
     def cbr_retain(self, solution: Solution, outcome: Outcome, ctx: Context) -> None:
@@ -246,15 +254,20 @@ class PathRetainer:
             return
         cost, measured = self.cost(grid, path, outcome)
         for case_id in reused:
-            row = int(base.rows([case_id])[0])
-            n = int(base.traversals[row]) + 1
-            old = float(base.costs[row])
-            new = old + (cost - old) / n if self.options.experience == "mean" else cost
-            base.set_cost(case_id, new, n)
+            self._traversed(base, case_id, cost)
         cells, offsets = base.concatenated()
         threshold = self.options.threshold
         forward, backward = hausdorff(path, cells, offsets, distance=self.options.distance,
                                       limit=threshold)
+        same = np.flatnonzero(np.maximum(forward, backward) == 0)
+        if len(same):
+            # the very cells of a stored path, driven again (reused or planned anew, in either
+            # direction): one more traversal of that case, not a new case
+            for case_id in base.ids[same].tolist():
+                if case_id not in reused:
+                    self._traversed(base, case_id, cost)
+                    base.touch([case_id])
+            return
         apart = forward if self.options.hausdorff == "directed" else np.maximum(forward, backward)
         similar = np.flatnonzero(apart <= threshold)
         if len(similar) and base.costs[similar].min() <= cost:
