@@ -66,6 +66,8 @@ class PathBase:
     revision: int
     writes: int = 0
     """Writes made through this index; :meth:`sync` tells its own writes from a rollback."""
+    step: int = -1
+    """The query (``ctx.step``) this index was last checked against the store for."""
     _synced_writes: int = 0
     _concatenated: tuple[np.ndarray, np.ndarray] | None = None
 
@@ -195,7 +197,12 @@ def _meta(case: Case, store: CaseStore) -> Mapping[str, Any]:
 
 
 def base_of(ctx: Context) -> PathBase:
-    """The run's path cases, loaded from the case base on first use and kept in step with it."""
+    """The run's path cases, loaded from the case base on first use and kept in step with it.
+
+    Checked against the store once per query, at the first phase that asks: within one query the
+    learn step's own uncommitted writes are the index's, and :meth:`PathBase.sync` could not
+    tell them from a rollback before the step commits.
+    """
     base = ctx.shared.get(KEY)
     if base is None:
         if not isinstance(ctx.world, Grid):
@@ -204,6 +211,8 @@ def base_of(ctx: Context) -> PathBase:
         if ctx.casebase is None:
             raise CbrError("whole-path cases need a case base (the 'casebase' slot)")
         base = PathBase.load(ctx.casebase)
-    base = base.sync()
+    elif base.step != ctx.step:
+        base = base.sync()
+    base.step = ctx.step
     ctx.shared[KEY] = base
     return base

@@ -12,12 +12,12 @@ from typing import Any, Literal
 import attrs
 import numpy as np
 
-from cbr_grid.costs import path_cost
+from cbr_grid.costs import path_cost, path_length
 from cbr_grid.distances import distance
 from cbr_grid.grid import Grid
 from cbr_grid.query import GridQuery, path_array, without_loops
 from cbr_pathcases.base import PATH, PathBase, base_of
-from cbr_pathcases.cost import Combine, measure
+from cbr_pathcases.cost import Combine, Measure, measure
 from cbr_pathcases.selection import Rule, probabilities
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
@@ -71,10 +71,13 @@ class PathRetriever:
         # drawn for every query, so that one query's draws never shift a later query's
         explore = self.rng.random() < self.options.explore
         delta = self.options.delta
-        forward = ((self.distance(base.starts, start) <= delta)
-                   & (self.distance(base.goals, goal) <= delta))
-        backward = ((self.distance(base.goals, start) <= delta)
-                    & (self.distance(base.starts, goal) <= delta))
+        to_start, to_goal = self.distance(base.starts, start), self.distance(base.goals, goal)
+        back_start, back_goal = self.distance(base.goals, start), self.distance(base.starts, goal)
+        forward = (to_start <= delta) & (to_goal <= delta)
+        backward = (back_start <= delta) & (back_goal <= delta)
+        # a path that fits both ways is offered the way its ends lie nearer the query's: the
+        # other way the reuser would drive it back to where the robot started
+        reversed_ = backward & (~forward | (back_start + back_goal < to_start + to_goal))
         rows = np.flatnonzero(forward | backward)
         if not len(rows):
             return Retrieval(())
@@ -82,13 +85,14 @@ class PathRetriever:
             return Retrieval((), reason="exploring")
         p = probabilities(base.costs[rows], self.options.selection, self.options.temperature)
         chosen = int(self.rng.choice(len(rows), p=p))
-        # the chosen first, then the rest by probability (ties by id)
-        rest = np.lexsort((base.ids[rows], -p))
+        # the chosen first, then the rest by probability; ties (greedy's zeros, or a probability
+        # too small to tell apart) by cost, then id
+        rest = np.lexsort((base.ids[rows], base.costs[rows], -p))
         order = [chosen, *(i for i in rest.tolist() if i != chosen)][:self.options.candidates]
         matches = []
         for i in order:
             row = int(rows[i])
-            reverse = not bool(forward[row])
+            reverse = bool(reversed_[row])
             path = base.paths[row][::-1] if reverse else base.paths[row]
             d_start = float(np.ravel(self.distance(path[0], start))[0])
             d_goal = float(np.ravel(self.distance(path[-1], goal))[0])
@@ -224,10 +228,26 @@ class PathRetainer:
         self.options = options
         base_of(ctx)
 
-    def cost(self, grid: Grid, path: np.ndarray, outcome: Outcome) -> tuple[float, Any]:
-        """F of ``path`` as the outcome drove it, and the measure behind it."""
-        measured = measure(grid, path, outcome.detail.get("travel_time"))
-        return measured.cost(self.options.combine, self.options.risk_weight), measured
+    def measures(self, grid: Grid, driven: np.ndarray, path: np.ndarray,
+                 outcome: Outcome) -> tuple[Measure, Measure]:
+        """What the trip cost, and what following ``path`` costs.
+
+        ``driven`` is what the robot drove, ``path`` the same with its loops cut: the path kept.
+        The trip is charged its whole length and all the time lost (the outcome's
+        ``travel_time`` less the driven length); ``path`` only the time lost at the stops made
+        on its cells (the outcome's ``stops``), shared equally among the stops: a dead end the
+        robot walked into, met an obstacle in and left is cut from the path and so is its
+        stop. With no ``stops`` in the outcome all the lost time is the path's.
+        """
+        travel = outcome.detail.get("travel_time")
+        lost = 0.0 if travel is None else max(float(travel) - path_length(driven), 0.0)
+        stops = outcome.detail.get("stops")
+        kept = lost
+        if stops:
+            cells = {(int(x), int(y)) for x, y in path.tolist()}
+            kept = lost * sum((int(x), int(y)) in cells for x, y in stops) / len(stops)
+        trip = measure(grid, driven, lost)
+        return trip, measure(grid, path, kept, trip.ideal)
 
     def _traversed(self, base: PathBase, case_id: int, cost: float) -> None:
         """Fold one more traversal of cost ``cost`` into the cost of case ``case_id``."""
@@ -249,12 +269,16 @@ class PathRetainer:
             # a path that led the robot into a failed trip is not worth following again
             base.remove(reused)
             return
-        path = without_loops(solution.value)
+        driven = path_array(solution.value)
+        path = without_loops(driven)
         if len(path) < 2:
             return
-        cost, measured = self.cost(grid, path, outcome)
+        trip, measured = self.measures(grid, driven, path, outcome)
+        # the case that was reused led the robot along the whole trip
         for case_id in reused:
-            self._traversed(base, case_id, cost)
+            self._traversed(base, case_id, trip.cost(self.options.combine,
+                                                     self.options.risk_weight))
+        cost = measured.cost(self.options.combine, self.options.risk_weight)
         cells, offsets = base.concatenated()
         threshold = self.options.threshold
         forward, backward = hausdorff(path, cells, offsets, distance=self.options.distance,

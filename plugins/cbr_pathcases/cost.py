@@ -6,11 +6,12 @@ The papers name the three arguments and leave f open:
     the length of the path: its steps, 1 straight and sqrt(2) diagonal.
 ``r``
     the risk "calculated by gathering information during the path following process". Our
-    reading: what following the path cost beyond its length. That is the time lost to the
-    obstacles met (the ``trips`` workload's ``travel_time`` less the driven length: each
-    obstacle costs ``collision_time``) plus the risk of the cells passed on the map the robot
-    learned, as the grid's cost model weighs it (the path's cost less its length, so a path
-    through cells where obstacles were met before is riskier).
+    reading: what following the path cost beyond its length. That is the time lost at the stops
+    the robot made on it (each obstacle that stopped it costs the ``trips`` workload's
+    ``collision_time``) plus the risk of the cells passed on the map the robot learned, as the
+    grid's cost model weighs it (the path's cost less its length, so a path through cells where
+    obstacles were met before is riskier). Which stops count is the retainer's choice: see
+    :class:`cbr_pathcases.components.PathRetainer`.
 ``g``
     the ideal cost, "the cost of the shortest and easily traversable path from start to goal":
     the length of the shortest path between the path's ends on the robot's map, risk ignored.
@@ -62,11 +63,14 @@ def ideal_length(grid: Grid, start: tuple[int, int], goal: tuple[int, int]) -> f
     return max(float(length), 1.0)
 
 
-def measure(grid: Grid, path: np.ndarray, travel_time: float | None) -> Measure:
-    """The measure of ``path`` as driven: ``travel_time`` is the workload's (None when it gives
-    none: then no time was lost), ``grid`` the robot's map after the trip."""
+def measure(grid: Grid, path: np.ndarray, lost: float = 0.0,
+            ideal: float | None = None) -> Measure:
+    """The measure of ``path`` on ``grid``, the robot's map after the trip: ``lost`` is the
+    time lost at the stops made on it, ``ideal`` the ideal cost between its ends (None:
+    :func:`ideal_length`)."""
     length = path_length(path)
-    lost = 0.0 if travel_time is None else max(float(travel_time) - length, 0.0)
     risky = max(path_cost(grid, path) - length, 0.0)
-    start, goal = (int(path[0, 0]), int(path[0, 1])), (int(path[-1, 0]), int(path[-1, 1]))
-    return Measure(length, lost + risky, ideal_length(grid, start, goal))
+    if ideal is None:
+        start, goal = (int(path[0, 0]), int(path[0, 1])), (int(path[-1, 0]), int(path[-1, 1]))
+        ideal = ideal_length(grid, start, goal)
+    return Measure(length, lost + risky, ideal)

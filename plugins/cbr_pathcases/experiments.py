@@ -116,7 +116,7 @@ def robot_config(robot: str, world: Path, count: int, seed: int) -> dict[str, An
     return {**base, "workload": _workload(count, seed, 0.0),
             "retrieve": {"use": "path_cases", "delta": 3.0},
             "reuse": "path_cases",
-            "revise": {"use": "path_quality", "ideal": "landmarks", "max_ratio": 2.0},
+            "revise": {"use": "path_quality", "ideal": "landmarks", "max_ratio": 3.0},
             "solver": {"use": "randomized", "noise": 1.0},
             "retain": ["path_cases"], "forget": [forget]}
 
