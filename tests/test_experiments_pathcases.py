@@ -82,6 +82,8 @@ def test_the_numbers_are_possible(results: tuple[Path, dict[str, Any]]) -> None:
         half = data["trips"] // 2
         means = [float(np.mean(curve[half:])) for curve in data["curves"][robot]]
         assert summary["last_half_cost"]["mean"] == pytest.approx(np.mean(means))
+        assert set(summary["last_half_cost_by_pair"]) <= {"AB", "AC", "AD", "BC", "BD", "CD"}
+        assert min(summary["last_half_cost_by_pair"].values()) >= 1 - 1e-9
     # obstacles missing from the map do stop the map-only planner
     assert data["summary"]["map-only"]["last_half_stops"]["mean"] > 0
 

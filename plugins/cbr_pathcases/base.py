@@ -117,7 +117,7 @@ class PathBase:
     def add(self, path: np.ndarray, meta: Mapping[str, Any]) -> int:
         """Store ``path`` with its cost ``meta``; return its id."""
         case = self.store.add(path_case(path, meta))
-        self._write()
+        self._write(cells=True)
         self.ids = np.append(self.ids, case.id)
         self.starts = np.vstack((self.starts, path[:1]))
         self.goals = np.vstack((self.goals, path[-1:]))
@@ -135,7 +135,7 @@ class PathBase:
         if not len(rows):
             return
         self.store.remove(self.ids[rows].tolist())
-        self._write()
+        self._write(cells=True)
         keep = np.ones(len(self.ids), dtype=bool)
         keep[rows] = False
         for name in ("ids", "starts", "goals", "costs", "traversals", "uses", "created",
@@ -169,9 +169,11 @@ class PathBase:
             self.uses[row] = case.uses
             self.last_used[row] = -1 if case.last_used is None else case.last_used
 
-    def _write(self) -> None:
+    def _write(self, cells: bool = False) -> None:
+        """Count a write; ``cells``: it added or removed paths, so the concatenation is stale."""
         self.writes += 1
-        self._concatenated = None
+        if cells:
+            self._concatenated = None
 
 
 def _cells(case: Case, store: CaseStore) -> np.ndarray:

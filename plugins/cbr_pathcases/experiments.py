@@ -127,7 +127,7 @@ def drive(config: Mapping[str, Any], ideal: Mapping[tuple[Any, Any], float]
     where its path came from, and the number of stored paths after it."""
     plugins = current()
     record: dict[str, list[Any]] = {"cost": [], "time": [], "stops": [], "from_casebase": [],
-                                    "cases": []}
+                                    "cases": [], "pair": []}
     with Engine(parse_config(config, plugins.registry), plugins=plugins) as engine:
         for problem in engine.workload.queries(engine.ctx):
             proposal = engine.solve(problem)
@@ -139,10 +139,17 @@ def drive(config: Mapping[str, Any], ideal: Mapping[tuple[Any, Any], float]
             record["stops"].append(int(outcome.detail["replans"]))
             record["from_casebase"].append(proposal.from_casebase)
             record["cases"].append(engine.casebase.count())
+            record["pair"].append(pair(problem.start, problem.goal))
             if not outcome.success:
                 raise RuntimeError(f"a trip from {problem.start} to {problem.goal} failed: "
                                    f"{outcome.detail.get('failure')}")
     return record
+
+
+def pair(start: tuple[int, int], goal: tuple[int, int]) -> str:
+    """The names of the places a trip joins, in alphabetical order: ``"AC"`` both ways."""
+    names = {cell: name for name, cell in PLACES.items()}
+    return "".join(sorted(names[start] + names[goal]))
 
 
 def spread(values: list[float]) -> dict[str, float]:
@@ -223,6 +230,11 @@ class Learning:
             "last_half_cbr_share": spread([float(np.mean(r["from_casebase"][half:]))
                                            for r in runs]),
             "final_cases": spread([float(r["cases"][-1]) for r in runs]),
+            # pooled over seeds: a seed's last half may hold few trips of one pair
+            "last_half_cost_by_pair": {
+                key: float(np.mean([c for r in runs for c, k in zip(
+                    r["cost"][half:], r["pair"][half:], strict=True) if k == key]))
+                for key in sorted({k for r in runs for k in r["pair"][half:]})},
         }
 
     @staticmethod
@@ -243,6 +255,14 @@ class Learning:
                          f"| {stats['last_half_stops']['mean']:.2f} "
                          f"| {stats['last_half_cbr_share']['mean']:.2f} "
                          f"| {stats['final_cases']['mean']:.1f} |")
+        pairs = list(summary["cbr"]["last_half_cost_by_pair"])
+        lines += ["", "Mean travel cost by the pair of places, last half, over all seeds' trips:",
+                  "", f"| robot | {' | '.join(pairs)} |", f"|---|{'---|' * len(pairs)}"]
+        for robot in ROBOTS:
+            by_pair = summary[robot]["last_half_cost_by_pair"]
+            lines.append(f"| {robot} | "
+                         + " | ".join(f"{by_pair.get(key, float('nan')):.2f}" for key in pairs)
+                         + " |")
         ratio = spread(paired)
         lines += ["", f"CBR over map-only, last half, paired by seed: {cell(ratio)}.", "",
                   "The paper (Kruusmaa & Svensson, as the survey reports it) gives no numbers: "
