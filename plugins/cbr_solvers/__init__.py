@@ -53,6 +53,12 @@ class GridSolver:
         """The keyword arguments of one search call beyond the grid, start and goals."""
         return {}
 
+    @staticmethod
+    def query_seed(seed: int | None, ctx: Context) -> int:
+        """The seed of one query of a randomised search: ``seed``, or one drawn from the run's
+        seeded generator when it is None."""
+        return int(ctx.rng.integers(2**32)) if seed is None else seed
+
     @hookimpl
     def cbr_solve(self, problem: GridQuery, ctx: Context) -> Solution | None:
         grid: Grid = ctx.world
@@ -118,9 +124,7 @@ class Genetic(GridSolver):
         self.options = options
 
     def search_options(self, ctx: Context) -> dict[str, Any]:
-        seed = self.options.seed
-        if seed is None:
-            seed = int(ctx.rng.integers(2**32))
+        seed = self.query_seed(self.options.seed, ctx)
         return {"generations": self.options.generations, "population": self.options.population,
                 "mutation": self.options.mutation, "distance": self.options.distance,
                 "seed": seed}
@@ -155,10 +159,7 @@ class Randomized(GridSolver):
         self.options = options
 
     def search_options(self, ctx: Context) -> dict[str, Any]:
-        seed = self.options.seed
-        if seed is None:
-            seed = int(ctx.rng.integers(2**32))
-        return {"noise": self.options.noise, "seed": seed}
+        return {"noise": self.options.noise, "seed": self.query_seed(self.options.seed, ctx)}
 
 
 @hookimpl
