@@ -23,6 +23,7 @@ again, while paths unlike any stored one are still kept.
 
 from __future__ import annotations
 
+import abc
 from typing import Literal
 
 import attrs
@@ -41,7 +42,7 @@ class CapacityOptions:
     capacity: int = option(100, "The most paths kept.", validator=attrs.validators.ge(1))
 
 
-class CapacityForgetter:
+class CapacityForgetter(abc.ABC):
     """Forget the paths ranked first by :meth:`rank` until at most ``capacity`` remain."""
 
     def __init__(self, options: CapacityOptions, ctx: Context) -> None:
@@ -49,9 +50,9 @@ class CapacityForgetter:
         base_of(ctx)
 
     @staticmethod
+    @abc.abstractmethod
     def rank(base: PathBase) -> np.ndarray:
         """A key per stored path; the lowest is forgotten first."""
-        raise NotImplementedError
 
     @hookimpl
     def cbr_forget(self, ctx: Context) -> None:
