@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
 
 import cbr_observers
 import toy_domain
+from cbrcore.casebase.memory import MemoryStore
+from cbrcore.casebase.sqlite import SQLiteStore
+from cbrcore.casebase.store import CaseStore
 from cbrcore.plugins import Plugins
 
 PLUGIN_VARIABLES = ("CBR_PLUGINS", "CBR_DISABLE_PLUGINS", "CBR_STRICT_PLUGINS")
@@ -42,6 +45,16 @@ def load_toy(cbr_plugins: Callable[..., Plugins]) -> Callable[..., Plugins]:
 def toy_plugins(load_toy: Callable[..., Plugins]) -> Plugins:
     """The toy domain and the built-in plugins, made current for the test."""
     return load_toy()
+
+
+@pytest.fixture(params=["memory", "sqlite"])
+def store(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[CaseStore]:
+    """An empty case base: each test using it runs on the memory and on the SQLite store."""
+    if request.param == "memory":
+        yield MemoryStore()
+    else:
+        with SQLiteStore(tmp_path / "casebase.sqlite") as sqlite:
+            yield sqlite
 
 
 @pytest.fixture

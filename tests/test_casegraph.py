@@ -12,7 +12,6 @@ import itertools
 import math
 from collections import Counter
 from collections.abc import Callable, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -29,7 +28,6 @@ from cbr_grid.grid import Grid
 from cbr_grid.query import without_loops
 from cbr_solvers.search import astar, dijkstra
 from cbrcore.casebase.memory import MemoryStore
-from cbrcore.casebase.sqlite import SQLiteStore
 from cbrcore.errors import CbrError
 
 Cell = tuple[int, int]
@@ -495,15 +493,6 @@ def test_temporary_edges_never_persist() -> None:
 
 def stored_edges(store: Any) -> set[frozenset[Cell]]:
     return {seg(tuple(c.problem["a"]), tuple(c.problem["b"])) for c in store.cases(SEGMENT)}
-
-
-@pytest.fixture(params=["memory", "sqlite"])
-def store(request: pytest.FixtureRequest, tmp_path: Path) -> Any:
-    if request.param == "memory":
-        yield MemoryStore()
-    else:
-        with SQLiteStore(tmp_path / "casebase.sqlite") as sqlite:
-            yield sqlite
 
 
 def test_the_state_reloads_after_a_rolled_back_learn_step(store: Any) -> None:

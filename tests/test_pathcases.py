@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 from collections import Counter
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -29,7 +28,6 @@ from cbr_pathcases.components import PathRetriever, RetrieveOptions
 from cbr_pathcases.cost import Measure, ideal_length, measure
 from cbr_pathcases.selection import probabilities
 from cbrcore.casebase.memory import MemoryStore
-from cbrcore.casebase.sqlite import SQLiteStore
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
@@ -161,15 +159,6 @@ def test_a_shortest_path_driven_without_trouble_costs_one_by_the_ratio() -> None
 
 
 # --- the path base ----------------------------------------------------------------------------
-
-
-@pytest.fixture(params=["memory", "sqlite"])
-def store(request: pytest.FixtureRequest, tmp_path: Path) -> Any:
-    if request.param == "memory":
-        yield MemoryStore()
-    else:
-        with SQLiteStore(tmp_path / "casebase.sqlite") as sqlite:
-            yield sqlite
 
 
 def stored_ids(store: CaseStore) -> list[int]:
