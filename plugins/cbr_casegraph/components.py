@@ -16,6 +16,7 @@ import numpy as np
 
 from cbr_casegraph.graph import SEGMENT
 from cbr_casegraph.state import state_of
+from cbr_grid.distances import DistanceName
 from cbr_grid.query import GridQuery
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
@@ -25,7 +26,6 @@ from cbrcore.options import option
 
 _POSITIVE = attrs.validators.ge(1)
 _UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
-DistanceName = Literal["euclidean", "manhattan", "octile", "chebyshev"]
 
 
 def _planner() -> ModuleType:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -22,6 +23,9 @@ from cbrcore.errors import CbrError
 
 Distance = Callable[[ArrayLike, ArrayLike], np.ndarray]
 """A distance function over arrays of cells."""
+
+DistanceName = Literal["euclidean", "manhattan", "octile", "chebyshev"]
+"""The name of a distance, as an option of a configuration takes it."""
 
 
 def _deltas(a: ArrayLike, b: ArrayLike) -> tuple[np.ndarray, np.ndarray]:

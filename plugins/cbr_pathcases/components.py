@@ -13,7 +13,7 @@ import attrs
 import numpy as np
 
 from cbr_grid.costs import path_cost, path_length
-from cbr_grid.distances import distance
+from cbr_grid.distances import DistanceName, distance
 from cbr_grid.grid import Grid
 from cbr_grid.query import GridQuery, path_array, without_loops
 from cbr_pathcases.base import PATH, PathBase, base_of
@@ -25,7 +25,6 @@ from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Case, Match, Outcome, Retrieval, Solution
 from cbrcore.options import option
 
-DistanceName = Literal["euclidean", "manhattan", "octile", "chebyshev"]
 _UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
 _POSITIVE = attrs.validators.gt(0.0)
 

@@ -24,17 +24,15 @@ again, while paths unlike any stored one are still kept.
 from __future__ import annotations
 
 import abc
-from typing import Literal
 
 import attrs
 import numpy as np
 
+from cbr_grid.distances import DistanceName
 from cbr_pathcases.base import PathBase, base_of
 from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
 from cbrcore.options import option
-
-DistanceName = Literal["euclidean", "manhattan", "octile", "chebyshev"]
 
 
 @attrs.frozen
