@@ -23,6 +23,8 @@ KINDS: dict[str, str] = {
     "workload": "produces the queries of a run and carries out proposals (cbrcore.run.Workload)",
     "metric": "turns one query's problem, proposal and outcome into numbers (cbrcore.run.Metric)",
     "experiment": "a reproduction run by `cbr experiment` (cbrcore.experiment.Experiment)",
+    "kinematics": "a robot's move condition: which move may follow which at a vertex, named by "
+                  "the planners' `kinematics` option",
 }
 """Every component kind, with what a component of that kind must provide."""
 

@@ -1,0 +1,296 @@
+"""The modified Dijkstra and A* of section 5 on an 8-connected grid, compiled.
+
+The search settles directed edges, not cells: a state is a cell j with the direction a = δ(i, j)
+of the step that reached it, d_s(i, j) its distance and p_s(i, j) its parent state. The start is
+the fictitious edge (s', s) of direction w_s, the robot's initial heading (free when none is
+given: any first step). An edge (j, k) is explored from (i, j) when the model's condition
+P(i, j, k) holds (:mod:`cbr_kinematics.turning`), its distance being d_s(i, j) plus the cost of
+any manoeuvre at j plus F(j, k), the step cost of the grid's cost contract
+(:mod:`cbr_solvers.search`). The search stops when every edge into the goal g is settled (step 4)
+and takes the cheapest of them (step 5), or, with a required final heading w_g, when the
+fictitious edge (g, g') of direction w_g is settled: the path must be one the robot could
+continue from g in direction w_g, the condition P applied at g as at every vertex. The
+modified A* orders the edges by d_s(i, j) plus the octile distance from j to g times the least
+cost factor (or a given per-cell table, Ai*'s), which never overestimates.
+
+Reading of the paper: E(g) in step 4 is the set of edges *entering* g (step 5 chooses among
+them); when nothing is left to settle before all are, the search stops with those settled.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import attrs
+import numba
+import numpy as np
+
+from cbr_kinematics.directions import STEPS
+from cbr_kinematics.directions import of_steps as step_directions
+from cbr_kinematics.directions import reversing as reversing_steps
+from cbr_kinematics.models import Kinematics
+from cbr_kinematics.turning import CODES, leave_costs, manoeuvre_cells
+from cbr_solvers.search import (
+    SQRT2,
+    HeuristicTable,
+    _min_factor,
+    _move,
+    _pop,
+    _push,
+    _Workspace,
+    checked_arguments,
+)
+
+# the index into cbr_solvers.search's neighbour offsets of each direction δ
+_ORDER = np.array([0, 5, 3, 7, 1, 6, 2, 4], dtype=np.int64)
+
+
+@attrs.frozen
+class KinematicPath:
+    """A path found by an edge-based search.
+
+    ``path`` is the (n, 2) array of (x, y) cells the robot drives, manoeuvres included (each an
+    out-and-back step), ``cost`` its cost, ``expanded`` the number of edges settled.
+    ``arrivals[a]`` is d_s of the edge entering the goal in direction a (inf when it was not
+    settled or does not exist). :attr:`headings` and :attr:`reversing` describe each step.
+    """
+
+    path: np.ndarray = attrs.field(eq=attrs.cmp_using(eq=np.array_equal))
+    cost: float
+    expanded: int
+    arrivals: np.ndarray = attrs.field(eq=attrs.cmp_using(eq=np.array_equal))
+
+    @property
+    def directions(self) -> np.ndarray:
+        """The direction of motion of each step, δ in 0..7."""
+        return step_directions(self.path)
+
+    @property
+    def reversing(self) -> np.ndarray:
+        """Whether each step is driven in reverse (after an odd number of cusps)."""
+        return reversing_steps(self.directions)
+
+    @property
+    def headings(self) -> np.ndarray:
+        """The way the robot faces after each step: its direction of motion, turned round
+        while it reverses."""
+        return (self.directions + 4 * self.reversing) % 8
+
+
+@numba.njit(cache=True, inline="always")
+def _step_cost(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, cx: int, cy: int,
+               b: int, x0: int, y0: int, x1: int, y1: int) -> float:
+    """F of the step from (cx, cy) in direction b; inf when the move is not allowed."""
+    if not _move(passable, corner_cutting, cx, cy, _ORDER[b], x0, y0, x1, y1):
+        return np.inf
+    nx, ny = cx + STEPS[b, 0], cy + STEPS[b, 1]
+    fa, fb = factor[cy, cx], factor[ny, nx]
+    if not (fa > 0.0 and fa < np.inf and fb > 0.0 and fb < np.inf):
+        raise ValueError("factor must be finite and positive on passable cells")
+    return (SQRT2 if b % 2 == 1 else 1.0) * (fa + fb) * 0.5
+
+
+@numba.njit(cache=True)
+def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: int, sy: int,
+            heading: int, gx: int, gy: int, final: int, x0: int, y0: int, x1: int, y1: int,
+            informed: bool, scale: float, table: np.ndarray, turns: np.ndarray,
+            manoeuvres: int, stamp: np.ndarray, dist: np.ndarray, parent: np.ndarray,
+            generation: int) -> tuple[bool, np.ndarray, float, int, np.ndarray]:
+    """The edge-based search from (sx, sy) heading ``heading`` (-1: free) to (gx, gy), with the
+    required final heading ``final`` (-1: none), inside the window [x0, x1] x [y0, y1].
+
+    Returns (found, path, cost, expanded, arrivals). States are 8·cell + direction over the
+    window's cells in row-major order, then the fictitious start edge (s', s) and goal edge
+    (g, g'). ``stamp``, ``dist`` and ``parent`` are reused working arrays as in
+    :func:`cbr_solvers.search._search`; ``parent`` packs the parent state and the manoeuvre
+    made before the state's edge as state · CODES + code. The caller guarantees that the start
+    and goal lie in the window and that ``scale`` is positive when ``informed`` without a table.
+    """
+    ww = x1 - x0 + 1
+    cells = ww * (y1 - y0 + 1)
+    source, terminal = 8 * cells, 8 * cells + 1
+    settled = generation + 1
+    arrivals = np.full(8, np.inf)
+    empty = np.empty((0, 2), dtype=np.int64)
+    if not (passable[sy, sx] and passable[gy, gx]):
+        return False, empty, np.inf, 0, arrivals
+    tabled = table.shape[0] > 0
+
+    # the edges into g (step 4): one per direction from which a step reaches g
+    entering = 0
+    for a in range(8):
+        px, py = gx - STEPS[a, 0], gy - STEPS[a, 1]
+        if x0 <= px <= x1 and y0 <= py <= y1 and passable[py, px] and _move(
+                passable, corner_cutting, px, py, _ORDER[a], x0, y0, x1, y1):
+            entering += 1
+
+    keys = np.empty(1024, dtype=np.float64)
+    items = np.empty(1024, dtype=np.int64)
+    stamp[source] = generation
+    dist[source] = 0.0
+    keys[0] = 0.0
+    items[0] = source
+    size = 1
+    expanded = 0
+    best = -1
+    settled_goal = 0
+    out_cost = np.empty(8)
+    steps = np.empty(8)
+    extra = np.empty(8)
+    code = np.zeros(8, dtype=np.int64)
+
+    while size > 0:
+        state = _pop(keys, items, size)
+        size -= 1
+        if stamp[state] == settled:
+            continue
+        stamp[state] = settled
+        expanded += 1
+        if state == terminal:
+            best = terminal
+            break
+        if state == source:
+            cx, cy, arrival = sx, sy, heading
+        else:
+            cell = state // 8
+            cx, cy, arrival = x0 + cell % ww, y0 + cell // ww, state % 8
+        at_goal = cx == gx and cy == gy
+        if at_goal and final < 0:
+            if state == source:
+                best = source  # the start is the goal: the empty path
+                break
+            arrivals[arrival] = dist[state]
+            if best < 0:
+                best = state  # popped in order of distance: the first is the cheapest
+            settled_goal += 1
+            if settled_goal == entering:
+                break
+        here = dist[state]
+        for b in range(8):
+            steps[b] = _step_cost(factor, passable, corner_cutting, cx, cy, b, x0, y0, x1, y1)
+            out_cost[b] = 2.0 * steps[b]
+        leave_costs(arrival, out_cost, turns, manoeuvres, extra, code)
+        if at_goal and final >= 0 and extra[final] < np.inf and stamp[terminal] != settled:
+            g = here + extra[final]
+            if stamp[terminal] != generation or g < dist[terminal]:
+                stamp[terminal] = generation
+                dist[terminal] = g
+                parent[terminal] = state * CODES + code[final]
+                if size == keys.shape[0]:
+                    keys = np.concatenate((keys, np.empty_like(keys)))
+                    items = np.concatenate((items, np.empty_like(items)))
+                _push(keys, items, size, g, terminal)
+                size += 1
+        for b in range(8):
+            if steps[b] == np.inf or extra[b] == np.inf:
+                continue
+            nx, ny = cx + STEPS[b, 0], cy + STEPS[b, 1]
+            other = 8 * ((ny - y0) * ww + (nx - x0)) + b
+            mark = stamp[other]
+            if mark == settled:
+                continue
+            g = here + extra[b] + steps[b]
+            if mark == generation and g >= dist[other]:
+                continue
+            stamp[other] = generation
+            dist[other] = g
+            parent[other] = state * CODES + code[b]
+            key = g
+            if tabled:
+                key += table[other // 8]
+            elif informed:
+                dx, dy = abs(nx - gx), abs(ny - gy)
+                key += (max(dx, dy) + (SQRT2 - 1.0) * min(dx, dy)) * scale
+            if size == keys.shape[0]:
+                keys = np.concatenate((keys, np.empty_like(keys)))
+                items = np.concatenate((items, np.empty_like(items)))
+            _push(keys, items, size, key, other)
+            size += 1
+
+    if best < 0:
+        return False, empty, np.inf, expanded, arrivals
+
+    # read the path back through the parents: count the cells, then write them
+    count = 1
+    state = best
+    while state != source:
+        link = parent[state]
+        count += (0 if state == terminal else 1) + 2 * ((link % CODES) > 0) + 2 * (
+            (link % CODES) > 8)
+        state = link // CODES
+    path = np.empty((count, 2), dtype=np.int64)
+    chain = np.empty(count, dtype=np.int64)
+    links = 0
+    state = best
+    while state != source:
+        chain[links] = state
+        links += 1
+        state = parent[state] // CODES
+    path[0, 0], path[0, 1] = sx, sy
+    at = 1
+    x, y = sx, sy
+    for i in range(links - 1, -1, -1):
+        state = chain[i]
+        at = manoeuvre_cells(x, y, parent[state] % CODES, path, at)
+        if state != terminal:
+            cell = state // 8
+            x, y = x0 + cell % ww, y0 + cell // ww
+            path[at, 0], path[at, 1] = x, y
+            at += 1
+    return True, path, dist[best], expanded, arrivals
+
+
+_WORKSPACE = _Workspace()
+
+
+def kinematic_search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
+                     start: Sequence[int], goal: Sequence[int], kinematics: Kinematics, *,
+                     heading: int | None = None, final_heading: int | None = None,
+                     window: Sequence[int] | None = None, informed: bool = True,
+                     heuristic: HeuristicTable | None = None) -> KinematicPath | None:
+    """The cheapest path from ``start`` to ``goal`` a robot of ``kinematics`` can drive.
+
+    ``heading`` is the robot's initial direction w_s (0-7, :mod:`cbr_kinematics.directions`;
+    None lets it start in any direction), ``final_heading`` the direction w_g in which it must
+    be able to drive on from the goal (None for any). ``informed`` selects the modified A* over
+    the modified Dijkstra; ``heuristic``, given, builds A*'s per-cell table as for
+    :func:`cbr_solvers.search.astar` (Ai*'s). ``window`` limits the search to an inclusive box
+    (x0, y0, x1, y1). Returns None when no path exists. ValueError for cells off the grid,
+    headings that are not directions and factors that are not finite and positive on passable
+    cells the search meets.
+    """
+    factor, passable, (sx, sy), goals, (x0, y0, x1, y1) = checked_arguments(
+        factor, passable, start, goal, window)
+    if len(goals) != 1:
+        raise ValueError(f"the edge-based search takes one goal, got {len(goals)}")
+    gx, gy = (int(v) for v in goals[0])
+    for name, value in (("heading", heading), ("final_heading", final_heading)):
+        if value is not None and (isinstance(value, bool) or value not in range(8)):
+            raise ValueError(f"{name} must be a direction 0-7 or None, got {value!r}")
+    turns = kinematics.table
+    if not (x0 <= sx <= x1 and y0 <= sy <= y1 and x0 <= gx <= x1 and y0 <= gy <= y1):
+        return None
+    h, w = passable.shape
+    box = (x0, y0, x1, y1)
+    table = np.empty(0, dtype=np.float64)
+    scale = 1.0
+    if heuristic is not None:
+        table = np.ascontiguousarray(heuristic(factor, passable, bool(corner_cutting), goals, box),
+                                     dtype=np.float64).reshape(-1)
+    elif informed:
+        scale = _min_factor(factor, passable, box, box == (0, 0, w - 1, h - 1))
+        if scale < 0:
+            region = np.where(passable[y0:y1 + 1, x0:x1 + 1], factor[y0:y1 + 1, x0:x1 + 1],
+                              np.inf)
+            scale = float(region.min())
+        if scale == np.inf:
+            return None
+    stamp, dist, parent, _, generation = _WORKSPACE.take(8 * (x1 - x0 + 1) * (y1 - y0 + 1) + 2)
+    found, path, cost, expanded, arrivals = _search(
+        factor, passable, bool(corner_cutting), sx, sy, -1 if heading is None else heading,
+        gx, gy, -1 if final_heading is None else final_heading, x0, y0, x1, y1,
+        bool(informed or heuristic is not None), scale, table, turns, kinematics.manoeuvres,
+        stamp, dist, parent, generation)
+    if not found:
+        return None
+    return KinematicPath(path, float(cost), int(expanded), arrivals)
