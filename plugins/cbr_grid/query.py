@@ -11,10 +11,20 @@ Cell = tuple[int, int]
 
 @attrs.frozen
 class GridQuery:
-    """Plan a path from ``start`` to ``goal`` (cells as (x, y))."""
+    """Plan a path from ``start`` to ``goal`` (cells as (x, y)).
+
+    ``heading`` is the direction the robot faces at the start and ``final_heading`` the one in
+    which it must be able to drive on from the goal, each 0-7 counter-clockwise from east
+    (``cbr_kinematics.directions``) or None for any; only planners for a constrained kinematic
+    model heed them.
+    """
 
     start: Cell
     goal: Cell
+    heading: int | None = attrs.field(default=None, validator=attrs.validators.optional(
+        attrs.validators.in_(range(8))))
+    final_heading: int | None = attrs.field(default=None, validator=attrs.validators.optional(
+        attrs.validators.in_(range(8))))
 
 
 def path_array(cells: object) -> np.ndarray:

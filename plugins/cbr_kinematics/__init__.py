@@ -19,9 +19,15 @@ HOLONOMIC = "holonomic"
 """The name of the model without constraints, every option's default."""
 
 
-def kinematics_of(name: str, ctx: Context, where: str) -> Kinematics:
-    """The kinematic model registered as ``name``, checked; ``where`` names the option in the
-    error for one that is not a :class:`Kinematics`."""
+def kinematics_of(name: str, ctx: Context, where: str) -> Kinematics | None:
+    """The kinematic model registered as ``name``, checked, or None for one that allows every
+    turn: the ordinary searches plan for it. ``where`` names the option in errors.
+
+    The default, ``holonomic``, is known without a registry lookup, so planners built by hand
+    with an empty registry plan as before.
+    """
+    if name == HOLONOMIC:
+        return None
     model = ctx.registry.create("kinematics", name, None, ctx)
     if not isinstance(model, Kinematics):
         raise CbrError(f"{where}: kinematics {name!r} is a {type(model).__name__}, not a "
@@ -30,7 +36,7 @@ def kinematics_of(name: str, ctx: Context, where: str) -> Kinematics:
         _ = model.table  # built and checked once, here
     except ValueError as exc:
         raise CbrError(f"{where}: kinematics {name!r}: {exc}") from None
-    return model
+    return None if model.unconstrained else model
 
 
 @hookimpl

@@ -30,6 +30,7 @@ from cbr_kinematics.directions import of_steps as step_directions
 from cbr_kinematics.directions import reversing as reversing_steps
 from cbr_kinematics.models import Kinematics
 from cbr_kinematics.turning import CODES, leave_costs, manoeuvre_cells
+from cbr_solvers.aistar import heuristic_table
 from cbr_solvers.search import (
     SQRT2,
     HeuristicTable,
@@ -244,26 +245,27 @@ _WORKSPACE = _Workspace()
 
 
 def kinematic_search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
-                     start: Sequence[int], goal: Sequence[int], kinematics: Kinematics, *,
-                     heading: int | None = None, final_heading: int | None = None,
-                     window: Sequence[int] | None = None, informed: bool = True,
+                     start: Sequence[int], goals: object, window: Sequence[int] | None = None, *,
+                     kinematics: Kinematics, heading: int | None = None,
+                     final_heading: int | None = None, informed: bool = True,
                      heuristic: HeuristicTable | None = None) -> KinematicPath | None:
-    """The cheapest path from ``start`` to ``goal`` a robot of ``kinematics`` can drive.
+    """The cheapest path from ``start`` to the goal a robot of ``kinematics`` can drive.
 
-    ``heading`` is the robot's initial direction w_s (0-7, :mod:`cbr_kinematics.directions`;
-    None lets it start in any direction), ``final_heading`` the direction w_g in which it must
-    be able to drive on from the goal (None for any). ``informed`` selects the modified A* over
-    the modified Dijkstra; ``heuristic``, given, builds A*'s per-cell table as for
-    :func:`cbr_solvers.search.astar` (Ai*'s). ``window`` limits the search to an inclusive box
-    (x0, y0, x1, y1). Returns None when no path exists. ValueError for cells off the grid,
-    headings that are not directions and factors that are not finite and positive on passable
-    cells the search meets.
+    ``goals`` holds the one goal cell, as (x, y) or [(x, y)] (the arguments of
+    :func:`cbr_solvers.search.astar`). ``heading`` is the robot's initial direction w_s (0-7,
+    :mod:`cbr_kinematics.directions`; None lets it start in any direction), ``final_heading``
+    the direction w_g in which it must be able to drive on from the goal (None for any).
+    ``informed`` selects the modified A* over the modified Dijkstra; ``heuristic``, given,
+    builds A*'s per-cell table as for :func:`cbr_solvers.search.astar` (Ai*'s). ``window``
+    limits the search to an inclusive box (x0, y0, x1, y1). Returns None when no path exists.
+    ValueError for cells off the grid, more than one goal, headings that are not directions and
+    factors that are not finite and positive on passable cells the search meets.
     """
-    factor, passable, (sx, sy), goals, (x0, y0, x1, y1) = checked_arguments(
-        factor, passable, start, goal, window)
-    if len(goals) != 1:
-        raise ValueError(f"the edge-based search takes one goal, got {len(goals)}")
-    gx, gy = (int(v) for v in goals[0])
+    factor, passable, (sx, sy), targets, (x0, y0, x1, y1) = checked_arguments(
+        factor, passable, start, goals, window)
+    if len(targets) != 1:
+        raise ValueError(f"the edge-based search takes one goal, got {len(targets)}")
+    gx, gy = (int(v) for v in targets[0])
     for name, value in (("heading", heading), ("final_heading", final_heading)):
         if value is not None and (isinstance(value, bool) or value not in range(8)):
             raise ValueError(f"{name} must be a direction 0-7 or None, got {value!r}")
@@ -275,14 +277,17 @@ def kinematic_search(factor: np.ndarray, passable: np.ndarray, corner_cutting: b
     table = np.empty(0, dtype=np.float64)
     scale = 1.0
     if heuristic is not None:
-        table = np.ascontiguousarray(heuristic(factor, passable, bool(corner_cutting), goals, box),
-                                     dtype=np.float64).reshape(-1)
+        table = np.ascontiguousarray(
+            heuristic(factor, passable, bool(corner_cutting), targets, box),
+            dtype=np.float64).reshape(-1)
     elif informed:
         scale = _min_factor(factor, passable, box, box == (0, 0, w - 1, h - 1))
         if scale < 0:
             region = np.where(passable[y0:y1 + 1, x0:x1 + 1], factor[y0:y1 + 1, x0:x1 + 1],
                               np.inf)
             scale = float(region.min())
+            if not scale > 0.0:
+                raise ValueError("factor must be finite and positive on passable cells")
         if scale == np.inf:
             return None
     stamp, dist, parent, _, generation = _WORKSPACE.take(8 * (x1 - x0 + 1) * (y1 - y0 + 1) + 2)
@@ -294,3 +299,33 @@ def kinematic_search(factor: np.ndarray, passable: np.ndarray, corner_cutting: b
     if not found:
         return None
     return KinematicPath(path, float(cost), int(expanded), arrivals)
+
+
+def dijkstra(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
+             start: Sequence[int], goals: object, window: Sequence[int] | None = None, *,
+             kinematics: Kinematics, heading: int | None = None,
+             final_heading: int | None = None) -> KinematicPath | None:
+    """The modified Dijkstra of section 5: :func:`kinematic_search` without a heuristic."""
+    return kinematic_search(factor, passable, corner_cutting, start, goals, window,
+                            kinematics=kinematics, heading=heading, final_heading=final_heading,
+                            informed=False)
+
+
+def astar(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
+          start: Sequence[int], goals: object, window: Sequence[int] | None = None, *,
+          kinematics: Kinematics, heading: int | None = None,
+          final_heading: int | None = None) -> KinematicPath | None:
+    """The modified A* of section 5: :func:`kinematic_search` with the octile heuristic."""
+    return kinematic_search(factor, passable, corner_cutting, start, goals, window,
+                            kinematics=kinematics, heading=heading, final_heading=final_heading)
+
+
+def aistar(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
+           start: Sequence[int], goals: object, window: Sequence[int] | None = None, *,
+           kinematics: Kinematics, heading: int | None = None,
+           final_heading: int | None = None) -> KinematicPath | None:
+    """The modified A* guided by Ai*'s integer distance map (:mod:`cbr_solvers.aistar`), which
+    never overestimates the holonomic cost, so neither a constrained one."""
+    return kinematic_search(factor, passable, corner_cutting, start, goals, window,
+                            kinematics=kinematics, heading=heading, final_heading=final_heading,
+                            heuristic=heuristic_table)

@@ -20,6 +20,7 @@ import typer
 
 from cbr_grid.grid import Grid
 from cbr_grid.query import GridQuery
+from cbr_kinematics import HOLONOMIC, kinematics_of
 from cbr_solvers.cli import add_commands
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
@@ -28,14 +29,34 @@ from cbrcore.model import Solution
 from cbrcore.options import option
 from cbrcore.registry import Registry
 
-SEARCH_MODULES = {"dijkstra": "search", "astar": "search", "aistar": "aistar",
-                  "genetic": "genetic", "randomized": "randomized"}
-"""Each grid search by name, and the module of cbr_solvers that holds its function."""
+SEARCH_MODULES = {"dijkstra": "cbr_solvers.search", "astar": "cbr_solvers.search",
+                  "aistar": "cbr_solvers.aistar", "genetic": "cbr_solvers.genetic",
+                  "randomized": "cbr_solvers.randomized"}
+"""Each grid search by name, and the module that holds its function."""
+
+KINEMATIC_MODULES = {"dijkstra": "cbr_kinematics.grid_search",
+                     "astar": "cbr_kinematics.grid_search",
+                     "aistar": "cbr_kinematics.grid_search",
+                     "randomized": "cbr_solvers.randomized"}
+"""The grid searches that plan for a kinematic model (section 5 of the case graph paper), and
+the module that holds each one's function taking ``kinematics``, ``heading`` and
+``final_heading``."""
 
 
-def load_search(name: str) -> Callable[..., Any]:
-    """The search function ``name``; numba loads with it, not with every start of ``cbr``."""
-    return getattr(importlib.import_module(f"cbr_solvers.{SEARCH_MODULES[name]}"), name)
+def load_search(name: str, *, kinematic: bool = False) -> Callable[..., Any]:
+    """The search function ``name``, or its edge-based counterpart for constrained kinematics;
+    numba loads with it, not with every start of ``cbr``."""
+    modules = KINEMATIC_MODULES if kinematic else SEARCH_MODULES
+    return getattr(importlib.import_module(modules[name]), name)
+
+
+@attrs.frozen
+class SearchOptions:
+    kinematics: str = option(
+        HOLONOMIC, "The robot's kinematic model, a registered kinematics component: holonomic "
+        "(any move), forward (turns of at most 45 degrees) or forward_backward (also backward "
+        "manoeuvres). A constrained model plans with the edge-based search of section 5 from "
+        "the query's heading to its final heading.")
 
 
 class GridSolver:
@@ -47,7 +68,9 @@ class GridSolver:
         if not isinstance(ctx.world, Grid):
             raise CbrError(f"solver {self.name!r} plans on a grid world; the configured world is "
                            f"{type(ctx.world).__name__}")
-        self.search = load_search(self.name)
+        self.kinematics = kinematics_of(getattr(options, "kinematics", HOLONOMIC), ctx,
+                                        f"solver {self.name!r}")
+        self.search = load_search(self.name, kinematic=self.kinematics is not None)
 
     def search_options(self, ctx: Context) -> dict[str, Any]:
         """The keyword arguments of one search call beyond the grid, start and goals."""
@@ -64,12 +87,19 @@ class GridSolver:
         grid: Grid = ctx.world
         start = grid.check_cell(problem.start, "start")
         goal = grid.check_cell(problem.goal, "goal")
+        options = self.search_options(ctx)
+        if self.kinematics is not None:
+            options.update(kinematics=self.kinematics, heading=problem.heading,
+                           final_heading=problem.final_heading)
         result = self.search(grid.factor, grid.passable, grid.corner_cutting, start, [goal],
-                             **self.search_options(ctx))
+                             **options)
         if result is None:
             return None
-        return Solution(result.path.tolist(), cost=result.cost,
-                        detail={"expanded": result.expanded, "solver": self.name})
+        detail: dict[str, Any] = {"expanded": result.expanded, "solver": self.name}
+        if self.kinematics is not None:
+            detail.update(headings=result.headings.tolist(),
+                          reversing=result.reversing.tolist())
+        return Solution(result.path.tolist(), cost=result.cost, detail=detail)
 
 
 class Dijkstra(GridSolver):
@@ -131,7 +161,7 @@ class Genetic(GridSolver):
 
 
 @attrs.frozen
-class RandomizedOptions:
+class RandomizedOptions(SearchOptions):
     noise: float = option(
         1.0, "Each cell's cost factor is multiplied by a draw from [1, 1 + noise] per query; the "
         "path costs at most 1 + noise times the cheapest, and 0 gives the cheapest.",
@@ -164,9 +194,9 @@ class Randomized(GridSolver):
 
 @hookimpl
 def cbr_register(registry: Registry) -> None:
-    registry.add("solver", "dijkstra", Dijkstra)
-    registry.add("solver", "astar", AStar)
-    registry.add("solver", "aistar", AiStar)
+    registry.add("solver", "dijkstra", Dijkstra, options=SearchOptions)
+    registry.add("solver", "astar", AStar, options=SearchOptions)
+    registry.add("solver", "aistar", AiStar, options=SearchOptions)
     registry.add("solver", "genetic", Genetic, options=GeneticOptions)
     registry.add("solver", "randomized", Randomized, options=RandomizedOptions)
 

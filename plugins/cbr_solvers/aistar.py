@@ -151,8 +151,8 @@ def _goal_array(goals: object) -> np.ndarray:
     return np.ascontiguousarray(np.asarray(goals, dtype=np.int64).reshape(-1, 2))
 
 
-def _heuristic_table(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
-                     goals: np.ndarray, window: tuple[int, int, int, int]) -> np.ndarray:
+def heuristic_table(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
+                    goals: np.ndarray, window: tuple[int, int, int, int]) -> np.ndarray:
     """Ai*'s heuristic over the window, row-major: the integer map / 3 times the least factor."""
     x0, y0, x1, y1 = window
     h, w = passable.shape
@@ -191,7 +191,7 @@ def heuristic_map(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool
     factor = np.ascontiguousarray(factor, dtype=np.float64)
     passable = np.ascontiguousarray(passable, dtype=np.bool_)
     box = _window(passable, window)
-    table = _heuristic_table(factor, passable, bool(corner_cutting), _goal_array(goals), box)
+    table = heuristic_table(factor, passable, bool(corner_cutting), _goal_array(goals), box)
     return table.reshape(box[3] - box[1] + 1, box[2] - box[0] + 1)
 
 
@@ -252,4 +252,4 @@ def aistar(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, start
     it is admissible and consistent, so the cost is optimal.
     """
     return _run(factor, passable, corner_cutting, start, goals, window, informed=True,
-                heuristic=_heuristic_table)
+                heuristic=heuristic_table)

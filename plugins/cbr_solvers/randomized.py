@@ -19,22 +19,30 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+import attrs
 import numpy as np
 
+from cbr_kinematics.grid_search import KinematicPath
+from cbr_kinematics.grid_search import astar as kinematic_astar
+from cbr_kinematics.models import Kinematics
 from cbr_solvers.genetic import _cost
 from cbr_solvers.search import SearchResult, astar, checked_arguments
 
 
 def randomized(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
                start: Sequence[int], goals: object, window: Sequence[int] | None = None, *,
-               noise: float = 1.0, seed: int = 0) -> SearchResult | None:
+               noise: float = 1.0, seed: int = 0, kinematics: Kinematics | None = None,
+               heading: int | None = None, final_heading: int | None = None
+               ) -> SearchResult | KinematicPath | None:
     """A near-cheapest path from ``start`` to the nearest of ``goals``, different per ``seed``.
 
     Arguments, result and errors as for :func:`cbr_solvers.search.astar`; ``cost`` is the path's
     cost under ``factor``, at most 1 + ``noise`` times the optimum. ``noise`` (a finite number
     >= 0) widens the uniform draw [1, 1 + noise] of each cell's cost multiplier; ``seed`` (an
     integer >= 0) fixes the draw. Only the cells of ``window`` are drawn and searched, so a call
-    costs in proportion to the window rather than to the grid.
+    costs in proportion to the window rather than to the grid. With ``kinematics`` the search is
+    the modified A* of :mod:`cbr_kinematics.grid_search` from ``heading`` to ``final_heading``
+    (and the bound holds among the paths that robot can drive).
     """
     if isinstance(noise, bool) or not isinstance(noise, int | float) or not (
             math.isfinite(noise) and noise >= 0):
@@ -49,9 +57,17 @@ def randomized(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
     # searched on the window cut out, so the noise drawn and the arrays made are the window's
     region = factor[y0:y1 + 1, x0:x1 + 1]
     noisy = region * np.random.default_rng(int(seed)).uniform(1.0, 1.0 + noise, region.shape)
-    found = astar(noisy, passable[y0:y1 + 1, x0:x1 + 1], corner_cutting, (sx - x0, sy - y0),
-                  targets[inside] - (x0, y0))
-    if found is None:
+    args = (noisy, passable[y0:y1 + 1, x0:x1 + 1], corner_cutting, (sx - x0, sy - y0),
+            targets[inside] - (x0, y0))
+    if kinematics is None:
+        found = astar(*args)
+        if found is None:
+            return None
+        path = found.path + np.array([x0, y0])
+        return SearchResult(path, _cost(factor, path), found.expanded)
+    constrained = kinematic_astar(*args, kinematics=kinematics, heading=heading,
+                                  final_heading=final_heading)
+    if constrained is None:
         return None
-    path = found.path + np.array([x0, y0])
-    return SearchResult(path, _cost(factor, path), found.expanded)
+    path = constrained.path + np.array([x0, y0])
+    return attrs.evolve(constrained, path=path, cost=_cost(factor, path))
