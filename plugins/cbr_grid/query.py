@@ -15,7 +15,7 @@ class GridQuery:
 
     ``heading`` is the direction the robot faces at the start and ``final_heading`` the one in
     which it must be able to drive on from the goal, each 0-7 counter-clockwise from east
-    (``cbr_kinematics.directions``) or None for any; only planners for a constrained kinematic
+    (``cbr_grid.directions``) or None for any; only planners for a constrained kinematic
     model heed them.
     """
 

@@ -15,7 +15,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from cbr_kinematics.directions import between
+from cbr_grid.directions import between
 from cbr_kinematics.models import Kinematics
 from cbr_kinematics.turning import CODES, leave_costs
 from cbr_solvers.search import SQRT2, _pop, _push

@@ -25,9 +25,9 @@ import attrs
 import numba
 import numpy as np
 
-from cbr_kinematics.directions import STEPS
-from cbr_kinematics.directions import of_steps as step_directions
-from cbr_kinematics.directions import reversing as reversing_steps
+from cbr_grid.directions import STEPS
+from cbr_grid.directions import of_steps as step_directions
+from cbr_grid.directions import reversing as reversing_steps
 from cbr_kinematics.models import Kinematics
 from cbr_kinematics.turning import CODES, leave_costs, manoeuvre_cells
 from cbr_solvers.aistar import heuristic_table
@@ -253,7 +253,7 @@ def kinematic_search(factor: np.ndarray, passable: np.ndarray, corner_cutting: b
 
     ``goals`` holds the one goal cell, as (x, y) or [(x, y)] (the arguments of
     :func:`cbr_solvers.search.astar`). ``heading`` is the robot's initial direction w_s (0-7,
-    :mod:`cbr_kinematics.directions`; None lets it start in any direction), ``final_heading``
+    :mod:`cbr_grid.directions`; None lets it start in any direction), ``final_heading``
     the direction w_g in which it must be able to drive on from the goal (None for any).
     ``informed`` selects the modified A* over the modified Dijkstra; ``heuristic``, given,
     builds A*'s per-cell table as for :func:`cbr_solvers.search.astar` (Ai*'s). ``window``

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from cbr_kinematics.directions import STEPS
+from cbr_grid.directions import STEPS
 
 CODES = 73
 """The number of manoeuvre codes: none, 8 single and 64 double ones."""

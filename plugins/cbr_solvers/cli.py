@@ -56,11 +56,44 @@ def _cell(text: str, option: str) -> Cell:
     return x, y
 
 
-def _searcher(solver: SolverName) -> Search:
-    """The search function of ``solver``, its compiled kernel loaded before any timing."""
-    from cbr_solvers import load_search
+def _heading(text: str | None, option: str) -> int | None:
+    """The direction written in ``text`` (a name or 0-7); a usage error naming ``option``."""
+    from cbr_grid.directions import parse
 
-    function: Search = load_search(solver.value)
+    if text is None:
+        return None
+    try:
+        return parse(text)
+    except ValueError as exc:
+        raise typer.BadParameter(str(exc), param_hint=f"'{option}'") from None
+
+
+def _searcher(solver: SolverName, kinematics: str, heading: int | None,
+              final_heading: int | None) -> Search:
+    """The search function of ``solver`` for the kinematic model named ``kinematics``, its
+    compiled kernel loaded before any timing."""
+    from cbr_kinematics import kinematics_of
+    from cbr_solvers import KINEMATIC_MODULES, load_search
+    from cbrcore.context import Context
+    from cbrcore.plugins import current
+
+    model = kinematics_of(kinematics, Context(registry=current().registry, seed=0),
+                          "--kinematics")
+    if model is None:
+        if heading is not None or final_heading is not None:
+            raise typer.BadParameter(f"kinematics {kinematics!r} turns any way: headings apply "
+                                     "to a constrained model such as forward",
+                                     param_hint="'--heading' / '--final-heading'")
+        function: Search = load_search(solver.value)
+    else:
+        if solver.value not in KINEMATIC_MODULES:
+            raise typer.BadParameter(
+                f"--solver {solver.value} plans for holonomic robots only; for kinematics "
+                f"{kinematics!r} use one of {', '.join(KINEMATIC_MODULES)}",
+                param_hint="'--kinematics'")
+        function = functools.partial(load_search(solver.value, kinematic=True),
+                                     kinematics=model, heading=heading,
+                                     final_heading=final_heading)
     # The first call loads the kernel from the disk cache (or compiles it); a search on a
     # one-cell grid keeps that out of the times reported. It must be a Grid: numba compiles
     # apart for the read-only arrays a Grid holds.
@@ -77,18 +110,22 @@ def _plan(search: Search, solver: SolverName, grid: Grid, start: Cell,
     time_ms = (time.perf_counter() - began) * 1000.0
     if result is None:
         return None
-    return {"solver": solver.value, "length": path_length(result.path), "cost": result.cost,
-            "turns": turns(result.path), "time_ms": time_ms, "expanded": result.expanded,
-            "path": result.path.tolist()}
+    record = {"solver": solver.value, "length": path_length(result.path), "cost": result.cost,
+              "turns": turns(result.path), "time_ms": time_ms, "expanded": result.expanded,
+              "path": result.path.tolist()}
+    if hasattr(result, "headings"):
+        record.update(headings=result.headings.tolist(), reversing=result.reversing.tolist())
+    return record
 
 
 def _save_plot(grid: Grid, out: Path, path: list[list[int]] | None = None,
-               start: Cell | None = None, goal: Cell | None = None) -> None:
-    """Draw ``grid`` (and the path, start and goal given) into the file ``out``."""
+               start: Cell | None = None, goal: Cell | None = None, **headings: Any) -> None:
+    """Draw ``grid`` (and the path, start and goal given, with the headings and reversing
+    steps of :func:`cbr_grid.plot.draw_on`) into the file ``out``."""
     # matplotlib loads only when a picture is asked for
     from cbr_grid.plot import draw_grid
 
-    figure = draw_grid(grid, path=path, start=start, goal=goal)
+    figure = draw_grid(grid, path=path, start=start, goal=goal, **headings)
     try:
         figure.savefig(out, dpi=150)
     except (OSError, ValueError) as exc:
@@ -162,6 +199,15 @@ def plan(
     seed: Annotated[int | None, typer.Option(
         "--seed", min=0, help="With --solver genetic: the random seed (default 0).",
         show_default=False)] = None,
+    kinematics: Annotated[str, typer.Option(
+        "--kinematics", help="The robot's kinematic model: holonomic, forward, "
+        "forward_backward or another registered one.")] = "holonomic",
+    heading: Annotated[str | None, typer.Option(
+        "--heading", metavar="DIR", help="The direction the robot faces at the start: E, NE, "
+        "N, NW, W, SW, S, SE or 0-7 (default: any).", show_default=False)] = None,
+    final_heading: Annotated[str | None, typer.Option(
+        "--final-heading", metavar="DIR", help="The direction in which the robot must be able "
+        "to drive on from the goal (default: any).", show_default=False)] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON objects.")] = False,
     plot: PlotPath = None,
 ) -> None:
@@ -183,8 +229,10 @@ def plan(
         raise typer.BadParameter("--seed applies to --solver genetic only", param_hint="'--seed'")
     start_cell = None if start is None else _cell(start, "--start")
     goal_cell = None if goal is None else _cell(goal, "--goal")
+    start_heading = _heading(heading, "--heading")
+    goal_heading = _heading(final_heading, "--final-heading")
     grid = load_map(map_file)
-    search = _searcher(solver)
+    search = _searcher(solver, kinematics, start_heading, goal_heading)
     if seed is not None:
         search = functools.partial(search, seed=seed)
     if scen is not None:
@@ -197,13 +245,20 @@ def plan(
         typer.echo(f"no path from {start_cell} to {goal_cell} on {map_file}", err=True)
         raise typer.Exit(1)
     if plot is not None:
-        _save_plot(grid, plot, record["path"], start_cell, goal_cell)
+        _save_plot(grid, plot, record["path"], start_cell, goal_cell, heading=start_heading,
+                   final_heading=goal_heading, reversing=record.get("reversing"))
     if as_json:
         typer.echo(json.dumps(record))
         return
     for key in ("length", "cost", "turns", "time_ms", "expanded"):
         value = record[key]
         typer.echo(f"{key:<9} {value:.6g}" if isinstance(value, float) else f"{key:<9} {value}")
+    if "headings" in record:
+        from cbr_grid.directions import NAMES
+
+        typer.echo(f"{'headings':<9} {' '.join(NAMES[h] for h in record['headings'])}")
+        typer.echo(f"{'reversing':<9} {sum(record['reversing'])} of {len(record['reversing'])} "
+                   "steps")
     if plot is not None:
         typer.echo(f"wrote {plot}")
 

@@ -1,5 +1,5 @@
-"""The eight grid directions δ in {0..7} of the nonholonomic planner (section 5 of the case
-graph paper).
+"""The eight directions of grid moves, δ in {0..7}, as the nonholonomic planner numbers them
+(section 5 of the case graph paper).
 
 They go round the compass counter-clockwise from east, so opposite directions differ by 4:
 δ(i, j) = (δ(j, i) + 4) mod 8, and the turn between two directions a and b is
