@@ -18,8 +18,10 @@ from cbr_casegraph.graph import SEGMENT
 from cbr_casegraph.state import state_of
 from cbr_grid.distances import DistanceName
 from cbr_grid.query import GridQuery
+from cbr_kinematics import HOLONOMIC, kinematics_of
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
+from cbrcore.errors import CbrError
 from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Case, Match, Outcome, Retrieval, Solution
 from cbrcore.options import option
@@ -102,6 +104,11 @@ class ReuseOptions:
     graph_search: Literal["dijkstra", "astar"] = option(
         "astar", "The search for the best path in the extended case graph (step 6); both find "
         "the cheapest path.")
+    kinematics: str = option(
+        HOLONOMIC, "The robot's kinematic model, a registered kinematics component (holonomic, "
+        "forward, forward_backward): a constrained one plans with the edge-based searches of "
+        "section 5 from the query's heading to its final heading, the temporary edges made by "
+        "edge-based Dijkstra sweeps (connector dijkstra).")
 
 
 class CaseGraphReuser:
@@ -110,6 +117,11 @@ class CaseGraphReuser:
     def __init__(self, options: ReuseOptions, ctx: Context) -> None:
         self.options = options
         self.search = None
+        self.kinematics = kinematics_of(options.kinematics, ctx, "reuse 'casegraph'")
+        if self.kinematics is not None and options.connector != "dijkstra":
+            raise CbrError(f"reuse 'casegraph': kinematics {options.kinematics!r} makes the "
+                           "temporary edges by edge-based Dijkstra sweeps; set connector: "
+                           f"dijkstra, not {options.connector!r}")
         if options.connector != "dijkstra":
             from cbr_solvers import load_search
 
@@ -125,8 +137,14 @@ class CaseGraphReuser:
                                 margin=self.options.margin,
                                 graph_search=self.options.graph_search)
         graph = state_of(ctx).graph
-        result = planner.adapt(graph, tuple(problem.start), tuple(problem.goal), found, settings,
-                       self.search)
+        start, goal = tuple(problem.start), tuple(problem.goal)
+        if self.kinematics is None:
+            result = planner.adapt(graph, start, goal, found, settings, self.search)
+        else:
+            from cbr_casegraph import kinematic
+
+            result = kinematic.adapt(graph, start, goal, found, settings, self.kinematics,
+                                     problem.heading, problem.final_heading)
         if isinstance(result, planner.Failure):
             return None
         return Solution(result.path.tolist(), cost=result.cost, cases=result.edges,

@@ -96,11 +96,14 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
             heading: int, gx: int, gy: int, final: int, x0: int, y0: int, x1: int, y1: int,
             informed: bool, scale: float, table: np.ndarray, turns: np.ndarray,
             manoeuvres: int, stamp: np.ndarray, dist: np.ndarray, parent: np.ndarray,
-            generation: int) -> tuple[bool, np.ndarray, float, int, np.ndarray]:
+            generation: int) -> tuple[int, int, np.ndarray]:
     """The edge-based search from (sx, sy) heading ``heading`` (-1: free) to (gx, gy), with the
-    required final heading ``final`` (-1: none), inside the window [x0, x1] x [y0, y1].
+    required final heading ``final`` (-1: none), inside the window [x0, x1] x [y0, y1]; with
+    ``gx`` -1, a sweep that settles every edge it can reach.
 
-    Returns (found, path, cost, expanded, arrivals). States are 8·cell + direction over the
+    Returns (best, expanded, arrivals): the state whose path is the answer (-1 when none; read
+    it with :func:`_read_path`), the number of states settled and d_s of the edges into the
+    goal by direction. States are 8·cell + direction over the
     window's cells in row-major order, then the fictitious start edge (s', s) and goal edge
     (g, g'). ``stamp``, ``dist`` and ``parent`` are reused working arrays as in
     :func:`cbr_solvers.search._search`; ``parent`` packs the parent state and the manoeuvre
@@ -112,14 +115,13 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
     source, terminal = 8 * cells, 8 * cells + 1
     settled = generation + 1
     arrivals = np.full(8, np.inf)
-    empty = np.empty((0, 2), dtype=np.int64)
-    if not (passable[sy, sx] and passable[gy, gx]):
-        return False, empty, np.inf, 0, arrivals
+    if not (passable[sy, sx] and (gx < 0 or passable[gy, gx])):
+        return -1, 0, arrivals
     tabled = table.shape[0] > 0
 
     # the edges into g (step 4): one per direction from which a step reaches g
     entering = 0
-    for a in range(8):
+    for a in range(8 if gx >= 0 else 0):
         px, py = gx - STEPS[a, 0], gy - STEPS[a, 1]
         if x0 <= px <= x1 and y0 <= py <= y1 and passable[py, px] and _move(
                 passable, corner_cutting, px, py, _ORDER[a], x0, y0, x1, y1):
@@ -208,16 +210,20 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
             _push(keys, items, size, key, other)
             size += 1
 
-    if best < 0:
-        return False, empty, np.inf, expanded, arrivals
+    return best, expanded, arrivals
 
-    # read the path back through the parents: count the cells, then write them
+
+@numba.njit(cache=True)
+def _read_path(parent: np.ndarray, best: int, sx: int, sy: int, x0: int, y0: int, ww: int,
+               source: int, terminal: int) -> np.ndarray:
+    """The cells driven from (sx, sy) to state ``best``, read back through the packed parents
+    (p_s of step 7), each manoeuvre's out-and-back cells included."""
     count = 1
     state = best
     while state != source:
         link = parent[state]
-        count += (0 if state == terminal else 1) + 2 * ((link % CODES) > 0) + 2 * (
-            (link % CODES) > 8)
+        how = link % CODES
+        count += (0 if state == terminal else 1) + 2 * (how > 0) + 2 * (how > 8)
         state = link // CODES
     path = np.empty((count, 2), dtype=np.int64)
     chain = np.empty(count, dtype=np.int64)
@@ -238,7 +244,7 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
             x, y = x0 + cell % ww, y0 + cell // ww
             path[at, 0], path[at, 1] = x, y
             at += 1
-    return True, path, dist[best], expanded, arrivals
+    return path
 
 
 _WORKSPACE = _Workspace()
@@ -290,15 +296,17 @@ def kinematic_search(factor: np.ndarray, passable: np.ndarray, corner_cutting: b
                 raise ValueError("factor must be finite and positive on passable cells")
         if scale == np.inf:
             return None
-    stamp, dist, parent, _, generation = _WORKSPACE.take(8 * (x1 - x0 + 1) * (y1 - y0 + 1) + 2)
-    found, path, cost, expanded, arrivals = _search(
+    ww, cells = x1 - x0 + 1, (x1 - x0 + 1) * (y1 - y0 + 1)
+    stamp, dist, parent, _, generation = _WORKSPACE.take(8 * cells + 2)
+    best, expanded, arrivals = _search(
         factor, passable, bool(corner_cutting), sx, sy, -1 if heading is None else heading,
         gx, gy, -1 if final_heading is None else final_heading, x0, y0, x1, y1,
         bool(informed or heuristic is not None), scale, table, turns, kinematics.manoeuvres,
         stamp, dist, parent, generation)
-    if not found:
+    if best < 0:
         return None
-    return KinematicPath(path, float(cost), int(expanded), arrivals)
+    path = _read_path(parent, best, sx, sy, x0, y0, ww, 8 * cells, 8 * cells + 1)
+    return KinematicPath(path, float(dist[best]), int(expanded), arrivals)
 
 
 def dijkstra(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
@@ -329,3 +337,71 @@ def aistar(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
     return kinematic_search(factor, passable, corner_cutting, start, goals, window,
                             kinematics=kinematics, heading=heading, final_heading=final_heading,
                             heuristic=heuristic_table)
+
+
+@attrs.frozen
+class Sweep:
+    """The edge distances of a window from one cell, by a sweep of the modified Dijkstra.
+
+    Forward, ``cost[y - y0, x - x0, a]`` is d_s of the edge entering (x, y) in direction a from
+    ``origin`` (the robot's start). Reversed, it is the least cost from (x, y), leaving in
+    direction a, to ``origin`` (the goal), arriving there so that P holds with the final
+    heading: the search runs from the goal backwards, with the turn table mirrored, which
+    reverses every path and manoeuvre exactly, since step costs and moves are symmetric. Both
+    are inf where no path exists. :meth:`path` reads a path back.
+    """
+
+    origin: tuple[int, int]
+    window: tuple[int, int, int, int]
+    reverse: bool
+    cost: np.ndarray
+    parent: np.ndarray = attrs.field(repr=False)
+
+    def path(self, cell: Sequence[int], direction: int) -> np.ndarray:
+        """The cells from the origin to ``cell`` entered in ``direction`` (reversed: from
+        ``cell``, leaving in ``direction``, to the origin), manoeuvres included."""
+        x0, y0, x1, y1 = self.window
+        ww, cells = x1 - x0 + 1, (x1 - x0 + 1) * (y1 - y0 + 1)
+        x, y = int(cell[0]), int(cell[1])
+        if not np.isfinite(self.cost[y - y0, x - x0, direction]):
+            raise ValueError(f"no path reaches {(x, y)} in direction {direction}")
+        state = 8 * ((y - y0) * ww + (x - x0)) + ((direction + 4) % 8 if self.reverse
+                                                  else direction)
+        path = _read_path(self.parent, state, self.origin[0], self.origin[1], x0, y0, ww,
+                          8 * cells, 8 * cells + 1)
+        return path[::-1].copy() if self.reverse else path
+
+
+def sweep(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, origin: Sequence[int],
+          window: Sequence[int], *, kinematics: Kinematics, heading: int | None = None,
+          reverse: bool = False) -> Sweep:
+    """Every edge distance of ``window`` from ``origin`` for a robot of ``kinematics``.
+
+    Forward, ``heading`` is the robot's initial heading at the origin; reversed, the origin is
+    the goal and ``heading`` the final heading (None for any). The window must hold the origin.
+    """
+    factor, passable, (ox, oy), _, (x0, y0, x1, y1) = checked_arguments(
+        factor, passable, origin, [origin], window)
+    if not (x0 <= ox <= x1 and y0 <= oy <= y1):
+        raise ValueError(f"the window {(x0, y0, x1, y1)} does not hold the origin {(ox, oy)}")
+    if heading is not None and (isinstance(heading, bool) or heading not in range(8)):
+        raise ValueError(f"heading must be a direction 0-7 or None, got {heading!r}")
+    turns = kinematics.table
+    start = heading
+    if reverse:
+        # the mirrored table: arriving in y+4 and leaving in x+4 reverses leaving x after y
+        mirror = (np.arange(8) + 4) % 8
+        turns = np.ascontiguousarray(turns[np.ix_(mirror, mirror)].T)
+        start = None if heading is None else (heading + 4) % 8
+    ww, wh = x1 - x0 + 1, y1 - y0 + 1
+    stamp, dist, parent, _, generation = _WORKSPACE.take(8 * ww * wh + 2)
+    _search(factor, passable, bool(corner_cutting), ox, oy, -1 if start is None else start,
+            -1, -1, -1, x0, y0, x1, y1, False, 1.0, np.empty(0), turns, kinematics.manoeuvres,
+            stamp, dist, parent, generation)
+    states = 8 * ww * wh
+    reached = stamp[:states] == generation + 1
+    cost = np.where(reached, dist[:states], np.inf).reshape(wh, ww, 8)
+    if reverse:
+        # indexed by the direction of leaving a cell, the reverse of the one it was entered by
+        cost = np.roll(cost, 4, axis=2)
+    return Sweep((ox, oy), (x0, y0, x1, y1), reverse, cost, parent[:states + 2].copy())
