@@ -142,6 +142,10 @@ class TripsOptions:
         "in the time of one straight step; it adds to the outcome's travel_time.",
         validator=attrs.validators.and_(attrs.validators.instance_of(float),
                                         attrs.validators.ge(0.0), attrs.validators.lt(np.inf)))
+    headings: bool = option(
+        False, "Give each trip a random initial heading, the direction the robot faces at the "
+        "start, for planners of a constrained kinematic model; drawn apart, so the trips and "
+        "worlds stay those of the same seed without headings.")
     seed: int | None = option(
         None, "The seed of the true world's random obstacles, the trips and the obstacles' "
         "presence; null derives one from the run's seed. Give two configurations the same seed "
@@ -203,7 +207,8 @@ class Trips:
                            f"{spare} of the map's {len(free)} free cells that are no site or "
                            f"place for trips")
         own = ctx.spawn_rng() if options.seed is None else np.random.default_rng(options.seed)
-        placement, self._query_rng, self._presence_rng = own.spawn(3)
+        # spawned children depend only on their index: a fourth leaves the first three as they were
+        placement, self._query_rng, self._presence_rng, self._heading_rng = own.spawn(4)
         chosen = placement.choice(free, size=unknown, replace=False)
         width = self.configured.width
         cells = np.column_stack((chosen % width, chosen // width))
@@ -295,7 +300,10 @@ class Trips:
 
     def queries(self, ctx: Context) -> Iterator[GridQuery]:
         for _ in range(self.options.count):
-            yield self._query(_grid_world(ctx, "workload 'trips'"))
+            query = self._query(_grid_world(ctx, "workload 'trips'"))
+            if self.options.headings:
+                query = attrs.evolve(query, heading=int(self._heading_rng.integers(8)))
+            yield query
 
     def _query(self, grid: Grid) -> GridQuery:
         if self.places is not None:
@@ -320,8 +328,11 @@ class Trips:
         return GridQuery((int(start[0]), int(start[1])), (int(goal[0]), int(goal[1])))
 
     def describe(self, problem: GridQuery) -> Mapping[str, Any]:
-        return {"start_x": problem.start[0], "start_y": problem.start[1],
-                "goal_x": problem.goal[0], "goal_y": problem.goal[1]}
+        described = {"start_x": problem.start[0], "start_y": problem.start[1],
+                     "goal_x": problem.goal[0], "goal_y": problem.goal[1]}
+        if problem.heading is not None:
+            described["heading"] = problem.heading
+        return described
 
     def execute(self, problem: GridQuery, proposal: Proposal, ctx: Context) -> Outcome:
         grid = _grid_world(ctx, "workload 'trips'")
