@@ -66,6 +66,8 @@ class DirectedGraph:
                 raise ValueError(f"{name} must be directions 0-7 or -1")
         if m and not ((self.weights > 0) & ~np.isnan(self.weights)).all():
             raise ValueError("weights must be positive (inf for an edge that cannot be used)")
+        if m and not (self.parts > 0).all():
+            raise ValueError("parts must be positive (inf for an edge no manoeuvre may use)")
         order = np.argsort(self.tails, kind="stable")
         indptr = np.zeros(n + 1, dtype=np.int64)
         np.cumsum(np.bincount(self.tails, minlength=n), out=indptr[1:])
@@ -87,6 +89,9 @@ class DirectedGraph:
         tails, heads = _int_array(tails), _int_array(heads)
         weights = _float_array(weights)
         if departures is None:
+            for name, ends in (("tails", tails), ("heads", heads)):
+                if len(ends) and not (ends.min() >= 0 and ends.max() < len(xy)):
+                    raise ValueError(f"{name} must be vertices 0..{len(xy) - 1}")
             departures = between(xy[tails], xy[heads])
         departures = _int_array(departures)
         arrivals = departures if arrivals is None else _int_array(arrivals)

@@ -158,11 +158,12 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
             cell = state // 8
             cx, cy, arrival = x0 + cell % ww, y0 + cell // ww, state % 8
         at_goal = cx == gx and cy == gy
+        if at_goal and state != source:
+            arrivals[arrival] = dist[state]
         if at_goal and final < 0:
             if state == source:
                 best = source  # the start is the goal: the empty path
                 break
-            arrivals[arrival] = dist[state]
             if best < 0:
                 best = state  # popped in order of distance: the first is the cheapest
             settled_goal += 1
