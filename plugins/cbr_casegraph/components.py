@@ -21,7 +21,6 @@ from cbr_grid.query import GridQuery
 from cbr_kinematics import HOLONOMIC, kinematics_of
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
-from cbrcore.errors import CbrError
 from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Case, Match, Outcome, Retrieval, Solution
 from cbrcore.options import option
@@ -110,6 +109,13 @@ class ReuseOptions:
         "section 5 from the query's heading to its final heading, the temporary edges made by "
         "edge-based Dijkstra sweeps (connector dijkstra).")
 
+    @kinematics.validator
+    def _swept(self, attribute: attrs.Attribute, value: str) -> None:
+        if value != HOLONOMIC and self.connector != "dijkstra":
+            raise ValueError(f"kinematics {value!r} makes the temporary edges by edge-based "
+                             f"Dijkstra sweeps: connector must be dijkstra, not "
+                             f"{self.connector!r}")
+
 
 class CaseGraphReuser:
     """Adaptation: temporary edges to the retrieved cases, then the best path in the graph."""
@@ -118,10 +124,6 @@ class CaseGraphReuser:
         self.options = options
         self.search = None
         self.kinematics = kinematics_of(options.kinematics, ctx, "reuse 'casegraph'")
-        if self.kinematics is not None and options.connector != "dijkstra":
-            raise CbrError(f"reuse 'casegraph': kinematics {options.kinematics!r} makes the "
-                           "temporary edges by edge-based Dijkstra sweeps; set connector: "
-                           f"dijkstra, not {options.connector!r}")
         if options.connector != "dijkstra":
             from cbr_solvers import load_search
 

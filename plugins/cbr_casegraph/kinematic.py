@@ -33,7 +33,7 @@ from cbr_casegraph.planner import (
     _split_edges,
 )
 from cbr_casegraph.search import path_cost
-from cbr_grid.directions import STEPS, between
+from cbr_grid.directions import STEPS, between, facing
 from cbr_grid.directions import of_steps as step_directions
 from cbr_grid.directions import reversing as reversing_steps
 from cbr_kinematics.graph_search import DirectedGraph, graph_search
@@ -109,7 +109,7 @@ def adapt(graph: CaseGraph, start: Cell, goal: Cell, cases: Neighbourhoods, sett
     used = [extended.stored[e] for e in path_found.edges if extended.stored[e] >= 0]
     directions = step_directions(path)
     detail.update(temporary_edges=len(overlay.edges) + len(links),
-                  settled=path_found.expanded, headings=directions.tolist(),
+                  settled=path_found.expanded, headings=facing(directions).tolist(),
                   reversing=reversing_steps(directions).tolist())
     return Plan(path, path_cost(grid.factor, path), tuple(dict.fromkeys(used)), detail)
 

@@ -76,3 +76,10 @@ def reversing(directions: ArrayLike) -> np.ndarray:
     cusps = np.zeros(len(d), dtype=bool)
     cusps[1:] = d[1:] == (d[:-1] + 4) % 8
     return (np.cumsum(cusps) % 2).astype(bool)
+
+
+def facing(directions: ArrayLike) -> np.ndarray:
+    """The way the robot faces after each step of a path, given by their directions: its
+    direction of motion, turned round while it reverses (:func:`reversing`)."""
+    d = np.asarray(directions, dtype=np.int64)
+    return (d + 4 * reversing(d)) % 8

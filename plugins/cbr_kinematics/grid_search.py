@@ -25,7 +25,7 @@ import attrs
 import numba
 import numpy as np
 
-from cbr_grid.directions import STEPS
+from cbr_grid.directions import STEPS, facing
 from cbr_grid.directions import of_steps as step_directions
 from cbr_grid.directions import reversing as reversing_steps
 from cbr_kinematics.models import Kinematics
@@ -34,12 +34,13 @@ from cbr_solvers.aistar import heuristic_table
 from cbr_solvers.search import (
     SQRT2,
     HeuristicTable,
-    _min_factor,
     _move,
     _pop,
     _push,
     _Workspace,
     checked_arguments,
+    guidance,
+    window_min_factor,
 )
 
 # the index into cbr_solvers.search's neighbour offsets of each direction δ
@@ -75,7 +76,7 @@ class KinematicPath:
     def headings(self) -> np.ndarray:
         """The way the robot faces after each step: its direction of motion, turned round
         while it reverses."""
-        return (self.directions + 4 * self.reversing) % 8
+        return facing(self.directions)
 
 
 @numba.njit(cache=True, inline="always")
@@ -118,6 +119,8 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
     if not (passable[sy, sx] and (gx < 0 or passable[gy, gx])):
         return -1, 0, arrivals
     tabled = table.shape[0] > 0
+    if informed and not tabled and scale < 0.0:
+        scale = window_min_factor(factor, passable, x0, y0, x1, y1)
 
     # the edges into g (step 4): one per direction from which a step reaches g
     entering = 0
@@ -279,24 +282,11 @@ def kinematic_search(factor: np.ndarray, passable: np.ndarray, corner_cutting: b
     turns = kinematics.table
     if not (x0 <= sx <= x1 and y0 <= sy <= y1 and x0 <= gx <= x1 and y0 <= gy <= y1):
         return None
-    h, w = passable.shape
-    box = (x0, y0, x1, y1)
-    table = np.empty(0, dtype=np.float64)
-    scale = 1.0
-    if heuristic is not None:
-        table = np.ascontiguousarray(
-            heuristic(factor, passable, bool(corner_cutting), targets, box),
-            dtype=np.float64).reshape(-1)
-    elif informed:
-        scale = _min_factor(factor, passable, box, box == (0, 0, w - 1, h - 1))
-        if scale < 0:
-            region = np.where(passable[y0:y1 + 1, x0:x1 + 1], factor[y0:y1 + 1, x0:x1 + 1],
-                              np.inf)
-            scale = float(region.min())
-            if not scale > 0.0:
-                raise ValueError("factor must be finite and positive on passable cells")
-        if scale == np.inf:
-            return None
+    guide = guidance(factor, passable, corner_cutting, targets, (x0, y0, x1, y1), informed,
+                     heuristic)
+    if guide is None:
+        return None
+    table, scale = guide
     ww, cells = x1 - x0 + 1, (x1 - x0 + 1) * (y1 - y0 + 1)
     stamp, dist, parent, _, generation = _WORKSPACE.take(8 * cells + 2)
     best, expanded, arrivals = _search(

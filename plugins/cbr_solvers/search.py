@@ -116,6 +116,23 @@ def _heuristic(x: int, y: int, goals: np.ndarray, scale: float) -> float:
 
 
 @numba.njit(cache=True)
+def window_min_factor(factor: np.ndarray, passable: np.ndarray, x0: int, y0: int, x1: int,
+                      y1: int) -> float:
+    """The least factor of a passable cell in the window (inf if none); ValueError for one that
+    is not finite and positive. Left to the kernels on small windows, where numpy's call
+    overhead would dominate."""
+    least = np.inf
+    for y in range(y0, y1 + 1):
+        for x in range(x0, x1 + 1):
+            if passable[y, x]:
+                f = factor[y, x]
+                if not (f > 0.0 and f < np.inf):
+                    raise ValueError("factor must be finite and positive on passable cells")
+                least = min(least, f)
+    return least
+
+
+@numba.njit(cache=True)
 def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: int, sy: int,
             goals: np.ndarray, x0: int, y0: int, x1: int, y1: int, informed: bool, scale: float,
             table: np.ndarray, stamp: np.ndarray, dist: np.ndarray, parent: np.ndarray,
@@ -141,15 +158,7 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
     settled = generation + 1
 
     if informed and scale < 0.0:
-        # Left to the kernel on small windows, where numpy's call overhead would dominate.
-        scale = np.inf
-        for y in range(y0, y1 + 1):
-            for x in range(x0, x1 + 1):
-                if passable[y, x]:
-                    f = factor[y, x]
-                    if not (f > 0.0 and f < np.inf):
-                        raise ValueError("factor must be finite and positive on passable cells")
-                    scale = min(scale, f)
+        scale = window_min_factor(factor, passable, x0, y0, x1, y1)
 
     inside = np.zeros(goals.shape[0], dtype=np.bool_)
     for k in range(goals.shape[0]):
@@ -369,6 +378,25 @@ def checked_arguments(factor: np.ndarray, passable: np.ndarray, start: Sequence[
     return factor, passable, (sx, sy), targets, box
 
 
+def guidance(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
+             targets: np.ndarray, box: tuple[int, int, int, int], informed: bool,
+             heuristic: HeuristicTable | None) -> tuple[np.ndarray, float] | None:
+    """A*'s heuristic for a search of the window ``box`` of checked arrays: (per-cell table,
+    octile scale). The table is ``heuristic``'s when one is given, else empty; the scale is the
+    least passable factor (-1 for a small window, which the kernel scans itself) when
+    ``informed``, else 1. None when the window has no passable cell, so no path."""
+    if heuristic is not None:
+        table = np.ascontiguousarray(
+            heuristic(factor, passable, bool(corner_cutting), targets, box),
+            dtype=np.float64).reshape(-1)
+        return table, 1.0
+    if not informed:
+        return _NO_TABLE, 1.0
+    h, w = passable.shape
+    scale = _min_factor(factor, passable, box, box == (0, 0, w - 1, h - 1))
+    return None if scale == np.inf else (_NO_TABLE, scale)
+
+
 def _run(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, start: Sequence[int],
          goals: object, window: Sequence[int] | None, informed: bool,
          heuristic: HeuristicTable | None = None) -> SearchResult | None:
@@ -381,19 +409,11 @@ def _run(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, start: 
         factor, passable, start, goals, window)
     if not (x0 <= sx <= x1 and y0 <= sy <= y1):
         return None
-    h, w = passable.shape
     box = (x0, y0, x1, y1)
-    table = _NO_TABLE
-    scale = 1.0
-    if heuristic is not None:
-        table = np.ascontiguousarray(
-            heuristic(factor, passable, bool(corner_cutting), targets, box),
-            dtype=np.float64).reshape(-1)
-    elif informed:
-        whole = box == (0, 0, w - 1, h - 1)
-        scale = _min_factor(factor, passable, box, whole)
-        if scale == np.inf:
-            return None  # no passable cell in the window, so neither start nor goal
+    guide = guidance(factor, passable, corner_cutting, targets, box, informed, heuristic)
+    if guide is None:
+        return None
+    table, scale = guide
     stamp, dist, parent, goal_mark, generation = _WORKSPACE.take((x1 - x0 + 1) * (y1 - y0 + 1))
     found, path, cost, expanded = _search(factor, passable, bool(corner_cutting), sx, sy, targets,
                                           x0, y0, x1, y1, informed, scale, table, stamp, dist,
