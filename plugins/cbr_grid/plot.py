@@ -56,8 +56,10 @@ def draw_on(axes: Axes, grid: Grid, path: ArrayLike | None = None, start: Cell |
                                     (goal, final_heading, "tab:red")):
         if cell is not None and direction is not None:
             dx, dy = STEPS[direction % 8]
-            axes.annotate("", xy=(cell[0] + 0.8 * dx, cell[1] + 0.8 * dy), xytext=cell,
-                          arrowprops={"arrowstyle": "->", "color": colour, "linewidth": 1.5})
+            # longer than a step and above the path, so the arrow shows beside the marker
+            axes.annotate("", xy=(cell[0] + 1.8 * dx, cell[1] + 1.8 * dy), xytext=cell,
+                          arrowprops={"arrowstyle": "-|>", "color": colour, "linewidth": 2.0,
+                                      "mutation_scale": 14}, zorder=5)
     if start is not None:
         axes.plot(*start, marker="o", color="tab:green", markersize=7, linestyle="none",
                   label="start")
