@@ -101,7 +101,12 @@ def config_reference(components: Iterable[Component]) -> str:
         by_kind.setdefault(component.kind, []).append(component)
     for kind, description in KINDS.items():
         slot = slot_of.get(kind) or list_slot_of.get(kind)
-        where = f"slot `{slot}`" if slot else "run by `cbr experiment`"
+        if slot:
+            where = f"slot `{slot}`"
+        elif kind == "experiment":
+            where = "run by `cbr experiment`"
+        else:
+            where = "named by other components' options"
         lines += [f"## {kind} ({where})", "", description[0].upper() + description[1:] + ".", ""]
         listed = sorted(by_kind.get(kind, []), key=lambda c: c.name)
         if not listed:
