@@ -38,7 +38,7 @@ class Kinematics(abc.ABC):
     """A kinematic model of a robot moving on a grid or a graph of directed edges.
 
     Subclasses give the turns the robot may make at a vertex and how many intermediate edges a
-    manoeuvre may use; :meth:`checked` validates both once, for the compiled searches.
+    manoeuvre may use; :attr:`table` checks both once, for the compiled searches.
     """
 
     manoeuvres: int = 0
@@ -71,10 +71,6 @@ class Kinematics(abc.ABC):
     def unconstrained(self) -> bool:
         """Whether every turn is allowed: the ordinary vertex searches plan for this model."""
         return bool(self.table.all())
-
-    def allows(self, a: int, b: int) -> bool:
-        """Whether the turn from direction a to direction b needs no manoeuvre."""
-        return bool(self.table[a % 8, b % 8])
 
 
 class Holonomic(Kinematics):
