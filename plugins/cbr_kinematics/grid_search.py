@@ -104,12 +104,13 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
 
     Returns (best, expanded, arrivals): the state whose path is the answer (-1 when none; read
     it with :func:`_read_path`), the number of states settled and d_s of the edges into the
-    goal by direction. States are 8·cell + direction over the
-    window's cells in row-major order, then the fictitious start edge (s', s) and goal edge
-    (g, g'). ``stamp``, ``dist`` and ``parent`` are reused working arrays as in
-    :func:`cbr_solvers.search._search`; ``parent`` packs the parent state and the manoeuvre
-    made before the state's edge as state · CODES + code. The caller guarantees that the start
-    and goal lie in the window and that ``scale`` is positive when ``informed`` without a table.
+    goal by direction. States are 8·cell + direction over the window's cells in row-major
+    order, then the fictitious start edge (s', s) and goal edge (g, g'). ``stamp``, ``dist``
+    and ``parent`` are reused working arrays as in :func:`cbr_solvers.search._search`;
+    ``parent`` packs the parent state and the manoeuvre made before the state's edge as
+    state · CODES + code. ``scale`` is A*'s octile scale, negative to find it here (as
+    :func:`cbr_solvers.search.guidance` gives it). The caller guarantees that the start and goal
+    lie in the window.
     """
     ww = x1 - x0 + 1
     cells = ww * (y1 - y0 + 1)
