@@ -464,6 +464,7 @@ def test_the_nonholonomic_config_proposes_only_drivable_paths(
         cbr_engine: Callable[..., Engine]) -> None:
     engine = cbr_engine(CONFIG, overrides=SMALL)
     sources: Counter[str] = Counter()
+    replans = 0
     for problem in engine.workload.queries(engine.ctx):
         assert problem.heading in range(8) and problem.final_heading is None
         planned_on = engine.ctx.world
@@ -480,10 +481,16 @@ def test_the_nonholonomic_config_proposes_only_drivable_paths(
                                                       strict=True)]
             assert proposal.solution.detail["headings"] == facing
         outcome = engine.workload.execute(problem, proposal, engine.ctx)
+        if outcome.solution is not None:
+            # replanned around the obstacles met, the path driven stays drivable too
+            assert drive_problems(outcome.solution.value, "forward_backward", problem.heading,
+                                  None) == [], problem
+            replans += outcome.detail["replans"]
         engine.learn(problem, proposal, outcome)
     assert sum(sources.values()) == 60
     assert sources["casebase"] >= 10
     assert sources["solver:astar"] > 0
+    assert replans > 0
 
 
 @pytest.mark.usefixtures("every_plugin")

@@ -34,8 +34,10 @@ import attrs
 import numpy as np
 
 from cbr_grid.costs import path_cost, path_length, turns
+from cbr_grid.directions import of_steps
 from cbr_grid.grid import Grid
 from cbr_grid.query import GridQuery, path_array
+from cbr_kinematics import kinematics_of
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
@@ -146,6 +148,11 @@ class TripsOptions:
         False, "Give each trip a random initial heading, the direction the robot faces at the "
         "start, for planners of a constrained kinematic model; drawn apart, so the trips and "
         "worlds stay those of the same seed without headings.")
+    kinematics: str = option(
+        "holonomic", "The robot's kinematic model (a registered kinematics component) when it "
+        "replans around an obstacle it met: a constrained one replans with the modified A* of "
+        "section 5 straight to the goal, from the direction it was moving in, so the path "
+        "driven is one it can drive.")
     seed: int | None = option(
         None, "The seed of the true world's random obstacles, the trips and the obstacles' "
         "presence; null derives one from the run's seed. Give two configurations the same seed "
@@ -177,7 +184,9 @@ class Trips:
     when its next step is blocked it raises the blocked cell's risk by ``hit_risk``, replans
     locally (A* inside a box of radius ``replan_window`` to the nearest remaining path cell
     beyond the obstacle, on its map with the cells met on this trip blocked), else globally to
-    the goal, else the trip fails (as it does after 4 steps per map cell). Cells passed safely
+    the goal, else the trip fails (as it does after 4 steps per map cell); a robot of a
+    constrained ``kinematics`` replans to the goal by the modified A*, from the direction it was
+    moving in. Cells passed safely
     lose ``pass_relief`` of their risk. The updated map replaces the run's world after every
     trip. Outcome detail: ``encounters`` (obstacle cells met), ``replans``, ``stops`` (the
     [x, y] cell where the robot stood at each replan), ``risk_changes``
@@ -188,6 +197,7 @@ class Trips:
 
     def __init__(self, options: TripsOptions, ctx: Context) -> None:
         self.options = options
+        self.kinematics = kinematics_of(options.kinematics, ctx, "workload 'trips'")
         self.configured = _configured_world(ctx, "workload 'trips'")
         self.places: np.ndarray | None = self._checked_places(options.places)
         """The (k, 2) cells trips go between, or None for random free cells."""
@@ -347,7 +357,7 @@ class Trips:
         if proposal.solution is None:
             return Outcome(success=False)
         path = self._checked(grid, problem, proposal.solution.value)
-        drive = self._drive(grid, self.true_passable(present, sites_present), path, problem.goal,
+        drive = self._drive(grid, self.true_passable(present, sites_present), path, problem,
                             [self.sites[i] for i in sites_present])
         changes = self._learn(grid, drive)
         if changes:
@@ -387,13 +397,14 @@ class Trips:
                            f"its goal {problem.goal}")
         return path
 
-    def _drive(self, grid: Grid, true: np.ndarray, path: np.ndarray, goal: tuple[int, int],
+    def _drive(self, grid: Grid, true: np.ndarray, path: np.ndarray, problem: GridQuery,
                blocked_sites: Sequence[np.ndarray] = ()) -> _Drive:
         """Follow ``path`` on the true passable mask, replanning around the obstacles met.
 
         Meeting a cell of one of ``blocked_sites`` (the listed sites blocked on this trip), the
         robot sees the whole site blocked: a shut door is shut across its width.
         """
+        goal = problem.goal
         site_of = {(x, y): cells for cells in blocked_sites for x, y in cells.tolist()}
         plan, legs = path, [path[:1]]
         met: list[tuple[int, int]] = []
@@ -420,6 +431,11 @@ class Trips:
             avoid[ys, xs] = False
             avoid[here[1], here[0]] = True  # the robot stands there, whatever its map says
             stops.append(here)
+            if self.kinematics is not None:
+                plan = self._replan(grid, avoid, here, np.concatenate(legs), problem)
+                if plan is None:
+                    return _Drive(np.concatenate(legs), met, stops, False, "no path around")
+                continue
             beyond = plan[k + 2:] if not true[plan[k + 1, 1], plan[k + 1, 0]] else plan[k + 1:]
             window = (here[0] - radius, here[1] - radius, here[0] + radius, here[1] + radius)
             local = _astar(grid, avoid, here, beyond, window) if len(beyond) else None
@@ -430,6 +446,18 @@ class Trips:
             plan = _astar(grid, avoid, here, np.array([goal]))
             if plan is None:
                 return _Drive(np.concatenate(legs), met, stops, False, "no path around")
+
+    def _replan(self, grid: Grid, passable: np.ndarray, here: tuple[int, int],
+                driven: np.ndarray, problem: GridQuery) -> np.ndarray | None:
+        """A path to the goal the robot of a constrained model can drive from ``here``, moving
+        as it moved into it (as the trip's heading says at the start)."""
+        # numba loads with the first replan, not with every start of ``cbr``
+        from cbr_kinematics.grid_search import astar
+
+        heading = problem.heading if len(driven) < 2 else int(of_steps(driven[-2:])[0])
+        found = astar(grid.factor, passable, grid.corner_cutting, here, problem.goal,
+                      kinematics=self.kinematics, heading=heading)
+        return None if found is None else found.path
 
     def _learn(self, grid: Grid, drive: _Drive) -> list[list[Any]]:
         """The cells whose risk the trip changed, as [x, y, new risk] in row-major order: passed
