@@ -15,7 +15,7 @@ import math
 import numba
 import numpy as np
 
-from cbr_solvers.search import _DX, _DY, _move, _pop, _push
+from cbr_solvers.search import _DX, _DY, _move, _pop, _push, push_grown
 
 SQRT2 = math.sqrt(2.0)
 
@@ -81,10 +81,7 @@ def graph_search(indptr: np.ndarray, target: np.ndarray, weight: np.ndarray, edg
                     dx = abs(xy[u, 0] - gx)
                     dy = abs(xy[u, 1] - gy)
                     key = g + (max(dx, dy) + (SQRT2 - 1.0) * min(dx, dy)) * scale
-                if size == keys.shape[0]:
-                    keys = np.concatenate((keys, np.empty_like(keys)))
-                    items = np.concatenate((items, np.empty_like(items)))
-                _push(keys, items, size, key, u)
+                keys, items = push_grown(keys, items, size, key, u)
                 size += 1
     if not closed[goal]:
         return False, np.inf, np.zeros(0, np.int64), np.zeros(0, np.int64), settled

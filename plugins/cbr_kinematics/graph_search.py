@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike
 from cbr_grid.directions import between
 from cbr_kinematics.models import Kinematics
 from cbr_kinematics.turning import CODES, leave_costs
-from cbr_solvers.search import SQRT2, _pop, _push
+from cbr_solvers.search import SQRT2, _pop, push_grown
 
 
 def _int_array(values: ArrayLike) -> np.ndarray:
@@ -189,10 +189,7 @@ def _search(indptr: np.ndarray, order: np.ndarray, heads: np.ndarray, weights: n
             if g < dist[terminal]:
                 dist[terminal] = g
                 parent[terminal] = state * CODES + how
-                if size == keys.shape[0]:
-                    keys = np.concatenate((keys, np.empty_like(keys)))
-                    items = np.concatenate((items, np.empty_like(items)))
-                _push(keys, items, size, g, terminal)
+                keys, items = push_grown(keys, items, size, g, terminal)
                 size += 1
         for k in range(lo, hi):
             e = order[k]
@@ -214,10 +211,7 @@ def _search(indptr: np.ndarray, order: np.ndarray, heads: np.ndarray, weights: n
                 u = heads[e]
                 dx, dy = abs(xy[u, 0] - gx), abs(xy[u, 1] - gy)
                 key += (max(dx, dy) + (SQRT2 - 1.0) * min(dx, dy)) * scale
-            if size == keys.shape[0]:
-                keys = np.concatenate((keys, np.empty_like(keys)))
-                items = np.concatenate((items, np.empty_like(items)))
-            _push(keys, items, size, key, e)
+            keys, items = push_grown(keys, items, size, key, e)
             size += 1
     empty = np.zeros(0, dtype=np.int64)
     if best < 0:

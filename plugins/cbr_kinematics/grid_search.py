@@ -36,10 +36,10 @@ from cbr_solvers.search import (
     HeuristicTable,
     _move,
     _pop,
-    _push,
     _Workspace,
     checked_arguments,
     guidance,
+    push_grown,
     window_min_factor,
 )
 
@@ -184,10 +184,7 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
                 stamp[terminal] = generation
                 dist[terminal] = g
                 parent[terminal] = state * CODES + code[final]
-                if size == keys.shape[0]:
-                    keys = np.concatenate((keys, np.empty_like(keys)))
-                    items = np.concatenate((items, np.empty_like(items)))
-                _push(keys, items, size, g, terminal)
+                keys, items = push_grown(keys, items, size, g, terminal)
                 size += 1
         for b in range(8):
             if steps[b] == np.inf or extra[b] == np.inf:
@@ -209,10 +206,7 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
             elif informed:
                 dx, dy = abs(nx - gx), abs(ny - gy)
                 key += (max(dx, dy) + (SQRT2 - 1.0) * min(dx, dy)) * scale
-            if size == keys.shape[0]:
-                keys = np.concatenate((keys, np.empty_like(keys)))
-                items = np.concatenate((items, np.empty_like(items)))
-            _push(keys, items, size, key, other)
+            keys, items = push_grown(keys, items, size, key, other)
             size += 1
 
     return best, expanded, arrivals

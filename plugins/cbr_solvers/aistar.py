@@ -37,8 +37,8 @@ from cbr_solvers.search import (
     _min_factor,
     _move,
     _pop,
-    _push,
     _run,
+    push_grown,
 )
 
 # Integer step lengths of the distance map: orthogonal and diagonal.
@@ -90,10 +90,7 @@ def _propagate(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
         if dist[cell] == 0.0:
             continue
         dist[cell] = 0.0
-        if size == keys.shape[0]:
-            keys = np.concatenate((keys, np.empty_like(keys)))
-            items = np.concatenate((items, np.empty_like(items)))
-        _push(keys, items, size, 0.0, cell)
+        keys, items = push_grown(keys, items, size, 0.0, cell)
         size += 1
 
     # The wavefront advances in order of distance; integer distances are exact in float64.
@@ -126,10 +123,7 @@ def _propagate(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
             if g >= dist[other]:
                 continue
             dist[other] = g
-            if size == keys.shape[0]:
-                keys = np.concatenate((keys, np.empty_like(keys)))
-                items = np.concatenate((items, np.empty_like(items)))
-            _push(keys, items, size, g, other)
+            keys, items = push_grown(keys, items, size, g, other)
             size += 1
     if stop_early:
         for cell in range(n):

@@ -90,6 +90,18 @@ def _pop(keys: np.ndarray, items: np.ndarray, size: int) -> int:
     return top
 
 
+@numba.njit(cache=True)
+def push_grown(keys: np.ndarray, items: np.ndarray, size: int, key: float, item: int
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Add (key, item) to the heap of ``size`` entries, doubling its arrays when they are full;
+    the arrays, new or not."""
+    if size == keys.shape[0]:
+        keys = np.concatenate((keys, np.empty_like(keys)))
+        items = np.concatenate((items, np.empty_like(items)))
+    _push(keys, items, size, key, item)
+    return keys, items
+
+
 @numba.njit(cache=True, inline="always")
 def _move(passable: np.ndarray, corner_cutting: bool, cx: int, cy: int, d: int, x0: int, y0: int,
           x1: int, y1: int) -> bool:
@@ -226,15 +238,12 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
             stamp[other] = generation
             dist[other] = g
             parent[other] = cell
-            if size == keys.shape[0]:
-                keys = np.concatenate((keys, np.empty_like(keys)))
-                items = np.concatenate((items, np.empty_like(items)))
             key = g
             if tabled:
                 key += table[other]
             elif informed:
                 key += _heuristic(nx, ny, targets, scale)
-            _push(keys, items, size, key, other)
+            keys, items = push_grown(keys, items, size, key, other)
             size += 1
 
     if reached < 0:
