@@ -39,6 +39,12 @@ def parse(value: str | int) -> int:
                      f"counter-clockwise), got {value!r}")
 
 
+def check_heading(value: object, name: str = "heading") -> None:
+    """ValueError unless ``value`` is a direction 0-7 or None (any heading)."""
+    if value is not None and (isinstance(value, bool) or value not in range(8)):
+        raise ValueError(f"{name} must be a direction 0-7 or None, got {value!r}")
+
+
 def of_steps(path: ArrayLike) -> np.ndarray:
     """The direction of each step of a path of (x, y) cells; ValueError for a step that is not
     a move to an 8-neighbour."""

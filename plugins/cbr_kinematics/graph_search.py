@@ -15,7 +15,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from cbr_grid.directions import between
+from cbr_grid.directions import between, check_heading
 from cbr_kinematics.models import Kinematics
 from cbr_kinematics.turning import CODES, leave_costs
 from cbr_solvers.search import SQRT2, _pop, push_grown
@@ -27,6 +27,13 @@ def _int_array(values: ArrayLike) -> np.ndarray:
 
 def _float_array(values: ArrayLike) -> np.ndarray:
     return np.ascontiguousarray(np.asarray(values, dtype=np.float64).reshape(-1))
+
+
+def _check_ends(tails: np.ndarray, heads: np.ndarray, n: int) -> None:
+    """ValueError unless every edge's tail and head is a vertex 0..n-1."""
+    for name, ends in (("tails", tails), ("heads", heads)):
+        if len(ends) and not (ends.min() >= 0 and ends.max() < n):
+            raise ValueError(f"{name} must be vertices 0..{n - 1}")
 
 
 @attrs.frozen
@@ -56,10 +63,7 @@ class DirectedGraph:
         for name in ("heads", "weights", "departures", "arrivals", "parts"):
             if len(getattr(self, name)) != m:
                 raise ValueError(f"{name} has {len(getattr(self, name))} entries for {m} edges")
-        for name in ("tails", "heads"):
-            ends = getattr(self, name)
-            if m and not (ends.min() >= 0 and ends.max() < n):
-                raise ValueError(f"{name} must be vertices 0..{n - 1}")
+        _check_ends(self.tails, self.heads, n)
         for name in ("departures", "arrivals"):
             values = getattr(self, name)
             if m and not ((values >= -1) & (values < 8)).all():
@@ -89,9 +93,7 @@ class DirectedGraph:
         tails, heads = _int_array(tails), _int_array(heads)
         weights = _float_array(weights)
         if departures is None:
-            for name, ends in (("tails", tails), ("heads", heads)):
-                if len(ends) and not (ends.min() >= 0 and ends.max() < len(xy)):
-                    raise ValueError(f"{name} must be vertices 0..{len(xy) - 1}")
+            _check_ends(tails, heads, len(xy))  # before they index xy
             departures = between(xy[tails], xy[heads])
         departures = _int_array(departures)
         arrivals = departures if arrivals is None else _int_array(arrivals)
@@ -243,9 +245,8 @@ def graph_search(graph: DirectedGraph, source: int, goal: int, kinematics: Kinem
     for name, vertex in (("source", source), ("goal", goal)):
         if not 0 <= vertex < n:
             raise ValueError(f"{name} {vertex} is not a vertex 0..{n - 1}")
-    for name, value in (("heading", heading), ("final_heading", final_heading)):
-        if value is not None and (isinstance(value, bool) or value not in range(8)):
-            raise ValueError(f"{name} must be a direction 0-7 or None, got {value!r}")
+    check_heading(heading)
+    check_heading(final_heading, "final_heading")
     found, cost, chain, codes, expanded = _search(
         graph.indptr, graph.order, graph.heads, graph.weights, graph.departures,
         graph.arrivals, graph.parts, graph.xy, int(source),

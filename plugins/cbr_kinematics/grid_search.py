@@ -25,7 +25,7 @@ import attrs
 import numba
 import numpy as np
 
-from cbr_grid.directions import STEPS, facing
+from cbr_grid.directions import STEPS, check_heading, facing
 from cbr_grid.directions import of_steps as step_directions
 from cbr_grid.directions import reversing as reversing_steps
 from cbr_kinematics.models import Kinematics
@@ -271,9 +271,8 @@ def kinematic_search(factor: np.ndarray, passable: np.ndarray, corner_cutting: b
     if len(targets) != 1:
         raise ValueError(f"the edge-based search takes one goal, got {len(targets)}")
     gx, gy = (int(v) for v in targets[0])
-    for name, value in (("heading", heading), ("final_heading", final_heading)):
-        if value is not None and (isinstance(value, bool) or value not in range(8)):
-            raise ValueError(f"{name} must be a direction 0-7 or None, got {value!r}")
+    check_heading(heading)
+    check_heading(final_heading, "final_heading")
     turns = kinematics.table
     if not (x0 <= sx <= x1 and y0 <= sy <= y1 and x0 <= gx <= x1 and y0 <= gy <= y1):
         return None
@@ -370,8 +369,7 @@ def sweep(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, origin
         factor, passable, origin, [origin], window)
     if not (x0 <= ox <= x1 and y0 <= oy <= y1):
         raise ValueError(f"the window {(x0, y0, x1, y1)} does not hold the origin {(ox, oy)}")
-    if heading is not None and (isinstance(heading, bool) or heading not in range(8)):
-        raise ValueError(f"heading must be a direction 0-7 or None, got {heading!r}")
+    check_heading(heading)
     turns = kinematics.table
     start = heading
     if reverse:
