@@ -6,7 +6,7 @@ map, a MAPF maze of wide corridors, a larger Dragon Age map, a city, a 512x512 r
 buckets are planned, side by side in one process, by the ordinary A*
 (``cbr_solvers.search.astar``) and, for each kinematic model (``holonomic``, ``forward``,
 ``forward_backward``; :mod:`cbr_kinematics.models`), by the edge-based A* and Dijkstra
-(:mod:`cbr_kinematics.grid_search`), the robot starting in a random initial heading (seeded, the
+(:mod:`cbr_solvers.kinematic_search`), the robot starting in a random initial heading (seeded, the
 same for every model; any final heading).
 
 Per map and model the table gives the share of queries solved (and how many of the unsolved
@@ -45,8 +45,8 @@ import numpy as np
 
 from cbr_grid.directions import STEPS
 from cbr_grid.movingai import Scenario, load_map, load_scen
-from cbr_kinematics import grid_search
 from cbr_kinematics.models import Forward, ForwardBackward, Holonomic, Kinematics
+from cbr_solvers import kinematic_search
 from cbr_solvers.search import astar
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "movingai"
@@ -139,7 +139,7 @@ def bench_map(label: str, grid: Any, scenarios: list[Scenario], headings: list[i
         return lambda: astar(factor, passable, cutting, s.start, [s.goal])
 
     def edge(s: Scenario, heading: int, model: str, informed: bool) -> Callable[[], Any]:
-        return lambda: grid_search.kinematic_search(
+        return lambda: kinematic_search.kinematic_search(
             factor, passable, cutting, s.start, s.goal, kinematics=MODELS[model],
             heading=heading, informed=informed)
 
@@ -318,7 +318,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     astar(*tiny[:4], [tiny[4]])
     first_call["ordinary A*"] = time.perf_counter() - started
     started = time.perf_counter()
-    grid_search.astar(*tiny, kinematics=MODELS["forward_backward"], heading=0)
+    kinematic_search.astar(*tiny, kinematics=MODELS["forward_backward"], heading=0)
     first_call["edge-based search"] = time.perf_counter() - started
 
     per_map = []

@@ -65,7 +65,7 @@ from cbr_grid.distances import distance
 from cbr_grid.generate import generate
 from cbr_grid.grid import Grid
 from cbr_grid.query import GridQuery
-from cbr_pathcases.base import path_case
+from cbr_pathcases.base import base_of, path_case
 from cbr_pathcases.components import PathRetriever, RetainOptions, RetrieveOptions
 from cbr_pathcases.hausdorff import hausdorff
 from cbr_solvers.search import astar
@@ -284,8 +284,8 @@ def retrieve_size(grid: Grid, cells: np.ndarray, region: np.ndarray, paths: Path
                                        "ideal": ideal, "traversals": 1}))
     ctx = Context(registry=Registry(), seed=SEED, world=grid, casebase=store)
     options = RetrieveOptions(explore=0.0)
-    retriever = PathRetriever(options, ctx)  # loads the case base's arrays
-    base = ctx.shared["cbr_pathcases"]
+    retriever = PathRetriever(options, ctx)
+    base = base_of(ctx)
     metric = distance(options.distance)
 
     def select(start: np.ndarray, goal: np.ndarray) -> np.ndarray:

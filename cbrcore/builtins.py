@@ -28,6 +28,8 @@ class SQLiteOptions:
         "Seconds to wait for another process's write lock before giving up.",
         validator=attrs.validators.ge(0),
     )
+    create: bool = option(True, "Create the case base file when it is missing; false refuses a "
+                                "missing file instead.")
 
 
 def memory_store(options: NoOptions, ctx: Context) -> MemoryStore:
@@ -42,8 +44,8 @@ def memory_store(options: NoOptions, ctx: Context) -> MemoryStore:
 def sqlite_store(options: SQLiteOptions, ctx: Context) -> SQLiteStore:
     """A case base in a SQLite file: survives crashes and can be shared by processes.
 
-    The file is created when missing. One that is not a cbrcore case base, is corrupt or has
-    another schema version is refused and left untouched.
+    The file is created when missing, unless told not to. One that is not a cbrcore case base, is
+    corrupt or has another schema version is refused and left untouched.
     """
     path = options.path
     if path is None:
@@ -51,7 +53,7 @@ def sqlite_store(options: SQLiteOptions, ctx: Context) -> SQLiteStore:
             raise ConfigError("casebase.path",
                               ["casebase.path: required when the engine has no output folder"])
         path = ctx.out_dir / "casebase.sqlite"
-    return SQLiteStore(path, busy_timeout=options.busy_timeout)
+    return SQLiteStore(path, busy_timeout=options.busy_timeout, create=options.create)
 
 
 @hookimpl

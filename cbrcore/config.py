@@ -10,6 +10,11 @@ other keys are its options::
     retrieve: {use: nearest, k: 3}
     retain: [keep_all]
 
+A plugin's kind may own a top-level slot of its own (see
+:meth:`cbrcore.registry.Registry.add_kind`), written the same way and filled with the kind's
+default when absent: ``kinematics: forward_backward``. Options that name other components
+(:func:`cbrcore.options.reference`) are checked against the registry.
+
 Every problem found is reported at once, each with its YAML path, line and column, the bad value
 and what was expected.
 """
@@ -24,27 +29,14 @@ import attrs
 import yaml
 
 from cbrcore.errors import ConfigError
-from cbrcore.options import option_problems, paths_relative_to, unstructure
-from cbrcore.registry import Registry, UnknownComponent
-
-SINGLE_SLOTS: dict[str, str] = {
-    "world": "world",
-    "casebase": "store",
-    "retrieve": "retriever",
-    "reuse": "reuser",
-    "revise": "reviser",
-    "solver": "solver",
-    "workload": "workload",
-}
-"""Slots that take one component, and the component kind each takes."""
-
-LIST_SLOTS: dict[str, str] = {
-    "retain": "retainer",
-    "forget": "forgetter",
-    "observers": "observer",
-    "metrics": "metric",
-}
-"""Slots that take a list of components (a single one is accepted as a list of one)."""
+from cbrcore.options import (
+    option_problems,
+    paths_relative_to,
+    referenced_names,
+    slots_configured,
+    unstructure,
+)
+from cbrcore.registry import CORE_KEYS, LIST_SLOTS, SINGLE_SLOTS, Registry, UnknownComponent
 
 DEFAULT_STORE = "memory"
 
@@ -61,7 +53,11 @@ class ComponentRef:
 
 @attrs.frozen
 class Config:
-    """A checked configuration, ready to build an engine from."""
+    """A checked configuration, ready to build an engine from.
+
+    ``slots`` holds the components chosen in the slots that plugins' kinds own, by slot
+    (``kinematics``), defaults filled in; each reference's ``kind`` names its kind.
+    """
 
     seed: int = 0
     world: ComponentRef | None = None
@@ -75,6 +71,7 @@ class Config:
     forget: tuple[ComponentRef, ...] = ()
     observers: tuple[ComponentRef, ...] = ()
     metrics: tuple[ComponentRef, ...] = ()
+    slots: Mapping[str, ComponentRef] = attrs.field(factory=dict)
     source: Path | None = None
 
     @property
@@ -92,6 +89,8 @@ class Config:
             ref = getattr(self, slot)
             if ref is not None:
                 data[slot] = plain(ref)
+        for slot, ref in self.slots.items():
+            data[slot] = plain(ref)
         for slot in LIST_SLOTS:
             refs = getattr(self, slot)
             if refs:
@@ -228,6 +227,12 @@ def _component(raw: Any, kind: str, path: str, registry: Registry,
         problems.append((f"{path}.use" if isinstance(raw, Mapping) else path, str(exc)))
         return None
     value, found = option_problems(component.options, options, path)
+    if not found:
+        for where, referred, target in referenced_names(value, path):
+            try:
+                registry.get(referred, target)
+            except UnknownComponent as exc:
+                found.append((where, str(exc)))
     problems.extend(found)
     return ComponentRef(kind, name, value, path) if not found else None
 
@@ -242,7 +247,8 @@ def parse_config(data: Any, registry: Registry, *, source: Path | None = None,
     if not isinstance(data, Mapping):
         raise ConfigError(label, [f"expected a mapping at the top level, got {data!r}"])
     problems: list[tuple[str, str]] = []
-    known = {"seed", *SINGLE_SLOTS, *LIST_SLOTS}
+    plugin_slots = registry.slots
+    known = {*CORE_KEYS, *plugin_slots}
     for key in data:
         if key not in known:
             problems.append((str(key), f"unknown key; expected one of: {', '.join(sorted(known))}"))
@@ -252,20 +258,33 @@ def parse_config(data: Any, registry: Registry, *, source: Path | None = None,
     values: dict[str, Any] = {}
     base = source.parent if source is not None else Path.cwd()
     with paths_relative_to(base):
-        for slot, kind in SINGLE_SLOTS.items():
-            raw = data.get(slot, DEFAULT_STORE if slot == "casebase" else None)
-            if raw is not None:
-                values[slot] = _component(raw, kind, slot, registry, problems)
-        for slot, kind in LIST_SLOTS.items():
-            raw = data.get(slot) or []
-            items = raw if isinstance(raw, list) else [raw]
-            refs = [_component(item, kind, f"{slot}.{i}" if isinstance(raw, list) else slot,
-                               registry, problems) for i, item in enumerate(items)]
-            values[slot] = tuple(ref for ref in refs if ref is not None)
+        # the plugin slots come first: a component's options may depend on them (a planner
+        # option that the configuration's robot model rules out)
+        slots: dict[str, ComponentRef] = {}
+        for slot, declared in plugin_slots.items():
+            # absent or null alike: a slot with a default always holds a component
+            raw = data.get(slot)
+            raw = declared.default if raw is None else raw
+            if raw is None:
+                continue
+            ref = _component(raw, declared.kind, slot, registry, problems)
+            if ref is not None:
+                slots[slot] = ref
+        with slots_configured({slot: ref.name for slot, ref in slots.items()}):
+            for slot, kind in SINGLE_SLOTS.items():
+                raw = data.get(slot, DEFAULT_STORE if slot == "casebase" else None)
+                if raw is not None:
+                    values[slot] = _component(raw, kind, slot, registry, problems)
+            for slot, kind in LIST_SLOTS.items():
+                raw = data.get(slot) or []
+                items = raw if isinstance(raw, list) else [raw]
+                refs = [_component(item, kind, f"{slot}.{i}" if isinstance(raw, list) else slot,
+                                   registry, problems) for i, item in enumerate(items)]
+                values[slot] = tuple(ref for ref in refs if ref is not None)
     if problems:
         raise ConfigError(label, [f"{path}{marks.where(path)}: {message}"
                                   for path, message in problems])
-    return Config(seed=seed, source=source, **values)
+    return Config(seed=seed, source=source, slots=slots, **values)
 
 
 def load_config(path: Path | str, registry: Registry, overrides: Sequence[str] = ()) -> Config:

@@ -18,7 +18,13 @@ from cbrcore.context import Context
 from cbrcore.errors import CbrError, PhaseError, PluginError
 from cbrcore.hookspecs import PHASE_HOOKS
 from cbrcore.model import CASEBASE, Outcome, Proposal, Retrieval, Revision, Solution
-from cbrcore.plugins import Plugins, current, implemented_hooks, new_plugin_manager
+from cbrcore.plugins import (
+    Plugins,
+    current,
+    implemented_hooks,
+    new_plugin_manager,
+    unknown_hooks,
+)
 from cbrcore.registry import KIND_HOOK
 
 _PHASE_OF_HOOK = {hook: phase for phase, hook in PHASE_HOOKS.items()}
@@ -152,6 +158,10 @@ class Engine:
         try:
             self.world = self._build(config.world)
             self.ctx.world = self.world
+            for slot, ref in config.slots.items():
+                built = self._build(ref)
+                self.ctx.stash[self.plugins.registry.slots[slot].key] = built
+                self.components[ref.path] = built
             self.casebase = self._build(config.casebase)
             self.ctx.casebase = self.casebase
             for slot in ("retrieve", "reuse", "revise", "solver"):
@@ -196,6 +206,9 @@ class Engine:
         hooks = set(implemented_hooks(instance)) & set(PHASE_HOOKS.values())
         wanted = KIND_HOOK.get(ref.kind)
         label = f"{ref.path}: {ref.kind} {ref.name!r} (plugin {plugin!r})"
+        misspelt = unknown_hooks(instance)
+        if misspelt:
+            raise PluginError(f"{label}: {'; '.join(misspelt)}")
         if wanted is not None and hooks != {wanted}:
             extra = ", ".join(sorted(hooks - {wanted})) or "nothing else"
             raise PluginError(f"{label} must implement exactly {wanted}; it implements "
@@ -215,6 +228,8 @@ class Engine:
         """Answer one query: from the case base if it can, else from the fallback solver."""
         self.ctx.step = self.stats.queries
         self.stats.queries += 1
+        if self.casebase is not None:
+            self.ctx.mirror.sync()
         timings: dict[str, float] = {}
         retrieval: Retrieval | None = None
         revision: Revision | None = None
@@ -258,18 +273,27 @@ class Engine:
         """Retain and forget after ``proposal`` was carried out.
 
         One case base transaction: a crash inside keeps nothing of this step and everything
-        before it. Returns seconds per phase (``retain``, ``forget``) and for the whole step,
-        commit included (``learn``).
+        before it. The step is all or nothing for the run's memory too: the store mirror first
+        catches up with what other writers committed, and if the step fails the mirror drops
+        its views and the context's world is restored to what it was before the step. Returns
+        seconds per phase (``retain``, ``forget``) and for the whole step, commit included
+        (``learn``).
         """
         started = time.perf_counter()
         timings: dict[str, float] = {}
         solution = outcome.solution or proposal.solution
-        with self.casebase.transaction():
-            if proposal.from_casebase and proposal.solution is not None:
-                self.casebase.touch(proposal.solution.cases)
-            if solution is not None:
-                self.hooks.retain(problem, solution, outcome, self.casebase, self.ctx, timings)
-            self.hooks.forget(self.casebase, self.ctx, timings)
+        world = self.ctx.world
+        try:
+            with self.ctx.mirror.transaction():
+                if proposal.from_casebase and proposal.solution is not None:
+                    self.casebase.touch(proposal.solution.cases)
+                if solution is not None:
+                    self.hooks.retain(problem, solution, outcome, self.casebase, self.ctx,
+                                      timings)
+                self.hooks.forget(self.casebase, self.ctx, timings)
+        except BaseException:
+            self.ctx.world = world
+            raise
         self.stats.learned += 1
         timings["learn"] = time.perf_counter() - started
         return timings
@@ -280,8 +304,10 @@ class Engine:
             return
         self._closed = True
         # list_name_plugin, unlike get_plugins, neither hashes components nor loses their order
+        slots = [self.components[slot] for slot in self.config.slots if slot in self.components]
         parts = [*(p for _, p in self._pm.list_name_plugin()), getattr(self, "workload", None),
-                 *getattr(self, "metrics", ()), getattr(self, "world", None), self.casebase]
+                 *getattr(self, "metrics", ()), *slots, getattr(self, "world", None),
+                 self.casebase]
         for part in parts:
             close = getattr(part, "close", None)
             if callable(close):

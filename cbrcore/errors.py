@@ -40,4 +40,14 @@ class PhaseError(CbrError):
 
 
 class CaseBaseError(CbrError):
-    """A case base file that is missing, corrupt, locked, foreign or of another schema version."""
+    """A case base that is missing, corrupt, locked, foreign or of another schema version, or an
+    exported case base document that cannot be read."""
+
+
+class UnusableCaseBase(CaseBaseError):
+    """A case base that exists but cannot be used, found when its store opens it.
+
+    It is damaged, belongs to another program, or has a schema version this cbrcore does not
+    read. A store refuses it without writing to it; ``cbr casebase check`` reports it as the case
+    base's problem.
+    """

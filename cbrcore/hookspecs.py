@@ -41,12 +41,14 @@ hookimpl = pluggy.HookimplMarker(PROJECT)
 def cbr_register(registry: Registry) -> None:
     """Register the plugin's named components.
 
-    Called once per plugin when plugins load (collect-all, return value ignored). Call
-    ``registry.add(kind, name, factory, options=OptionsClass)`` for every component the plugin
-    supplies; kinds are listed in :data:`cbrcore.registry.KINDS`. The factory is called as
+    Called once per plugin when plugins load, in entry point name order (collect-all, return
+    value ignored). Call ``registry.add(kind, name, factory, options=OptionsClass)`` for every
+    component the plugin supplies, of one of cbrcore's kinds (:data:`cbrcore.registry.KINDS`) or
+    of a kind a plugin declares with ``registry.add_kind(kind, doc)``. The factory is called as
     ``factory(options, ctx)`` with a validated instance of the attrs options class and the run's
-    :class:`~cbrcore.context.Context`. A name already taken by another plugin, or an exception
-    raised here, marks this plugin as failed; the others still load.
+    :class:`~cbrcore.context.Context`. A name or kind already taken by another plugin, an
+    exception raised here, or a kind that no plugin has declared once all have registered marks
+    this plugin as failed; the others still load.
     """
 
 

@@ -107,12 +107,15 @@ class Outcome:
 
     ``solution`` is what was actually executed when it differs from the proposal (a robot that
     replanned around an obstacle drove another path); None means the proposal as it was.
+    ``report`` is the workload's own typed account of what happened (the grid family's
+    ``DriveReport``: cells driven, obstacles met, stops), for the retainers and measures of the
+    same domain; the engine passes it through untouched.
     """
 
     success: bool
     cost: float | None = None
     solution: Solution | None = None
-    detail: Mapping[str, Any] = attrs.field(factory=dict)
+    report: Any = None
 
 
 CASEBASE = "casebase"

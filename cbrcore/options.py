@@ -9,6 +9,13 @@ A plugin declares its options as an attrs class and documents each field with :f
 Values are checked strictly (YAML ``"3"`` is not an integer, ``3.5`` is not silently truncated),
 unknown keys are refused, and ``pathlib.Path`` fields resolve relative to the configuration
 file's folder.
+
+An option that names another component is declared with :func:`reference`, giving the kind it
+names; a configuration naming a component of that kind nobody registered is refused::
+
+    @attrs.frozen
+    class SpliceOptions:
+        connector: str = reference("solver", "astar", "The solver that joins the pieces.")
 """
 
 from __future__ import annotations
@@ -17,7 +24,7 @@ import contextlib
 import contextvars
 import re
 import typing
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal
 
@@ -28,15 +35,99 @@ from cattrs.errors import ClassValidationError, ForbiddenExtraKeysError, Iterabl
 from cbrcore.errors import ConfigError
 
 _base_dir: contextvars.ContextVar[Path] = contextvars.ContextVar("cbr_base_dir")
+_slots: contextvars.ContextVar[Mapping[str, str]] = contextvars.ContextVar("cbr_slots")
+
+
+_REFERS_TO = "cbr_refers_to"
 
 
 def option(default: Any = attrs.NOTHING, doc: str = "", *,
            validator: Callable[..., Any] | None = None, factory: Callable[[], Any] | None = None
            ) -> Any:
     """An attrs field with a documentation string shown in the configuration reference."""
+    return _field(default, validator, factory, {"doc": doc})
+
+
+def reference(kind: str, default: Any = attrs.NOTHING, doc: str = "", *,
+              validator: Callable[..., Any] | None = None,
+              factory: Callable[[], Any] | None = None) -> Any:
+    """An option naming a component of ``kind``, as :func:`option` otherwise.
+
+    The value is a component name (``str``), None, or a list or tuple of names. Reading a
+    configuration checks every name, the default included, against the registry, and the
+    configuration reference shows the kind the option names.
+    """
+    return _field(default, validator, factory, {"doc": doc, _REFERS_TO: kind})
+
+
+def _field(default: Any, validator: Callable[..., Any] | None,
+           factory: Callable[[], Any] | None, metadata: dict[str, str]) -> Any:
     if factory is not None:
-        return attrs.field(factory=factory, validator=validator, metadata={"doc": doc})
-    return attrs.field(default=default, validator=validator, metadata={"doc": doc})
+        return attrs.field(factory=factory, validator=validator, metadata=metadata)
+    return attrs.field(default=default, validator=validator, metadata=metadata)
+
+
+def referred_kind(field: attrs.Attribute) -> str | None:
+    """The component kind a field declared with :func:`reference` names, else None."""
+    return field.metadata.get(_REFERS_TO)
+
+
+def _attrs_classes(kind: Any) -> Iterator[type]:
+    if isinstance(kind, type) and attrs.has(kind):
+        yield kind
+    for argument in typing.get_args(kind):
+        yield from _attrs_classes(argument)
+
+
+def references(options_cls: type) -> Iterator[tuple[str, str]]:
+    """``(option path, kind)`` for every reference in an options class, nested ones included.
+
+    Options classes nested in fields (directly, or in lists, tuples, mappings and unions) are
+    searched too; their options are written ``outer.inner``. Raises ``NameError`` when the
+    class's annotations do not resolve.
+    """
+
+    def walk(cls: type, prefix: str, seen: frozenset[type]) -> Iterator[tuple[str, str]]:
+        for field in attrs.fields(attrs.resolve_types(cls)):
+            kind = referred_kind(field)
+            if kind is not None:
+                yield f"{prefix}{field.name}", kind
+            for inner in _attrs_classes(field.type):
+                if inner not in seen:
+                    yield from walk(inner, f"{prefix}{field.name}.", seen | {inner})
+
+    return walk(options_cls, "", frozenset({options_cls}))
+
+
+def referenced_names(options: Any, where: str) -> Iterator[tuple[str, str, str]]:
+    """``(yaml path, kind, name)`` for every component name an options instance refers to.
+
+    Walks nested options instances in fields, lists, tuples and mappings; paths are below
+    ``where`` (``reuse.connector``, ``reuse.stages.1.solver``).
+    """
+    for field in attrs.fields(type(options)):
+        value = getattr(options, field.name)
+        path = f"{where}.{field.name}"
+        kind = referred_kind(field)
+        if kind is not None:
+            for name_path, name in _items(value, path):
+                yield name_path, kind, name
+        else:
+            for item_path, item in _items(value, path):
+                if attrs.has(type(item)):
+                    yield from referenced_names(item, item_path)
+
+
+def _items(value: Any, path: str) -> Iterator[tuple[str, Any]]:
+    """The value itself, or each item of a list, tuple or mapping, with its YAML path."""
+    if isinstance(value, Mapping):
+        for key, item in value.items():
+            yield f"{path}.{key}", item
+    elif isinstance(value, Sequence) and not isinstance(value, str):
+        for index, item in enumerate(value):
+            yield f"{path}.{index}", item
+    elif value is not None:
+        yield path, value
 
 
 def _strict(kind: type, label: str, accept: tuple[type, ...]) -> Callable[[Any, type], Any]:
@@ -89,6 +180,25 @@ def paths_relative_to(base: Path) -> Iterator[None]:
         yield
     finally:
         _base_dir.reset(token)
+
+
+@contextlib.contextmanager
+def slots_configured(names: Mapping[str, str]) -> Iterator[None]:
+    """Let option validators see which component each plugin slot names (see
+    :func:`configured`) while the other slots' options are structured."""
+    token = _slots.set(names)
+    try:
+        yield
+    finally:
+        _slots.reset(token)
+
+
+def configured(slot: str) -> str | None:
+    """The name of the component the configuration being read puts in the plugin slot ``slot``
+    (its default when the file names none), for an option validator that depends on it (a
+    planner option that a constrained robot rules out); None outside the reading of a
+    configuration, or when no such slot is filled."""
+    return _slots.get({}).get(slot)
 
 
 def _describe(exc: BaseException) -> str:

@@ -4,6 +4,15 @@ Plugins are found through the ``cbr`` entry point group; cbrcore's own built-ins
 there too, so they load exactly as a third party's do. A plugin that fails to import or register
 is reported and skipped while the others load, unless ``CBR_STRICT_PLUGINS=1``.
 
+Plugins register in entry point name order. A component kind may be declared by a plugin that
+loads after one registering components of it, so kinds are checked once all have registered: a
+plugin whose components or options use a kind nobody declared fails then, and with it whatever
+relied on the kinds it declared.
+
+A hook implementation that names no cbrcore hook (``cbr_registr``), or a function named like a
+hook but left without ``@hookimpl``, fails its plugin when it loads; :func:`unknown_hooks` says
+which and suggests the closest hook.
+
 Environment variables:
 
 ``CBR_PLUGINS``
@@ -18,6 +27,8 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import difflib
+import inspect
 import os
 import warnings
 from collections.abc import Iterator, Mapping, Sequence
@@ -41,12 +52,46 @@ def new_plugin_manager() -> pluggy.PluginManager:
     return pm
 
 
-def implemented_hooks(obj: Any) -> tuple[str, ...]:
-    """The cbrcore hooks that ``obj`` (a module, class or instance) implements."""
+HOOKS = (*hookspecs.PLUGIN_HOOKS, *hookspecs.PHASE_HOOKS.values())
+"""The name of every cbrcore hook."""
+
+
+def _marked(obj: Any) -> Iterator[tuple[str, str | None]]:
+    """``(attribute, hook)`` for each routine of ``obj``; ``hook`` is the hook a ``@hookimpl``
+    marker makes it implement (``specname`` or the attribute's name), None when unmarked."""
     marker = f"{hookspecs.PROJECT}_impl"
-    names = {name for name in dir(obj) if name.startswith("cbr_")
-             and hasattr(getattr(obj, name, None), marker)}
-    return tuple(sorted(names))
+    for name in dir(obj):
+        value = getattr(obj, name, None)  # as pluggy looks for implementations
+        if inspect.isroutine(value):
+            opts = getattr(value, marker, None)
+            yield name, (opts.get("specname") or name) if isinstance(opts, dict) else None
+
+
+def implemented_hooks(obj: Any) -> tuple[str, ...]:
+    """The hooks that ``obj`` (a module, class or instance) marks implementations of."""
+    return tuple(sorted({hook for _, hook in _marked(obj) if hook is not None}))
+
+
+def unknown_hooks(obj: Any) -> list[str]:
+    """What is wrong with the hook implementations of ``obj`` (a module, class or instance).
+
+    One message for each ``@hookimpl`` whose hook cbrcore does not have (``cbr_registr``,
+    suggesting ``cbr_register``), and for each routine named exactly like a cbrcore hook but
+    not marked with ``@hookimpl``, which pluggy would never call. Empty when all is well.
+    """
+    problems = []
+    for name, hook in _marked(obj):
+        if hook is None and name in HOOKS:
+            problems.append(f"{name} is not marked with @hookimpl, so it is never called")
+        elif hook is not None and hook not in HOOKS:
+            mark = "@hookimpl" if hook == name else f"@hookimpl(specname={hook!r})"
+            # without the shared prefix, which would make every cbr_ name look close
+            stems = {known.removeprefix("cbr_"): known for known in HOOKS}
+            close = difflib.get_close_matches(hook.removeprefix("cbr_"), stems, n=1)
+            hint = (f"did you mean {stems[close[0]]}?" if close
+                    else f"the hooks: {', '.join(HOOKS)}")
+            problems.append(f"{name} is marked with {mark} but names no cbrcore hook; {hint}")
+    return problems
 
 
 @attrs.frozen
@@ -59,6 +104,7 @@ class PluginInfo:
     version: str | None
     hooks: tuple[str, ...]
     components: tuple[str, ...]
+    kinds: tuple[str, ...]
 
 
 @attrs.frozen
@@ -113,6 +159,11 @@ def _component_hooks(registry: Registry, name: str) -> set[str]:
     return hooks
 
 
+def _withdraw(plugins: Plugins, name: str) -> None:
+    plugins.registry._drop(name)
+    plugins.pm.unregister(name=name)
+
+
 def load_plugins(extra: Sequence[tuple[str, Any]] = (), *, entry_points: bool = True,
                  environ: Mapping[str, str] | None = None) -> Plugins:
     """Load the plugins of the ``cbr`` entry point group, then ``extra`` (name, module) pairs.
@@ -150,15 +201,24 @@ def load_plugins(extra: Sequence[tuple[str, Any]] = (), *, entry_points: bool = 
             continue
         try:
             obj = source.load() if isinstance(source, metadata.EntryPoint) else source
-            if plugins.pm.is_registered(obj):
-                # a plugin's own tests pass its module in code while it is installed too
-                continue
-            plugins.pm.register(obj, name=name)
         except Exception as exc:  # a broken plugin must not stop the others
+            fail(name, dist, "import", f"{type(exc).__name__}: {exc}")
+            continue
+        if plugins.pm.is_registered(obj):
+            # a plugin's own tests pass its module in code while it is installed too
+            continue
+        misspelt = unknown_hooks(obj)
+        if misspelt:
+            fail(name, dist, "load", "; ".join(misspelt))
+            continue
+        try:
+            plugins.pm.register(obj, name=name)
+        except Exception as exc:  # e.g. a hook implementation taking an argument of no hookspec
             fail(name, dist, "import", f"{type(exc).__name__}: {exc}")
             continue
         sources[name] = dist
 
+    registered = []
     for name, dist in sources.items():
         obj = plugins.pm.get_plugin(name)
         plugins.registry._begin(name)
@@ -167,18 +227,29 @@ def load_plugins(extra: Sequence[tuple[str, Any]] = (), *, entry_points: bool = 
             if register is not None and "cbr_register" in implemented_hooks(obj):
                 register(registry=plugins.registry)
         except Exception as exc:  # a broken plugin must not stop the others
-            plugins.registry._drop(name)
-            plugins.pm.unregister(name=name)
+            _withdraw(plugins, name)
             fail(name, dist, "register", f"{type(exc).__name__}: {exc}")
             continue
+        registered.append(name)
+
+    # withdrawing a plugin withdraws the kinds it declared, which others may have used
+    while unresolved := plugins.registry.unresolved():
+        for name, problems in unresolved.items():
+            _withdraw(plugins, name)
+            registered.remove(name)
+            fail(name, sources[name], "register", "; ".join(problems))
+
+    for name in registered:
+        obj = plugins.pm.get_plugin(name)
         hooks = set(implemented_hooks(obj)) | _component_hooks(plugins.registry, name)
         plugins.loaded.append(PluginInfo(
             name=name,
             module=getattr(obj, "__name__", type(obj).__name__),
-            distribution=dist[0],
-            version=dist[1],
+            distribution=sources[name][0],
+            version=sources[name][1],
             hooks=tuple(sorted(hooks)),
             components=tuple(f"{c.kind}:{c.name}" for c in plugins.registry.by_plugin(name)),
+            kinds=tuple(k.name for k in plugins.registry.kinds_by_plugin(name)),
         ))
     return plugins
 

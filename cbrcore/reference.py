@@ -10,13 +10,13 @@ import inspect
 import re
 import types
 import typing
-from collections.abc import Iterable
 
 import attrs
 
 from cbrcore import hookspecs
-from cbrcore.config import LIST_SLOTS, SINGLE_SLOTS
-from cbrcore.registry import KINDS, Component, NoOptions
+from cbrcore.config import DEFAULT_STORE
+from cbrcore.options import referred_kind
+from cbrcore.registry import LIST_SLOTS, SINGLE_SLOTS, Component, Kind, NoOptions, Registry
 
 _TOP = """\
 # Configuration reference
@@ -29,6 +29,10 @@ name or as a mapping whose `use` key names it and whose other keys are its optio
 casebase: sqlite                               # by name: every option at its default
 observers: [{use: trace, file: trace.jsonl}]   # `use` names it, the other keys are options
 ```
+
+A plugin may declare a kind of its own with a slot of its own, listed below with the plugin that
+declared it. An option whose type reads `str naming a solver` takes the name of a registered
+component of that kind, and any other name is refused.
 
 | key | takes | component kind |
 |---|---|---|
@@ -69,6 +73,16 @@ def _default(field: attrs.Attribute) -> str:
     return f"`{field.default!r}`"
 
 
+def _article(word: str) -> str:
+    return "an" if word[:1] in "aeiou" else "a"
+
+
+def _option_type(field: attrs.Attribute) -> str:
+    kind = referred_kind(field)
+    named = f" naming {_article(kind)} {kind}" if kind is not None else ""
+    return _type_name(field.type) + named
+
+
 def _component_section(component: Component) -> list[str]:
     lines = [f"### `{component.name}`", "", f"Plugin: `{component.plugin}`.", ""]
     doc = _markdown(inspect.cleandoc(component.doc)) if component.doc else ""
@@ -80,35 +94,47 @@ def _component_section(component: Component) -> list[str]:
     # resolved as when options are read, so the text does not depend on whether they were
     for field in attrs.fields(attrs.resolve_types(component.options)):
         meaning = _markdown(field.metadata.get("doc", "")).replace("\n", " ").replace("|", "\\|")
-        lines.append(f"| `{field.name}` | {_type_name(field.type)} | {_default(field)} "
+        lines.append(f"| `{field.name}` | {_option_type(field)} | {_default(field)} "
                      f"| {meaning} |")
     return [*lines, ""]
 
 
-def config_reference(components: Iterable[Component]) -> str:
-    """The configuration reference for ``components``, grouped by kind."""
+def _where(kind: Kind) -> str:
+    single = {k: slot for slot, k in SINGLE_SLOTS.items()}
+    listed = {k: slot for slot, k in LIST_SLOTS.items()}
+    slot = kind.slot.name if kind.slot else single.get(kind.name) or listed.get(kind.name)
+    if slot is not None:
+        return f"slot `{slot}`"
+    if kind.name == "experiment":
+        return "run by `cbr experiment`"
+    return "named by other components' options"
+
+
+def _declarer(kind: Kind) -> str:
+    return "cbrcore" if kind.plugin is None else f"plugin `{kind.plugin}`"
+
+
+def config_reference(registry: Registry) -> str:
+    """The configuration reference for the kinds and components of ``registry``, by kind."""
     lines = [_TOP.rstrip("\n")]
-    slot_of = {kind: slot for slot, kind in SINGLE_SLOTS.items()}
-    list_slot_of = {kind: slot for slot, kind in LIST_SLOTS.items()}
     for slot, kind in SINGLE_SLOTS.items():
-        default = " (default `memory`)" if slot == "casebase" else ""
+        default = f" (default `{DEFAULT_STORE}`)" if slot == "casebase" else ""
         lines.append(f"| `{slot}` | one component{default} | {kind} |")
+    for slot in registry.slots.values():
+        default = f" (default `{slot.default}`)" if slot.default is not None else ""
+        lines.append(f"| `{slot.name}` | one component{default} | {slot.kind} "
+                     f"({_declarer(registry.kinds[slot.kind])}) |")
     for slot, kind in LIST_SLOTS.items():
         lines.append(f"| `{slot}` | a list of components (or one) | {kind} |")
     lines.append("")
     by_kind: dict[str, list[Component]] = {}
-    for component in components:
+    for component in registry:
         by_kind.setdefault(component.kind, []).append(component)
-    for kind, description in KINDS.items():
-        slot = slot_of.get(kind) or list_slot_of.get(kind)
-        if slot:
-            where = f"slot `{slot}`"
-        elif kind == "experiment":
-            where = "run by `cbr experiment`"
-        else:
-            where = "named by other components' options"
-        lines += [f"## {kind} ({where})", "", description[0].upper() + description[1:] + ".", ""]
-        listed = sorted(by_kind.get(kind, []), key=lambda c: c.name)
+    for kind in registry.kinds.values():
+        doc = kind.doc.strip().rstrip(".")
+        lines += [f"## {kind.name} ({_where(kind)})", "", f"{doc[0].upper()}{doc[1:]}.", "",
+                  f"Declared by {_declarer(kind)}.", ""]
+        listed = sorted(by_kind.get(kind.name, []), key=lambda c: c.name)
         if not listed:
             lines += ["No component of this kind is installed.", ""]
         for component in listed:

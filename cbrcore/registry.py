@@ -1,14 +1,23 @@
-"""Named components that plugins register and configurations select."""
+"""Named components that plugins register and configurations select, by kind.
+
+cbrcore declares the kinds its engine uses (:data:`KINDS`). A plugin declares further kinds with
+:meth:`Registry.add_kind` from its ``cbr_register``; a kind may own a top-level configuration
+slot, so that a configuration chooses its component once for the whole run. Plugins register in
+name order, so a plugin may register components of a kind that a later plugin declares: kinds
+are checked once every plugin has registered (:meth:`Registry.unresolved`).
+"""
 
 from __future__ import annotations
 
 import inspect
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from typing import Any
 
 import attrs
 
 from cbrcore.errors import CbrError, PluginError
+from cbrcore.options import references, structure_options
+from cbrcore.stash import StashKey
 
 KINDS: dict[str, str] = {
     "world": "the environment queries are posed in (a map, a landmark scene, a behavior domain)",
@@ -20,13 +29,13 @@ KINDS: dict[str, str] = {
     "retainer": "implements cbr_retain",
     "forgetter": "implements cbr_forget",
     "observer": "wraps phase hooks (wrapper=True hookimpls): tracing, timing, progress, metrics",
-    "workload": "produces the queries of a run and carries out proposals (cbrcore.run.Workload)",
-    "metric": "turns one query's problem, proposal and outcome into numbers (cbrcore.run.Metric)",
+    "workload": "poses the queries of a run: yields them and carries out proposals, or runs its "
+                "own loop consulting the engine through a session (cbrcore.workload.Workload)",
+    "metric": "turns one query's problem, proposal and outcome into numbers "
+              "(cbrcore.workload.Metric)",
     "experiment": "a reproduction run by `cbr experiment` (cbrcore.experiment.Experiment)",
-    "kinematics": "a robot's move condition: which move may follow which at a vertex, named by "
-                  "the planners' `kinematics` option",
 }
-"""Every component kind, with what a component of that kind must provide."""
+"""The component kinds of cbrcore itself, with what a component of each must provide."""
 
 KIND_HOOK: dict[str, str] = {
     "retriever": "cbr_retrieve",
@@ -38,6 +47,60 @@ KIND_HOOK: dict[str, str] = {
 }
 """The phase hook a component of each phase kind implements."""
 
+SINGLE_SLOTS: dict[str, str] = {
+    "world": "world",
+    "casebase": "store",
+    "retrieve": "retriever",
+    "reuse": "reuser",
+    "revise": "reviser",
+    "solver": "solver",
+    "workload": "workload",
+}
+"""The core's configuration slots that take one component, and the kind each takes."""
+
+LIST_SLOTS: dict[str, str] = {
+    "retain": "retainer",
+    "forget": "forgetter",
+    "observers": "observer",
+    "metrics": "metric",
+}
+"""The core's slots that take a list of components (a single one is accepted as a list of one)."""
+
+CORE_KEYS = frozenset({"seed", *SINGLE_SLOTS, *LIST_SLOTS})
+"""The top-level configuration keys of cbrcore itself, which no plugin's slot may take."""
+
+
+@attrs.frozen
+class Slot:
+    """A top-level configuration key that a plugin's kind owns.
+
+    A configuration names one component of ``kind`` there for the whole run (``default`` when
+    it names none); the engine builds it and stores it in ``ctx.stash`` under ``key``.
+    """
+
+    name: str
+    kind: str
+    default: str | None
+    key: StashKey[Any]
+
+
+@attrs.frozen
+class Kind:
+    """A component kind: what its components provide, who declared it, the slot it owns.
+
+    ``plugin`` is None for cbrcore's own kinds, whose slots the configuration itself defines.
+    """
+
+    name: str
+    doc: str
+    plugin: str | None = None
+    slot: Slot | None = None
+
+    @property
+    def declared_by(self) -> str:
+        """``cbrcore`` or ``plugin NAME``, for messages and listings."""
+        return "cbrcore" if self.plugin is None else f"plugin {self.plugin!r}"
+
 
 @attrs.frozen
 class NoOptions:
@@ -46,7 +109,11 @@ class NoOptions:
 
 @attrs.frozen
 class Component:
-    """One registered component: how to build it and which plugin supplied it."""
+    """One registered component: how to build it and which plugin supplied it.
+
+    ``references`` maps each option that names another component (see
+    :func:`cbrcore.options.reference`) to the kind it names.
+    """
 
     kind: str
     name: str
@@ -54,6 +121,7 @@ class Component:
     options: type
     plugin: str
     doc: str
+    references: Mapping[str, str]
 
     @property
     def summary(self) -> str:
@@ -65,11 +133,66 @@ class UnknownComponent(CbrError):
 
 
 class Registry:
-    """The components of all loaded plugins, by kind and name."""
+    """The component kinds and the components of all loaded plugins, by kind and name."""
 
     def __init__(self) -> None:
+        self._kinds: dict[str, Kind] = {name: Kind(name, doc) for name, doc in KINDS.items()}
         self._components: dict[tuple[str, str], Component] = {}
         self._plugin = "<unknown>"
+
+    def add_kind(self, name: str, doc: str, *, slot: str | None = None,
+                 default: str | None = None, key: StashKey[Any] | None = None) -> None:
+        """Declare the component kind ``name``; ``doc`` says what its components provide.
+
+        With ``slot``, the kind owns that top-level configuration key: a configuration names
+        one component of the kind there for the whole run (``default`` when it names none), and
+        the engine builds it before the phase components and stores it in ``ctx.stash[key]``,
+        where every component reads it. ``slot`` and ``key`` go together; ``default`` needs a
+        slot and must name a component of the kind once every plugin has registered.
+        """
+        taken = self._kinds.get(name)
+        if taken is not None:
+            raise PluginError(f"component kind {name!r} is already declared by "
+                              f"{taken.declared_by}")
+        if not name.isidentifier():
+            raise PluginError(f"component kind {name!r}: expected a name of letters, digits "
+                              "and underscores")
+        if not doc.strip():
+            raise PluginError(f"component kind {name!r}: the doc must say what a component of "
+                              "the kind provides")
+        if (slot is None) != (key is None):
+            raise PluginError(f"component kind {name!r}: a slot needs a StashKey to store its "
+                              "component under, and a key needs a slot")
+        if default is not None and slot is None:
+            raise PluginError(f"component kind {name!r}: a default needs a slot")
+        if slot is not None:
+            if not slot.isidentifier():
+                raise PluginError(f"component kind {name!r}: slot {slot!r} must be a name of "
+                                  "letters, digits and underscores")
+            if slot in CORE_KEYS:
+                raise PluginError(f"component kind {name!r}: slot {slot!r} is a key of "
+                                  "cbrcore's own configuration")
+            owner = self.slots.get(slot)
+            if owner is not None:
+                raise PluginError(f"component kind {name!r}: slot {slot!r} is already taken "
+                                  f"by kind {owner.kind!r} of "
+                                  f"{self._kinds[owner.kind].declared_by}")
+            if not isinstance(key, StashKey):
+                raise PluginError(f"component kind {name!r}: key must be a "
+                                  f"cbrcore.stash.StashKey, got {key!r}")
+        owned = Slot(slot, name, default, key) if slot is not None and key is not None else None
+        self._kinds[name] = Kind(name, doc, self._plugin, owned)
+
+    @property
+    def kinds(self) -> Mapping[str, Kind]:
+        """Every declared kind by name: cbrcore's, then the plugins' in the order they loaded."""
+        return dict(self._kinds)
+
+    @property
+    def slots(self) -> Mapping[str, Slot]:
+        """The top-level configuration slots that plugins' kinds own, by name."""
+        return {kind.slot.name: kind.slot for kind in self._kinds.values()
+                if kind.slot is not None}
 
     def add(self, kind: str, name: str, factory: Callable[[Any, Any], Any], *,
             options: type = NoOptions, doc: str | None = None) -> None:
@@ -77,33 +200,42 @@ class Registry:
 
         ``factory(options, ctx)`` builds the component; ``options`` is an attrs class whose fields
         are the component's configuration keys (document each field with
-        ``cbrcore.options.option``). ``doc`` defaults to the factory's docstring.
+        ``cbrcore.options.option``, or ``cbrcore.options.reference`` for a field naming another
+        component). ``doc`` defaults to the factory's docstring. ``kind`` may be one a plugin
+        loading later declares. Refused: a name taken within the kind, options whose type
+        annotations do not resolve, and a factory class with a hook implementation that names
+        no cbrcore hook (see :func:`cbrcore.plugins.unknown_hooks`).
         """
-        if kind not in KINDS:
-            raise PluginError(f"unknown component kind {kind!r}; kinds: {', '.join(KINDS)}")
+        from cbrcore.plugins import unknown_hooks  # plugins imports this module
+
+        label = f"{kind} {name!r}"
         if not attrs.has(options):
-            raise PluginError(f"{kind} {name!r}: options must be an attrs class, got {options!r}")
+            raise PluginError(f"{label}: options must be an attrs class, got {options!r}")
         taken = self._components.get((kind, name))
         if taken is not None:
-            raise PluginError(f"{kind} {name!r} is already registered by plugin {taken.plugin!r}")
+            raise PluginError(f"{label} is already registered by plugin {taken.plugin!r}")
+        if isinstance(factory, type) and (misspelt := unknown_hooks(factory)):
+            raise PluginError(f"{label}: {'; '.join(misspelt)}")
+        try:
+            refers = dict(references(options))
+        except NameError as exc:  # an annotation naming something the module does not define
+            raise PluginError(f"{label}: the annotations of {options.__qualname__} do not "
+                              f"resolve: {exc}") from None
         text = doc if doc is not None else inspect.getdoc(factory) or ""
-        self._components[kind, name] = Component(kind, name, factory, options, self._plugin, text)
+        self._components[kind, name] = Component(kind, name, factory, options, self._plugin, text,
+                                                 refers)
 
     def get(self, kind: str, name: str) -> Component:
         """The component ``name`` of ``kind``; the error lists the registered alternatives."""
         found = self._components.get((kind, name))
-        if found is not None:
-            return found
-        known = [c for c in self if c.kind == kind]
-        listing = ", ".join(f"{c.name} (plugin {c.plugin})" for c in known) or "none"
-        raise UnknownComponent(f"unknown {kind} {name!r}; registered: {listing}")
+        if found is None:
+            raise self._unknown(kind, name)
+        return found
 
     def create(self, kind: str, name: str, options: Any, ctx: Any) -> Any:
         """Build component ``name`` of ``kind`` from an options instance (or a dict of options)."""
         component = self.get(kind, name)
         if not isinstance(options, component.options):
-            from cbrcore.options import structure_options
-
             options = structure_options(component.options, options or {}, f"{kind} {name}")
         return component.factory(options, ctx)
 
@@ -113,8 +245,47 @@ class Registry:
     def by_plugin(self, plugin: str) -> list[Component]:
         return [c for c in self if c.plugin == plugin]
 
+    def kinds_by_plugin(self, plugin: str) -> list[Kind]:
+        return [k for k in self._kinds.values() if k.plugin == plugin]
+
+    def unresolved(self) -> dict[str, list[str]]:
+        """What the registered plugins use but nobody declared or registered, by plugin.
+
+        A component of an undeclared kind, an option referring to an undeclared kind, and a
+        slot default that names no registered component are each a problem of the plugin that
+        registered the component or declared the kind. Called once every plugin has registered,
+        since a kind may be declared by a plugin that loads after the one using it.
+        """
+        problems: dict[str, list[str]] = {}
+        kinds = f"kinds: {', '.join(sorted(self._kinds))}"
+        orphans: dict[tuple[str, str], list[str]] = {}
+        for component in self:
+            if component.kind not in self._kinds:
+                orphans.setdefault((component.plugin, component.kind), []).append(component.name)
+            for option, kind in component.references.items():
+                if kind not in self._kinds:
+                    problems.setdefault(component.plugin, []).append(
+                        f"{component.kind} {component.name!r}: option {option!r} refers to "
+                        f"kind {kind!r}, which no plugin declares; {kinds}")
+        for (plugin, kind), names in orphans.items():
+            problems.setdefault(plugin, []).append(
+                f"no plugin declares the component kind {kind!r} of {', '.join(names)}; {kinds}")
+        for kind in self._kinds.values():
+            slot = kind.slot
+            if (kind.plugin is not None and slot is not None and slot.default is not None
+                    and (kind.name, slot.default) not in self._components):
+                problems.setdefault(kind.plugin, []).append(
+                    f"the default of slot {slot.name!r}: {self._unknown(kind.name, slot.default)}")
+        return problems
+
+    def _unknown(self, kind: str, name: str) -> UnknownComponent:
+        known = [c for c in self if c.kind == kind]
+        listing = ", ".join(f"{c.name} (plugin {c.plugin})" for c in known) or "none"
+        return UnknownComponent(f"unknown {kind} {name!r}; registered: {listing}")
+
     def _begin(self, plugin: str) -> None:
         self._plugin = plugin
 
     def _drop(self, plugin: str) -> None:
         self._components = {k: c for k, c in self._components.items() if c.plugin != plugin}
+        self._kinds = {n: k for n, k in self._kinds.items() if k.plugin != plugin}

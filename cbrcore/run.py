@@ -1,9 +1,13 @@
 """Running a configured workload and writing its results.
 
-A run writes into its output folder:
+A query workload is run by the default loop: each query is solved, executed and learned before
+the next. A closed-loop workload runs its own loop on a :class:`~cbrcore.workload.Session`,
+consulting the engine when its simulation needs a decision and learning each decision when its
+outcome becomes known (:mod:`cbrcore.workload`). A run writes into its output folder:
 
 ``results.csv``
-    One row per query, written as the run goes (a killed run keeps the rows so far).
+    One row per learned decision, in the order the outcomes became known (query order for the
+    default loop), written as the run goes (a killed run keeps the rows so far).
 ``summary.json``
     Where answers came from, the CBR share, success rate, phase timings and metric means.
 ``manifest.json``
@@ -22,51 +26,20 @@ import re
 import statistics
 import sys
 import time
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from importlib import metadata
 from pathlib import Path
-from typing import Any, Protocol, runtime_checkable
+from typing import Any
 
 from cbrcore.config import Config
-from cbrcore.context import Context
 from cbrcore.engine import Engine
 from cbrcore.errors import CbrError, ConfigError, PluginError
 from cbrcore.hookspecs import PHASE_HOOKS
 from cbrcore.model import CASEBASE, Outcome, Proposal
 from cbrcore.plugins import Plugins
+from cbrcore.workload import Decision, Session
 
 PHASES = (*PHASE_HOOKS, "learn")
-
-
-@runtime_checkable
-class Workload(Protocol):
-    """The queries of a run and how a proposal is carried out (the ``workload`` component)."""
-
-    def __len__(self) -> int:
-        """How many queries ``queries`` yields (for the progress bar)."""
-        ...
-
-    def queries(self, ctx: Context) -> Iterable[Any]:
-        """The problems to solve, in order."""
-        ...
-
-    def execute(self, problem: Any, proposal: Proposal, ctx: Context) -> Outcome:
-        """Carry out the proposal (a simulated robot drives the path) and report what happened."""
-        ...
-
-    def describe(self, problem: Any) -> Mapping[str, Any]:
-        """Scalar columns that identify the query in ``results.csv`` (start and goal cells...)."""
-        ...
-
-
-@runtime_checkable
-class Metric(Protocol):
-    """Per-query figures beyond the built-in columns (a ``metrics`` component)."""
-
-    def measure(self, problem: Any, proposal: Proposal, outcome: Outcome,
-                ctx: Context) -> Mapping[str, float]:
-        """Named numbers for one query; the same names every time."""
-        ...
 
 
 def _dependencies() -> list[str]:
@@ -154,7 +127,13 @@ def _metric_keys(rows: Sequence[Mapping[str, Any]]) -> list[str]:
 
 def evolution(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     """How the run changed as it learned: per stretch of consecutive queries, the CBR share,
-    the median planning time (retrieve to solve) and each metric's mean."""
+    the median planning time (retrieve to solve) and each metric's mean.
+
+    Stretches follow the query index, not the order of the rows: a closed-loop workload learns
+    its decisions in the order their outcomes became known, while the CBR share of a query
+    depends on what had been learned when it was consulted.
+    """
+    rows = sorted(rows, key=lambda row: row["query"])
     stretches = min(WINDOWS, len(rows))
     keys = _metric_keys(rows)
     result = []
@@ -198,12 +177,14 @@ def run_workload(engine: Engine, out_dir: Path, *, overrides: Sequence[str] = ()
                  progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
     """Run the engine's workload, writing results, summary and manifest into ``out_dir``.
 
-    ``progress(done, total)`` is called after each query. Returns the summary.
+    ``progress(done, total)`` is called after each results row, ``total`` being
+    ``len(workload)``. Returns the summary.
     """
     if engine.workload is None:
         raise ConfigError(str(engine.config.source or "configuration"),
                           ["workload: required to run; name the workload component that "
                            "produces the queries"])
+    loop = _own_loop if _owns_its_loop(engine) else _default_loop
     out_dir.mkdir(parents=True, exist_ok=True)
     write_json(out_dir / "manifest.json", manifest(
         engine.config, engine.plugins, seed=engine.config.seed,
@@ -213,25 +194,60 @@ def run_workload(engine: Engine, out_dir: Path, *, overrides: Sequence[str] = ()
     started = time.perf_counter()
     with (out_dir / "results.csv").open("w", newline="", encoding="utf-8") as handle:
         writer: csv.DictWriter[str] | None = None
-        for index, problem in enumerate(engine.workload.queries(engine.ctx)):
-            proposal = engine.solve(problem)
-            outcome = _execute(engine, problem, proposal)
-            learn_timings = engine.learn(problem, proposal, outcome)
-            row = _row(index, problem, proposal, outcome, learn_timings, engine)
+
+        def record(decision: Decision, outcome: Outcome, learn_timings: Mapping[str, float]
+                   ) -> None:
+            nonlocal writer
+            row = _row(decision.index, decision.problem, decision.proposal, outcome,
+                       learn_timings, engine)
             if writer is None:
                 writer = csv.DictWriter(handle, fieldnames=list(row))
                 writer.writeheader()
             elif row.keys() != set(writer.fieldnames):
-                raise PluginError(f"query {index}: the workload's describe() or a metric gave "
-                                  f"columns {sorted(row)} instead of {sorted(writer.fieldnames)}")
+                raise PluginError(f"query {decision.index}: the workload's describe() or a "
+                                  f"metric gave columns {sorted(row)} instead of "
+                                  f"{sorted(writer.fieldnames)}")
             writer.writerow(row)
             handle.flush()
             rows.append(row)
             if progress is not None:
-                progress(index + 1, total)
+                progress(len(rows), total)
+
+        session = Session(engine, record=record)
+        loop(engine, session)
+        session.close()
     summary = summarise(rows, engine, time.perf_counter() - started)
     write_json(out_dir / "summary.json", summary)
     return summary
+
+
+def _owns_its_loop(engine: Engine) -> bool:
+    """Whether the workload runs its own loop; a PluginError unless it has exactly one loop."""
+    present = [method for method in ("run", "queries", "execute")
+               if callable(getattr(engine.workload, method, None))]
+    if present in (["run"], ["queries", "execute"]):
+        return present == ["run"]
+    has = ", ".join(f"{method}()" for method in present) or "none of run(), queries(), execute()"
+    raise PluginError(f"workload {engine.config.workload.name!r} has {has}: a workload "
+                      "implements either run(session), running its own loop, or queries(ctx) "
+                      "and execute(problem, proposal, ctx)")
+
+
+def _default_loop(engine: Engine, session: Session) -> None:
+    for problem in engine.workload.queries(engine.ctx):
+        decision = session.consult(problem)
+        session.learn(decision, _execute(engine, problem, decision.proposal))
+
+
+def _own_loop(engine: Engine, session: Session) -> None:
+    try:
+        engine.workload.run(session)
+    except CbrError:
+        raise
+    except Exception as exc:
+        raise PluginError(f"workload {engine.config.workload.name!r} failed in run() after "
+                          f"{session.consulted} consultations: {type(exc).__name__}: {exc}"
+                          ) from exc
 
 
 def _execute(engine: Engine, problem: Any, proposal: Proposal) -> Outcome:

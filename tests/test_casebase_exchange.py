@@ -14,7 +14,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cbrcore.casebase import (
-    Document,
     MemoryStore,
     SQLiteStore,
     document_of,
@@ -226,16 +225,6 @@ def test_importing_into_a_store_with_cases_needs_append() -> None:
     assert [(c.id, c.problem, c.uses, c.created, c.last_used) for c in target.cases()] == [
         (1, "mine", 1, 1, 2), (2, "a", 2, 4, None), (3, "b", 0, 4, None)]
     assert target.meta_items() == {"k": "mine"}
-
-
-def test_an_import_is_one_transaction(tmp_path: Path) -> None:
-    document = Document(0, {}, (Case("fine", 1), Case(math.nan, 2)))
-    with SQLiteStore(tmp_path / "cb.sqlite") as store:
-        with pytest.raises(ValueError, match="problem: nan"):
-            load_document(store, document, append=True)
-        with pytest.raises(ValueError, match="problem: nan"):
-            load_document(store, document)
-        assert (store.revision, store.count()) == (0, 0)
 
 
 def test_a_missing_file_is_explained(tmp_path: Path) -> None:

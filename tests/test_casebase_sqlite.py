@@ -105,16 +105,6 @@ def test_two_processes_writing_at_once_lose_nothing(tmp_path: Path) -> None:
         assert store.check() == []
 
 
-def test_a_store_sees_other_connections_commits(tmp_path: Path) -> None:
-    path = tmp_path / "cb.sqlite"
-    with SQLiteStore(path) as first, SQLiteStore(path) as second:
-        first.add(Case(1, 1))
-        assert second.revision == 1
-        assert second.get(1) == first.get(1)
-        second.set_meta("k", "v")
-        assert (first.revision, first.get_meta("k")) == (2, "v")
-
-
 def test_a_new_file_is_a_wal_case_base(tmp_path: Path) -> None:
     path = tmp_path / "cb.sqlite"
     with SQLiteStore(path) as store:

@@ -22,13 +22,15 @@ from hypothesis import strategies as st
 from cbr_casegraph.geometry import is_straight, segment_cells
 from cbr_casegraph.graph import SEGMENT, CaseGraph, segment_costs
 from cbr_casegraph.planner import Failure, Plan, Settings, plan
-from cbr_casegraph.state import GraphState
+from cbr_casegraph.state import graph_of
 from cbr_grid.costs import path_cost, step_costs
 from cbr_grid.grid import Grid
 from cbr_grid.query import without_loops
 from cbr_solvers.search import astar, dijkstra
 from cbrcore.casebase.memory import MemoryStore
+from cbrcore.context import Context
 from cbrcore.errors import CbrError
+from cbrcore.registry import Registry
 
 Cell = tuple[int, int]
 
@@ -495,40 +497,50 @@ def stored_edges(store: Any) -> set[frozenset[Cell]]:
     return {seg(tuple(c.problem["a"]), tuple(c.problem["b"])) for c in store.cases(SEGMENT)}
 
 
-def test_the_state_reloads_after_a_rolled_back_learn_step(store: Any) -> None:
+def graph_context(grid: Grid, store: Any) -> Context:
+    return Context(registry=Registry(), seed=0, world=grid, casebase=store)
+
+
+def test_the_graph_reloads_after_a_rolled_back_learn_step(store: Any) -> None:
     grid = free(20, 20)
-    state = GraphState(CaseGraph(grid, store), store, store.revision)
-    with store.transaction():
-        state.graph.add_path(line((0, 5), (19, 5)))
-    kept = state.sync(grid)
-    assert kept is state.graph and edge_set(kept) == {seg((0, 5), (19, 5))}
-    with pytest.raises(RuntimeError), store.transaction():
+    ctx = graph_context(grid, store)
+    with ctx.mirror.transaction():
+        graph_of(ctx).add_path(line((0, 5), (19, 5)))
+    kept = graph_of(ctx)
+    assert edge_set(kept) == {seg((0, 5), (19, 5))}
+    with pytest.raises(RuntimeError), ctx.mirror.transaction():
         # crosses the stored edge: splits it in two and adds two more, all rolled back
-        state.graph.add_path(line((8, 0), (8, 12)))
-        assert len(edge_set(state.graph)) == 4
+        graph_of(ctx).add_path(line((8, 0), (8, 12)))
+        assert len(edge_set(graph_of(ctx))) == 4
         raise RuntimeError("learn step failed")
-    graph = state.sync(grid)
+    graph = graph_of(ctx)
     assert graph is not kept
     assert edge_set(graph) == stored_edges(store) == {seg((0, 5), (19, 5))}
     assert np.array_equal(graph.edge_ids(), CaseGraph.load(grid, store).edge_ids())
     check_consistent(graph)
     # a committed step after the reload is kept without another one
-    with store.transaction():
-        state.graph.add_path(line((8, 0), (8, 12)))
-    assert state.sync(grid) is graph
+    with ctx.mirror.transaction():
+        graph_of(ctx).add_path(line((8, 0), (8, 12)))
+    assert graph_of(ctx) is graph
     assert edge_set(graph) == stored_edges(store)
 
 
-def test_the_state_reloads_when_another_writer_committed_twice(store: Any) -> None:
+def test_the_graph_reloads_when_another_writer_committed(store: Any) -> None:
     grid = free(20, 20)
-    state = GraphState(CaseGraph(grid, store), store, store.revision)
+    ctx = graph_context(grid, store)
+    kept = graph_of(ctx)
     other = CaseGraph(grid, store)
     with store.transaction():
         other.add_path(line((0, 0), (10, 10)))
+    assert graph_of(ctx) is kept  # the engine syncs the mirror before each query
+    ctx.mirror.sync()
+    assert edge_set(graph_of(ctx)) == stored_edges(store) == {seg((0, 0), (10, 10))}
     with store.transaction():
         other.add_path(line((0, 15), (19, 15)))
-    assert edge_set(state.sync(grid)) == stored_edges(store)
-    assert len(stored_edges(store)) == 2
+    with ctx.mirror.transaction():  # a learn step catches up before it writes
+        graph_of(ctx).add_path(line((2, 19), (2, 17)))
+    assert edge_set(graph_of(ctx)) == stored_edges(store)
+    assert len(stored_edges(store)) == 3
 
 
 def test_a_stored_graph_loads_back_the_same(store: Any) -> None:
@@ -726,7 +738,7 @@ def test_a_cell_turning_obstacle_beside_a_diagonal_edge_makes_it_infinite() -> N
 def test_the_landmark_bound_never_exceeds_the_shortest_length(seed: int, count: int) -> None:
     from cbr_grid.costs import path_length
     from cbr_grid.generate import generate
-    from cbr_grid.ideal import Landmarks
+    from cbr_pathquality.ideal import Landmarks
 
     grid = generate("office", 24, 20, seed)
     bound = Landmarks(grid, count)
@@ -742,7 +754,7 @@ def test_the_landmark_bound_never_exceeds_the_shortest_length(seed: int, count: 
 
 
 def test_the_landmark_bound_sees_a_wall_that_the_octile_distance_does_not() -> None:
-    from cbr_grid.ideal import Landmarks
+    from cbr_pathquality.ideal import Landmarks
 
     # a wall down column 4 with one gap at the bottom, (4, 9): from (2, 0) to (6, 0) the
     # shortest path runs through the gap, twice the octile distance from (2, 0) to (4, 9),
@@ -776,9 +788,9 @@ def test_the_genetic_algorithm_can_make_the_temporary_edges() -> None:
     st.integers(1, 15), st.integers(-25, 25), st.integers(-25, 25))
 def test_the_retrievers_distance_to_a_segment_is_the_brute_force_minimum(
         ax: int, ay: int, d: Cell, k: int, cx: int, cy: int) -> None:
-    from cbr_casegraph.components import _segment_distance
+    from cbr_casegraph.components import segment_distance
 
     a, b = (ax, ay), (ax + k * d[0], ay + k * d[1])
     brute = np.abs(segment_cells(a, b) - (cx, cy)).max(axis=1).min()
-    found = _segment_distance(np.array([a]), np.array([b]), np.array([cx, cy]))
+    found = segment_distance(np.array([a]), np.array([b]), np.array([cx, cy]))
     assert found[0] == brute

@@ -24,9 +24,9 @@ import pytest
 
 from cbr_casegraph import components
 from cbr_casegraph.graph import SEGMENT, CaseGraph
-from cbr_casegraph.state import state_of
+from cbr_casegraph.state import graph_of
 from cbr_grid.grid import Grid
-from cbr_grid.quality import QualityTest
+from cbr_pathquality.reviser import QualityTest
 from cbrcore.casebase.sqlite import SQLiteStore
 from cbrcore.engine import Engine
 from cbrcore.run import run_workload
@@ -46,7 +46,7 @@ def read_rows(out_dir: Path) -> list[dict[str, str]]:
 def run(out_dir: Path, overrides: Sequence[str] = SMALL) -> tuple[dict[str, Any], int]:
     """One run into ``out_dir``; its summary and how many segments its graph started with."""
     with Engine.from_yaml(CONFIG, overrides=overrides, out_dir=out_dir) as engine:
-        start = state_of(engine.ctx).graph.edge_count
+        start = graph_of(engine.ctx).edge_count
         return run_workload(engine, out_dir), start
 
 
@@ -70,7 +70,7 @@ def test_a_second_run_starts_from_the_stored_graph(tmp_path: Path) -> None:
     assert rows[0]["retrieved"] == "0" and rows[0]["source"].startswith("solver")
 
     with Engine.from_yaml(CONFIG, overrides=SMALL, out_dir=tmp_path) as engine:
-        loaded = state_of(engine.ctx).graph
+        loaded = graph_of(engine.ctx)
         assert loaded.edge_count == stored
         assert edge_set(loaded) == edge_set(graph)
         second = run_workload(engine, tmp_path)
@@ -139,7 +139,7 @@ def test_every_hook_of_the_family_is_called_by_the_engine(
                  f"{{use: vertex_limit, max_coverage: {limit}}}]"]
     with Engine.from_yaml(CONFIG, overrides=overrides, out_dir=tmp_path) as engine:
         summary = run_workload(engine, tmp_path)
-        graph = state_of(engine.ctx).sync(engine.world)
+        graph = graph_of(engine.ctx)
         check_consistent(graph)
         assert graph.vertex_count <= 12
         edges = graph.edge_ids()

@@ -36,8 +36,8 @@ from cbr_casegraph.planner import adapt as holonomic_adapt
 from cbr_grid import directions
 from cbr_grid.grid import Grid
 from cbr_grid.query import GridQuery
-from cbr_kinematics.grid_search import kinematic_search
 from cbr_kinematics.models import Forward, ForwardBackward, Kinematics
+from cbr_solvers.kinematic_search import kinematic_search
 from cbr_solvers.search import astar
 from cbrcore.engine import Engine
 from cbrcore.plugins import Plugins
@@ -485,7 +485,7 @@ def test_the_nonholonomic_config_proposes_only_drivable_paths(
             # replanned around the obstacles met, the path driven stays drivable too
             assert drive_problems(outcome.solution.value, "forward_backward", problem.heading,
                                   None) == [], problem
-            replans += outcome.detail["replans"]
+            replans += outcome.report.replans
         engine.learn(problem, proposal, outcome)
     assert sum(sources.values()) == 60
     assert sources["casebase"] >= 10
@@ -496,7 +496,7 @@ def test_the_nonholonomic_config_proposes_only_drivable_paths(
 @pytest.mark.usefixtures("every_plugin")
 def test_a_constrained_model_with_another_connector_is_a_config_error(
         cbr_cli: Callable[..., Any], tmp_path: Path) -> None:
-    overrides = ("--set", "reuse.kinematics=forward", "--set", "reuse.connector=astar")
+    overrides = ("--set", "kinematics=forward", "--set", "reuse.connector=astar")
     checked = cbr_cli("validate", str(CONFIG), *overrides)
     assert checked.exit_code == 2
     assert "connector" in checked.stderr and "'forward'" in checked.stderr
@@ -514,7 +514,7 @@ def test_headings_leave_the_trips_as_they_were(cbr_engine: Callable[..., Engine]
         engine = cbr_engine(CONFIG, overrides=[*SMALL, "workload.count=80",
                                                f"workload.headings={str(headings).lower()}"])
         trips[headings] = list(engine.workload.queries(engine.ctx))
-        unknowns[headings] = engine.workload.static_unknowns.tolist()
+        unknowns[headings] = engine.workload.true_world.static.tolist()
     assert unknowns[False] == unknowns[True]
     plain, headed = trips[False], trips[True]
     assert [(q.start, q.goal) for q in plain] == [(q.start, q.goal) for q in headed]
@@ -542,7 +542,7 @@ def test_the_solver_plans_from_the_heading_and_describes_the_steps(
     if cusped:
         rows = ["##########", ".........#", "##########"]
     world = solver_world(tmp_path, rows)
-    engine = cbr_engine({"world": world, "solver": {"use": "astar", "kinematics": model}})
+    engine = cbr_engine({"world": world, "kinematics": model, "solver": "astar"})
     start, goal = ((4, 2), (8, 2)) if not cusped else ((4, 1), (8, 1))
     proposal = engine.solve(GridQuery(start, goal, heading=heading))
     assert proposal.source == "solver:astar"

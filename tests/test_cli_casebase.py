@@ -1,19 +1,94 @@
-"""The ``casebase`` sub-commands: info, check, export and import."""
+"""The ``casebase`` sub-commands: info, check, export and import, on SQLite files and on a store
+that a test plugin registers."""
 
 from __future__ import annotations
 
 import json
 import sqlite3
+from collections.abc import Callable
 from pathlib import Path
 
+import attrs
 import pytest
 import yaml
 from typer.testing import CliRunner, Result
 
-from cbrcore.casebase import SQLiteStore
+import cbrcore.builtins
+from cbrcore import hookimpl
+from cbrcore.casebase import CaseStore, MemoryStore, SQLiteStore, UnusableCaseBase
 from cbrcore.cli.casebase import app as casebase_app
+from cbrcore.context import Context
 from cbrcore.errors import CaseBaseError
-from cbrcore.model import Case
+from cbrcore.model import JSON, Case
+from cbrcore.options import option
+from cbrcore.plugins import Plugins
+from cbrcore.registry import Registry
+from cbrcore.testing import CliResult, StoreContract
+
+Cli = Callable[..., CliResult]
+
+
+class Shelf(MemoryStore):
+    """A memory case base kept on a shelf, by name, so that opening it again finds it."""
+
+    def __init__(self, name: str) -> None:
+        super().__init__()
+        self.name = name
+
+    def __str__(self) -> str:
+        return f"shelf {self.name!r}"
+
+    def describe(self) -> dict[str, JSON]:
+        return {"shelf": self.name}
+
+
+@attrs.frozen
+class ShelfOptions:
+    name: str = option("main", "The case base on the shelf.")
+
+
+class ShelfPlugin:
+    """A plugin registering the ``shelf`` store; ``refuse`` maps names to the error opening
+    them raises."""
+
+    def __init__(self) -> None:
+        self.shelves: dict[str, Shelf] = {}
+        self.refuse: dict[str, Exception] = {}
+
+    def open(self, options: ShelfOptions, ctx: Context) -> Shelf:
+        """Case bases kept in memory, by name, for as long as the plugin lives."""
+        if options.name in self.refuse:
+            raise self.refuse[options.name]
+        return self.shelves.setdefault(options.name, Shelf(options.name))
+
+    @hookimpl
+    def cbr_register(self, registry: Registry) -> None:
+        registry.add("store", "shelf", self.open, options=ShelfOptions)
+
+
+@pytest.fixture(autouse=True)
+def core(cbr_plugins: Callable[..., Plugins]) -> Plugins:
+    """cbrcore's own stores, and no other plugin."""
+    return cbr_plugins(("core", cbrcore.builtins))
+
+
+@pytest.fixture
+def shelf(cbr_plugins: Callable[..., Plugins]) -> ShelfPlugin:
+    """The shelf plugin, loaded with cbrcore's own stores."""
+    plugin = ShelfPlugin()
+    cbr_plugins(("core", cbrcore.builtins), ("shelf", plugin))
+    return plugin
+
+
+class TestShelfStore(StoreContract):
+    persistent = shared = True
+
+    @pytest.fixture
+    def open_store(self, shelf: ShelfPlugin) -> Callable[[str], CaseStore]:
+        registry = Registry()
+        shelf.cbr_register(registry)
+        ctx = Context(registry=registry, seed=0)
+        return lambda name: registry.create("store", "shelf", {"name": name}, ctx)
 
 
 def run(*args: str | Path) -> Result:
@@ -151,3 +226,196 @@ def test_no_command_shows_help() -> None:
     result = run()
     assert "info" in result.output
     assert "import" in result.output
+
+
+# -- any registered store ---------------------------------------------------------------------
+
+
+def fill(store: CaseStore) -> None:
+    """Three cases (two of kind vertex), one use and a meta value, in three transactions."""
+    with store.transaction():
+        store.add(Case({"start": [0, 0]}, [[0, 0], [0, 1]]))
+        store.add(Case("v", None, kind="vertex"))
+        store.add(Case("w", None, kind="vertex"))
+    store.touch([1])
+    store.set_meta("grid", {"size": 8})
+
+
+def test_info_on_a_registered_store(shelf: ShelfPlugin, cbr_cli: Cli) -> None:
+    fill(shelf.open(ShelfOptions("a"), None))
+
+    result = cbr_cli("casebase", "info", "--store", "{use: shelf, name: a}")
+
+    assert (result.exit_code, result.stderr) == (0, "")
+    assert result.stdout.splitlines() == [
+        "store         shelf",
+        "revision      3",
+        "cases         3",
+        "  case        1",
+        "  vertex      2",
+        "shelf         a",
+    ]
+    facts = json.loads(cbr_cli("casebase", "info", "--store", "{use: shelf, name: a}",
+                               "--json").stdout)
+    assert facts == {"store": "shelf", "revision": 3, "cases": 3,
+                     "kinds": {"case": 1, "vertex": 2}, "shelf": "a"}
+
+
+def test_a_store_named_alone_has_its_default_options(shelf: ShelfPlugin, cbr_cli: Cli) -> None:
+    shelf.open(ShelfOptions("main"), None).add(Case(1, 1))
+
+    result = cbr_cli("casebase", "info", "--store", "shelf", "--json")
+
+    assert json.loads(result.stdout)["shelf"] == "main"
+    assert json.loads(result.stdout)["cases"] == 1
+
+
+def test_export_and_import_through_a_registered_store(shelf: ShelfPlugin, cbr_cli: Cli,
+                                                      casebase: Path, tmp_path: Path) -> None:
+    exported = tmp_path / "cb.yaml"
+    assert cbr_cli("casebase", "export", str(casebase), "-o", str(exported)).exit_code == 0
+
+    result = cbr_cli("casebase", "import", "--store", "{use: shelf, name: copy}", str(exported))
+
+    assert (result.exit_code, result.stderr) == (0, "")
+    assert result.stdout == "imported 3 cases into shelf 'copy' (revision 3)\n"
+    with SQLiteStore(casebase, create=False) as original:
+        assert shelf.shelves["copy"].cases() == original.cases()
+        assert shelf.shelves["copy"].meta_items() == original.meta_items()
+    again = cbr_cli("casebase", "export", "--store", "{use: shelf, name: copy}")
+    assert again.stdout == cbr_cli("casebase", "export", str(casebase)).stdout
+    refused = cbr_cli("casebase", "import", "--store", "{use: shelf, name: copy}", str(exported))
+    assert refused.exit_code == 2
+    assert refused.stderr.startswith("error: shelf 'copy' already holds 3 cases")
+
+
+def test_check_on_a_registered_store(shelf: ShelfPlugin, cbr_cli: Cli) -> None:
+    fill(shelf.open(ShelfOptions("a"), None))
+    assert cbr_cli("casebase", "check", "--store", "{use: shelf, name: a}").stdout == "ok\n"
+
+    class Damaged(Shelf):
+        def check(self) -> list[str]:
+            return ["case 1: uses: expected a non-negative integer, got -1", "case 2: odd"]
+
+    shelf.shelves["b"] = Damaged("b")
+    result = cbr_cli("casebase", "check", "--store", "{use: shelf, name: b}")
+    assert result.exit_code == 1
+    assert result.stdout == ("shelf 'b': 2 problems:\n"
+                             "  - case 1: uses: expected a non-negative integer, got -1\n"
+                             "  - case 2: odd\n")
+
+
+def test_check_reports_a_case_base_its_store_finds_unusable(shelf: ShelfPlugin,
+                                                             cbr_cli: Cli) -> None:
+    shelf.refuse["old"] = UnusableCaseBase("shelf 'old' has schema version 0")
+
+    checked = cbr_cli("casebase", "check", "--store", "{use: shelf, name: old}")
+    shown = cbr_cli("casebase", "info", "--store", "{use: shelf, name: old}")
+
+    assert (checked.exit_code, checked.stdout) == (1, "shelf 'old' has schema version 0\n")
+    assert (shown.exit_code, shown.stderr) == (2, "error: shelf 'old' has schema version 0\n")
+
+
+def test_a_store_failing_to_open_is_named(shelf: ShelfPlugin, cbr_cli: Cli) -> None:
+    shelf.refuse["jammed"] = RuntimeError("the shelf is jammed")
+
+    result = cbr_cli("casebase", "export", "--store", "{use: shelf, name: jammed}")
+
+    assert result.exit_code == 2
+    assert result.stderr == ("error: casebase: plugin 'shelf' failed to build store 'shelf': "
+                             "RuntimeError: the shelf is jammed\n")
+
+
+def test_describe_may_not_repeat_the_facts_of_every_store(shelf: ShelfPlugin,
+                                                          cbr_cli: Cli) -> None:
+    class Boastful(Shelf):
+        def describe(self) -> dict[str, JSON]:
+            return {"revision": 99, "cases": 0}
+
+    shelf.shelves["a"] = Boastful("a")
+
+    result = cbr_cli("casebase", "info", "--store", "{use: shelf, name: a}")
+
+    assert result.exit_code == 2
+    assert "describe() repeats revision, cases, which cbr casebase info shows" in result.stderr
+
+
+def test_the_casebase_slot_of_a_configuration(shelf: ShelfPlugin, cbr_cli: Cli, casebase: Path,
+                                              tmp_path: Path,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    folder = tmp_path / "configs"
+    folder.mkdir()
+    (folder / "file.yaml").write_text(f"seed: 3\ncasebase: {{use: sqlite, path: "
+                                      f"../{casebase.name}}}\n", encoding="utf-8")
+    (folder / "shelf.yaml").write_text("casebase: {use: shelf, name: b}\n", encoding="utf-8")
+    (folder / "default.yaml").write_text("seed: 1\n", encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    shelf.open(ShelfOptions("b"), None).add(Case(1, 1))
+
+    from_file = json.loads(cbr_cli("casebase", "info", "--config", "configs/file.yaml",
+                                   "--json").stdout)
+    from_shelf = json.loads(cbr_cli("casebase", "info", "-c", "configs/shelf.yaml",
+                                    "--json").stdout)
+    default = json.loads(cbr_cli("casebase", "info", "-c", "configs/default.yaml",
+                                 "--json").stdout)
+
+    assert (from_file["store"], from_file["cases"]) == ("sqlite", 3)
+    assert Path(from_file["path"]).resolve() == casebase.resolve()
+    assert (from_shelf["store"], from_shelf["shelf"], from_shelf["cases"]) == ("shelf", "b", 1)
+    assert default == {"store": "memory", "revision": 0, "cases": 0, "kinds": {}}
+
+
+def test_a_store_path_resolves_against_the_working_folder(cbr_cli: Cli, casebase: Path,
+                                                          monkeypatch: pytest.MonkeyPatch
+                                                          ) -> None:
+    monkeypatch.chdir(casebase.parent)
+
+    result = cbr_cli("casebase", "info", "--store", f"{{use: sqlite, path: {casebase.name}}}",
+                     "--json")
+
+    assert json.loads(result.stdout)["path"] == str(casebase)
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    ((), "name the case base with one of them"),
+    (("cb.sqlite", "--store", "memory"), "name the case base with one of them, not FILE and "
+                                         "--store"),
+    (("--store", "memory", "--config", "x.yaml"), "not --store and --config"),
+    (("--store", "nope"), "error: --store: 1 problem:\n  - casebase: unknown store 'nope'; "
+                          "registered: memory (plugin core), shelf (plugin shelf), "
+                          "sqlite (plugin core)\n"),
+    (("--store", "{use: shelf, nme: a}"), "error: --store: 1 problem:\n  - casebase.nme: "
+                                          "unknown key; expected one of: name\n"),
+    (("--store", "{use: shelf"), "error: --store: 1 problem:\n  - line 1, column 12: "
+                                 "malformed YAML"),
+    (("--store", "{use: sqlite, path: nowhere.sqlite, create: false}"), "no case base at"),
+    (("--store", "sqlite"), "casebase.path: required"),
+    (("--config", "missing.yaml"), "missing.yaml: 1 problem:\n  - file not found"),
+])
+def test_a_case_base_that_cannot_be_opened_is_one_clear_message(
+        shelf: ShelfPlugin, cbr_cli: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        args: tuple[str, ...], message: str) -> None:
+    monkeypatch.chdir(tmp_path)
+    for command in ("info", "check", "export"):
+        result = cbr_cli("casebase", command, *args)
+
+        assert result.exit_code == 2, (command, result)
+        assert message in result.stderr
+        assert "Traceback" not in result.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_import_names_a_missing_document(cbr_cli: Cli) -> None:
+    result = cbr_cli("casebase", "import", "--store", "memory")
+
+    assert result.exit_code == 2
+    assert "name the exported file to import" in result.stderr
+
+
+def test_a_missing_file_is_an_error_and_stays_missing(cbr_cli: Cli, tmp_path: Path) -> None:
+    path = tmp_path / "none.sqlite"
+    for command in ("info", "check", "export"):
+        result = cbr_cli("casebase", command, str(path))
+
+        assert (result.exit_code, result.stderr) == (2, f"error: no case base at {path}\n")
+    assert list(tmp_path.iterdir()) == []

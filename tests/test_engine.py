@@ -30,6 +30,10 @@ from cbrcore.context import Context
 from cbrcore.errors import PhaseError, PluginError
 from cbrcore.plugins import Plugins, load_plugins
 from cbrcore.registry import Registry
+from cbrcore.stash import StashKey
+
+COUNT_CALLS = StashKey[toy_domain.CountCalls]()
+"""The counting observer of the engine under test."""
 
 KIND = toy_domain.KIND
 FULL_CYCLE = """\
@@ -155,7 +159,7 @@ class FaultyPlugin:
     @staticmethod
     def _counted(options: object, ctx: Context) -> toy_domain.CountCalls:
         observer = toy_domain.CountCalls(options, ctx)
-        ctx.shared["count_calls"] = observer
+        ctx.stash[COUNT_CALLS] = observer
         return observer
 
     @hookimpl
@@ -596,7 +600,7 @@ def test_an_observer_sees_every_call_of_the_hooks_it_wraps(build: Callable[..., 
     for x in (2, 2, 3, 5, 3, 4):
         proposal = engine.solve(x)
         engine.learn(x, proposal, execute(x, proposal))
-    observer = engine.ctx.shared["count_calls"]
+    observer = engine.ctx.stash[COUNT_CALLS]
     assert observer.calls == {"cbr_retrieve": 6, "cbr_solve": 4}
     assert engine.components["observers.0"] is observer
 

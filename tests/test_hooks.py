@@ -33,12 +33,17 @@ from cbrcore.options import option
 from cbrcore.plugins import Plugins, load_plugins, new_plugin_manager, use_plugins
 from cbrcore.reference import config_reference, hook_reference
 from cbrcore.registry import Registry
+from cbrcore.stash import StashKey
 
 ROOT = Path(__file__).resolve().parent.parent
 HOOKS_MD = ROOT / "docs" / "reference" / "hooks.md"
 CONFIGURATION_MD = ROOT / "docs" / "reference" / "configuration.md"
 SPECS = {name: function for name, function in vars(hookspecs).items()
          if name.startswith("cbr_") and callable(function)}
+
+
+LOG = StashKey[list[Any]]()
+"""What the test-only components saw, in order."""
 
 
 class _Component:
@@ -49,7 +54,7 @@ class _Component:
         self.ctx = ctx
 
     def _log(self, entry: Any) -> None:
-        self.ctx.shared.setdefault("log", []).append(entry)
+        self.ctx.stash.setdefault(LOG, []).append(entry)
 
 
 def load(*extra: tuple[str, Any]) -> Plugins:
@@ -248,7 +253,7 @@ def test_hook_cbr_retrieve() -> None:
         assert proposal.retrieval is not None
         assert [m.case.problem for m in proposal.retrieval.matches] == [4]
         assert engine.solve(5).fallback_reason == "no usable retrieval"
-        assert engine.ctx.shared["log"] == [("retrieve", 4, 0), ("reuse", {"looked_at": 4}),
+        assert engine.ctx.stash[LOG] == [("retrieve", 4, 0), ("reuse", {"looked_at": 4}),
                                             ("retrieve", 5, 1), ("solve", 5, 1)]
     ctx = Context(registry=Registry(), seed=0)
     pm = new_plugin_manager()
@@ -269,7 +274,7 @@ def test_hook_cbr_reuse() -> None:
         assert proposal.solution == Solution(36, cases=(six,))
         assert engine.casebase.get(six).uses == 1
         engine.solve(7)  # nothing stored for 7: reuse is not called
-        assert [e for e in engine.ctx.shared["log"] if e[0] == "reuse"] == [
+        assert [e for e in engine.ctx.stash[LOG] if e[0] == "reuse"] == [
             ("reuse", {"looked_at": 6})]
 
 
@@ -312,7 +317,7 @@ def test_hook_cbr_retain() -> None:
         proposal = engine.solve(4)
         engine.learn(4, proposal, Outcome(success=False, solution=Solution(15)))
         assert engine.casebase.revision == 2
-        log = engine.ctx.shared["log"]
+        log = engine.ctx.stash[LOG]
         stored = [(c.problem, c.solution, c.meta["tag"]) for c in engine.casebase.cases()]
     assert sorted(e for e in log if e[0] == "retain") == [
         ("retain", "a", 9, True), ("retain", "a", 15, False),
@@ -329,7 +334,7 @@ def test_hook_cbr_forget() -> None:
         for x in (1, 2):
             engine.learn(x, engine.solve(x), Outcome(success=True))
         engine.learn(101, engine.solve(101), Outcome(success=False))  # no solution: no retain
-        log = [entry for entry in engine.ctx.shared["log"] if entry[0] != "solve"]
+        log = [entry for entry in engine.ctx.stash[LOG] if entry[0] != "solve"]
         stored = sorted((c.problem, c.meta["tag"]) for c in engine.casebase.cases())
     assert [entry[0] for entry in log] == ["retain"] * 2 + ["forget"] * 2 + ["retain"] * 2 + [
         "forget"] * 4

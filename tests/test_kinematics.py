@@ -19,11 +19,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cbr_grid import directions
-from cbr_kinematics.graph_search import DirectedGraph, GraphPath, graph_search
-from cbr_kinematics.grid_search import KinematicPath, kinematic_search
 from cbr_kinematics.models import Forward, ForwardBackward, Holonomic, Kinematics
-from cbr_kinematics.turning import decode
 from cbr_solvers.aistar import heuristic_map
+from cbr_solvers.graph_search import DirectedGraph, GraphPath, graph_search
+from cbr_solvers.kinematic_search import KinematicPath, kinematic_search
+from cbr_solvers.manoeuvres import decode
 from cbr_solvers.search import dijkstra
 
 SQRT2 = math.sqrt(2.0)

@@ -250,8 +250,8 @@ def test_the_figures_quoted_in_the_text_are_the_commands(cbr_cli: Cli) -> None:
 
     # the price of step 4: without a final heading the search settles every edge it can reach
     from cbr_grid.movingai import load_map
-    from cbr_kinematics.grid_search import astar, dijkstra
     from cbr_kinematics.models import Forward
+    from cbr_solvers.kinematic_search import astar, dijkstra
 
     given = options(command(plot="kinematics_forward.png", kinematics="forward"))
     grid = load_map(ROOT / "docs" / "examples" / "uturn.map")

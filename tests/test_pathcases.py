@@ -191,22 +191,23 @@ def test_the_path_base_follows_the_store_and_loads_back_the_same(store: Any) -> 
 def next_query(ctx: Context) -> None:
     """Move on to the next query, as the engine does before it retrieves."""
     ctx.step += 1
+    ctx.mirror.sync()
 
 
 def test_the_path_base_reloads_after_a_rolled_back_learn_step(store: Any) -> None:
     ctx = context(free(12, 8), store)
-    with store.transaction():
+    with ctx.mirror.transaction():
         first = keep(ctx, run((0, 1), (9, 1)), 1.5)
     next_query(ctx)
     kept = base_of(ctx)
     assert base_of(ctx) is kept and kept.ids.tolist() == [first]
-    with pytest.raises(RuntimeError), store.transaction():
+    with pytest.raises(RuntimeError), ctx.mirror.transaction():
         base = base_of(ctx)
         base.add(run((0, 5), (9, 5)), {"cost": 1.0, "length": 9.0, "risk": 0.0, "ideal": 9.0,
                                         "traversals": 1})
         base.set_cost(first, 1.25, 2)
         base.touch([first])
-        # a later phase of the same query sees the step's own writes, not a reload
+        # a later phase of the same step sees the step's own writes, not a reload
         assert base_of(ctx) is base and len(base) == 2
         raise RuntimeError("learn step failed")
     next_query(ctx)
@@ -217,7 +218,7 @@ def test_the_path_base_reloads_after_a_rolled_back_learn_step(store: Any) -> Non
     assert base.uses.tolist() == [0] and base.last_used.tolist() == [-1]
     assert_same_base(base, PathBase.load(store))
     # a committed step after the reload is kept without another one
-    with store.transaction():
+    with ctx.mirror.transaction():
         second = base.add(run((0, 5), (9, 5)), {"cost": 1.0, "length": 9.0, "risk": 0.0,
                                                 "ideal": 9.0, "traversals": 1})
         third = base_of(ctx).add(run((0, 7), (9, 7)), {"cost": 1.0, "length": 9.0,
@@ -231,20 +232,28 @@ def test_the_path_base_reloads_after_a_rolled_back_learn_step(store: Any) -> Non
 def test_the_path_base_reloads_when_another_writer_committed(store: Any) -> None:
     ctx = context(free(12, 8), store)
     base = base_of(ctx)
-    first = keep(ctx, run((0, 1), (9, 1)), 1.5)
+    with ctx.mirror.transaction():
+        first = keep(ctx, run((0, 1), (9, 1)), 1.5)
     next_query(ctx)
     assert base_of(ctx) is base
-    # one commit of the engine's use count alone keeps the base
+    # the run's own learn step counting a use keeps the base
+    with ctx.mirror.transaction():
+        store.touch([first])
+        base_of(ctx).refresh([first])
+    next_query(ctx)
+    assert base_of(ctx) is base
+    # a commit of another writer, even one that only counts a use, reloads it
     store.touch([first])
     next_query(ctx)
-    assert base_of(ctx) is base
+    touched = base_of(ctx)
+    assert touched is not base and touched.uses.tolist() == [2]
     store.add(path_case(run((0, 3), (9, 3)), {"cost": 1.0, "length": 9.0, "risk": 0.0,
                                               "ideal": 9.0, "traversals": 1}))
     store.touch([first])
-    next_query(ctx)
-    again = base_of(ctx)
-    assert again is not base and again.ids.tolist() == stored_ids(store)
-    assert again.uses.tolist() == [2, 0]
+    with ctx.mirror.transaction():  # a learn step catches up before it writes
+        again = base_of(ctx)
+        assert again is not touched and again.ids.tolist() == stored_ids(store)
+        assert again.uses.tolist() == [3, 0]
 
 
 @pytest.mark.parametrize(("solution", "meta", "message"), [
@@ -365,7 +374,8 @@ def test_retrieval_matches_a_brute_force_of_eq_5(stored: list[tuple[tuple[Cell, 
             expected[case_id] = (reverse, *near, cost)
     found = retrieve(ctx, start, goal, delta=delta, distance=name, candidates=8)
     assert {m.case.id for m in found.matches} == set(expected)
-    assert found.reason == ""
+    assert found.reason == ("" if expected else
+                            f"no stored path with both ends within delta {delta}")
     for match in found.matches:
         reverse, d_start, d_goal, cost = expected[match.case.id]
         assert match.features["reversed"] == float(reverse)
@@ -388,8 +398,9 @@ def test_exploring_empties_a_retrieval_that_had_candidates_and_says_so() -> None
     assert not exploring.usable
     # no candidate: empty, and nothing to explore instead of
     nothing = retrieve(ctx, (1, 5), (2, 5), explore=1.0)
-    assert nothing.matches == () and nothing.reason == ""
-    assert retrieve(ctx, (1, 5), (2, 5)).reason == ""
+    unmatched = "no stored path with both ends within delta 5.0"
+    assert nothing.matches == () and nothing.reason == unmatched
+    assert retrieve(ctx, (1, 5), (2, 5)).reason == unmatched
 
 
 def test_greedy_selection_picks_the_cheapest_and_hands_on_the_rest_by_cost() -> None:

@@ -19,6 +19,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cbr_grid.costs import path_length
+from cbr_grid.drive import DriveReport
+from cbr_grid.true_world import Blocked
 from cbr_pathcases.base import PATH, base_of
 from cbr_pathcases.components import PathRetainer, RetainOptions
 from cbr_pathcases.forgetting import (
@@ -38,15 +40,18 @@ def learn(ctx: Context, retainer: PathRetainer, path: np.ndarray, *, cases: Sequ
           travel_time: float | None = None, success: bool = True,
           stops: Sequence[Cell] | None = None) -> None:
     """One learn step as the engine takes it: one transaction, the reused cases' uses counted,
-    then retention of the path driven."""
-    detail: dict[str, Any] = {"travel_time": travel_time}
-    if stops is not None:
-        detail["stops"] = [list(cell) for cell in stops]
+    then retention of the path driven. With ``travel_time`` the outcome carries the drive report
+    of the trip: its travel time and the cells the robot stopped at (``stops``, none if None)."""
+    report = None
+    if travel_time is not None:
+        report = DriveReport(path, met=(), stops=tuple((x, y) for x, y in stops or ()),
+                             blocked=Blocked(np.zeros((0, 2), dtype=np.int64), ()),
+                             travel_time=travel_time)
     with ctx.casebase.transaction():
         if cases:
             ctx.casebase.touch(cases)
         retainer.cbr_retain(solution=Solution(path.tolist(), cases=tuple(cases)),
-                            outcome=Outcome(success, detail=detail), ctx=ctx)
+                            outcome=Outcome(success, report=report), ctx=ctx)
 
 
 def retainer(ctx: Context, **options: Any) -> PathRetainer:

@@ -211,7 +211,8 @@ CAPACITY = 4
 
 @pytest.fixture
 def path_plugins(cbr_plugins: Callable[..., Plugins]) -> Plugins:
-    return cbr_plugins(entry_points=True, environ={"CBR_PLUGINS": "core,grid,solvers,pathcases"})
+    return cbr_plugins(entry_points=True,
+                       environ={"CBR_PLUGINS": "core,grid,solvers,pathcases,pathquality"})
 
 
 def floor_config(tmp_path: Path, forget: str = "worst_paths") -> dict[str, Any]:
@@ -226,7 +227,7 @@ def floor_config(tmp_path: Path, forget: str = "worst_paths") -> dict[str, Any]:
         "reuse": {"use": "path_cases"},
         "revise": {"use": "path_quality", "max_ratio": 1.5},
         "solver": "astar",
-        "retain": ["path_cases"],
+        "retain": ["risk_map", "path_cases"],
         "forget": [{"use": forget, "capacity": CAPACITY}],
     }
 

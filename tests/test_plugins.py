@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import sys
+import types
 from collections.abc import Callable, Iterator
 from importlib import metadata
 from pathlib import Path
@@ -13,12 +14,13 @@ import attrs
 import pytest
 
 import cbr_observers
+import cbrcore.builtins
 import toy_domain
 from cbrcore import Solution, hookimpl
 from cbrcore.context import Context
 from cbrcore.engine import Engine
 from cbrcore.errors import ConfigError, PluginError
-from cbrcore.plugins import Plugins, current, load_plugins
+from cbrcore.plugins import HOOKS, Plugins, current, implemented_hooks, load_plugins, unknown_hooks
 from cbrcore.registry import Registry
 from cbrcore.testing import CliResult
 from conftest import installed_plugins
@@ -180,6 +182,127 @@ def test_a_plugin_name_taken_twice_fails_the_second() -> None:
     assert failure.error == "the plugin name is already taken by a plugin registered in code"
 
 
+# -- hook names -----------------------------------------------------------------------------
+
+
+def _module(name: str, **functions: Callable[..., Any]) -> types.ModuleType:
+    module = types.ModuleType(name)
+    for attribute, function in functions.items():
+        setattr(module, attribute, function)
+    return module
+
+
+@hookimpl
+def _marked(registry: Registry) -> None:
+    """A hook implementation, bound below to misspelt names."""
+
+
+def _unmarked(registry: Registry) -> None:
+    """A plugin hook without its ``@hookimpl``."""
+
+
+class Specnamed:
+    """Implements cbr_solve under another attribute name, as pluggy allows."""
+
+    @hookimpl(specname="cbr_solve")
+    def solve(self, problem: Any) -> Solution:
+        return Solution(problem)
+
+
+class Misspelt:
+    """A component whose retrieve hook is misspelt."""
+
+    def __init__(self, options: object, ctx: Context) -> None:
+        pass
+
+    @hookimpl
+    def cbr_retreive(self, problem: Any) -> None:
+        """Never called."""
+
+
+@pytest.mark.parametrize(("plugin", "message"), [
+    (_module("typo", cbr_registr=_marked),
+     "cbr_registr is marked with @hookimpl but names no cbrcore hook; did you mean cbr_register?"),
+    (_module("forgot", cbr_register=_unmarked),
+     "cbr_register is not marked with @hookimpl, so it is never called"),
+    (_module("far", cbr_teleport=_marked),
+     f"cbr_teleport is marked with @hookimpl but names no cbrcore hook; the hooks: "
+     f"{', '.join(HOOKS)}"),
+    (Misspelt,
+     "cbr_retreive is marked with @hookimpl but names no cbrcore hook; did you mean cbr_retrieve?"),
+])
+def test_unknown_hooks_names_the_attribute_and_the_closest_hook(plugin: Any,
+                                                                message: str) -> None:
+    assert unknown_hooks(plugin) == [message]
+
+
+def test_unknown_hooks_follows_specname() -> None:
+    class Renamed:
+        @hookimpl(specname="cbr_retreive")
+        def retrieve(self) -> None:
+            """Never called."""
+
+    assert unknown_hooks(Renamed()) == [
+        "retrieve is marked with @hookimpl(specname='cbr_retreive') but names no cbrcore hook; "
+        "did you mean cbr_retrieve?"]
+    assert unknown_hooks(Specnamed) == []
+    assert implemented_hooks(Specnamed()) == ("cbr_solve",)
+
+
+def test_well_formed_plugins_and_components_have_no_unknown_hooks() -> None:
+    assert unknown_hooks(toy_domain) == []
+    assert unknown_hooks(cbr_observers) == []
+    assert unknown_hooks(Registers("one")) == []
+    assert unknown_hooks(Echo(None, None)) == []  # type: ignore[arg-type]
+
+
+def test_a_plugin_with_a_misspelt_hook_fails_to_load() -> None:
+    typo = _module("typo", cbr_registr=_marked, cbr_cli=_unmarked)
+    with pytest.warns(UserWarning, match="plugin 'typo' failed to load: cbr_cli is not marked"):
+        plugins = load_plugins([("typo", typo), ("a", Registers("one"))], entry_points=False,
+                               environ={})
+
+    assert _names(plugins) == ["a"]
+    [failure] = plugins.failed
+    assert (failure.name, failure.stage) == ("typo", "load")
+    assert failure.error == ("cbr_cli is not marked with @hookimpl, so it is never called; "
+                             "cbr_registr is marked with @hookimpl but names no cbrcore hook; "
+                             "did you mean cbr_register?")
+    assert plugins.pm.get_plugin("typo") is None
+
+
+def test_a_misspelt_hook_is_fatal_when_strict() -> None:
+    with pytest.raises(PluginError, match=r"^plugin 'typo' failed to load: cbr_registr is marked "
+                                          r"with @hookimpl but names no cbrcore hook; did you "
+                                          r"mean cbr_register\?$"):
+        load_plugins([("typo", _module("typo", cbr_registr=_marked))], entry_points=False,
+                     environ={"CBR_STRICT_PLUGINS": "1"})
+
+
+def test_a_component_class_with_a_misspelt_hook_is_refused_at_registration() -> None:
+    class Plugin:
+        @hookimpl
+        def cbr_register(self, registry: Registry) -> None:
+            registry.add("retriever", "greedy", Misspelt)
+
+    with pytest.warns(UserWarning, match="plugin 'demo' failed to register"):
+        plugins = load_plugins([("demo", Plugin())], entry_points=False, environ={})
+    [failure] = plugins.failed
+    assert failure.error == ("PluginError: retriever 'greedy': cbr_retreive is marked with "
+                             "@hookimpl but names no cbrcore hook; did you mean cbr_retrieve?")
+
+
+def test_a_component_implementing_a_hook_under_a_specname_runs(
+        cbr_plugins: Callable[..., Plugins], cbr_engine: Callable[..., Engine]) -> None:
+    class Plugin:
+        @hookimpl
+        def cbr_register(self, registry: Registry) -> None:
+            registry.add("solver", "specnamed", lambda options, ctx: Specnamed())
+
+    cbr_plugins(("specnamed", Plugin()), ("core", cbrcore.builtins))
+    assert cbr_engine("solver: specnamed\n").solve(4).solution == Solution(4)
+
+
 # -- installed entry points -----------------------------------------------------------------
 
 
@@ -322,7 +445,7 @@ def test_cli_plugins_json_lists_loaded_and_failed(
     assert json.loads(result.stdout) == {
         "plugins": [{"name": "good", "module": "Registers", "distribution": None,
                      "version": None, "hooks": ["cbr_register", "cbr_solve"],
-                     "components": ["solver:one"]}],
+                     "components": ["solver:one"], "kinds": []}],
         "failed": [{"name": "bad", "distribution": None, "version": None, "stage": "register",
                     "error": "RuntimeError: no licence found"}],
         "skipped": [],

@@ -86,6 +86,7 @@ def test_listed_with_its_distribution_hooks_and_components(site: Path, tmp_path:
         "hooks": ["cbr_register", "cbr_retain", "cbr_retrieve", "cbr_reuse", "cbr_solve"],
         "components": ["observer:phase_counter", "retainer:remember", "retriever:closest_trip",
                        "reuser:splice", "solver:walk", "workload:corridor_trips"],
+        "kinds": [],
     }
 
 
@@ -104,6 +105,7 @@ def test_validate_accepts_its_components(site: Path, tmp_path: Path) -> None:
         "  reuse: splice",
         "  solver: walk",
         "  workload: corridor_trips",
+        "  kinematics: holonomic",
         "  retain: remember",
         "  observers: phase_counter",
     ]

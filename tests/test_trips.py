@@ -1,4 +1,6 @@
-"""The ``trips`` workload, the ``risk_map`` retainer and the ``path_quality`` metric.
+"""The ``trips`` workload, the true world it drives on, the simulated drive, the ``risk_map``
+retainer that learns the robot's map in the learn step, and the ``path_quality`` metric
+(:class:`cbr_pathquality.metric.PathQuality`) that rates proposals on the map they were planned on.
 
 Hand-made cases use a 7x5 open map saved as .npy, where the straight path from (0, 2) to (6, 2)
 costs 6 and the cheapest way around one blocked cell of row 2 costs 4 + 2·sqrt(2) ≈ 6.83: a cell
@@ -14,6 +16,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import attrs
 import numpy as np
 import pytest
 import yaml
@@ -21,16 +24,21 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cbr_grid.costs import path_length
+from cbr_grid.drive import DriveReport
 from cbr_grid.generate import generate
 from cbr_grid.grid import Grid
 from cbr_grid.query import GridQuery
-from cbr_grid.trips import LEARNED_RISK, Site, Trips, TripsOptions
+from cbr_grid.risk import LEARNED_RISK, risk_changes
+from cbr_grid.trips import PLANNED_WORLD, Site, Trips, TripsOptions
+from cbr_grid.true_world import Blocked
 from cbr_solvers import AStar
+from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.engine import Engine
-from cbrcore.errors import CbrError, ConfigError
+from cbrcore.errors import CbrError, ConfigError, PhaseError
+from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Outcome, Proposal, Solution
-from cbrcore.plugins import Plugins
+from cbrcore.plugins import Plugins, current
 from cbrcore.registry import NoOptions, Registry
 from cbrcore.run import run_workload
 
@@ -39,12 +47,15 @@ OFFICE = {"use": "generated", "kind": "office", "width": 28, "height": 20}
 
 @pytest.fixture(autouse=True)
 def grid_plugins(cbr_plugins: Callable[..., Plugins]) -> Plugins:
-    return cbr_plugins(entry_points=True, environ={"CBR_PLUGINS": "core,grid,solvers"})
+    return cbr_plugins(entry_points=True,
+                       environ={"CBR_PLUGINS": "core,grid,solvers,pathquality"})
 
 
 def config(workload: dict[str, Any], **slots: Any) -> dict[str, Any]:
+    """Trips on the office; the run learns its map with ``risk_map`` unless ``retain`` says
+    otherwise."""
     return {"seed": 11, "world": OFFICE, "solver": "astar",
-            "workload": {"use": "trips", **workload}, **slots}
+            "workload": {"use": "trips", **workload}, "retain": ["risk_map"], **slots}
 
 
 def drive(engine: Engine) -> list[tuple[GridQuery, Grid, Proposal, Outcome]]:
@@ -61,11 +72,33 @@ def drive(engine: Engine) -> list[tuple[GridQuery, Grid, Proposal, Outcome]]:
 
 def true_grid(workload: Trips, outcome: Outcome) -> Grid:
     """The true world of one trip: the configured map with its unknown obstacles blocked."""
+    true, blocked = workload.true_world, outcome.report.blocked
     risk = workload.configured.risk.copy()
-    sites = [cell for i in outcome.detail["sites_present"] for cell in workload.sites[i].tolist()]
-    for x, y in [*workload.static_unknowns.tolist(), *outcome.detail["present"], *sites]:
+    sites = [cell for i in blocked.sites for cell in true.sites[i].tolist()]
+    for x, y in [*true.static.tolist(), *blocked.dynamic.tolist(), *sites]:
         risk[y, x] = 1.0
     return Grid(risk, corner_cutting=workload.configured.corner_cutting)
+
+
+def learned(engine: Engine, problem: GridQuery, proposal: Proposal,
+            outcome: Outcome) -> list[list[Any]]:
+    """Take the learn step; the cells whose risk it changed in the run's world, as [x, y, new
+    risk] in row-major order."""
+    before = engine.ctx.world.risk
+    engine.learn(problem, proposal, outcome)
+    after = engine.ctx.world.risk
+    return [[int(x), int(y), float(after[y, x])] for y, x in np.argwhere(after != before)]
+
+
+def learn_map(ctx: Context, outcome: Outcome) -> None:
+    """Learn the map of a bare context from one trip as ``risk_map`` does (its default
+    hit_risk 0.5 and pass_relief 0.05), for tests that drive a workload without an engine."""
+    if outcome.report is None:
+        return
+    risk = ctx.world.risk.copy()
+    for x, y, value in risk_changes(ctx.world, outcome.report, 0.5, 0.05):
+        risk[y, x] = value
+    ctx.world = attrs.evolve(ctx.world, risk=risk)
 
 
 def test_a_known_world_is_driven_as_planned(cbr_engine: Callable[..., Engine]) -> None:
@@ -80,33 +113,35 @@ def test_a_known_world_is_driven_as_planned(cbr_engine: Callable[..., Engine]) -
         assert outcome.success
         assert outcome.solution.value == proposal.solution.value
         assert outcome.cost == pytest.approx(proposal.solution.cost)
-        assert outcome.detail["encounters"] == outcome.detail["replans"] == 0
-        assert outcome.detail["risk_changes"] == []
+        assert len(outcome.report.met) == outcome.report.replans == 0
+        assert risk_changes(world, outcome.report, 0.5, 0.05) == []
     assert engine.ctx.world is world
+    assert engine.casebase.get_meta(LEARNED_RISK, {}) == {}
 
 
 def test_unknown_obstacles_are_met_learned_and_driven_around(
         cbr_engine: Callable[..., Engine]) -> None:
-    engine = cbr_engine(config({"count": 40, "unknown_static": 25, "hit_risk": 0.3}))
+    engine = cbr_engine(config({"count": 40, "unknown_static": 25},
+                               retain=[{"use": "risk_map", "hit_risk": 0.3}]))
     workload = engine.workload
-    unknown = {tuple(cell) for cell in workload.static_unknowns.tolist()}
+    unknown = {tuple(cell) for cell in workload.true_world.static.tolist()}
 
     trips = drive(engine)
 
-    assert sum(o.detail["encounters"] for *_, o in trips) > 0
+    assert sum(len(o.report.met) for *_, o in trips) > 0
     for problem, planned_on, _, outcome in trips:
         driven = outcome.solution.value
         assert driven[0] == list(problem.start)
         assert true_grid(workload, outcome).path_problems(driven) == []
         assert outcome.success == (driven[-1] == list(problem.goal))
-        assert outcome.detail["replans"] >= (outcome.detail["encounters"] > 0)
-        risen = [(x, y, risk) for x, y, risk in outcome.detail["risk_changes"]
+        assert outcome.report.replans >= (len(outcome.report.met) > 0)
+        risen = [(x, y, risk) for x, y, risk in risk_changes(planned_on, outcome.report, 0.3, 0.05)
                  if risk > planned_on.risk[y, x]]
-        assert len(risen) == outcome.detail["encounters"]
+        assert len(risen) == len(outcome.report.met)
         for x, y, risk in risen:
             assert (x, y) in unknown
             assert risk == pytest.approx(min(1.0, planned_on.risk[y, x] + 0.3))
-    assert any(o.success and o.detail["encounters"] for *_, o in trips)
+    assert any(o.success and o.report.met for *_, o in trips)
 
 
 @pytest.fixture
@@ -122,25 +157,28 @@ def corridor(tmp_path: Path) -> Path:
 def test_a_cell_met_twice_adds_up_and_passed_cells_are_relieved(
         hit_risk: float, corridor: Path, cbr_engine: Callable[..., Engine]) -> None:
     engine = cbr_engine({"world": {"use": "map_file", "path": str(corridor)}, "solver": "astar",
-                         "workload": {"use": "trips", "hit_risk": hit_risk}})
-    engine.workload.place([(3, 2)], [])
+                         "workload": {"use": "trips"},
+                         "retain": [{"use": "risk_map", "hit_risk": hit_risk}]})
+    engine.workload.true_world.place([(3, 2)], [])
     problem = GridQuery((0, 2), (6, 2))
     true = Grid(np.where(np.arange(7) == 3, 1.0, 0.0) * (np.arange(5)[:, None] == 2))
 
-    outcomes = []
+    outcomes, changes = [], []
     for _ in range(2):
         proposal = engine.solve(problem)
         assert [3, 2] in proposal.solution.value
-        outcomes.append(engine.workload.execute(problem, proposal, engine.ctx))
+        outcome = engine.workload.execute(problem, proposal, engine.ctx)
+        outcomes.append(outcome)
+        changes.append(learned(engine, problem, proposal, outcome))
 
-    first, second = outcomes
+    first, second = changes
     for outcome in outcomes:
         assert outcome.success
-        assert outcome.detail["encounters"] == outcome.detail["replans"] == 1
+        assert len(outcome.report.met) == outcome.report.replans == 1
         assert true.path_problems(outcome.solution.value) == []
         assert [5, 2] in outcome.solution.value
-    assert first.detail["risk_changes"] == [[3, 2, hit_risk], [5, 2, pytest.approx(0.03)]]
-    assert second.detail["risk_changes"] == [[3, 2, min(1.0, 2 * hit_risk)], [5, 2, 0.0]]
+    assert first == [[3, 2, hit_risk], [5, 2, pytest.approx(0.03)]]
+    assert second == [[3, 2, min(1.0, 2 * hit_risk)], [5, 2, 0.0]]
     assert engine.ctx.world.risk[2, 3] == min(1.0, 2 * hit_risk)
     assert engine.ctx.world.passable[2, 3] == (2 * hit_risk < 1)
     assert engine.ctx.world.risk.sum() == min(1.0, 2 * hit_risk)
@@ -149,17 +187,20 @@ def test_a_cell_met_twice_adds_up_and_passed_cells_are_relieved(
 def test_an_unreachable_goal_fails_the_trip(corridor: Path,
                                             cbr_engine: Callable[..., Engine]) -> None:
     engine = cbr_engine({"world": {"use": "map_file", "path": str(corridor)}, "solver": "astar",
-                         "workload": {"use": "trips", "pass_relief": 0.0}})
-    engine.workload.place([(3, y) for y in range(5)], [])
+                         "workload": {"use": "trips"},
+                         "retain": [{"use": "risk_map", "pass_relief": 0.0}]})
+    engine.workload.true_world.place([(3, y) for y in range(5)], [])
     problem = GridQuery((0, 2), (6, 2))
+    proposal = engine.solve(problem)
 
-    outcome = engine.workload.execute(problem, engine.solve(problem), engine.ctx)
+    outcome = engine.workload.execute(problem, proposal, engine.ctx)
 
     assert not outcome.success
-    assert outcome.detail["failure"] == "no path around"
-    assert outcome.detail["encounters"] == 5
+    assert outcome.report.failure == "no path around" and not outcome.report.reached
+    assert len(outcome.report.met) == 5
     assert outcome.solution.value[0] == [0, 2] and outcome.solution.value[-1][0] == 2
-    assert sorted(c[:2] for c in outcome.detail["risk_changes"]) == [[3, y] for y in range(5)]
+    changes = learned(engine, problem, proposal, outcome)
+    assert sorted(c[:2] for c in changes) == [[3, y] for y in range(5)]
     assert engine.workload.execute(problem, Proposal(None, "none"), engine.ctx) == Outcome(False)
 
 
@@ -175,9 +216,9 @@ def test_a_bad_proposal_or_placement_is_refused(corridor: Path,
     with pytest.raises(CbrError, match=r"not from the trip's start \(0, 2\) to its goal"):
         engine.workload.execute(problem, elsewhere, engine.ctx)
     with pytest.raises(CbrError, match="distinct"):
-        engine.workload.place([(1, 1)], [(1, 1)])
+        engine.workload.true_world.place([(1, 1)], [(1, 1)])
     with pytest.raises(CbrError, match="outside"):
-        engine.workload.place([(9, 1)], [])
+        engine.workload.true_world.place([(9, 1)], [])
     with pytest.raises(CbrError, match="leave fewer than 2"):
         cbr_engine({"world": {"use": "map_file", "path": str(corridor)},
                     "workload": {"use": "trips", "unknown_static": 30, "unknown_dynamic": 4}})
@@ -254,7 +295,7 @@ def test_risk_map_keeps_what_the_robot_learned_for_the_next_run(
     second = cbr_engine(data)
     assert np.array_equal(second.ctx.world.risk, final)
     assert np.array_equal(second.world.risk, configured)
-    assert np.array_equal(second.workload.static_unknowns, first.workload.static_unknowns)
+    assert np.array_equal(second.workload.true_world.static, first.workload.true_world.static)
     second.close()
 
     with pytest.raises(CbrError, match=rf"case base {store}: learned cell \(\d+, \d+\) is "
@@ -263,19 +304,22 @@ def test_risk_map_keeps_what_the_robot_learned_for_the_next_run(
 
 
 def test_risk_map_drops_cells_back_at_their_configured_risk(
-        corridor: Path, tmp_path: Path, cbr_engine: Callable[..., Engine]) -> None:
+        corridor: Path, cbr_engine: Callable[..., Engine]) -> None:
+    # a rise and a relief of the same size cancel out: the first trip meets (3, 2) and passes
+    # (5, 2) (configured 0.08), the second passes (3, 2) and meets (5, 2), which leaves both
+    # cells at their configured risk and out of the stored mapping
     engine = cbr_engine({"world": {"use": "map_file", "path": str(corridor)}, "solver": "astar",
-                         "workload": {"use": "trips", "pass_relief": 0.5, "hit_risk": 0.5},
-                         "retain": ["risk_map"]})
-    engine.workload.place([(3, 2)], [])
+                         "workload": {"use": "trips"},
+                         "retain": [{"use": "risk_map", "hit_risk": 0.05, "pass_relief": 0.05}]})
     problem = GridQuery((0, 2), (6, 2))
-    proposal = engine.solve(problem)
-    engine.learn(problem, proposal, engine.workload.execute(problem, proposal, engine.ctx))
-    assert engine.casebase.get_meta(LEARNED_RISK) == {"3,2": 0.5, "5,2": 0.0}
-
-    passed = Outcome(True, detail={"risk_changes": [[3, 2, 0.0], [5, 2, 0.08]]})
-    engine.learn(problem, proposal, passed)
-    assert engine.casebase.get_meta(LEARNED_RISK) == {}
+    for blocked, stored in [((3, 2), {"3,2": 0.05, "5,2": 0.03}), ((5, 2), {})]:
+        engine.workload.true_world.place([blocked], [])
+        proposal = engine.solve(problem)
+        outcome = engine.workload.execute(problem, proposal, engine.ctx)
+        assert outcome.report.met == (blocked,)
+        engine.learn(problem, proposal, outcome)
+        assert engine.casebase.get_meta(LEARNED_RISK) == stored
+    assert np.array_equal(engine.ctx.world.risk, engine.world.risk)
 
 
 def small_grids() -> st.SearchStrategy[tuple[Grid, int, int, int]]:
@@ -298,13 +342,15 @@ def test_a_driven_path_is_valid_on_the_true_world(case: tuple[Grid, int, int, in
     grid, static, dynamic, seed = case
     if int(grid.passable.sum()) < 2:
         return
-    ctx = Context(registry=Registry(), seed=seed, world=grid)
+    # the replanner is the registry's astar
+    ctx = Context(registry=current().registry, seed=seed, world=grid)
     workload = Trips(TripsOptions(count=8, unknown_static=static, unknown_dynamic=dynamic,
                                   replan_window=2), ctx)
     solver = AStar(NoOptions(), ctx)
     for problem in workload.queries(ctx):
         solution = solver.cbr_solve(problem, ctx)
         outcome = workload.execute(problem, Proposal(solution, "solver:astar"), ctx)
+        learn_map(ctx, outcome)
         if solution is None:
             assert not outcome.success
             continue
@@ -312,25 +358,29 @@ def test_a_driven_path_is_valid_on_the_true_world(case: tuple[Grid, int, int, in
         assert true_grid(workload, outcome).path_problems(driven) == []
         assert driven[0] == list(problem.start)
         assert outcome.success == (driven[-1] == list(problem.goal))
-        assert outcome.success or outcome.detail["failure"]
+        assert outcome.success == outcome.report.reached
+        assert outcome.success or outcome.report.failure
 
 
 def test_a_seed_gives_the_same_world_and_trips_as_before_sites_and_places() -> None:
     # recorded with the workload as it was before places, sites and collision_time were added
-    ctx = Context(registry=Registry(), seed=11, world=generate("office", 28, 20, 11))
+    ctx = Context(registry=current().registry, seed=11, world=generate("office", 28, 20, 11))
     workload = Trips(TripsOptions(count=3, unknown_static=3, unknown_dynamic=4), ctx)
     solver = AStar(NoOptions(), ctx)
 
-    trips = [(problem, workload.execute(problem, Proposal(solver.cbr_solve(problem, ctx), "a*"),
-                                        ctx)) for problem in workload.queries(ctx)]
+    trips = []
+    for problem in workload.queries(ctx):
+        outcome = workload.execute(problem, Proposal(solver.cbr_solve(problem, ctx), "a*"), ctx)
+        learn_map(ctx, outcome)
+        trips.append((problem, outcome))
 
-    assert workload.static_unknowns.tolist() == [[26, 11], [11, 18], [13, 18]]
-    assert workload.dynamic_sites.tolist() == [[21, 11], [7, 14], [14, 14], [23, 0]]
+    assert workload.true_world.static.tolist() == [[26, 11], [11, 18], [13, 18]]
+    assert workload.true_world.dynamic.tolist() == [[21, 11], [7, 14], [14, 14], [23, 0]]
     assert [(p.start, p.goal) for p, _ in trips] == [((22, 0), (26, 8)), ((22, 12), (23, 7)),
                                                       ((14, 16), (2, 0))]
-    assert [o.detail["present"] for _, o in trips] == [
+    assert [o.report.blocked.dynamic.tolist() for _, o in trips] == [
         [[21, 11], [7, 14], [14, 14], [23, 0]], [[14, 14], [23, 0]], []]
-    assert all(o.detail["sites_present"] == [] for _, o in trips)
+    assert all(o.report.blocked.sites == () for _, o in trips)
 
 
 @pytest.fixture
@@ -345,14 +395,14 @@ def walled(tmp_path: Path) -> Path:
 
 def map_config(path: Path, **workload: Any) -> dict[str, Any]:
     return {"seed": 5, "world": {"use": "map_file", "path": str(path)}, "solver": "astar",
-            "workload": {"use": "trips", **workload}}
+            "workload": {"use": "trips", **workload}, "retain": ["risk_map"]}
 
 
 def test_trips_go_between_the_places(walled: Path, cbr_engine: Callable[..., Engine]) -> None:
     places = [(0, 0), (7, 5), (3, 2)]
     engine = cbr_engine(map_config(walled, count=80, places=[list(p) for p in places],
                                    unknown_static=12, min_distance=7))
-    unknown = {tuple(c) for c in engine.workload.static_unknowns.tolist()}
+    unknown = {tuple(c) for c in engine.workload.true_world.static.tolist()}
 
     trips = drive(engine)
 
@@ -393,7 +443,7 @@ def test_sites_are_read_from_yaml_and_checked(walled: Path,
     """)
     engine = cbr_engine(data)
     assert engine.workload.options.sites == [Site(cells=[(3, 4), (3, 5)], appear=0.8)]
-    assert [cells.tolist() for cells in engine.workload.sites] == [[[3, 4], [3, 5]]]
+    assert [cells.tolist() for cells in engine.workload.true_world.sites] == [[[3, 4], [3, 5]]]
     for site, problem in [({"cells": [], "appear": 0.5},
                            r"workload\.sites\.0\.cells: must hold at least one cell"),
                           ({"cells": [[3, 4]], "appear": 1.5},
@@ -416,29 +466,30 @@ def test_a_site_blocks_all_its_cells_together_as_often_as_it_appears(
     trips = drive(engine)
 
     for _, _, _, outcome in trips:
-        assert outcome.detail["sites_present"] == [0]
-        true = workload.true_passable(np.array(outcome.detail["present"]).reshape(-1, 2),
-                                      outcome.detail["sites_present"])
+        assert outcome.report.blocked.sites == (0,)
+        true = workload.true_world.passable(outcome.report.blocked)
         assert not true[[y for _, y in door], [x for x, _ in door]].any()
         assert true[[0, 1], [6, 6]].all()
         assert true_grid(workload, outcome).path_problems(outcome.solution.value) == []
         assert not {tuple(c) for c in door} & {tuple(c) for c in outcome.solution.value}
-    assert any(o.detail["encounters"] for *_, o in trips)
+    assert any(o.report.met for *_, o in trips)
 
 
 def test_sites_appear_independently_with_their_own_probability(
         corridor: Path, cbr_engine: Callable[..., Engine]) -> None:
     engine = cbr_engine({"world": {"use": "map_file", "path": str(corridor)},
-                         "workload": {"use": "trips", "pass_relief": 0.0, "sites": [
+                         "workload": {"use": "trips", "sites": [
                              {"cells": [[5, 4]], "appear": 0.3},
-                             {"cells": [[6, 4], [6, 3]], "appear": 0.6}]}})
+                             {"cells": [[6, 4], [6, 3]], "appear": 0.6}]},
+                         "retain": [{"use": "risk_map", "pass_relief": 0.0}]})
     problem = GridQuery((0, 0), (1, 0))
     proposal = Proposal(Solution([[0, 0], [1, 0]]), "fixed")
     n = 4000
 
     drawn = np.zeros((n, 2), dtype=bool)
     for i in range(n):
-        present = engine.workload.execute(problem, proposal, engine.ctx).detail["sites_present"]
+        outcome = engine.workload.execute(problem, proposal, engine.ctx)
+        present = list(outcome.report.blocked.sites)
         drawn[i, present] = True
 
     # each frequency within 5 binomial standard deviations of its probability
@@ -451,7 +502,7 @@ def test_travel_time_adds_the_time_lost_at_each_obstacle_met(
         corridor: Path, cbr_engine: Callable[..., Engine]) -> None:
     engine = cbr_engine({"world": {"use": "map_file", "path": str(corridor)}, "solver": "astar",
                          "workload": {"use": "trips", "collision_time": 2.5}})
-    engine.workload.place([(3, 2)], [])
+    engine.workload.true_world.place([(3, 2)], [])
     problem = GridQuery((0, 2), (6, 2))
 
     outcome = engine.workload.execute(problem, engine.solve(problem), engine.ctx)
@@ -461,8 +512,8 @@ def test_travel_time_adds_the_time_lost_at_each_obstacle_met(
     around = [[[2, row], [3, row], [4, row]] for row in (1, 3)]
     assert outcome.solution.value in [[[0, 2], [1, 2], [2, 2], *cells, [4, 2], [5, 2], [6, 2]]
                                       for cells in around]
-    assert outcome.detail["encounters"] == 1
-    assert outcome.detail["travel_time"] == pytest.approx(8 + 2.5)
+    assert len(outcome.report.met) == 1
+    assert outcome.report.travel_time == pytest.approx(8 + 2.5)
 
 
 def test_meeting_one_cell_of_a_blocked_site_shows_the_whole_site(
@@ -477,12 +528,12 @@ def test_meeting_one_cell_of_a_blocked_site_shows_the_whole_site(
     outcome = engine.workload.execute(problem, engine.solve(problem), engine.ctx)
 
     assert outcome.success
-    assert outcome.detail["encounters"] == 2
-    assert outcome.detail["replans"] == 1
-    assert outcome.detail["stops"] == [[2, 2]]
+    assert len(outcome.report.met) == 2
+    assert outcome.report.replans == 1
+    assert outcome.report.stops == ((2, 2),)
     driven = outcome.solution.value
     assert [3, 2] not in driven and [3, 3] not in driven
-    assert outcome.detail["travel_time"] == pytest.approx(path_length(driven) + 2.5)
+    assert outcome.report.travel_time == pytest.approx(path_length(driven) + 2.5)
 
 
 def test_the_workload_seed_gives_the_same_trips_whatever_the_other_components(
@@ -496,14 +547,127 @@ def test_the_workload_seed_gives_the_same_trips_whatever_the_other_components(
     plain = cbr_engine(config)
     # a reviser and a retriever built before the workload take generators from the run's seed
     extra = {"retrieve": {"use": "path_cases", "explore": 0.5}, "reuse": "path_cases",
-             "retain": ["path_cases"], "casebase": "memory"}
+             "retain": ["risk_map", "path_cases"], "casebase": "memory"}
     learning = cbr_engine({**config, **extra})
 
     def trips(engine: Engine) -> list[Any]:
-        return [(problem.start, problem.goal, outcome.detail["present"],
-                 outcome.detail["sites_present"]) for problem, _, _, outcome in drive(engine)]
+        return [(problem.start, problem.goal, outcome.report.blocked.dynamic.tolist(),
+                 list(outcome.report.blocked.sites)) for problem, _, _, outcome in drive(engine)]
 
-    assert plain.workload.dynamic_sites.tolist() == learning.workload.dynamic_sites.tolist()
+    assert (plain.workload.true_world.dynamic.tolist()
+            == learning.workload.true_world.dynamic.tolist())
     assert trips(plain) == trips(learning)
     # without it the retriever's generator, spawned first, shifts the workload's
     assert trips(cbr_engine(unseeded)) != trips(cbr_engine({**unseeded, **extra}))
+
+
+# --- what one trip changes, and learning in the learn step --------------------------------------
+
+
+def test_risk_changes_of_a_hand_worked_trip() -> None:
+    # on a 5x3 map the robot drives along row 1, is stopped at (2, 1) by a door of (3, 1) and
+    # (3, 0), seen whole, and goes round through row 2 to (4, 1)
+    risk = np.zeros((3, 5))
+    risk[1, 1], risk[2, 2], risk[1, 4], risk[0, 3] = 0.2, 0.03, 0.05, 0.9
+    grid = Grid(risk)
+    driven = np.array([[0, 1], [1, 1], [2, 1], [2, 2], [3, 2], [4, 2], [4, 1]])
+    report = DriveReport(driven, met=((3, 1), (3, 0)), stops=((2, 1),),
+                         blocked=Blocked(np.zeros((0, 2), dtype=np.int64), (0,)),
+                         travel_time=path_length(driven) + 5.0)
+
+    # passed cells lose 0.05 (floored at 0, exactly 0 when the relief cancels the risk), met
+    # cells gain 0.5 (capped at 1); cells left where they were are not listed; row-major order
+    assert risk_changes(grid, report, 0.5, 0.05) == [
+        [3, 0, 1.0], [1, 1, 0.15], [3, 1, 0.5], [4, 1, 0.0], [2, 2, 0.0]]
+    assert risk_changes(grid, report, 0.25, 0.0) == [[3, 0, 1.0], [3, 1, 0.25]]
+    assert risk_changes(grid, report, 0.0, 0.0) == []
+    assert np.array_equal(grid.risk, risk)  # a pure function: the grid is left as it was
+    # a cell passed twice is relieved once
+    twice = attrs.evolve(report, driven=np.concatenate((driven, driven[::-1])))
+    assert risk_changes(grid, twice, 0.5, 0.05) == risk_changes(grid, report, 0.5, 0.05)
+    # a relief of 0 leaves an unrounded configured risk alone
+    odd = Grid(np.full((3, 5), 0.1 + 0.2))
+    assert risk_changes(odd, attrs.evolve(report, met=()), 0.5, 0.0) == []
+
+
+def test_without_risk_map_a_run_does_not_learn_its_map(
+        corridor: Path, cbr_engine: Callable[..., Engine]) -> None:
+    engine = cbr_engine({"world": {"use": "map_file", "path": str(corridor)}, "solver": "astar",
+                         "workload": {"use": "trips"}})
+    engine.workload.true_world.place([(3, 2)], [])
+    problem = GridQuery((0, 2), (6, 2))
+    world = engine.ctx.world
+
+    for _ in range(2):
+        proposal = engine.solve(problem)
+        outcome = engine.workload.execute(problem, proposal, engine.ctx)
+        assert outcome.report.met == ((3, 2),)
+        assert engine.ctx.stash[PLANNED_WORLD] is world
+        engine.learn(problem, proposal, outcome)
+        assert engine.ctx.world is world
+    assert engine.casebase.get_meta(LEARNED_RISK, None) is None
+
+
+class FailingForget:
+    """A test plugin: its forgetter ``fail_when_armed`` raises while ``armed`` is set, so the
+    learn step it runs in rolls back."""
+
+    def __init__(self) -> None:
+        self.armed = False
+
+    @hookimpl
+    def cbr_register(self, registry: Registry) -> None:
+        registry.add("forgetter", "fail_when_armed", lambda options, ctx: _ArmedForgetter(self),
+                     doc="Raises while the test arms it.")
+
+
+class _ArmedForgetter:
+    def __init__(self, plugin: FailingForget) -> None:
+        self.plugin = plugin
+
+    @hookimpl
+    def cbr_forget(self, casebase: CaseStore) -> None:
+        if self.plugin.armed:
+            raise RuntimeError("forgetting failed")
+
+
+def test_a_learn_step_that_rolls_back_leaves_the_learned_map_as_it_was(
+        corridor: Path, tmp_path: Path, cbr_engine: Callable[..., Engine],
+        cbr_plugins: Callable[..., Plugins]) -> None:
+    failing = FailingForget()
+    cbr_plugins(("failing", failing), entry_points=True,
+                environ={"CBR_PLUGINS": "core,grid,solvers,failing"})
+    engine = cbr_engine({"world": {"use": "map_file", "path": str(corridor)}, "solver": "astar",
+                         "workload": {"use": "trips"},
+                         "casebase": {"use": "sqlite", "path": str(tmp_path / "cases.sqlite")},
+                         "retain": [{"use": "risk_map", "hit_risk": 0.3}],
+                         "forget": ["fail_when_armed"]})
+    engine.workload.true_world.place([(3, 2)], [])
+    problem = GridQuery((0, 2), (6, 2))
+
+    def trip() -> tuple[Proposal, Outcome]:
+        proposal = engine.solve(problem)
+        return proposal, engine.workload.execute(problem, proposal, engine.ctx)
+
+    proposal, outcome = trip()
+    engine.learn(problem, proposal, outcome)
+    stored = {"3,2": 0.3, "5,2": 0.03}
+    assert engine.casebase.get_meta(LEARNED_RISK) == stored
+    learned_map = engine.ctx.world
+    assert learned_map.risk[2, 3] == 0.3
+
+    failing.armed = True
+    proposal, outcome = trip()
+    assert outcome.report.met == ((3, 2),)  # the step would raise (3, 2) to 0.6
+    with pytest.raises(PhaseError, match="phase 'forget'"):
+        engine.learn(problem, proposal, outcome)
+    assert engine.ctx.world is learned_map
+    assert engine.casebase.get_meta(LEARNED_RISK) == stored
+
+    failing.armed = False
+    again, outcome = trip()
+    assert engine.ctx.stash[PLANNED_WORLD] is learned_map  # planned on the unchanged map
+    assert again.solution.value == proposal.solution.value
+    engine.learn(problem, again, outcome)
+    assert engine.ctx.world.risk[2, 3] == pytest.approx(0.6)  # one more hit, not two
+    assert engine.casebase.get_meta(LEARNED_RISK) == {"3,2": pytest.approx(0.6), "5,2": 0.0}

@@ -17,8 +17,9 @@ from cbrcore.casebase.exchange import (
     write_document,
 )
 from cbrcore.casebase.memory import MemoryStore
-from cbrcore.casebase.sqlite import APPLICATION_ID, SCHEMA_VERSION, SQLiteStore, UnusableCaseBase
-from cbrcore.casebase.store import CaseStore
+from cbrcore.casebase.sqlite import APPLICATION_ID, SCHEMA_VERSION, SQLiteStore
+from cbrcore.casebase.store import SUMMARY_KEYS, CaseStore, describe
+from cbrcore.errors import UnusableCaseBase
 
 
 def open_store(path: str | os.PathLike[str] | None = None, *, create: bool = True,
@@ -32,11 +33,13 @@ def open_store(path: str | os.PathLike[str] | None = None, *, create: bool = Tru
 __all__ = [
     "APPLICATION_ID",
     "SCHEMA_VERSION",
+    "SUMMARY_KEYS",
     "CaseStore",
     "Document",
     "MemoryStore",
     "SQLiteStore",
     "UnusableCaseBase",
+    "describe",
     "document_of",
     "dump_document",
     "export_casebase",

@@ -21,7 +21,7 @@ from cbrcore.casebase.data import (
     check_meta_key,
 )
 from cbrcore.casebase.exchange import SCHEMA
-from cbrcore.errors import CaseBaseError
+from cbrcore.errors import CaseBaseError, UnusableCaseBase
 from cbrcore.model import JSON, Case
 
 APPLICATION_ID = 0x43425243
@@ -47,14 +47,6 @@ _SCHEMA = (
     "CREATE INDEX cases_kind ON cases (kind)",
     "CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)",
 )
-
-
-class UnusableCaseBase(CaseBaseError):
-    """A file that exists but is no sound case base of this cbrcore's schema.
-
-    It is not SQLite, is corrupt, is some other program's SQLite database, or has another schema
-    version. Such a file is refused without being written to.
-    """
 
 
 def _dumps(value: JSON) -> str:
@@ -451,6 +443,17 @@ class SQLiteStore:
     def journal_mode(self) -> str:
         """SQLite's journal mode for the file (``wal`` for every case base this store opened)."""
         return str(self._value("PRAGMA journal_mode"))
+
+    def describe(self) -> dict[str, JSON]:
+        """The file's path, schema version, size, write-ahead log size and journal mode."""
+        wal = self.path.with_name(self.path.name + "-wal")
+        return {
+            "path": str(self.path),
+            "schema": self.schema_version,
+            "size_bytes": self.path.stat().st_size,
+            "wal_bytes": wal.stat().st_size if wal.exists() else 0,
+            "journal_mode": self.journal_mode,
+        }
 
     def check(self) -> list[str]:
         """Problems found by a full consistency check; empty when the store is sound.

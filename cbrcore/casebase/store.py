@@ -1,4 +1,12 @@
-"""The case base store protocol every store implements."""
+"""The case base store protocol every store implements.
+
+Besides the members of :class:`CaseStore`, a store may have a ``describe()`` method returning
+facts about where and how it keeps its case base (a file's path and size, a server's address),
+by name, as plain JSON data; ``cbr casebase info`` shows them after the facts every store has
+(:data:`SUMMARY_KEYS`), which they may not repeat. A store that finds its case base unusable when
+it is opened (damaged, another program's, of another schema version) raises
+:class:`~cbrcore.errors.UnusableCaseBase`, which ``cbr casebase check`` reports as a problem.
+"""
 
 from __future__ import annotations
 
@@ -6,7 +14,13 @@ from collections.abc import Iterable, Iterator, Mapping
 from contextlib import AbstractContextManager
 from typing import Protocol, runtime_checkable
 
+from cbrcore.casebase.data import is_json, json_problems
+from cbrcore.errors import PluginError
 from cbrcore.model import JSON, Case
+
+SUMMARY_KEYS = ("store", "revision", "cases", "kinds")
+"""The facts ``cbr casebase info`` shows for every store: its registered name, its revision, the
+number of cases and the number of cases of each kind."""
 
 
 @runtime_checkable
@@ -17,8 +31,8 @@ class CaseStore(Protocol):
     outside one is its own transaction. ``revision`` counts committed write transactions and is
     the store's logical clock: a case's ``created`` and ``last_used`` are revisions, and a plugin
     that keeps a derived index (an array of case features, a graph) rebuilds it when the revision
-    it was built at is no longer current. A store opened by two processes shows each the other's
-    committed writes.
+    it was built at is no longer current. A store that several processes may open at once shows
+    each the other's committed writes.
     """
 
     @property
@@ -96,16 +110,23 @@ class CaseStore(Protocol):
     def __len__(self) -> int: ...
 
 
-def still_current(now: int, known: int, wrote: bool) -> bool:
-    """Whether an in-memory index of a store, matching it at revision ``known``, still matches
-    at revision ``now``.
+def describe(store: CaseStore) -> dict[str, JSON]:
+    """What ``store.describe()`` tells of the store, checked; empty for a store without one.
 
-    For plugins that keep an index of their cases and write through to the store inside the
-    engine's learn step: a step in which the index wrote must have committed exactly one
-    revision (anything else is a rollback, or another process writing), one in which it did not
-    write may have committed one through other writers of the same step (the engine counting
-    case uses) or none. So one transaction of another process in a step without writes goes
-    unnoticed: two processes should not share one such index.
+    A PluginError names the store's class when the facts are not a mapping of plain JSON data by
+    name, or repeat one of :data:`SUMMARY_KEYS`.
     """
-    return now == known + 1 if wrote else now in (known, known + 1)
-
+    method = getattr(store, "describe", None)
+    if method is None:
+        return {}
+    facts = method()
+    label = f"store {type(store).__name__}: describe()"
+    if not isinstance(facts, dict) or not is_json(facts):
+        problems = ([f"returned {type(facts).__name__}, expected a mapping"]
+                    if not isinstance(facts, dict) else list(json_problems(facts, "describe()")))
+        raise PluginError(f"{label} must give plain JSON facts by name: {'; '.join(problems)}")
+    repeated = [key for key in facts if key in SUMMARY_KEYS]
+    if repeated:
+        raise PluginError(f"{label} repeats {', '.join(repeated)}, which cbr casebase info "
+                          f"shows")
+    return facts

@@ -1,27 +1,34 @@
-"""``cbr casebase``: look into, check, export and import case base files."""
+"""``cbr casebase``: look into, check, export and import case bases of any registered store."""
 
 from __future__ import annotations
 
+import contextlib
 import enum
 import json
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
 from cbrcore.casebase import (
-    SQLiteStore,
+    CaseStore,
     UnusableCaseBase,
+    describe,
     document_of,
     dump_document,
     load_document,
     read_document,
     write_document,
 )
+from cbrcore.config import Config, load_config, parse_config, parse_yaml
+from cbrcore.engine import Engine
+from cbrcore.errors import CbrError, ConfigError
+from cbrcore.plugins import current
 
 app = typer.Typer(
     name="casebase",
-    help="Inspect, check, export and import case base files.",
+    help="Inspect, check, export and import case bases: a SQLite file, or any registered store.",
     no_args_is_help=True,
 )
 
@@ -31,8 +38,21 @@ class TextFormat(enum.StrEnum):
     json = "json"
 
 
-CaseBasePath = Annotated[Path, typer.Argument(help="The case base file (SQLite).",
-                                              show_default=False)]
+_SELECTORS = "FILE, --store or --config"
+
+CaseBaseFile = Annotated[Path | None, typer.Argument(
+    metavar="FILE", help="A SQLite case base file; short for --store '{use: sqlite, path: FILE}'.",
+    show_default=False)]
+StoreOption = Annotated[str | None, typer.Option(
+    "--store", metavar="STORE",
+    help="The store, written as in a configuration's casebase slot: a registered name, or a "
+         "YAML mapping whose 'use' names it and whose other keys are its options, such as "
+         "'{use: sqlite, path: cb.sqlite}'. Relative paths resolve against the working folder.",
+    show_default=False)]
+ConfigOption = Annotated[Path | None, typer.Option(
+    "--config", "-c", metavar="CONFIG",
+    help="A configuration file whose casebase slot names the store; relative paths resolve "
+         "against its folder.", show_default=False)]
 FormatOption = Annotated[
     TextFormat | None,
     typer.Option("--format", help="yaml or json; default: from the file's extension (export "
@@ -40,75 +60,118 @@ FormatOption = Annotated[
 ]
 
 
-def _facts(path: Path, store: SQLiteStore) -> dict[str, Any]:
-    wal = path.with_name(path.name + "-wal")
-    return {
-        "path": str(path),
-        "schema": store.schema_version,
-        "revision": store.revision,
-        "cases": store.count(),
-        "kinds": store.kind_counts(),
-        "size_bytes": path.stat().st_size,
-        "wal_bytes": wal.stat().st_size if wal.exists() else 0,
-        "journal_mode": store.journal_mode,
-    }
+def _casebase_slot(file: Path | None, store: str | None, config: Path | None, *,
+                   create: bool) -> Config:
+    """A configuration holding only the case base that ``FILE``, --store or --config names."""
+    given = [name for name, value in (("FILE", file), ("--store", store), ("--config", config))
+             if value is not None]
+    if len(given) != 1:
+        found = f", not {' and '.join(given)}" if given else ""
+        raise typer.BadParameter(f"name the case base with one of them{found}",
+                                 param_hint=_SELECTORS)
+    registry = current().registry
+    if config is not None:
+        loaded = load_config(config, registry)
+        label, selected = str(loaded.source), Config(seed=loaded.seed, casebase=loaded.casebase,
+                                                     source=loaded.source)
+    else:
+        if store is not None:
+            label, (raw, _) = "--store", parse_yaml(store, "--store")
+        else:
+            # a command that only reads must not leave a new, empty case base file behind
+            label, raw = str(file), {"use": "sqlite", "path": str(file), "create": create}
+        try:
+            selected = Config(casebase=parse_config({"casebase": raw}, registry).casebase)
+        except ConfigError as exc:
+            raise ConfigError(label, exc.problems) from None
+    if selected.casebase is None:
+        raise CbrError(f"{label}: names no case base (its casebase slot is empty)")
+    return selected
+
+
+@contextlib.contextmanager
+def _opened(file: Path | None, store: str | None, config: Path | None, *,
+            create: bool = False) -> Iterator[tuple[str, CaseStore]]:
+    """The named case base and its store's registered name, closed after the block.
+
+    It is opened by an engine configured with it alone, so the store is built exactly as a run
+    builds it.
+    """
+    selected = _casebase_slot(file, store, config, create=create)
+    with Engine(selected) as engine:
+        assert selected.casebase is not None and engine.casebase is not None
+        yield selected.casebase.name, engine.casebase
+
+
+def _shown(value: Any) -> str:
+    return value if isinstance(value, str) else json.dumps(value)
 
 
 @app.command()
 def info(
-    path: CaseBasePath,
+    file: CaseBaseFile = None,
+    store: StoreOption = None,
+    config: ConfigOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the facts as JSON.")] = False,
 ) -> None:
-    """Show a case base's schema version, revision, case counts by kind and file details."""
-    with SQLiteStore(path, create=False) as store:
-        facts = _facts(path, store)
+    """Show a case base's store, revision, case counts by kind, and what its store tells of it
+    (for a SQLite file: path, schema version, sizes and journal mode)."""
+    with _opened(file, store, config) as (name, casebase):
+        facts: dict[str, Any] = {"store": name, "revision": casebase.revision,
+                                 "cases": casebase.count(), "kinds": casebase.kind_counts(),
+                                 **describe(casebase)}
     if as_json:
         typer.echo(json.dumps(facts, indent=2))
         return
-    lines = [
-        f"case base     {facts['path']}",
-        f"schema        {facts['schema']}",
-        f"revision      {facts['revision']}",
-        f"cases         {facts['cases']}",
-        *(f"  {kind:<11} {n}" for kind, n in facts["kinds"].items()),
-        f"size          {facts['size_bytes']} bytes (+ {facts['wal_bytes']} bytes write-ahead log)",
-        f"journal mode  {facts['journal_mode']}",
-    ]
+    kinds = facts.pop("kinds")
+    lines = []
+    for key, value in facts.items():
+        lines.append(f"{key.replace('_', ' '):<13} {_shown(value)}")
+        if key == "cases":
+            lines += [f"  {kind:<11} {n}" for kind, n in kinds.items()]
     typer.echo("\n".join(lines))
 
 
 @app.command()
-def check(path: CaseBasePath) -> None:
-    """Check a case base file thoroughly.
+def check(
+    file: CaseBaseFile = None,
+    store: StoreOption = None,
+    config: ConfigOption = None,
+) -> None:
+    """Check a case base thoroughly.
 
     Prints "ok" and exits 0 when it is sound; lists the problems and exits 1 when it is not (or
-    is corrupt, not a case base, or of another schema version); exits 2 when it does not exist.
+    its store finds it unusable: corrupt, not a case base, or of another schema version); exits 2
+    when it does not exist.
     """
     try:
-        store = SQLiteStore(path, create=False)
+        with _opened(file, store, config) as (_, casebase):
+            problems = casebase.check()
+            label = str(casebase)
     except UnusableCaseBase as exc:
         typer.echo(str(exc))
         raise typer.Exit(code=1) from exc
-    with store:
-        problems = store.check()
     if problems:
         noun = "problem" if len(problems) == 1 else "problems"
-        typer.echo("\n".join([f"{path}: {len(problems)} {noun}:", *(f"  - {p}" for p in problems)]))
+        typer.echo("\n".join([f"{label}: {len(problems)} {noun}:",
+                              *(f"  - {p}" for p in problems)]))
         raise typer.Exit(code=1)
     typer.echo("ok")
 
 
 @app.command("export")
 def export(
-    path: CaseBasePath,
+    file: CaseBaseFile = None,
+    store: StoreOption = None,
+    config: ConfigOption = None,
     output: Annotated[Path | None, typer.Option(
         "-o", "--output", help="File to write; default: standard output.", show_default=False,
     )] = None,
     fmt: FormatOption = None,
 ) -> None:
     """Write a case base as YAML or JSON text (YAML on standard output unless told)."""
-    with SQLiteStore(path, create=False) as store:
-        document = document_of(store)
+    with _opened(file, store, config) as (_, casebase):
+        document = document_of(casebase)
     chosen = fmt.value if fmt is not None else None
     if output is None:
         typer.echo(dump_document(document, chosen or "yaml"), nl=False)
@@ -120,21 +183,31 @@ def export(
 
 @app.command("import")
 def import_(
-    path: CaseBasePath,
-    file: Annotated[Path, typer.Argument(help="The exported YAML or JSON file.",
-                                         show_default=False)],
+    file: Annotated[Path | None, typer.Argument(
+        metavar="FILE", help="The SQLite case base file, created when missing (give the store "
+        "with --store or --config instead, and DOCUMENT alone).", show_default=False)] = None,
+    document: Annotated[Path | None, typer.Argument(
+        metavar="DOCUMENT", help="The exported YAML or JSON file (required).",
+        show_default=False)] = None,
+    store: StoreOption = None,
+    config: ConfigOption = None,
     append: Annotated[bool, typer.Option(
         "--append", help="Add the cases, with new ids, to a case base that already has some.",
     )] = False,
     fmt: FormatOption = None,
 ) -> None:
-    """Load an exported file into a case base (created when missing), all in one transaction.
+    """Load an exported document into a case base, all in one transaction.
 
     A case base that already holds cases is refused unless --append is given.
     """
-    # read and validate first, so that a bad file does not leave an empty case base behind
-    document = read_document(file, fmt.value if fmt is not None else None)
-    with SQLiteStore(path) as store:
-        added = load_document(store, document, append=append)
-        revision = store.revision
-    typer.echo(f"imported {added} cases into {path} (revision {revision})")
+    if document is None:  # one argument is the document
+        file, document = None, file
+    if document is None:
+        raise typer.BadParameter("name the exported file to import", param_hint="DOCUMENT")
+    # read and validate first, so that a bad document does not leave an empty case base behind
+    loaded = read_document(document, fmt.value if fmt is not None else None)
+    with _opened(file, store, config, create=True) as (_, casebase):
+        added = load_document(casebase, loaded, append=append)
+        revision = casebase.revision
+        label = str(casebase)
+    typer.echo(f"imported {added} cases into {label} (revision {revision})")

@@ -102,23 +102,29 @@ def validate(
 def plugins(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
-    """List the loaded plugins, their distributions, hooks and components, and any failures."""
+    """List the loaded plugins, their distributions, hooks, components and the component kinds
+    they declare, and any failures."""
     loaded = current()
     if as_json:
         data = {
             "plugins": [{"name": p.name, "module": p.module, "distribution": p.distribution,
                          "version": p.version, "hooks": list(p.hooks),
-                         "components": list(p.components)} for p in loaded.loaded],
+                         "components": list(p.components), "kinds": list(p.kinds)}
+                        for p in loaded.loaded],
             "failed": [{"name": f.name, "distribution": f.distribution, "version": f.version,
                         "stage": f.stage, "error": f.error} for f in loaded.failed],
             "skipped": loaded.skipped,
         }
         typer.echo(json.dumps(data, indent=2))
         return
-    table = Table("plugin", "distribution", "hooks", "components")
+    table = Table("plugin", "distribution", "hooks", "components", "kinds")
+    kinds = loaded.registry.kinds
     for p in loaded.loaded:
         source = f"{p.distribution} {p.version}" if p.distribution else "(registered in code)"
-        table.add_row(p.name, source, "\n".join(p.hooks), "\n".join(p.components))
+        declared = [f"{kind.name} (slot {kind.slot.name})" if kind.slot else kind.name
+                    for kind in (kinds[name] for name in p.kinds)]
+        table.add_row(p.name, source, "\n".join(p.hooks), "\n".join(p.components),
+                      "\n".join(declared))
     console = _out()
     console.print(table)
     for failure in loaded.failed:

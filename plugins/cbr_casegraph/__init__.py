@@ -4,8 +4,9 @@ A traversed path is cut at its turns and at its crossings with stored paths into
 segments, the cases, which form one graph (:mod:`cbr_casegraph.graph`). Retrieval takes the
 segments near start and goal, reuse joins start and goal to them by local searches and finds the
 best path through the graph (:mod:`cbr_casegraph.planner`), retention adds the new segments and
-forgetting keeps the graph small (:mod:`cbr_casegraph.components`). Revision is the grid
-family's ``path_quality`` (:mod:`cbr_grid.quality`), shared with the other grid CBR families.
+forgetting keeps the graph small (:mod:`cbr_casegraph.components`). Revision is the
+``path_quality`` reviser (:mod:`cbr_pathquality.reviser`), shared with the other grid CBR
+families.
 The reproductions of the papers' experiments are in :mod:`cbr_casegraph.experiments`.
 """
 

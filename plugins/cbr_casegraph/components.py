@@ -9,21 +9,25 @@ from __future__ import annotations
 
 import importlib
 from types import ModuleType
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import attrs
 import numpy as np
 
 from cbr_casegraph.graph import SEGMENT
-from cbr_casegraph.state import state_of
+from cbr_casegraph.state import graph_of
 from cbr_grid.distances import DistanceName
 from cbr_grid.query import GridQuery
-from cbr_kinematics import HOLONOMIC, kinematics_of
+from cbr_kinematics import HOLONOMIC, robot_kinematics
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
+from cbrcore.errors import CbrError
 from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Case, Match, Outcome, Retrieval, Solution
-from cbrcore.options import option
+from cbrcore.options import configured, option
+
+if TYPE_CHECKING:
+    from cbr_casegraph.planner import Neighbourhoods, Settings
 
 _POSITIVE = attrs.validators.ge(1)
 _UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
@@ -44,28 +48,37 @@ class RetrieveOptions:
         "the start (goal); full adaptation (false) uses every case meeting the neighbourhood.")
 
 
+@attrs.frozen
+class Found:
+    """What the retriever hands the reuser (``Retrieval.payload``): the neighbourhoods of start
+    and goal, and the settings they were found with."""
+
+    settings: Settings
+    neighbourhoods: Neighbourhoods
+
+
 class CaseGraphRetriever:
     """The cases meeting the neighbourhoods of start and goal (eq. 11)."""
 
     def __init__(self, options: RetrieveOptions, ctx: Context) -> None:
         self.options = options
-        state_of(ctx)
+        graph_of(ctx)
 
     @hookimpl
     def cbr_retrieve(self, problem: GridQuery, casebase: CaseStore, ctx: Context) -> Retrieval:
         planner = _planner()
-        graph = state_of(ctx).sync(ctx.world)
+        graph = graph_of(ctx)
         settings = planner.Settings(delta=self.options.delta, selective=self.options.selective)
         start, goal = ctx.world.check_cell(problem.start, "start"), ctx.world.check_cell(
             problem.goal, "goal")
         found = planner.neighbourhoods(graph, start, goal, settings)
         if isinstance(found, planner.Failure):
-            return Retrieval((), payload=found)
+            return Retrieval((), reason=found.reason)
         matches = []
         for end, cell, edges in (("start", start, found.start), ("goal", goal, found.goal)):
             a, b = graph.ends(edges)
             # the Chebyshev distance from the terminal to the nearest cell of the segment
-            near = _segment_distance(a, b, np.asarray(cell))
+            near = segment_distance(a, b, np.asarray(cell))
             records = zip(edges.tolist(), a.tolist(), b.tolist(), graph.costs(edges).tolist(),
                           graph.risks(edges).tolist(), graph.uses(edges).tolist(),
                           graph.created(edges).tolist(), near.tolist(), strict=True)
@@ -74,10 +87,10 @@ class CaseGraphRetriever:
                             id=edge, uses=uses, created=created)
                 matches.append(Match(case, 1.0 / (1.0 + d), {f"{end}_distance": float(d)}))
         matches.sort(key=lambda m: -m.similarity)
-        return Retrieval(tuple(matches), payload=(settings, found))
+        return Retrieval(tuple(matches), payload=Found(settings, found))
 
 
-def _segment_distance(a: np.ndarray, b: np.ndarray, cell: np.ndarray) -> np.ndarray:
+def segment_distance(a: np.ndarray, b: np.ndarray, cell: np.ndarray) -> np.ndarray:
     """Chebyshev distance from ``cell`` to the nearest cell of each straight segment a-b."""
     d = np.sign(b - a)
     k = np.abs(b - a).max(axis=1)
@@ -103,18 +116,14 @@ class ReuseOptions:
     graph_search: Literal["dijkstra", "astar"] = option(
         "astar", "The search for the best path in the extended case graph (step 6); both find "
         "the cheapest path.")
-    kinematics: str = option(
-        HOLONOMIC, "The robot's kinematic model, a registered kinematics component (holonomic, "
-        "forward, forward_backward): a constrained one plans with the edge-based searches of "
-        "section 5 from the query's heading to its final heading, the temporary edges made by "
-        "edge-based Dijkstra sweeps (connector dijkstra).")
 
-    @kinematics.validator
+    @connector.validator
     def _swept(self, attribute: attrs.Attribute, value: str) -> None:
-        if value != HOLONOMIC and self.connector != "dijkstra":
-            raise ValueError(f"kinematics {value!r} makes the temporary edges by edge-based "
-                             f"Dijkstra sweeps: connector must be dijkstra, not "
-                             f"{self.connector!r}")
+        robot = configured("kinematics")
+        if robot not in (None, HOLONOMIC) and value != "dijkstra":
+            raise ValueError(f"kinematics {robot!r} (the configuration's robot) makes the "
+                             f"temporary edges by edge-based Dijkstra sweeps: connector must be "
+                             f"dijkstra, not {value!r}")
 
 
 class CaseGraphReuser:
@@ -123,30 +132,36 @@ class CaseGraphReuser:
     def __init__(self, options: ReuseOptions, ctx: Context) -> None:
         self.options = options
         self.search = None
-        self.kinematics = kinematics_of(options.kinematics, ctx, "reuse 'casegraph'")
+        self.kinematics = robot_kinematics(ctx, "reuse 'casegraph'")
+        if self.kinematics is not None and options.connector != "dijkstra":
+            raise CbrError(f"reuse 'casegraph': the robot's kinematics "
+                           f"{type(self.kinematics).__name__} makes the temporary edges by "
+                           f"edge-based Dijkstra sweeps; connector must be dijkstra, not "
+                           f"{options.connector!r}")
         if options.connector != "dijkstra":
             from cbr_solvers import load_search
 
             self.search = load_search(options.connector)
-        state_of(ctx)
+        graph_of(ctx)
 
     @hookimpl
     def cbr_reuse(self, problem: GridQuery, retrieval: Retrieval, ctx: Context
                   ) -> Solution | None:
         planner = _planner()
-        settings, found = retrieval.payload
-        settings = attrs.evolve(settings, connector=self.options.connector,
+        found: Found = retrieval.payload
+        settings = attrs.evolve(found.settings, connector=self.options.connector,
                                 margin=self.options.margin,
                                 graph_search=self.options.graph_search)
-        graph = state_of(ctx).graph
+        graph = graph_of(ctx)
         start, goal = tuple(problem.start), tuple(problem.goal)
         if self.kinematics is None:
-            result = planner.adapt(graph, start, goal, found, settings, self.search)
+            result = planner.adapt(graph, start, goal, found.neighbourhoods, settings,
+                                   self.search)
         else:
             from cbr_casegraph import kinematic
 
-            result = kinematic.adapt(graph, start, goal, found, settings, self.kinematics,
-                                     problem.heading, problem.final_heading)
+            result = kinematic.adapt(graph, start, goal, found.neighbourhoods, settings,
+                                     self.kinematics, problem.heading, problem.final_heading)
         if isinstance(result, planner.Failure):
             return None
         return Solution(result.path.tolist(), cost=result.cost, cases=result.edges,
@@ -167,15 +182,11 @@ class CaseGraphRetainer:
 
     def __init__(self, options: RetainOptions, ctx: Context) -> None:
         self.options = options
-        state_of(ctx)
+        graph_of(ctx)
 
     @hookimpl
     def cbr_retain(self, solution: Solution, outcome: Outcome, ctx: Context) -> None:
-        graph = state_of(ctx).graph
-        changes = outcome.detail.get("risk_changes")
-        if ctx.world is not graph.grid:
-            cells = None if changes is None else [change[:2] for change in changes]
-            graph.set_grid(ctx.world, cells)
+        graph = graph_of(ctx)
         graph.record_use(solution.cases)
         if outcome.success and len(solution.value) > 1:
             graph.add_path(solution.value, similarity_delta=self.options.similarity_delta,
@@ -186,11 +197,11 @@ class RedundantVertices:
     """Maintenance: delete vertices lying in the middle of a straight edge."""
 
     def __init__(self, options: object, ctx: Context) -> None:
-        state_of(ctx)
+        graph_of(ctx)
 
     @hookimpl
     def cbr_forget(self, ctx: Context) -> None:
-        state_of(ctx).graph.merge_redundant()
+        graph_of(ctx).merge_redundant()
 
 
 @attrs.frozen
@@ -205,11 +216,11 @@ class RiskySegments:
 
     def __init__(self, options: RiskyOptions, ctx: Context) -> None:
         self.options = options
-        state_of(ctx)
+        graph_of(ctx)
 
     @hookimpl
     def cbr_forget(self, ctx: Context) -> None:
-        graph = state_of(ctx).graph
+        graph = graph_of(ctx)
         edges = graph.edge_ids()
         worst = edges[(graph.risks(edges) >= self.options.max_risk)
                       | ~np.isfinite(graph.costs(edges))]
@@ -231,11 +242,11 @@ class VertexLimit:
 
     def __init__(self, options: LimitOptions, ctx: Context) -> None:
         self.options = options
-        state_of(ctx)
+        graph_of(ctx)
 
     @hookimpl
     def cbr_forget(self, ctx: Context) -> None:
-        graph = state_of(ctx).graph
+        graph = graph_of(ctx)
         limit = int(self.options.max_coverage * graph.vertex_at.size)
         if graph.vertex_count <= limit:
             return

@@ -122,8 +122,6 @@ class CaseGraph:
         self._clock = 0
         self._adjacency: Adjacency | None = None
         self._scale: float | None = None
-        self.writes = 0
-        """How many writes the graph has made to its store."""
 
     # -- loading ---------------------------------------------------------------------------
 
@@ -477,7 +475,6 @@ class CaseGraph:
     def _written(self) -> CaseStore:
         """The store, for one more write."""
         assert self.store is not None
-        self.writes += 1
         return self.store
 
     def _stamp(self) -> int:

@@ -1,10 +1,10 @@
 """Planning on the case graph for a robot with kinematic constraints (section 5 of the paper).
 
 The extended graph G' of :mod:`cbr_casegraph.planner` is searched by the modified Dijkstra or A*
-(:mod:`cbr_kinematics.graph_search`) over its directed edges. A stored segment is straight, so
+(:mod:`cbr_solvers.graph_search`) over its directed edges. A stored segment is straight, so
 each of its two directed edges has one direction δ; a manoeuvre at a vertex may use the first
 step of any segment leaving it, out and back. The temporary edges come from sweeps of the
-edge-based grid search (:func:`cbr_kinematics.grid_search.sweep`): forward from the start with
+edge-based grid search (:func:`cbr_solvers.kinematic_search.sweep`): forward from the start with
 the robot's heading, and backwards from the goal with the final heading. Each case near the
 start gets one temporary edge per direction in which the robot can arrive at one of its cells,
 to the cheapest such cell; each case near the goal one per direction in which the robot can
@@ -36,10 +36,10 @@ from cbr_casegraph.search import path_cost
 from cbr_grid.directions import STEPS, between, facing
 from cbr_grid.directions import of_steps as step_directions
 from cbr_grid.directions import reversing as reversing_steps
-from cbr_kinematics.graph_search import DirectedGraph, graph_search
-from cbr_kinematics.grid_search import Sweep, sweep
 from cbr_kinematics.models import Kinematics
-from cbr_kinematics.turning import decode
+from cbr_solvers.graph_search import DirectedGraph, graph_search
+from cbr_solvers.kinematic_search import Sweep, sweep
+from cbr_solvers.manoeuvres import decode
 
 _LENGTH = np.where(np.arange(8) % 2 == 1, np.sqrt(2.0), 1.0)
 """The length of a step in each direction: the odd directions are the diagonals."""

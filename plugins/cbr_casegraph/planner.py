@@ -14,7 +14,7 @@ For a start s and goal g on the current map:
 8.   No path in G': CBR fails.
 9.   G' exists only for the query: the stored graph is never modified by planning.
 
-The quality test of step 7 is the reviser's (``cbr_grid.quality.QualityTest``). The
+The quality test of step 7 is the reviser's (``cbr_pathquality.reviser.QualityTest``). The
 virtual split keeps the stored edge in the search as well: its parts cost exactly what it
 costs, since a step's cost depends only on its two cells.
 """

@@ -10,14 +10,11 @@ to the overlay and removing it costs nothing.
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
-from cbr_solvers.search import _DX, _DY, _move, _pop, _push, push_grown
-
-SQRT2 = math.sqrt(2.0)
+from cbr_grid.costs import SQRT2
+from cbr_grid.search_base import DX, DY, move, pop, push, push_grown
 
 
 @numba.njit(cache=True)
@@ -43,11 +40,11 @@ def graph_search(indptr: np.ndarray, target: np.ndarray, weight: np.ndarray, edg
     items = np.empty(64, dtype=np.int64)
     gx, gy = xy[goal, 0], xy[goal, 1]
     dist[source] = 0.0
-    _push(keys, items, 0, 0.0, source)
+    push(keys, items, 0, 0.0, source)
     size = 1
     settled = 0
     while size > 0:
-        v = _pop(keys, items, size)
+        v = pop(keys, items, size)
         size -= 1
         if closed[v]:
             continue
@@ -123,9 +120,9 @@ def descend(cost: np.ndarray, factor: np.ndarray, passable: np.ndarray, corner_c
         best = np.inf
         bx, by = -1, -1
         for d in range(8):
-            if not _move(passable, corner_cutting, cx, cy, d, x0, y0, x1, y1):
+            if not move(passable, corner_cutting, cx, cy, d, x0, y0, x1, y1):
                 continue
-            nx, ny = cx + _DX[d], cy + _DY[d]
+            nx, ny = cx + DX[d], cy + DY[d]
             step = (SQRT2 if d >= 4 else 1.0) * (factor[cy, cx] + factor[ny, nx]) * 0.5
             value = flat[(ny - y0) * ww + (nx - x0)] + step
             if value < best:
@@ -154,12 +151,12 @@ def run_costs(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
         dx, dy = np.sign(ends[k, 0] - x), np.sign(ends[k, 1] - y)
         d = 0
         for j in range(8):
-            if _DX[j] == dx and _DY[j] == dy:
+            if DX[j] == dx and DY[j] == dy:
                 d = j
         steps = max(abs(ends[k, 0] - x), abs(ends[k, 1] - y))
         total = 0.0
         for _ in range(steps):
-            if not _move(passable, corner_cutting, x, y, d, 0, 0, w - 1, h - 1):
+            if not move(passable, corner_cutting, x, y, d, 0, 0, w - 1, h - 1):
                 total = np.inf
                 break
             nx, ny = x + dx, y + dy

@@ -1,5 +1,5 @@
 """The grid world family: grids with per-cell risk, distances, path costs, Moving AI maps, the
-simulated robot of the ``trips`` workload and the ``path_quality`` test of a proposed path."""
+simulated robot of the ``trips`` workload and the map learning of the ``risk_map`` retainer."""
 
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ from cbr_grid.formats import load_grid
 from cbr_grid.generate import generate
 from cbr_grid.grid import Grid
 from cbr_grid.movingai import load_map
-from cbr_grid.quality import QualityOptions, QualityTest
-from cbr_grid.trips import PathQuality, PathQualityOptions, RiskMap, Trips, TripsOptions
+from cbr_grid.risk import RiskMap, RiskOptions
+from cbr_grid.trips import Trips, TripsOptions
 from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
 from cbrcore.options import option
@@ -95,6 +95,4 @@ def cbr_register(registry: Registry) -> None:
     registry.add("world", "map_file", map_file_world, options=MapFileOptions)
     registry.add("world", "generated", generated_world, options=GeneratedOptions)
     registry.add("workload", "trips", Trips, options=TripsOptions)
-    registry.add("reviser", "path_quality", QualityTest, options=QualityOptions)
-    registry.add("retainer", "risk_map", RiskMap)
-    registry.add("metric", "path_quality", PathQuality, options=PathQualityOptions)
+    registry.add("retainer", "risk_map", RiskMap, options=RiskOptions)

@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike
 
 from cbr_grid.costs import CostModel
 from cbr_grid.query import Cell, path_array
+from cbrcore.context import Context
 from cbrcore.errors import CbrError
 
 _LISTED = 5
@@ -138,6 +139,12 @@ class Grid:
         diagonal = np.abs(delta).sum(axis=1) == 2
         return ok & (~diagonal | corners)
 
+    def changed_cells(self, other: Grid) -> np.ndarray:
+        """The (k, 2) cells whose risk differs in ``other``, a grid of the same size, in
+        row-major order."""
+        ys, xs = np.nonzero(self.risk != other.risk)
+        return np.column_stack((xs, ys))
+
     def path_problems(self, path: ArrayLike) -> list[str]:
         """What makes ``path`` (a sequence of (x, y) cells) not a valid path; empty if valid."""
         cells = path_array(path)
@@ -174,3 +181,11 @@ class Grid:
                     else "past a blocked corner")
             problems.append(f"diagonal steps {rule} at {_listing(listed)}")
         return problems
+
+
+def grid_world(ctx: Context, what: str) -> Grid:
+    """The run's world, checked to be a grid; ``what`` names the component in the error."""
+    if not isinstance(ctx.world, Grid):
+        raise CbrError(f"{what} needs a grid world; the configured world is "
+                       f"{type(ctx.world).__name__}")
+    return ctx.world

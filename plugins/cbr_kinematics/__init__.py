@@ -1,10 +1,13 @@
-"""Planning for nonholonomic robots (section 5 of the case graph paper).
+"""Kinematic models of nonholonomic robots (section 5 of the case graph paper).
 
 The move condition P(i, j, k) is a component of kind ``kinematics``
-(:mod:`cbr_kinematics.models`); the edge-based Dijkstra and A* that respect it search grids
-(:mod:`cbr_kinematics.grid_search`) and graphs of directed edges, the case graph's among them
-(:mod:`cbr_kinematics.graph_search`). The grid solvers and the case graph planner take a
-model by name in their ``kinematics`` option.
+(:mod:`cbr_kinematics.models`). A configuration declares its robot's model once, in the
+top-level ``kinematics`` slot (``holonomic`` when it says nothing); the engine puts the model
+in the run's stash under :data:`KINEMATICS`, and every planner of the run (the grid solvers,
+the case graph planner, the simulated robot's replanner) reads it there and plans with the
+edge-based Dijkstra and A* that respect it, which search grids
+(:mod:`cbr_solvers.kinematic_search`) and graphs of directed edges, the case graph's among them
+(:mod:`cbr_solvers.graph_search`).
 """
 
 from __future__ import annotations
@@ -14,21 +17,31 @@ from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.hookspecs import hookimpl
 from cbrcore.registry import Registry
+from cbrcore.stash import StashKey
 
 HOLONOMIC = "holonomic"
-"""The name of the model without constraints, every option's default."""
+"""The name of the model without constraints, the slot's default."""
+
+KINEMATICS = StashKey[Kinematics]()
+"""The run's kinematic model, built from the configuration's ``kinematics`` slot."""
 
 
 def kinematics_of(name: str, ctx: Context, where: str) -> Kinematics | None:
     """The kinematic model registered as ``name``, checked, or None for one that allows every
-    turn: the ordinary searches plan for it. ``where`` names the option in errors.
+    turn: the ordinary searches plan for it. ``where`` names the option in errors."""
+    return checked(ctx.registry.create("kinematics", name, None, ctx), name, where)
 
-    The default, ``holonomic``, is known without a registry lookup, so planners built by hand
-    with an empty registry plan as before.
-    """
-    if name == HOLONOMIC:
-        return None
-    model = ctx.registry.create("kinematics", name, None, ctx)
+
+def robot_kinematics(ctx: Context, where: str) -> Kinematics | None:
+    """The run's kinematic model (the configuration's ``kinematics`` slot), checked, or None
+    for one that allows every turn, and for a context built without a configuration."""
+    model = ctx.stash.get(KINEMATICS, None)
+    return None if model is None else checked(model, type(model).__name__, where)
+
+
+def checked(model: object, name: str, where: str) -> Kinematics | None:
+    """``model`` if it is a constrained kinematic model whose turn table is sound, None if it
+    allows every turn; a CbrError naming ``where`` and ``name`` otherwise."""
     if not isinstance(model, Kinematics):
         raise CbrError(f"{where}: kinematics {name!r} is a {type(model).__name__}, not a "
                        "cbr_kinematics.models.Kinematics")
@@ -41,6 +54,9 @@ def kinematics_of(name: str, ctx: Context, where: str) -> Kinematics | None:
 
 @hookimpl
 def cbr_register(registry: Registry) -> None:
+    registry.add_kind("kinematics", "a robot's move condition: which move may follow which at a "
+                                    "vertex; the run's model, declared once, plans every path",
+                      slot="kinematics", default=HOLONOMIC, key=KINEMATICS)
     registry.add("kinematics", HOLONOMIC, Holonomic)
     registry.add("kinematics", "forward", Forward)
     registry.add("kinematics", "forward_backward", ForwardBackward)

@@ -3,10 +3,10 @@
 A case is a path the robot drove, stored with its cost F(l, r, g) (:mod:`cbr_pathcases.cost`).
 Retrieval takes the stored paths whose ends lie near the new start and goal and chooses one with
 a probability that falls with its cost, or none, to explore (:mod:`cbr_pathcases.selection`);
-reuse extends it to the new start and goal by a grid search; the grid family's ``path_quality``
-(:mod:`cbr_grid.quality`) revises it; retention keeps a driven path unless a similar one (by the
-Hausdorff distance, :mod:`cbr_pathcases.hausdorff`) costs no more, and learns the cost of the
-path it reused (:mod:`cbr_pathcases.components`); forgetting keeps the case base within a
+reuse extends it to the new start and goal by a grid search; the ``path_quality`` reviser
+(:mod:`cbr_pathquality.reviser`) revises it; retention keeps a driven path unless a similar one
+(by the Hausdorff distance, :mod:`cbr_pathcases.hausdorff`) costs no more, and learns the cost of
+the path it reused (:mod:`cbr_pathcases.components`); forgetting keeps the case base within a
 capacity by one of the papers' strategies (:mod:`cbr_pathcases.forgetting`). The learning
 experiment is in :mod:`cbr_pathcases.experiments`.
 """

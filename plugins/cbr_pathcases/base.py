@@ -7,9 +7,9 @@ Retrieval compares a query with every stored end point and retention compares a 
 stored path, so both work on the arrays kept here rather than on the store's rows: the end
 points, costs and use stamps as arrays, the cells of all paths concatenated.
 
-Every change goes to the store at once, inside the engine's learn transaction. If that
-transaction rolls back the arrays have already changed, so :meth:`PathBase.sync` reloads them
-when the store's revision moved on without them (:func:`cbrcore.casebase.store.still_current`).
+Every change goes to the store at once, inside the engine's learn transaction. The arrays are a
+view of the case base held by the core's store mirror (:mod:`cbrcore.casebase.mirror`), which
+loads them anew after a learn step that rolled back or when another writer moved the store.
 """
 
 from __future__ import annotations
@@ -20,17 +20,15 @@ from typing import Any
 import attrs
 import numpy as np
 
-from cbr_grid.grid import Grid
-from cbrcore.casebase.store import CaseStore, still_current
+from cbr_grid.grid import grid_world
+from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.model import Case
+from cbrcore.stash import StashKey
 
 PATH = "path"
 """The case kind of a whole traversed path."""
-
-KEY = "cbr_pathcases"
-"""``ctx.shared`` key of the run's :class:`PathBase`."""
 
 _META = ("cost", "length", "risk", "ideal", "traversals")
 
@@ -63,12 +61,6 @@ class PathBase:
     created: np.ndarray
     last_used: np.ndarray
     paths: list[np.ndarray]
-    revision: int
-    writes: int = 0
-    """Writes made through this index; :meth:`sync` tells its own writes from a rollback."""
-    step: int = -1
-    """The query (``ctx.step``) this index was last checked against the store for."""
-    _synced_writes: int = 0
     _concatenated: tuple[np.ndarray, np.ndarray] | None = None
 
     @classmethod
@@ -85,19 +77,10 @@ class PathBase:
             np.array([m["cost"] for m in metas], dtype=float),
             _int_array(int(m["traversals"]) for m in metas),
             _int_array(c.uses for c in cases), _int_array(c.created or 0 for c in cases),
-            _int_array(-1 if c.last_used is None else c.last_used for c in cases), paths,
-            store.revision)
+            _int_array(-1 if c.last_used is None else c.last_used for c in cases), paths)
 
     def __len__(self) -> int:
         return len(self.ids)
-
-    def sync(self) -> PathBase:
-        """This index, or a fresh one from the store if the store moved on without it."""
-        now = self.store.revision
-        if not still_current(now, self.revision, self.writes != self._synced_writes):
-            return PathBase.load(self.store)
-        self.revision, self._synced_writes = now, self.writes
-        return self
 
     def rows(self, ids: Iterable[int]) -> np.ndarray:
         """The rows of the cases ``ids`` that are stored (others are left out)."""
@@ -117,7 +100,7 @@ class PathBase:
     def add(self, path: np.ndarray, meta: Mapping[str, Any]) -> int:
         """Store ``path`` with its cost ``meta``; return its id."""
         case = self.store.add(path_case(path, meta))
-        self._write(cells=True)
+        self._concatenated = None
         self.ids = np.append(self.ids, case.id)
         self.starts = np.vstack((self.starts, path[:1]))
         self.goals = np.vstack((self.goals, path[-1:]))
@@ -135,7 +118,7 @@ class PathBase:
         if not len(rows):
             return
         self.store.remove(self.ids[rows].tolist())
-        self._write(cells=True)
+        self._concatenated = None
         keep = np.ones(len(self.ids), dtype=bool)
         keep[rows] = False
         for name in ("ids", "starts", "goals", "costs", "traversals", "uses", "created",
@@ -148,7 +131,6 @@ class PathBase:
         case = self.store.get(case_id)
         meta = {**case.meta, "cost": float(cost), "traversals": int(traversals)}
         self.store.replace(attrs.evolve(case, meta=meta))
-        self._write()
         row = self.rows([case_id])
         self.costs[row], self.traversals[row] = cost, traversals
         self.refresh([case_id])
@@ -158,7 +140,6 @@ class PathBase:
         ids = list(ids)
         if ids:
             self.store.touch(ids)
-            self._write()
             self.refresh(ids)
 
     def refresh(self, ids: Iterable[int]) -> None:
@@ -168,12 +149,6 @@ class PathBase:
             case = self.store.get(int(self.ids[row]))
             self.uses[row] = case.uses
             self.last_used[row] = -1 if case.last_used is None else case.last_used
-
-    def _write(self, cells: bool = False) -> None:
-        """Count a write; ``cells``: it added or removed paths, so the concatenation is stale."""
-        self.writes += 1
-        if cells:
-            self._concatenated = None
 
 
 def _cells(case: Case, store: CaseStore) -> np.ndarray:
@@ -198,23 +173,10 @@ def _meta(case: Case, store: CaseStore) -> Mapping[str, Any]:
     return case.meta
 
 
-def base_of(ctx: Context) -> PathBase:
-    """The run's path cases, loaded from the case base on first use and kept in step with it.
+_PATHS = StashKey[PathBase]()
 
-    Checked against the store once per query, at the first phase that asks: within one query the
-    learn step's own uncommitted writes are the index's, and :meth:`PathBase.sync` could not
-    tell them from a rollback before the step commits.
-    """
-    base = ctx.shared.get(KEY)
-    if base is None:
-        if not isinstance(ctx.world, Grid):
-            raise CbrError("whole-path cases plan on a grid world; the configured world is "
-                           f"{type(ctx.world).__name__}")
-        if ctx.casebase is None:
-            raise CbrError("whole-path cases need a case base (the 'casebase' slot)")
-        base = PathBase.load(ctx.casebase)
-    elif base.step != ctx.step:
-        base = base.sync()
-    base.step = ctx.step
-    ctx.shared[KEY] = base
-    return base
+
+def base_of(ctx: Context) -> PathBase:
+    """The run's path cases, loaded from the case base on first use and kept in step with it."""
+    grid_world(ctx, "whole-path cases")
+    return ctx.mirror.view(_PATHS, PathBase.load)

@@ -14,6 +14,7 @@ import numpy as np
 
 from cbr_grid.costs import path_cost, path_length
 from cbr_grid.distances import DistanceName, distance
+from cbr_grid.drive import DriveReport
 from cbr_grid.grid import Grid
 from cbr_grid.query import GridQuery, path_array, without_loops
 from cbr_pathcases.base import PATH, PathBase, base_of
@@ -79,7 +80,7 @@ class PathRetriever:
         reversed_ = backward & (~forward | (back_start + back_goal < to_start + to_goal))
         rows = np.flatnonzero(forward | backward)
         if not len(rows):
-            return Retrieval(())
+            return Retrieval((), reason=f"no stored path with both ends within delta {delta}")
         if explore:
             return Retrieval((), reason="exploring")
         p = probabilities(base.costs[rows], self.options.selection, self.options.temperature)
@@ -233,14 +234,14 @@ class PathRetainer:
 
         ``driven`` is what the robot drove, ``path`` the same with its loops cut: the path kept.
         The trip is charged its whole length and all the time lost (the outcome's
-        ``travel_time`` less the driven length); ``path`` only the time lost at the stops made
-        on its cells (the outcome's ``stops``), shared equally among the stops: a dead end the
-        robot walked into, met an obstacle in and left is cut from the path and so is its
-        stop. With no ``stops`` in the outcome all the lost time is the path's.
+        ``travel_time`` less the driven length, from its drive report); ``path`` only the time
+        lost at the stops made on its cells (the report's ``stops``), shared equally among the
+        stops: a dead end the robot walked into, met an obstacle in and left is cut from the
+        path and so is its stop. Without a drive report nothing was lost.
         """
-        travel = outcome.detail.get("travel_time")
-        lost = 0.0 if travel is None else max(float(travel) - path_length(driven), 0.0)
-        stops = outcome.detail.get("stops")
+        report = outcome.report if isinstance(outcome.report, DriveReport) else None
+        lost = 0.0 if report is None else max(report.travel_time - path_length(driven), 0.0)
+        stops = () if report is None else report.stops
         kept = lost
         if stops:
             cells = {(int(x), int(y)) for x, y in path.tolist()}

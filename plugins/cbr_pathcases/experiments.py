@@ -21,7 +21,7 @@ The robots, each driven on the same trips in the same worlds for one seed:
 ``map-only``
     A* on the map, from scratch on every trip: the map-only planner.
 ``map-learning``
-    A* on a map whose cell risks learn from the trips (the ``trips`` workload's ``hit_risk``):
+    A* on a map whose cell risks learn from the trips (the ``risk_map`` retainer's ``hit_risk``):
     another way to learn, shown for comparison.
 ``cbr``
     whole-path cases: retrieval with probabilistic selection, the randomized search as the
@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from cbr_grid.drive import DriveReport
 from cbr_grid.formats import load_text
 from cbr_grid.grid import Grid
 from cbr_pathcases.cost import ideal_length
@@ -93,9 +94,8 @@ def floor() -> Grid:
         return load_text(path)
 
 
-def _workload(count: int, seed: int, hit_risk: float) -> dict[str, Any]:
+def _workload(count: int, seed: int) -> dict[str, Any]:
     return {"use": "trips", "count": count, "seed": seed, "collision_time": COLLISION_TIME,
-            "hit_risk": hit_risk, "pass_relief": 0.0,
             "places": [list(p) for p in PLACES.values()],
             "sites": [{"cells": [list(c) for c in cells], "appear": appear}
                       for cells, appear in SITES.values()]}
@@ -106,14 +106,16 @@ def robot_config(robot: str, world: Path, count: int, seed: int) -> dict[str, An
     (the CBR robot at :data:`CAPACITY`)."""
     base = {"seed": seed, "world": {"use": "map_file", "path": str(world)},
             "casebase": "memory"}
-    if robot in ("map-only", "map-learning"):
-        hit = LEARNING_RISK if robot == "map-learning" else 0.0
-        return {**base, "solver": "astar", "workload": _workload(count, seed, hit)}
+    if robot == "map-only":
+        return {**base, "solver": "astar", "workload": _workload(count, seed)}
+    if robot == "map-learning":
+        return {**base, "solver": "astar", "workload": _workload(count, seed),
+                "retain": [{"use": "risk_map", "hit_risk": LEARNING_RISK, "pass_relief": 0.0}]}
     if robot != "cbr" and robot not in CAPACITY_STRATEGIES:
         raise ValueError(f"unknown robot {robot!r}")
     forget = ({"use": "worst_paths", "capacity": AMPLE} if robot == "cbr"
               else {"use": robot, "capacity": CAPACITY})
-    return {**base, "workload": _workload(count, seed, 0.0),
+    return {**base, "workload": _workload(count, seed),
             "retrieve": {"use": "path_cases", "delta": 3.0},
             "reuse": "path_cases",
             "revise": {"use": "path_quality", "ideal": "landmarks", "max_ratio": 3.0},
@@ -133,16 +135,16 @@ def drive(config: Mapping[str, Any], ideal: Mapping[tuple[Any, Any], float]
             proposal = engine.solve(problem)
             outcome = engine.workload.execute(problem, proposal, engine.ctx)
             engine.learn(problem, proposal, outcome)
-            time = float(outcome.detail["travel_time"])
-            record["cost"].append(time / ideal[problem.start, problem.goal])
-            record["time"].append(time)
-            record["stops"].append(int(outcome.detail["replans"]))
+            report: DriveReport = outcome.report
+            record["cost"].append(report.travel_time / ideal[problem.start, problem.goal])
+            record["time"].append(report.travel_time)
+            record["stops"].append(report.replans)
             record["from_casebase"].append(proposal.from_casebase)
             record["cases"].append(engine.casebase.count())
             record["pair"].append(pair(problem.start, problem.goal))
             if not outcome.success:
                 raise RuntimeError(f"a trip from {problem.start} to {problem.goal} failed: "
-                                   f"{outcome.detail.get('failure')}")
+                                   f"{report.failure}")
     return record
 
 

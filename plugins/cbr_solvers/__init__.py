@@ -7,6 +7,12 @@ Each answers a :class:`cbr_grid.query.GridQuery` on the run's grid world
 the grid's step cost contract (its ``factor``, ``passable`` and ``corner_cutting``). The first
 three give a cheapest path; ``genetic`` and ``randomized`` give plausible ones that vary with
 their seed, so that a case base can gather alternative routes.
+
+For a robot whose kinematic model (:mod:`cbr_kinematics.models`) limits its turns, ``dijkstra``,
+``astar``, ``aistar`` and ``randomized`` plan with the edge-based searches of section 5 of the
+case graph paper (:mod:`cbr_solvers.kinematic_search`); :mod:`cbr_solvers.graph_search` runs the
+same search over a graph of directed edges and :mod:`cbr_solvers.manoeuvres` prices the turns
+and manoeuvres of both.
 """
 
 from __future__ import annotations
@@ -16,11 +22,13 @@ from collections.abc import Callable
 from typing import Any, Literal
 
 import attrs
+import numpy as np
 import typer
 
 from cbr_grid.grid import Grid
-from cbr_grid.query import GridQuery
-from cbr_kinematics import HOLONOMIC, kinematics_of
+from cbr_grid.planning import Window
+from cbr_grid.query import Cell, GridQuery
+from cbr_kinematics import robot_kinematics
 from cbr_solvers.cli import add_commands
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
@@ -34,9 +42,9 @@ SEARCH_MODULES = {"dijkstra": "cbr_solvers.search", "astar": "cbr_solvers.search
                   "randomized": "cbr_solvers.randomized"}
 """Each grid search by name, and the module that holds its function."""
 
-KINEMATIC_MODULES = {"dijkstra": "cbr_kinematics.grid_search",
-                     "astar": "cbr_kinematics.grid_search",
-                     "aistar": "cbr_kinematics.grid_search",
+KINEMATIC_MODULES = {"dijkstra": "cbr_solvers.kinematic_search",
+                     "astar": "cbr_solvers.kinematic_search",
+                     "aistar": "cbr_solvers.kinematic_search",
                      "randomized": "cbr_solvers.randomized"}
 """The grid searches that plan for a kinematic model (section 5 of the case graph paper), and
 the module that holds each one's function taking ``kinematics``, ``heading`` and
@@ -50,15 +58,6 @@ def load_search(name: str, *, kinematic: bool = False) -> Callable[..., Any]:
     return getattr(importlib.import_module(modules[name]), name)
 
 
-@attrs.frozen
-class SearchOptions:
-    kinematics: str = option(
-        HOLONOMIC, "The robot's kinematic model, a registered kinematics component: holonomic "
-        "(any move), forward (turns of at most 45 degrees) or forward_backward (also backward "
-        "manoeuvres). A constrained model plans with the edge-based search of section 5 from "
-        "the query's heading to its final heading.")
-
-
 class GridSolver:
     """Plan a path of a grid query by a compiled grid search."""
 
@@ -68,9 +67,13 @@ class GridSolver:
         if not isinstance(ctx.world, Grid):
             raise CbrError(f"solver {self.name!r} plans on a grid world; the configured world is "
                            f"{type(ctx.world).__name__}")
-        self.kinematics = kinematics_of(getattr(options, "kinematics", HOLONOMIC), ctx,
-                                        f"solver {self.name!r}")
+        self.kinematics = robot_kinematics(ctx, f"solver {self.name!r}")
+        if self.kinematics is not None and self.name not in KINEMATIC_MODULES:
+            raise CbrError(f"solver {self.name!r} plans for robots that may make any move; the "
+                           f"configuration's kinematics is {type(self.kinematics).__name__}, "
+                           f"which {', '.join(sorted(KINEMATIC_MODULES))} plan for")
         self.search = load_search(self.name, kinematic=self.kinematics is not None)
+        self.ctx = ctx
 
     def search_options(self, ctx: Context) -> dict[str, Any]:
         """The keyword arguments of one search call beyond the grid, start and goals."""
@@ -81,6 +84,23 @@ class GridSolver:
         """The seed of one query of a randomised search: ``seed``, or one drawn from the run's
         seeded generator when it is None."""
         return int(ctx.rng.integers(2**32)) if seed is None else seed
+
+    @property
+    def constrained(self) -> bool:
+        """Whether the robot's kinematic model limits its turns (:class:`GridPlanner`)."""
+        return self.kinematics is not None
+
+    def plan(self, grid: Grid, passable: np.ndarray, start: Cell, goals: np.ndarray, *,
+             window: Window | None = None, heading: int | None = None) -> np.ndarray | None:
+        """The path this solver plans on ``grid``'s costs through ``passable``
+        (:class:`cbr_grid.planning.GridPlanner`)."""
+        options = self.search_options(self.ctx)
+        if self.kinematics is not None:
+            options.update(kinematics=self.kinematics, heading=heading)
+        else:
+            options.update(window=window)
+        found = self.search(grid.factor, passable, grid.corner_cutting, start, goals, **options)
+        return None if found is None else found.path
 
     @hookimpl
     def cbr_solve(self, problem: GridQuery, ctx: Context) -> Solution | None:
@@ -161,7 +181,7 @@ class Genetic(GridSolver):
 
 
 @attrs.frozen
-class RandomizedOptions(SearchOptions):
+class RandomizedOptions:
     noise: float = option(
         1.0, "Each cell's cost factor is multiplied by a draw from [1, 1 + noise] per query; the "
         "path costs at most 1 + noise times the cheapest, and 0 gives the cheapest.",
@@ -194,9 +214,9 @@ class Randomized(GridSolver):
 
 @hookimpl
 def cbr_register(registry: Registry) -> None:
-    registry.add("solver", "dijkstra", Dijkstra, options=SearchOptions)
-    registry.add("solver", "astar", AStar, options=SearchOptions)
-    registry.add("solver", "aistar", AiStar, options=SearchOptions)
+    registry.add("solver", "dijkstra", Dijkstra)
+    registry.add("solver", "astar", AStar)
+    registry.add("solver", "aistar", AiStar)
     registry.add("solver", "genetic", Genetic, options=GeneticOptions)
     registry.add("solver", "randomized", Randomized, options=RandomizedOptions)
 

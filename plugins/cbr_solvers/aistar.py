@@ -1,13 +1,13 @@
 """Ai*: A* guided by an integer distance map propagated from the goals.
 
 Before searching, Ai* propagates a wavefront from the goal cells over the passable cells of the
-search window in 8 directions, under the same corner rule as the search (:mod:`cbr_solvers.search`).
-The map counts integer steps: an orthogonal step adds 3 and a diagonal step 4, the 3-4 chamfer
-distance. This is our reading of "an integer approximation of the distance ... constructed using
-8-direction propagation" with "a maximum error of distance estimation of about 8 percent": on an
-open map a diagonal run of n cells measures 4n/3 instead of n·sqrt(2), short by
-(sqrt(2) - 4/3)·n = 0.0809·n, about 8 percent of the run's side (5.7 percent of its length);
-orthogonal runs are exact.
+search window in 8 directions, under the same corner rule as the search
+(:func:`cbr_grid.search_base.move`). The map counts integer steps: an orthogonal step adds 3 and a
+diagonal step 4, the 3-4 chamfer distance. This is our reading of "an integer approximation of the
+distance ... constructed using 8-direction propagation" with "a maximum error of distance estimation
+of about 8 percent": on an open map a diagonal run of n cells measures 4n/3 instead of n·sqrt(2),
+short by (sqrt(2) - 4/3)·n = 0.0809·n, about 8 percent of the run's side (5.7 percent of its
+length); orthogonal runs are exact.
 
 A* then uses ``h(c) = D(c) / 3 · fmin``, ``D`` the integer map and ``fmin`` the smallest cost
 factor of a passable cell in the window. Both maps are shortest paths over the same moves, and no
@@ -29,17 +29,9 @@ from collections.abc import Sequence
 import numba
 import numpy as np
 
-from cbr_solvers.search import (
-    _DX,
-    _DY,
-    SQRT2,
-    SearchResult,
-    _min_factor,
-    _move,
-    _pop,
-    _run,
-    push_grown,
-)
+from cbr_grid.costs import SQRT2
+from cbr_grid.search_base import DX, DY, INITIAL_HEAP, move, pop, push_grown
+from cbr_solvers.search import SearchResult, _min_factor, _run
 
 # Integer step lengths of the distance map: orthogonal and diagonal.
 ORTHOGONAL_STEPS = 3
@@ -48,8 +40,6 @@ DIAGONAL_STEPS = 4
 # The largest relative error of the heuristic on a risk-free map: a diagonal step's 4/3 against
 # its sqrt(2).
 RISK_FREE_ERROR_BOUND = 1.0 - DIAGONAL_STEPS / (ORTHOGONAL_STEPS * math.sqrt(2.0))
-
-_INITIAL_HEAP = 1024
 
 _ALL = np.zeros(0, dtype=np.int64)
 """No wanted cells: propagate over the whole window."""
@@ -79,8 +69,8 @@ def _propagate(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
             want[wanted[k]] = True
             left += 1
     stop_early = left > 0
-    keys = np.empty(_INITIAL_HEAP, dtype=np.float64)
-    items = np.empty(_INITIAL_HEAP, dtype=np.int64)
+    keys = np.empty(INITIAL_HEAP, dtype=np.float64)
+    items = np.empty(INITIAL_HEAP, dtype=np.int64)
     size = 0
     for k in range(goals.shape[0]):
         gx, gy = goals[k, 0], goals[k, 1]
@@ -95,7 +85,7 @@ def _propagate(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
 
     # The wavefront advances in order of distance; integer distances are exact in float64.
     while size > 0:
-        cell = _pop(keys, items, size)
+        cell = pop(keys, items, size)
         size -= 1
         if closed[cell]:
             continue  # a stale entry of a cell reached again more cheaply
@@ -108,9 +98,9 @@ def _propagate(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
         cy = y0 + cell // ww
         here = dist[cell]
         for d in range(8):
-            if not _move(passable, corner_cutting, cx, cy, d, x0, y0, x1, y1):
+            if not move(passable, corner_cutting, cx, cy, d, x0, y0, x1, y1):
                 continue
-            nx, ny = cx + _DX[d], cy + _DY[d]
+            nx, ny = cx + DX[d], cy + DY[d]
             diagonal = d >= 4
             other = (ny - y0) * ww + (nx - x0)
             if closed[other]:

@@ -13,7 +13,7 @@ walks that draw each gene among the feasible directions at the cell reached (a g
 feasible, or after the goal, is any direction), and in decoding any infeasible gene is skipped:
 the robot stays where it is and the next gene moves from there. Our movement rules add to the
 paper's infeasible moves those leaving the window and the diagonal steps that cut a blocked
-corner (the rule of :func:`cbr_solvers.search._move`); "the move before" is the last move
+corner (the rule of :func:`cbr_grid.search_base.move`); "the move before" is the last move
 executed, not a skipped gene.
 
 **Fitness** is lexicographic: first the distance from the last cell reached to the nearest goal,
@@ -51,25 +51,25 @@ from collections.abc import Iterable, Sequence
 import numba
 import numpy as np
 
+from cbr_grid.costs import SQRT2
 from cbr_grid.query import without_loops
-from cbr_solvers.search import (
-    _DX,
-    _DY,
-    SQRT2,
-    SearchResult,
-    _heuristic,
-    _move,
+from cbr_grid.search_base import (
+    DX,
+    DY,
+    MOVE_DIRECTIONS,
+    MOVE_OF_DIRECTION,
     checked_arguments,
+    move,
 )
+from cbr_solvers.search import SearchResult, _heuristic
 
 DEFAULT_GENERATIONS = 50_000
 DEFAULT_POPULATION = 50
 DEFAULT_MUTATION = 1.0
 DISTANCES = ("euclidean", "octile")
 
-# The opposite of each direction of _DX/_DY: the orthogonal ones pair up, then (1, 1)-(-1, -1)
-# and (1, -1)-(-1, 1).
-_REVERSE = np.array([1, 0, 3, 2, 7, 6, 5, 4], dtype=np.int64)
+# The opposite of each move, the one a gene may not follow.
+_REVERSE = MOVE_OF_DIRECTION[(MOVE_DIRECTIONS + 4) % 8]
 
 
 @numba.njit(cache=True)
@@ -108,9 +108,9 @@ def _decode(genes: np.ndarray, factor: np.ndarray, passable: np.ndarray, corner_
         decoded += 1
         if last >= 0 and d == _REVERSE[last]:
             continue
-        if not _move(passable, corner_cutting, cx, cy, d, x0, y0, x1, y1):
+        if not move(passable, corner_cutting, cx, cy, d, x0, y0, x1, y1):
             continue
-        nx, ny = cx + _DX[d], cy + _DY[d]
+        nx, ny = cx + DX[d], cy + DY[d]
         length = SQRT2 if d >= 4 else 1.0
         cost += length * (factor[cy, cx] + factor[ny, nx]) * 0.5
         cx, cy = nx, ny
@@ -133,8 +133,8 @@ def _walk(genes: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: int
         count = 0
         if _goal_distance(cx, cy, goals, True) > 0.0:
             for d in range(8):
-                if (last < 0 or d != _REVERSE[last]) and _move(passable, corner_cutting, cx, cy,
-                                                               d, x0, y0, x1, y1):
+                if (last < 0 or d != _REVERSE[last]) and move(passable, corner_cutting, cx, cy,
+                                                              d, x0, y0, x1, y1):
                     feasible[count] = d
                     count += 1
         if count == 0:
@@ -142,7 +142,7 @@ def _walk(genes: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: int
             continue
         d = feasible[np.random.randint(0, count)]
         genes[i] = d
-        cx, cy = cx + _DX[d], cy + _DY[d]
+        cx, cy = cx + DX[d], cy + DY[d]
         last = d
 
 
@@ -225,7 +225,7 @@ def _evolve(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
 def _direction(dx: int, dy: int) -> int:
     """The gene of the move (dx, dy), or -1 when it is no move to an 8-neighbour."""
     for d in range(8):
-        if _DX[d] == dx and _DY[d] == dy:
+        if DX[d] == dx and DY[d] == dy:
             return d
     return -1
 

@@ -22,11 +22,12 @@ from collections.abc import Sequence
 import attrs
 import numpy as np
 
-from cbr_kinematics.grid_search import KinematicPath
-from cbr_kinematics.grid_search import astar as kinematic_astar
+from cbr_grid.search_base import checked_arguments
 from cbr_kinematics.models import Kinematics
 from cbr_solvers.genetic import _cost
-from cbr_solvers.search import SearchResult, astar, checked_arguments
+from cbr_solvers.kinematic_search import KinematicPath
+from cbr_solvers.kinematic_search import astar as kinematic_astar
+from cbr_solvers.search import SearchResult, astar
 
 
 def randomized(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
@@ -41,7 +42,7 @@ def randomized(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
     >= 0) widens the uniform draw [1, 1 + noise] of each cell's cost multiplier; ``seed`` (an
     integer >= 0) fixes the draw. Only the cells of ``window`` are drawn and searched, so a call
     costs in proportion to the window rather than to the grid. With ``kinematics`` the search is
-    the modified A* of :mod:`cbr_kinematics.grid_search` from ``heading`` to ``final_heading``
+    the modified A* of :mod:`cbr_solvers.kinematic_search` from ``heading`` to ``final_heading``
     (and the bound holds among the paths that robot can drive).
     """
     if isinstance(noise, bool) or not isinstance(noise, int | float) or not (

@@ -8,20 +8,19 @@ beside it: without corner cutting both must be passable, with corner cutting one
 between two obstacles, the rule of ``cbr_grid.grid.Grid``). With every factor 1 the costs are
 octile lengths.
 
-Both searches share one numba kernel (compiled once per process, cached on disk) with a binary
-heap over flat cell indices and lazy deletion: an improved cell is pushed again and its stale
-entries are skipped when popped. The search may be limited to a window, an inclusive bounding
-box of cells. The working arrays are kept per thread and reused: a generation stamp, not a fill,
+Both searches share one numba kernel (compiled once per process, cached on disk) over flat cell
+indices, built on :mod:`cbr_grid.search_base`: its binary heap with lazy deletion (an improved
+cell is pushed again and its stale entries are skipped when popped), its moves and corner rule,
+its argument checks and its per-thread working arrays, where a generation stamp, not a fill,
 marks what one search has seen, so a call costs in proportion to the cells it touches rather than
-to the grid. A*'s heuristic scale (the least passable factor) is a vectorised reduction over the
-window, remembered for whole grids given as read-only arrays (those of ``cbr_grid.grid.Grid``);
+to the grid. The search may be limited to a window, an inclusive bounding box of cells. A*'s
+heuristic scale (the least passable factor) is a vectorised reduction over the window,
+remembered for whole grids given as read-only arrays (those of ``cbr_grid.grid.Grid``);
 Dijkstra needs none.
 """
 
 from __future__ import annotations
 
-import math
-import threading
 import weakref
 from collections.abc import Callable, Sequence
 
@@ -29,13 +28,17 @@ import attrs
 import numba
 import numpy as np
 
-SQRT2 = math.sqrt(2.0)
-
-# The 8 neighbour offsets (dx, dy): the orthogonal ones first, then the diagonals.
-_DX = np.array([1, -1, 0, 0, 1, 1, -1, -1], dtype=np.int64)
-_DY = np.array([0, 0, 1, -1, 1, -1, 1, -1], dtype=np.int64)
-
-_INITIAL_HEAP = 1024
+from cbr_grid.costs import SQRT2
+from cbr_grid.search_base import (
+    DX,
+    DY,
+    INITIAL_HEAP,
+    Workspace,
+    checked_arguments,
+    move,
+    pop,
+    push_grown,
+)
 
 
 @attrs.frozen
@@ -49,71 +52,6 @@ class SearchResult:
     path: np.ndarray = attrs.field(eq=attrs.cmp_using(eq=np.array_equal))
     cost: float
     expanded: int
-
-
-@numba.njit(cache=True)
-def _push(keys: np.ndarray, items: np.ndarray, size: int, key: float, item: int) -> None:
-    """Add (key, item) to the heap of ``size`` entries; the arrays have room for it."""
-    # Move the hole up rather than swapping: one write per level instead of two.
-    i = size
-    while i > 0:
-        parent = (i - 1) >> 1
-        if keys[parent] <= key:
-            break
-        keys[i] = keys[parent]
-        items[i] = items[parent]
-        i = parent
-    keys[i] = key
-    items[i] = item
-
-
-@numba.njit(cache=True)
-def _pop(keys: np.ndarray, items: np.ndarray, size: int) -> int:
-    """Remove the entry with the smallest key from the heap of ``size`` entries; its item."""
-    top = items[0]
-    size -= 1
-    key, item = keys[size], items[size]
-    i = 0
-    while True:
-        child = 2 * i + 1
-        if child >= size:
-            break
-        if child + 1 < size and keys[child + 1] < keys[child]:
-            child += 1
-        if key <= keys[child]:
-            break
-        keys[i] = keys[child]
-        items[i] = items[child]
-        i = child
-    keys[i] = key
-    items[i] = item
-    return top
-
-
-@numba.njit(cache=True)
-def push_grown(keys: np.ndarray, items: np.ndarray, size: int, key: float, item: int
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """Add (key, item) to the heap of ``size`` entries, doubling its arrays when they are full;
-    the arrays, new or not."""
-    if size == keys.shape[0]:
-        keys = np.concatenate((keys, np.empty_like(keys)))
-        items = np.concatenate((items, np.empty_like(items)))
-    _push(keys, items, size, key, item)
-    return keys, items
-
-
-@numba.njit(cache=True, inline="always")
-def _move(passable: np.ndarray, corner_cutting: bool, cx: int, cy: int, d: int, x0: int, y0: int,
-          x1: int, y1: int) -> bool:
-    """Whether the step from (cx, cy) in direction ``d`` stays in the window on passable cells
-    and passes the corner rule."""
-    nx, ny = cx + _DX[d], cy + _DY[d]
-    if nx < x0 or nx > x1 or ny < y0 or ny > y1 or not passable[ny, nx]:
-        return False
-    if d < 4:
-        return True
-    beside_x, beside_y = passable[cy, nx], passable[ny, cx]
-    return (beside_x or beside_y) if corner_cutting else (beside_x and beside_y)
 
 
 @numba.njit(cache=True)
@@ -186,8 +124,8 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
     if not (fs > 0.0 and fs < np.inf):
         raise ValueError("factor must be finite and positive on passable cells")
 
-    keys = np.empty(_INITIAL_HEAP, dtype=np.float64)
-    items = np.empty(_INITIAL_HEAP, dtype=np.int64)
+    keys = np.empty(INITIAL_HEAP, dtype=np.float64)
+    items = np.empty(INITIAL_HEAP, dtype=np.int64)
 
     start = (sy - y0) * ww + (sx - x0)
     stamp[start] = generation
@@ -205,7 +143,7 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
     reached = -1
 
     while size > 0:
-        cell = _pop(keys, items, size)
+        cell = pop(keys, items, size)
         size -= 1
         if stamp[cell] == settled:
             continue  # a stale entry of a cell settled through a cheaper push
@@ -220,9 +158,9 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
         here = dist[cell]
         fc = factor[cy, cx]
         for d in range(8):
-            if not _move(passable, corner_cutting, cx, cy, d, x0, y0, x1, y1):
+            if not move(passable, corner_cutting, cx, cy, d, x0, y0, x1, y1):
                 continue
-            nx, ny = cx + _DX[d], cy + _DY[d]
+            nx, ny = cx + DX[d], cy + DY[d]
             diagonal = d >= 4
             other = (ny - y0) * ww + (nx - x0)
             mark = stamp[other]
@@ -263,38 +201,7 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
     return True, path, dist[reached], expanded
 
 
-class _Workspace(threading.local):
-    """The working arrays of :func:`_search`, kept per thread and reused across searches.
-
-    They grow to the largest window searched and are never cleared: each search takes a new
-    generation (two stamp values), so its work is proportional to the cells it touches, not to
-    the window. Kept per thread, a search may run in each thread; the kernel holds the GIL.
-    """
-
-    def __init__(self) -> None:
-        self.stamp = np.zeros(0, dtype=np.int32)
-        self.goal_mark = np.zeros(0, dtype=np.int32)
-        self.dist = np.empty(0, dtype=np.float64)
-        self.parent = np.empty(0, dtype=np.int64)
-        self.generation = 0
-
-    def take(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
-        """Arrays of at least ``n`` cells and a fresh generation for one search."""
-        if self.stamp.shape[0] < n:
-            self.stamp = np.zeros(n, dtype=np.int32)
-            self.goal_mark = np.zeros(n, dtype=np.int32)
-            self.dist = np.empty(n, dtype=np.float64)
-            self.parent = np.empty(n, dtype=np.int64)
-            self.generation = 0
-        self.generation += 2
-        if self.generation >= np.iinfo(np.int32).max - 2:
-            self.stamp[:] = 0
-            self.goal_mark[:] = 0
-            self.generation = 2
-        return self.stamp, self.dist, self.parent, self.goal_mark, self.generation
-
-
-_WORKSPACE = _Workspace()
+_WORKSPACE = Workspace()
 
 # The smallest passable factor of whole read-only grids: (id(factor), id(passable)) -> (weak
 # references to both, value). The references tell a live array from a new one at a reused id.
@@ -356,35 +263,6 @@ HeuristicTable = Callable[[np.ndarray, np.ndarray, bool, np.ndarray, tuple[int, 
                           np.ndarray]
 
 _NO_TABLE = np.empty(0, dtype=np.float64)
-
-
-def checked_arguments(factor: np.ndarray, passable: np.ndarray, start: Sequence[int],
-                      goals: object, window: Sequence[int] | None
-                      ) -> tuple[np.ndarray, np.ndarray, tuple[int, int], np.ndarray,
-                                 tuple[int, int, int, int]]:
-    """The grid searches' arguments checked and converted: contiguous float64 factor and bool
-    passable arrays, the start, the goals as a (k, 2) int64 array and the window clipped to the
-    grid (the whole grid when None). ValueError names what is wrong.
-    """
-    factor = np.ascontiguousarray(factor, dtype=np.float64)
-    passable = np.ascontiguousarray(passable, dtype=np.bool_)
-    if factor.ndim != 2 or factor.shape != passable.shape:
-        raise ValueError(f"factor {factor.shape} and passable {passable.shape} must be one (h, w)"
-                         " shape")
-    h, w = passable.shape
-    sx, sy = (int(v) for v in start)
-    if not (0 <= sx < w and 0 <= sy < h):
-        raise ValueError(f"start {(sx, sy)} is outside the {w}x{h} grid")
-    targets = np.ascontiguousarray(np.asarray(goals, dtype=np.int64).reshape(-1, 2))
-    outside = ~((targets >= 0) & (targets < (w, h))).all(axis=1)
-    if outside.any():
-        raise ValueError(f"goal {tuple(targets[outside][0])} is outside the {w}x{h} grid")
-    if window is None:
-        box = (0, 0, w - 1, h - 1)
-    else:
-        wx0, wy0, wx1, wy1 = (int(v) for v in window)
-        box = (max(wx0, 0), max(wy0, 0), min(wx1, w - 1), min(wy1, h - 1))
-    return factor, passable, (sx, sy), targets, box
 
 
 def guidance(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,

@@ -1,6 +1,6 @@
 """Lower bounds of a path's length between two cells: the ideal length of the quality test.
 
-The quality test (:mod:`cbr_grid.quality`) compares a path's length with the ideal length
+The quality test (:mod:`cbr_pathquality.reviser`) compares a path's length with the ideal length
 between its ends. A straight-line distance (octile by default) is a lower bound everywhere, but
 a weak one where walls force detours: between two rooms of an office the best path is often
 three times the octile distance, so a test against it rejects good paths and bad ones alike.

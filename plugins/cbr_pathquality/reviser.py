@@ -4,7 +4,7 @@ Shared by every grid CBR family (the case graph, whole-path cases): a reused pat
 when it is valid on the robot's current map, joins start and goal, and is not much longer than
 the ideal length between them (step 7 of the case graph planner; Kruusmaa's "if the proposed
 path is not good enough" test). The ideal length is a lower bound of any path's length: a
-straight-line distance, or the landmark bound of :mod:`cbr_grid.ideal`.
+straight-line distance, or the landmark bound of :mod:`cbr_pathquality.ideal`.
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ import numpy as np
 from cbr_grid.costs import path_length
 from cbr_grid.distances import distance
 from cbr_grid.grid import Grid
-from cbr_grid.ideal import Landmarks
 from cbr_grid.query import Cell, GridQuery
+from cbr_pathquality.ideal import Landmarks
 from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Revision, Solution
@@ -35,7 +35,7 @@ class QualityOptions:
         "length: a straight-line distance (octile and Chebyshev are exact bounds on an "
         "8-connected grid, Euclidean too; Manhattan is not a lower bound), or 'landmarks', the "
         "much tighter bound from exact distances to a few landmark cells (for maps of rooms "
-        "and walls; see cbr_grid.ideal).")
+        "and walls; see cbr_pathquality.ideal).")
     landmarks: int = option(8, "How many landmarks the 'landmarks' bound uses.",
                             validator=attrs.validators.ge(1))
 

@@ -5,7 +5,7 @@ and the one in which it arrives at j (equal for a straight edge: the paper's δ(
 cost of the part of it a manoeuvre at i uses, out and back. A departure direction of -1 puts no
 condition on the turn into the edge (an edge whose own search already started from the robot's
 heading), an arrival direction of -1 none on the turn out of it. The search itself is the one of
-:mod:`cbr_kinematics.grid_search`, over explicit edges: the case graph's, or a hand-made graph.
+:mod:`cbr_solvers.kinematic_search`, over explicit edges: the case graph's, or a hand-made graph.
 """
 
 from __future__ import annotations
@@ -15,10 +15,11 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
+from cbr_grid.costs import SQRT2
 from cbr_grid.directions import between, check_heading
+from cbr_grid.search_base import pop, push_grown
 from cbr_kinematics.models import Kinematics
-from cbr_kinematics.turning import CODES, leave_costs
-from cbr_solvers.search import SQRT2, _pop, push_grown
+from cbr_solvers.manoeuvres import CODES, leave_costs
 
 
 def _int_array(values: ArrayLike) -> np.ndarray:
@@ -106,7 +107,7 @@ class GraphPath:
     """A path found by :func:`graph_search`.
 
     ``edges`` are the edge indices from the start to the goal; ``manoeuvres[k]`` is the code
-    (:mod:`cbr_kinematics.turning`) of the manoeuvre made at the tail of ``edges[k]`` before
+    (:mod:`cbr_solvers.manoeuvres`) of the manoeuvre made at the tail of ``edges[k]`` before
     driving it, ``final`` the one made at the goal to leave in the required final heading.
     ``cost`` includes every manoeuvre; ``expanded`` counts the edges settled.
     """
@@ -151,7 +152,7 @@ def _search(indptr: np.ndarray, order: np.ndarray, heads: np.ndarray, weights: n
     code = np.zeros(8, dtype=np.int64)
     gx, gy = xy[goal, 0], xy[goal, 1]
     while size > 0:
-        state = _pop(keys, items, size)
+        state = pop(keys, items, size)
         size -= 1
         if closed[state]:
             continue

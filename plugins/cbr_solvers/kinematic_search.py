@@ -4,7 +4,7 @@ The search settles directed edges, not cells: a state is a cell j with the direc
 of the step that reached it, d_s(i, j) its distance and p_s(i, j) its parent state. The start is
 the fictitious edge (s', s) of direction w_s, the robot's initial heading (free when none is
 given: any first step). An edge (j, k) is explored from (i, j) when the model's condition
-P(i, j, k) holds (:mod:`cbr_kinematics.turning`), its distance being d_s(i, j) plus the cost of
+P(i, j, k) holds (:mod:`cbr_solvers.manoeuvres`), its distance being d_s(i, j) plus the cost of
 any manoeuvre at j plus F(j, k), the step cost of the grid's cost contract
 (:mod:`cbr_solvers.search`). The search stops when every edge into the goal g is settled (step 4)
 and takes the cheapest of them (step 5), or, with a required final heading w_g, when the
@@ -25,26 +25,23 @@ import attrs
 import numba
 import numpy as np
 
+from cbr_grid.costs import SQRT2
 from cbr_grid.directions import STEPS, check_heading, facing
 from cbr_grid.directions import of_steps as step_directions
 from cbr_grid.directions import reversing as reversing_steps
-from cbr_kinematics.models import Kinematics
-from cbr_kinematics.turning import CODES, leave_costs, manoeuvre_cells
-from cbr_solvers.aistar import heuristic_table
-from cbr_solvers.search import (
-    SQRT2,
-    HeuristicTable,
-    _move,
-    _pop,
-    _Workspace,
+from cbr_grid.search_base import (
+    INITIAL_HEAP,
+    MOVE_OF_DIRECTION,
+    Workspace,
     checked_arguments,
-    guidance,
+    move,
+    pop,
     push_grown,
-    window_min_factor,
 )
-
-# the index into cbr_solvers.search's neighbour offsets of each direction δ
-_ORDER = np.array([0, 5, 3, 7, 1, 6, 2, 4], dtype=np.int64)
+from cbr_kinematics.models import Kinematics
+from cbr_solvers.aistar import heuristic_table
+from cbr_solvers.manoeuvres import CODES, leave_costs, manoeuvre_cells
+from cbr_solvers.search import HeuristicTable, guidance, window_min_factor
 
 
 @attrs.frozen
@@ -83,7 +80,7 @@ class KinematicPath:
 def _step_cost(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, cx: int, cy: int,
                b: int, x0: int, y0: int, x1: int, y1: int) -> float:
     """F of the step from (cx, cy) in direction b; inf when the move is not allowed."""
-    if not _move(passable, corner_cutting, cx, cy, _ORDER[b], x0, y0, x1, y1):
+    if not move(passable, corner_cutting, cx, cy, MOVE_OF_DIRECTION[b], x0, y0, x1, y1):
         return np.inf
     nx, ny = cx + STEPS[b, 0], cy + STEPS[b, 1]
     fa, fb = factor[cy, cx], factor[ny, nx]
@@ -106,7 +103,7 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
     it with :func:`_read_path`), the number of states settled and d_s of the edges into the
     goal by direction. States are 8·cell + direction over the window's cells in row-major
     order, then the fictitious start edge (s', s) and goal edge (g, g'). ``stamp``, ``dist``
-    and ``parent`` are reused working arrays as in :func:`cbr_solvers.search._search`;
+    and ``parent`` are reused working arrays (:class:`cbr_grid.search_base.Workspace`);
     ``parent`` packs the parent state and the manoeuvre made before the state's edge as
     state · CODES + code. ``scale`` is A*'s octile scale, negative to find it here (as
     :func:`cbr_solvers.search.guidance` gives it). The caller guarantees that the start and goal
@@ -127,12 +124,12 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
     entering = 0
     for a in range(8 if gx >= 0 else 0):
         px, py = gx - STEPS[a, 0], gy - STEPS[a, 1]
-        if x0 <= px <= x1 and y0 <= py <= y1 and passable[py, px] and _move(
-                passable, corner_cutting, px, py, _ORDER[a], x0, y0, x1, y1):
+        if x0 <= px <= x1 and y0 <= py <= y1 and passable[py, px] and move(
+                passable, corner_cutting, px, py, MOVE_OF_DIRECTION[a], x0, y0, x1, y1):
             entering += 1
 
-    keys = np.empty(1024, dtype=np.float64)
-    items = np.empty(1024, dtype=np.int64)
+    keys = np.empty(INITIAL_HEAP, dtype=np.float64)
+    items = np.empty(INITIAL_HEAP, dtype=np.int64)
     stamp[source] = generation
     dist[source] = 0.0
     keys[0] = 0.0
@@ -147,7 +144,7 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
     code = np.zeros(8, dtype=np.int64)
 
     while size > 0:
-        state = _pop(keys, items, size)
+        state = pop(keys, items, size)
         size -= 1
         if stamp[state] == settled:
             continue
@@ -246,7 +243,7 @@ def _read_path(parent: np.ndarray, best: int, sx: int, sy: int, x0: int, y0: int
     return path
 
 
-_WORKSPACE = _Workspace()
+_WORKSPACE = Workspace()
 
 
 def kinematic_search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,

@@ -1,4 +1,4 @@
-"""The testing kit for plugin authors: a pytest plugin with three fixtures.
+"""The testing kit for plugin authors: a pytest plugin with three fixtures, and the store contract.
 
 Installing cbrcore makes these fixtures available to every pytest run (through the ``pytest11``
 entry point), so a plugin's own test suite can use them without any import:
@@ -21,6 +21,16 @@ A typical test::
         proposal = engine.solve(problem)
         ...
 
+A plugin that registers a store runs the tests of the store protocol by subclassing
+:class:`StoreContract` (see :mod:`cbrcore.testing.stores`)::
+
+    from cbrcore.testing import StoreContract
+
+    class TestMyStore(StoreContract):
+        @pytest.fixture
+        def open_store(self, tmp_path):
+            return lambda name: MyStore(tmp_path / name)
+
 Module-level imports stay light: pytest imports this module in every test session of an
 environment where cbrcore is installed.
 """
@@ -36,11 +46,18 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import pytest
 
+# registered before the import, so a failing contract test explains its assertion
+pytest.register_assert_rewrite("cbrcore.testing.stores", "cbrcore.testing._agree")
+
+from cbrcore.testing.stores import StoreContract  # noqa: E402
+
 if TYPE_CHECKING:
     from cbrcore.config import Config
     from cbrcore.engine import Engine
     from cbrcore.plugins import Plugins
     from cbrcore.registry import Registry
+
+__all__ = ["CliResult", "StoreContract", "cbr_cli", "cbr_engine", "cbr_plugins"]
 
 
 class CliResult(NamedTuple):

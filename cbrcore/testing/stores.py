@@ -1,0 +1,404 @@
+"""The store protocol as tests: subclass :class:`StoreContract` to run them on a store.
+
+A store plugin's test suite runs every test of the :class:`~cbrcore.casebase.CaseStore` protocol
+on its store with one class::
+
+    import pytest
+    from cbrcore.testing import StoreContract
+
+    from my_plugin import MyStore
+
+
+    class TestMyStore(StoreContract):
+        persistent = True   # a closed store opened again holds what it committed
+        shared = True       # two stores open at once on one case base see each other's commits
+
+        @pytest.fixture
+        def open_store(self, tmp_path):
+            return lambda name: MyStore(tmp_path / f"{name}.db")
+
+``open_store`` returns a callable that opens the case base called ``name``: a name not opened
+before is a new, empty case base, and the same name opens the same case base again. The
+reference for what a store must do is :class:`~cbrcore.casebase.MemoryStore`: random sequences
+of operations and transactions must leave the store under test in the state they leave a memory
+store in (this test needs hypothesis, and is skipped without it).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterator
+from typing import Any, ClassVar
+
+import attrs
+import pytest
+
+from cbrcore.casebase import (
+    CaseStore,
+    Document,
+    describe,
+    document_of,
+    load_document,
+)
+from cbrcore.model import Case
+
+OpenStore = Callable[[str], CaseStore]
+"""Opens the case base called ``name`` (a new, empty one when the name is new)."""
+
+
+class Boom(Exception):
+    """Raised by the tests to abandon a transaction."""
+
+
+def state(store: CaseStore) -> tuple[Any, ...]:
+    """What a store holds: its revision, its cases and its meta values."""
+    return store.revision, store.cases(), store.meta_items()
+
+
+class StoreContract:
+    """Every test of the store protocol, run on the store that ``open_store`` opens.
+
+    Subclass it in a test module (with a name starting with ``Test``) and define the
+    ``open_store`` fixture; set ``persistent`` and ``shared`` to what the store promises, which
+    adds the tests of those promises. Inside the class, ``store`` is a new, empty case base, and
+    ``stores(name)`` opens case bases as ``open_store`` does; every store they open is closed
+    when the test ends.
+    """
+
+    persistent: ClassVar[bool] = False
+    """Whether a closed store opened again holds everything it had committed."""
+
+    shared: ClassVar[bool] = False
+    """Whether two stores open at once on one case base see each other's commits."""
+
+    @pytest.fixture
+    def open_store(self) -> OpenStore:
+        """Opens the case base called ``name``: define this fixture in the subclass."""
+        pytest.fail(f"{type(self).__name__} must define the open_store fixture", pytrace=False)
+
+    @pytest.fixture
+    def stores(self, open_store: OpenStore) -> Iterator[OpenStore]:
+        """``open_store``, closing every store it opened when the test ends."""
+        opened: list[CaseStore] = []
+
+        def open_(name: str) -> CaseStore:
+            store = open_store(name)
+            opened.append(store)
+            return store
+
+        yield open_
+        for store in reversed(opened):
+            store.close()
+
+    @pytest.fixture
+    def store(self, stores: OpenStore) -> CaseStore:
+        """A new, empty case base."""
+        return stores("casebase")
+
+    def _needs(self, promise: str) -> None:
+        if not getattr(self, promise):
+            pytest.skip(f"the store is not {promise} ({type(self).__name__}.{promise} is false)")
+
+    # -- the protocol -----------------------------------------------------------------------
+
+    def test_a_new_store_is_empty_and_implements_the_protocol(self, store: CaseStore) -> None:
+        assert isinstance(store, CaseStore)
+        assert store.revision == 0
+        assert len(store) == 0
+        assert list(store) == []
+        assert store.meta_items() == {}
+        assert store.check() == []
+
+    def test_add_outside_a_transaction_commits_each_case(self, store: CaseStore) -> None:
+        first = store.add(Case({"start": [0, 0]}, [[0, 0], [1, 0]], id=99, created=42))
+        second = store.add(Case("p", "s", kind="vertex", uses=2))
+        assert (first.id, first.created, second.id, second.created) == (1, 1, 2, 2)
+        assert second.uses == 2
+        assert store.revision == 2
+        assert store.get(1) == first
+        assert store.get(2) == second
+        assert list(store) == [first, second]
+
+    def test_ids_are_never_reused(self, store: CaseStore) -> None:
+        for n in range(3):
+            store.add(Case(n, n))
+        store.remove([3])
+        assert store.add(Case(3, 3)).id == 4
+
+    def test_replace_overwrites_and_keeps_created_when_none(self, store: CaseStore) -> None:
+        case = store.add(Case("p", "s"))
+        store.replace(attrs.evolve(case, solution="better", meta={"why": "shorter"}))
+        assert store.get(case.id).solution == "better"
+        assert store.revision == 2
+        store.replace(Case("q", "t", kind="other", id=case.id, uses=5))
+        assert store.get(case.id) == Case("q", "t", "other", {}, case.id, 5, 1, None)
+
+    def test_replace_of_a_missing_case_raises_and_writes_nothing(self, store: CaseStore) -> None:
+        store.add(Case("p", "s"))
+        with pytest.raises(KeyError):
+            store.replace(Case("p", "s", id=7))
+        assert store.revision == 1
+
+    def test_remove_is_all_or_nothing(self, store: CaseStore) -> None:
+        for n in range(3):
+            store.add(Case(n, n))
+        with pytest.raises(KeyError):
+            store.remove([1, 99])
+        assert store.count() == 3
+        assert store.revision == 3
+        store.remove([1, 2, 1])
+        assert [c.id for c in store.cases()] == [3]
+        assert store.revision == 4
+        store.remove([])
+        assert store.revision == 4
+        with pytest.raises(KeyError):
+            store.get(1)
+
+    def test_touch_counts_uses_and_stamps_the_committing_revision(self, store: CaseStore) -> None:
+        a = store.add(Case("a", 1))
+        b = store.add(Case("b", 2))
+        store.touch([a.id, a.id])
+        assert store.get(a.id).uses == 1
+        assert store.get(a.id).last_used == 3
+        with store.transaction():
+            store.add(Case("c", 3))
+            store.touch([a.id, b.id])
+            assert store.revision == 3
+        assert store.revision == 4
+        assert (store.get(a.id).uses, store.get(a.id).last_used) == (2, 4)
+        assert (store.get(b.id).uses, store.get(b.id).last_used) == (1, 4)
+        with pytest.raises(KeyError):
+            store.touch([b.id, 99])
+        assert store.get(b.id).uses == 1
+        store.touch([])
+        assert store.revision == 4
+
+    def test_cases_and_counts_by_kind(self, store: CaseStore) -> None:
+        for kind in ["vertex", "segment", "vertex"]:
+            store.add(Case(kind, None, kind=kind))
+        assert [c.id for c in store.cases("vertex")] == [1, 3]
+        assert store.cases("nothing") == []
+        assert (store.count(), store.count("vertex"), store.count("segment")) == (3, 2, 1)
+        assert store.kind_counts() == {"segment": 1, "vertex": 2}
+        assert len(store) == 3
+        assert [c.id for c in store] == [1, 2, 3]
+
+    def test_contents_come_back_as_they_were_given(self, store: CaseStore) -> None:
+        given = [
+            Case({"cell": [1, 2], "done": True, "none": None}, [[1, 2], [2, 2]],
+                 meta={"cost": 1.5, "": []}),
+            Case("lone \ud800 surrogate \x00\x85\u2028 ünïcode", -0.0, kind="vértex ✓"),
+            Case({"yes": "no", "1:20": "null", "~": 1e300}, [5e-324, 2**70, -(2**63)]),
+        ]
+        added = [store.add(case) for case in given]
+        store.set_meta("odd \x00 key ✓", {"text": "\ud800\x85", "big": 2**70, "tiny": 5e-324})
+        assert store.cases() == added
+        assert [(c.problem, c.solution, c.kind, c.meta) for c in added] == [
+            (c.problem, c.solution, c.kind, c.meta) for c in given]
+        assert store.meta_items() == {"odd \x00 key ✓": {"text": "\ud800\x85", "big": 2**70,
+                                                         "tiny": 5e-324}}
+
+    def test_meta_values_are_plain_data_copied_in_and_out(self, store: CaseStore) -> None:
+        assert store.get_meta("index") is None
+        assert store.get_meta("index", {"built": False}) == {"built": False}
+        value = {"built_at": 0, "ids": [1, 2]}
+        store.set_meta("index", value)
+        value["ids"].append(3)
+        got = store.get_meta("index")
+        assert got == {"built_at": 0, "ids": [1, 2]}
+        got["ids"].append(4)
+        assert store.get_meta("index") == {"built_at": 0, "ids": [1, 2]}
+        assert store.meta_items() == {"index": {"built_at": 0, "ids": [1, 2]}}
+        assert store.revision == 1
+
+    def test_the_revision_key_is_reserved(self, store: CaseStore) -> None:
+        with pytest.raises(ValueError, match="reserved"):
+            store.set_meta("cbrcore.revision", 5)
+        with pytest.raises(ValueError, match="reserved"):
+            store.get_meta("cbrcore.revision")
+
+    def test_a_transaction_commits_once(self, store: CaseStore) -> None:
+        with store.transaction():
+            cases = [store.add(Case(n, n)) for n in range(3)]
+            store.set_meta("k", 1)
+            assert store.revision == 0
+        assert store.revision == 1
+        assert {c.created for c in cases} == {1}
+        assert store.cases() == cases
+
+    def test_read_only_and_empty_transactions_do_not_count(self, store: CaseStore) -> None:
+        store.add(Case(1, 1))
+        with store.transaction():
+            store.cases()
+            store.get_meta("k")
+        with store.transaction(), store.transaction():
+            pass
+        assert store.revision == 1
+
+    def test_a_raising_transaction_leaves_no_trace(self, store: CaseStore) -> None:
+        kept = store.add(Case("kept", 1))
+        store.set_meta("k", "before")
+        before = state(store)
+        with pytest.raises(Boom), store.transaction():
+            store.add(Case("lost", 2))
+            store.replace(attrs.evolve(kept, solution=3))
+            store.touch([kept.id])
+            store.set_meta("k", "after")
+            store.set_meta("new", 1)
+            store.remove([kept.id])
+            raise Boom
+        assert state(store) == before
+        assert store.add(Case("next", 3)).id == 2
+
+    def test_nested_blocks_join_the_outer_transaction(self, store: CaseStore) -> None:
+        with store.transaction():
+            store.add(Case("outer", 1))
+            with store.transaction():
+                store.add(Case("inner", 2))
+            assert store.revision == 0
+            try:
+                with store.transaction():
+                    store.add(Case("undone", 3))
+                    store.set_meta("undone", True)
+                    raise Boom
+            except Boom:
+                pass
+            store.add(Case("after", 4))
+        assert [c.problem for c in store.cases()] == ["outer", "inner", "after"]
+        assert {c.created for c in store.cases()} == {1}
+        assert store.meta_items() == {}
+        assert store.revision == 1
+
+    def test_a_nested_block_that_only_undid_its_writes_does_not_count(
+            self, store: CaseStore) -> None:
+        with store.transaction():
+            try:
+                with store.transaction():
+                    store.add(Case("undone", 1))
+                    raise Boom
+            except Boom:
+                pass
+        assert store.revision == 0
+        assert store.count() == 0
+
+    def test_an_outer_failure_undoes_committed_nested_blocks(self, store: CaseStore) -> None:
+        with pytest.raises(Boom), store.transaction():
+            with store.transaction():
+                store.add(Case("inner", 1))
+            raise Boom
+        assert (store.revision, store.count()) == (0, 0)
+
+    @pytest.mark.parametrize(("case", "expected"), [
+        (Case(math.nan, 1, kind="vertex"), r"case kind 'vertex': problem: nan is not JSON"),
+        (Case({"d": [1, math.inf]}, 1), r"problem\.d\[1\]: inf is not JSON"),
+        (Case(1, (1, 2), kind="segment"), r"case kind 'segment': solution: a tuple is not JSON"),
+        (Case(1, {3: "x"}), r"solution: key 3 is not a string"),
+        (Case(1, 1, meta={"when": object()}), r"meta\.when: object .* is not JSON"),
+        (Case(1, 1, kind=""), r"kind: expected a non-empty string"),
+        (Case(1, 1, uses=-1), r"uses: expected a non-negative integer"),
+        (Case(1, 1, last_used=5), r"last_used: revision 5 is after the case base's revision 1"),
+    ])
+    def test_contents_that_are_not_plain_data_are_refused(self, store: CaseStore, case: Case,
+                                                          expected: str) -> None:
+        with pytest.raises(ValueError, match=expected):
+            store.add(case)
+        assert (store.revision, store.count()) == (0, 0)
+
+    def test_meta_values_must_be_plain_data(self, store: CaseStore) -> None:
+        with pytest.raises(ValueError, match=r"meta key 'k': value\[0\]: nan is not JSON"):
+            store.set_meta("k", [math.nan])
+        assert store.revision == 0
+
+    def test_restore_keeps_ids_and_stamps(self, store: CaseStore) -> None:
+        store.set_meta("old", 1)
+        cases = [Case("b", 2, id=5, uses=1, created=2, last_used=7),
+                 Case("a", 1, id=2, created=1), Case("new", 3)]
+        store.restore(cases, {"index": [1]}, 7)
+        assert store.revision == 7
+        assert [c.id for c in store.cases()] == [2, 5, 6]
+        assert store.get(5) == cases[0]
+        assert store.get(6).created == 7
+        assert store.meta_items() == {"index": [1]}
+        assert store.check() == []
+        with pytest.raises(ValueError, match="without cases"):
+            store.restore([], {}, 0)
+
+    def test_an_exported_case_base_imports_back_equal(self, stores: OpenStore) -> None:
+        original = stores("original")
+        with original.transaction():
+            for n in range(4):
+                original.add(Case({"n": n}, [n, n + 1], kind="vertex" if n % 2 else "case"))
+            original.set_meta("index", {"built_at": 1})
+        original.touch([1, 3])
+        original.remove([2])
+        document = document_of(original)
+        copy = stores("copy")
+        assert load_document(copy, document) == 3
+        assert state(copy) == state(original)
+        assert document_of(copy) == document
+
+    def test_an_import_is_one_transaction(self, store: CaseStore) -> None:
+        document = Document(0, {}, (Case("fine", 1), Case(math.nan, 2)))
+        with pytest.raises(ValueError, match="problem: nan"):
+            load_document(store, document, append=True)
+        with pytest.raises(ValueError, match="problem: nan"):
+            load_document(store, document)
+        assert (store.revision, store.count()) == (0, 0)
+
+    def test_closing_twice_is_harmless(self, store: CaseStore) -> None:
+        store.add(Case(1, 1))
+        store.close()
+        store.close()
+
+    def test_describe_gives_plain_facts(self, store: CaseStore) -> None:
+        if not hasattr(store, "describe"):
+            pytest.skip("the store has no describe()")
+        store.add(Case(1, 1))
+        facts = describe(store)  # raises, naming the store, what it must not return
+        assert all(key for key in facts)
+
+    # -- promises some stores make ----------------------------------------------------------
+
+    def test_a_reopened_store_holds_what_it_committed(self, stores: OpenStore) -> None:
+        self._needs("persistent")
+        first = stores("casebase")
+        with first.transaction():
+            kept = first.add(Case({"n": 1}, [1, 2], kind="vertex", meta={"m": True}))
+            first.add(Case("b", None))
+            first.set_meta("index", {"built_at": 1})
+        first.touch([kept.id])
+        with pytest.raises(Boom), first.transaction():
+            first.add(Case("lost", 0))
+            first.set_meta("index", "lost")
+            raise Boom
+        before = state(first)
+        first.close()
+        again = stores("casebase")
+        assert state(again) == before
+        assert again.check() == []
+
+    def test_ids_are_not_reused_after_reopening(self, stores: OpenStore) -> None:
+        self._needs("persistent")
+        first = stores("casebase")
+        for n in range(3):
+            first.add(Case(n, n))
+        first.remove([2, 3])
+        first.close()
+        assert stores("casebase").add(Case(4, 4)).id == 4
+
+    def test_two_open_stores_see_each_others_commits(self, stores: OpenStore) -> None:
+        self._needs("shared")
+        first, second = stores("casebase"), stores("casebase")
+        first.add(Case(1, 1))
+        assert second.revision == 1
+        assert second.get(1) == first.get(1)
+        second.set_meta("k", "v")
+        assert (first.revision, first.get_meta("k")) == (2, "v")
+
+    # -- against the memory store -----------------------------------------------------------
+
+    def test_random_operations_agree_with_the_memory_store(self, stores: OpenStore) -> None:
+        pytest.importorskip("hypothesis")
+        from cbrcore.testing._agree import run_against_memory
+
+        run_against_memory(stores)
