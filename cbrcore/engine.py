@@ -16,15 +16,10 @@ from cbrcore.casebase.store import CaseStore
 from cbrcore.config import ComponentRef, Config, load_config
 from cbrcore.context import Context
 from cbrcore.errors import CbrError, PhaseError, PluginError
+from cbrcore.hookimpls import implemented_hooks, unknown_hooks
 from cbrcore.hookspecs import PHASE_HOOKS
 from cbrcore.model import CASEBASE, Outcome, Proposal, Retrieval, Revision, Solution
-from cbrcore.plugins import (
-    Plugins,
-    current,
-    implemented_hooks,
-    new_plugin_manager,
-    unknown_hooks,
-)
+from cbrcore.plugins import Plugins, current, new_plugin_manager
 from cbrcore.registry import KIND_HOOK
 
 _PHASE_OF_HOOK = {hook: phase for phase, hook in PHASE_HOOKS.items()}

@@ -16,6 +16,7 @@ from typing import Any
 import attrs
 
 from cbrcore.errors import CbrError, PluginError
+from cbrcore.hookimpls import unknown_hooks
 from cbrcore.options import references, structure_options
 from cbrcore.stash import StashKey
 
@@ -204,9 +205,8 @@ class Registry:
         component). ``doc`` defaults to the factory's docstring. ``kind`` may be one a plugin
         loading later declares. Refused: a name taken within the kind, options whose type
         annotations do not resolve, and a factory class with a hook implementation that names
-        no cbrcore hook (see :func:`cbrcore.plugins.unknown_hooks`).
+        no cbrcore hook (see :func:`cbrcore.hookimpls.unknown_hooks`).
         """
-        from cbrcore.plugins import unknown_hooks  # plugins imports this module
 
         label = f"{kind} {name!r}"
         if not attrs.has(options):

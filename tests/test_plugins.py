@@ -20,7 +20,8 @@ from cbrcore import Solution, hookimpl
 from cbrcore.context import Context
 from cbrcore.engine import Engine
 from cbrcore.errors import ConfigError, PluginError
-from cbrcore.plugins import HOOKS, Plugins, current, implemented_hooks, load_plugins, unknown_hooks
+from cbrcore.hookimpls import HOOKS, implemented_hooks, unknown_hooks
+from cbrcore.plugins import Plugins, current, load_plugins
 from cbrcore.registry import Registry
 from cbrcore.testing import CliResult
 from conftest import installed_plugins

@@ -2,9 +2,9 @@
 
 A family that answers queries from an index of its cases (the arrays of all stored paths, a case
 graph, a map of learned risks) cannot re-read the store at every query, so it keeps the index in
-memory and writes every change through to the store inside the engine's learn step. The index is
-then right exactly as long as nothing else moved the store: not a learn step that rolled back
-after the index had changed, not another process sharing the case base.
+memory. The index is right exactly as long as nothing moved the store without it: not a learn
+step that rolled back after the index had changed, not another process sharing the case base,
+not another component writing cases the index does not know of.
 
 :class:`StoreMirror` is the one place that knows. It holds each family's index as a *view* under
 a typed key, and the engine runs every learn step inside :meth:`StoreMirror.transaction`:
@@ -13,8 +13,11 @@ a typed key, and the engine runs every learn step inside :meth:`StoreMirror.tran
   store's write lock held), :meth:`StoreMirror.sync` compares the store's revision with the one
   the mirror last saw: when they differ another writer committed, and every view is dropped, to
   be loaded anew from the store the next time it is asked for;
-- when the learn step commits, the views hold what the step wrote, so they are kept, at the new
-  revision;
+- when the learn step commits, a view asked for during the step is kept at the new revision: a
+  component that asks for a view in the learn step writes its changes through it, to the store
+  and to the view together (the case graph, the path index, the learned map do). A view nobody
+  asked for during a step that wrote is dropped, so an index that only reads (a retriever's
+  array of case features) is loaded anew after every step that changed the store;
 - when the step fails, the views may hold writes the store no longer has, so they are dropped.
 
 A family's view is what :meth:`StoreMirror.view` returns; it loads it with the family's own
@@ -44,9 +47,16 @@ class StoreMirror:
         self.reloads = 0
         """How many times the views were dropped because the store moved without them."""
         self._views: dict[StashKey[Any], Any] = {}
+        self._asked: set[StashKey[Any]] | None = None
+        """The views asked for during the learn step under way; None outside one."""
 
     def view(self, key: StashKey[T], load: Callable[[CaseStore], T]) -> T:
-        """The view under ``key``, loaded from the store by ``load`` if the mirror has none."""
+        """The view under ``key``, loaded from the store by ``load`` if the mirror has none.
+
+        Asked for during a learn step, the view is taken to follow that step's writes.
+        """
+        if self._asked is not None:
+            self._asked.add(key)
         try:
             return self._views[key]
         except KeyError:
@@ -66,15 +76,24 @@ class StoreMirror:
         """One learn step: a store transaction whose writes the views follow, all or nothing.
 
         The mirror catches up with other writers first (inside the transaction, so nobody can
-        commit in between); if the block raises, the transaction rolls back and the views,
-        which may hold its writes, are dropped.
+        commit in between). If the block raises, the transaction rolls back and the views,
+        which may hold its writes, are dropped; if it commits writes, the views nobody asked
+        for during the step are dropped, since nothing wrote through them.
         """
+        self._asked = set()
         try:
             with self.store.transaction():
                 self.sync()
+                before = self.revision
                 yield
         except BaseException:
             self._views.clear()
             self.revision = self.store.revision
             raise
-        self.revision = self.store.revision
+        else:
+            self.revision = self.store.revision
+            if self.revision != before:
+                self._views = {key: view for key, view in self._views.items()
+                               if key in self._asked}
+        finally:
+            self._asked = None

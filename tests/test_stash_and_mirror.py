@@ -1,0 +1,133 @@
+"""Typed shared state (``ctx.stash``) and the core store mirror (``ctx.mirror``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from cbrcore.casebase.memory import MemoryStore
+from cbrcore.casebase.mirror import StoreMirror
+from cbrcore.casebase.sqlite import SQLiteStore
+from cbrcore.casebase.store import CaseStore
+from cbrcore.context import Context
+from cbrcore.errors import CbrError
+from cbrcore.model import Case
+from cbrcore.registry import Registry
+from cbrcore.stash import Stash, StashKey
+
+WORDS = StashKey[list[str]]()
+COUNT = StashKey[int]()
+
+
+def test_a_stash_keeps_values_under_typed_keys_that_never_collide() -> None:
+    stash = Stash()
+    assert WORDS not in stash and stash.get(WORDS, None) is None
+    assert stash.setdefault(WORDS, []) == [] and WORDS in stash
+    stash[WORDS].append("door")
+    assert stash.setdefault(WORDS, ["other"]) == ["door"]
+    stash[COUNT] = 3
+    twin = StashKey[int]()  # another plugin's key of the same type is another key
+    assert twin not in stash and stash[COUNT] == 3 and len(stash) == 2
+    with pytest.raises(KeyError):
+        stash[twin]
+    del stash[COUNT]
+    assert COUNT not in stash and len(stash) == 1
+
+
+LABELS = StashKey[list[str]]()
+"""A view: the labels of all stored cases, as a family would index them."""
+
+
+class Loads:
+    """Load the labels view, counting the loads."""
+
+    def __init__(self) -> None:
+        self.count = 0
+
+    def __call__(self, store: CaseStore) -> list[str]:
+        self.count += 1
+        return [case.problem for case in store.cases()]
+
+
+def add(mirror: StoreMirror, load: Loads, label: str) -> None:
+    """Write through: the store and the view change together, as a family's retainer does."""
+    labels = mirror.view(LABELS, load)
+    mirror.store.add(Case(label, None))
+    labels.append(label)
+
+
+@pytest.fixture(params=["memory", "sqlite"])
+def store(request: pytest.FixtureRequest, tmp_path: Path) -> Any:
+    opened = MemoryStore() if request.param == "memory" else SQLiteStore(tmp_path / "cb.sqlite")
+    yield opened
+    opened.close()
+
+
+def test_a_view_is_loaded_once_and_follows_the_writes_of_committed_steps(store: Any) -> None:
+    mirror, load = StoreMirror(store), Loads()
+    assert mirror.view(LABELS, load) == [] and load.count == 1
+    with mirror.transaction():
+        add(mirror, load, "a")
+        add(mirror, load, "b")
+    mirror.sync()
+    assert mirror.view(LABELS, load) == ["a", "b"] == [c.problem for c in store.cases()]
+    assert load.count == 1 and mirror.revision == store.revision and mirror.reloads == 0
+
+
+def test_a_step_that_rolls_back_drops_the_view_it_changed(store: Any) -> None:
+    mirror, load = StoreMirror(store), Loads()
+    with mirror.transaction():
+        add(mirror, load, "a")
+    with pytest.raises(RuntimeError), mirror.transaction():
+        add(mirror, load, "b")
+        assert mirror.view(LABELS, load) == ["a", "b"]  # the step sees its own writes
+        raise RuntimeError("a forgetter failed")
+    assert mirror.view(LABELS, load) == ["a"] == [c.problem for c in store.cases()]
+    assert load.count == 2 and mirror.revision == store.revision
+
+
+def test_another_writers_commit_drops_the_views_before_the_next_query_and_step(
+        tmp_path: Path) -> None:
+    path = tmp_path / "shared.sqlite"
+    ours, theirs = SQLiteStore(path), SQLiteStore(path)
+    try:
+        mirror, load = StoreMirror(ours), Loads()
+        with mirror.transaction():
+            add(mirror, load, "ours")
+        theirs.add(Case("theirs", None))
+        assert mirror.view(LABELS, load) == ["ours"]  # kept until the engine syncs
+        mirror.sync()
+        assert mirror.view(LABELS, load) == ["ours", "theirs"] and mirror.reloads == 1
+        theirs.add(Case("again", None))
+        with mirror.transaction():  # a step catches up under the write lock before it writes
+            add(mirror, load, "last")
+        assert mirror.view(LABELS, load) == ["ours", "theirs", "again", "last"]
+        assert [c.problem for c in theirs.cases()] == ["ours", "theirs", "again", "last"]
+        assert load.count == 3 and mirror.reloads == 2
+    finally:
+        ours.close()
+        theirs.close()
+
+
+def test_the_context_mirrors_its_case_base() -> None:
+    ctx = Context(registry=Registry(), seed=0)
+    with pytest.raises(CbrError, match="needs one"):
+        _ = ctx.mirror
+    ctx.casebase = MemoryStore()
+    mirror = ctx.mirror
+    assert ctx.mirror is mirror and mirror.store is ctx.casebase
+    ctx.casebase = MemoryStore()
+    assert ctx.mirror is not mirror and ctx.mirror.store is ctx.casebase
+
+
+def test_a_view_nobody_asked_for_during_a_step_that_wrote_is_loaded_anew(store: Any) -> None:
+    mirror, load = StoreMirror(store), Loads()
+    assert mirror.view(LABELS, load) == []
+    with mirror.transaction():  # another component writes to the store, not through the view
+        store.add(Case("met", None))
+    assert mirror.view(LABELS, load) == ["met"] and load.count == 2
+    with mirror.transaction():  # a step that writes nothing keeps every view
+        pass
+    assert mirror.view(LABELS, load) == ["met"] and load.count == 2
