@@ -15,7 +15,7 @@ import pluggy
 from cbrcore.casebase.store import CaseStore
 from cbrcore.config import ComponentRef, Config, load_config
 from cbrcore.context import Context
-from cbrcore.errors import CbrError, PhaseError, PluginError
+from cbrcore.errors import CbrError, ConfigError, PhaseError, PluginError
 from cbrcore.hookimpls import implemented_hooks, unknown_hooks
 from cbrcore.hookspecs import PHASE_HOOKS
 from cbrcore.model import CASEBASE, Outcome, Proposal, Retrieval, Revision, Solution
@@ -145,7 +145,8 @@ class Engine:
         self._owners: dict[str, str] = {}
         self._slots: dict[str, str] = {}
         self.components: dict[str, Any] = {}
-        """The built phase components and observers by YAML path (``retrieve``, ``retain.0``)."""
+        """The built components by YAML path (``retrieve``, ``retain.0``, ``kinematics``): the
+        plugin slots', the phase components and the observers."""
         self.casebase: CaseStore | None = None
         self._closed = False
         if out_dir is not None:
@@ -154,18 +155,19 @@ class Engine:
             self.world = self._build(config.world)
             self.ctx.world = self.world
             for slot, ref in config.slots.items():
-                built = self._build(ref)
-                self.ctx.stash[self.plugins.registry.slots[slot].key] = built
-                self.components[ref.path] = built
+                self.ctx.stash[self.plugins.registry.slots[slot].key] = self._component(ref)
             self.casebase = self._build(config.casebase)
             self.ctx.casebase = self.casebase
             for slot in ("retrieve", "reuse", "revise", "solver"):
-                self._register(getattr(config, slot))
+                ref = getattr(config, slot)
+                if ref is not None:
+                    self._register(ref, self._component(ref))
             for slot in ("retain", "forget", "observers"):
-                # pluggy calls the last registered first: register backwards so collect-all
-                # phases run in the order the configuration lists them
-                for ref in reversed(getattr(config, slot)):
-                    self._register(ref)
+                # built in the order written; pluggy calls the last registered first, so they
+                # are registered backwards for collect-all phases to run in that order too
+                built = [(ref, self._component(ref)) for ref in getattr(config, slot)]
+                for ref, instance in reversed(built):
+                    self._register(ref, instance)
             self.workload = self._build(config.workload)
             self.metrics = [self._build(ref) for ref in config.metrics]
         except BaseException:
@@ -193,10 +195,12 @@ class Engine:
             raise PluginError(f"{ref.path}: plugin {component.plugin!r} failed to build "
                               f"{ref.kind} {ref.name!r}: {type(exc).__name__}: {exc}") from exc
 
-    def _register(self, ref: ComponentRef | None) -> None:
-        instance = self._build(ref)
-        if instance is None or ref is None:
-            return
+    def _component(self, ref: ComponentRef) -> Any:
+        """Build the component of a slot, phase or observer, kept in ``components``."""
+        instance = self.components[ref.path] = self._build(ref)
+        return instance
+
+    def _register(self, ref: ComponentRef, instance: Any) -> None:
         plugin = self.plugins.registry.get(ref.kind, ref.name).plugin
         hooks = set(implemented_hooks(instance)) & set(PHASE_HOOKS.values())
         wanted = KIND_HOOK.get(ref.kind)
@@ -216,7 +220,6 @@ class Engine:
         except pluggy.PluginValidationError as exc:  # e.g. an argument the hookspec lacks
             raise PluginError(f"{label}: {exc}") from exc
         self._owners[name] = f"{ref.name} ({plugin})"
-        self.components[ref.path] = instance
         self._slots[ref.kind] = ref.name
 
     def solve(self, problem: Any) -> Proposal:
@@ -268,27 +271,27 @@ class Engine:
         """Retain and forget after ``proposal`` was carried out.
 
         One case base transaction: a crash inside keeps nothing of this step and everything
-        before it. The step is all or nothing for the run's memory too: the store mirror first
-        catches up with what other writers committed, and if the step fails the mirror drops
-        its views and the context's world is restored to what it was before the step. Returns
-        seconds per phase (``retain``, ``forget``) and for the whole step, commit included
-        (``learn``).
+        before it. The step is all or nothing for what the run derives from the case base too:
+        it runs inside the store mirror's transaction, which first catches up with what other
+        writers committed and, if the step fails, drops the views that may hold its writes (a
+        learned world among them). The engine's own transaction must be the outermost one: a
+        learn step nested in a caller's transaction that rolls back later is not taken back
+        from the mirror. Returns seconds per phase (``retain``, ``forget``) and for the whole
+        step, commit included (``learn``).
         """
         started = time.perf_counter()
         timings: dict[str, float] = {}
         solution = outcome.solution or proposal.solution
-        world = self.ctx.world
-        try:
-            with self.ctx.mirror.transaction():
-                if proposal.from_casebase and proposal.solution is not None:
-                    self.casebase.touch(proposal.solution.cases)
-                if solution is not None:
-                    self.hooks.retain(problem, solution, outcome, self.casebase, self.ctx,
-                                      timings)
-                self.hooks.forget(self.casebase, self.ctx, timings)
-        except BaseException:
-            self.ctx.world = world
-            raise
+        if self.casebase is None:
+            raise ConfigError(str(self.config.source or "configuration"),
+                              ["casebase: the engine has no case base to learn into; name a "
+                               "store in the 'casebase' slot"])
+        with self.ctx.mirror.transaction():
+            if proposal.from_casebase and proposal.solution is not None:
+                self.casebase.touch(proposal.solution.cases)
+            if solution is not None:
+                self.hooks.retain(problem, solution, outcome, self.casebase, self.ctx, timings)
+            self.hooks.forget(self.casebase, self.ctx, timings)
         self.stats.learned += 1
         timings["learn"] = time.perf_counter() - started
         return timings
@@ -298,11 +301,8 @@ class Engine:
         if self._closed:
             return
         self._closed = True
-        # list_name_plugin, unlike get_plugins, neither hashes components nor loses their order
-        slots = [self.components[slot] for slot in self.config.slots if slot in self.components]
-        parts = [*(p for _, p in self._pm.list_name_plugin()), getattr(self, "workload", None),
-                 *getattr(self, "metrics", ()), *slots, getattr(self, "world", None),
-                 self.casebase]
+        parts = [*self.components.values(), getattr(self, "workload", None),
+                 *getattr(self, "metrics", ()), getattr(self, "world", None), self.casebase]
         for part in parts:
             close = getattr(part, "close", None)
             if callable(close):

@@ -73,6 +73,13 @@ def test_a_second_run_starts_from_the_stored_graph(tmp_path: Path) -> None:
         loaded = graph_of(engine.ctx)
         assert loaded.edge_count == stored
         assert edge_set(loaded) == edge_set(graph)
+        # the graph follows the learned map without writing at a query: only learn steps write
+        revision = engine.casebase.revision
+        problem = next(iter(engine.workload.queries(engine.ctx)))
+        engine.solve(problem)
+        assert engine.casebase.revision == revision and engine.ctx.mirror.reloads == 0
+        assert graph_of(engine.ctx).grid is engine.ctx.world
+    with Engine.from_yaml(CONFIG, overrides=SMALL, out_dir=tmp_path) as engine:
         second = run_workload(engine, tmp_path)
     rows = read_rows(tmp_path)
     # the same first trip (same seed) now retrieves stored segments

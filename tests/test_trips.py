@@ -661,13 +661,37 @@ def test_a_learn_step_that_rolls_back_leaves_the_learned_map_as_it_was(
     assert outcome.report.met == ((3, 2),)  # the step would raise (3, 2) to 0.6
     with pytest.raises(PhaseError, match="phase 'forget'"):
         engine.learn(problem, proposal, outcome)
-    assert engine.ctx.world is learned_map
+    # the learned map is loaded anew from what the case base holds: the map before the step
+    assert np.array_equal(engine.ctx.world.risk, learned_map.risk)
     assert engine.casebase.get_meta(LEARNED_RISK) == stored
 
     failing.armed = False
     again, outcome = trip()
-    assert engine.ctx.stash[PLANNED_WORLD] is learned_map  # planned on the unchanged map
+    planned_on = engine.ctx.stash[PLANNED_WORLD]
+    assert np.array_equal(planned_on.risk, learned_map.risk)  # planned on the unchanged map
     assert again.solution.value == proposal.solution.value
     engine.learn(problem, again, outcome)
     assert engine.ctx.world.risk[2, 3] == pytest.approx(0.6)  # one more hit, not two
     assert engine.casebase.get_meta(LEARNED_RISK) == {"3,2": pytest.approx(0.6), "5,2": 0.0}
+
+
+def test_what_another_process_learned_reaches_the_planners_at_the_next_query(
+        corridor: Path, tmp_path: Path, cbr_engine: Callable[..., Engine]) -> None:
+    shared = {"use": "sqlite", "path": str(tmp_path / "shared.sqlite")}
+    robots = [cbr_engine({"world": {"use": "map_file", "path": str(corridor)}, "solver": "astar",
+                          "workload": {"use": "trips"}, "casebase": shared,
+                          "retain": [{"use": "risk_map", "hit_risk": 1.0, "pass_relief": 0.0}]})
+              for _ in range(2)]
+    first, second = robots
+    first.workload.true_world.place([(3, 2)], [])
+    problem = GridQuery((0, 2), (6, 2))
+    assert [3, 2] in second.solve(problem).solution.value
+    proposal = first.solve(problem)
+    first.learn(problem, proposal, first.workload.execute(problem, proposal, first.ctx))
+    assert first.ctx.world.risk[2, 3] == 1.0  # the first robot met it: an obstacle now
+
+    replanned = second.solve(problem)  # the second never met it, but shares the case base
+
+    assert second.ctx.world.risk[2, 3] == 1.0
+    assert [3, 2] not in replanned.solution.value
+    assert second.ctx.mirror.reloads == 1

@@ -63,6 +63,19 @@ class StoreMirror:
             value = self._views[key] = load(self.store)
             return value
 
+    def put(self, key: StashKey[T], value: T) -> None:
+        """Replace the view under ``key``: a component that writes through an immutable view
+        (a map) puts the changed one, inside the learn step that writes it to the store."""
+        if self._asked is not None:
+            self._asked.add(key)
+        self._views[key] = value
+
+    @property
+    def learning(self) -> bool:
+        """Whether a learn step (:meth:`transaction`) is under way: outside one, a component
+        must not write to the store."""
+        return self._asked is not None
+
     def sync(self) -> None:
         """Drop every view if another writer moved the store since the mirror last saw it."""
         now = self.store.revision

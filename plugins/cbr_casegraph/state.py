@@ -17,9 +17,18 @@ _GRAPH = StashKey[CaseGraph]()
 
 
 def graph_of(ctx: Context) -> CaseGraph:
-    """The run's case graph, on the run's current map."""
+    """The run's case graph, on the run's current map.
+
+    When the map changed since the graph last saw it, a learn step (the ``risk_map`` retainer
+    learned cell risks) updates the costs of the segments through the changed cells and writes
+    them to the store; at a query, which must not write, the graph is loaded anew on the map.
+    """
     world = grid_world(ctx, "the case graph")
     graph = ctx.mirror.view(_GRAPH, lambda store: CaseGraph.load(world, store))
     if graph.grid is not world:
-        graph.set_grid(world, graph.grid.changed_cells(world))
+        if ctx.mirror.learning:
+            graph.set_grid(world, graph.grid.changed_cells(world))
+        else:
+            graph = CaseGraph.load(world, ctx.mirror.store)
+            ctx.mirror.put(_GRAPH, graph)
     return graph

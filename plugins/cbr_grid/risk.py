@@ -9,9 +9,9 @@ Learning is retention: the ``risk_map`` retainer learns from the drive report of
 workload inside the engine's learn step, writes the learned risks into the case base (meta key
 ``grid.learned_risk``, ``{"x,y": risk}``, only cells whose risk differs from the configured map)
 and makes the learned map the run's world. The learned map is a view of the case base kept by
-the core's store mirror: a learn step that rolls back restores the world it began with and drops
-the view, so the map is never ahead of the case base, and a step that follows another process's
-learning starts from the risks that process stored.
+the core's store mirror (``ctx.learn_world``): a learn step that rolls back drops it, so the map
+is never ahead of the case base, and what another process sharing the case base learned reaches
+the planners at the next query.
 """
 
 from __future__ import annotations
@@ -45,14 +45,8 @@ _UNIT = attrs.validators.and_(attrs.validators.instance_of(float), attrs.validat
                               attrs.validators.le(1.0))
 
 
-@attrs.define
-class LearnedMap:
-    """The map as learned so far: the configured map with the stored risks applied."""
-
-    grid: Grid
-
-
-_LEARNED = StashKey[LearnedMap]()
+_LEARNED = StashKey[Grid]()
+"""The map as learned so far: the configured map with the stored risks applied."""
 
 
 @attrs.frozen
@@ -107,30 +101,28 @@ class RiskMap:
         self.options = options
         grid = grid_world(ctx, "retainer 'risk_map'")
         self.configured = ctx.stash.setdefault(CONFIGURED_WORLD, grid)
-        ctx.world = self._learned(ctx).grid
+        ctx.learn_world(_LEARNED, self._load)
+        grid_world(ctx, "retainer 'risk_map'")  # the stored risks are checked now, not later
 
-    def _learned(self, ctx: Context) -> LearnedMap:
-        return ctx.mirror.view(_LEARNED, self._load)
-
-    def _load(self, casebase: CaseStore) -> LearnedMap:
+    def _load(self, casebase: CaseStore) -> Grid:
         learned = stored_risks(casebase, self.configured)
         if not learned:
-            return LearnedMap(self.configured)
+            return self.configured
         risk = self.configured.risk.copy()
         for (x, y), value in learned.items():
             risk[y, x] = value
-        return LearnedMap(attrs.evolve(self.configured, risk=risk))
+        return attrs.evolve(self.configured, risk=risk)
 
     @hookimpl
     def cbr_retain(self, outcome: Outcome, casebase: CaseStore, ctx: Context) -> None:
         if not isinstance(outcome.report, DriveReport):
             return
-        learned = self._learned(ctx)
-        changes = risk_changes(learned.grid, outcome.report, self.options.hit_risk,
+        learned: Grid = ctx.world
+        changes = risk_changes(learned, outcome.report, self.options.hit_risk,
                                self.options.pass_relief)
         if not changes:
             return
-        risk = learned.grid.risk.copy()
+        risk = learned.risk.copy()
         stored = dict(casebase.get_meta(LEARNED_RISK, {}))
         for x, y, value in changes:
             risk[y, x] = value
@@ -139,8 +131,7 @@ class RiskMap:
             else:
                 stored[_key(x, y)] = float(value)
         casebase.set_meta(LEARNED_RISK, stored)
-        learned.grid = attrs.evolve(learned.grid, risk=risk)
-        ctx.world = learned.grid
+        ctx.mirror.put(_LEARNED, attrs.evolve(learned, risk=risk))
 
 
 def stored_risks(casebase: CaseStore, grid: Grid) -> dict[tuple[int, int], float]:

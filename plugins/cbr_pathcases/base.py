@@ -178,5 +178,5 @@ _PATHS = StashKey[PathBase]()
 
 def base_of(ctx: Context) -> PathBase:
     """The run's path cases, loaded from the case base on first use and kept in step with it."""
-    grid_world(ctx, "whole-path cases")
+    grid_world(ctx, "the index of whole-path cases")
     return ctx.mirror.view(_PATHS, PathBase.load)
