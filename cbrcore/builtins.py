@@ -51,7 +51,8 @@ def sqlite_store(options: SQLiteOptions, ctx: Context) -> SQLiteStore:
     if path is None:
         if ctx.out_dir is None:
             raise ConfigError("casebase.path",
-                              ["casebase.path: required when the engine has no output folder"])
+                              ["casebase.path: required when the run has no output folder to "
+                               "keep the case base in"])
         path = ctx.out_dir / "casebase.sqlite"
     return SQLiteStore(path, busy_timeout=options.busy_timeout, create=options.create)
 

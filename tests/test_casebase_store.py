@@ -56,7 +56,7 @@ def test_builtin_store_components(tmp_path: Path) -> None:
 
 def test_builtin_sqlite_store_needs_a_path_without_an_output_folder() -> None:
     ctx = _context(None)
-    with pytest.raises(ConfigError, match=r"casebase\.path: required when the engine has no"):
+    with pytest.raises(ConfigError, match=r"casebase\.path: required when the run has no"):
         ctx.registry.create("store", "sqlite", {}, ctx)
     with pytest.raises(ConfigError, match="busy_timeout: must be >= 0"):
         ctx.registry.create("store", "sqlite", {"busy_timeout": -1}, ctx)

@@ -419,3 +419,20 @@ def test_a_missing_file_is_an_error_and_stays_missing(cbr_cli: Cli, tmp_path: Pa
 
         assert (result.exit_code, result.stderr) == (2, f"error: no case base at {path}\n")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_configuration_without_a_case_base_path_names_its_run_folders_file(
+        cbr_cli: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    (tmp_path / "floor.yaml").write_text("seed: 3\ncasebase: sqlite\n", encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    kept = tmp_path / "runs" / "floor" / "casebase.sqlite"
+
+    missing = cbr_cli("casebase", "info", "--config", "floor.yaml")
+
+    assert missing.exit_code == 2 and str(kept) in missing.stderr
+    assert not kept.parent.exists()  # reading never creates the run folder or the file
+    kept.parent.mkdir(parents=True)
+    with SQLiteStore(kept) as store:
+        store.add(Case(1, 1))
+    found = json.loads(cbr_cli("casebase", "info", "-c", "floor.yaml", "--json").stdout)
+    assert (found["store"], found["cases"], Path(found["path"])) == ("sqlite", 1, kept)

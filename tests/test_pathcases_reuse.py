@@ -27,6 +27,7 @@ from cbr_pathcases.components import PathReuser, ReuseOptions
 from cbr_solvers.search import astar
 from cbrcore.context import Context
 from cbrcore.engine import Engine
+from cbrcore.errors import CbrError
 from cbrcore.model import Case, Match, Retrieval, Solution
 from cbrcore.plugins import Plugins
 from test_pathcases import SQRT2, Cell, context, free, keep, retrieve, run, stored_ids
@@ -258,3 +259,12 @@ def test_trips_between_places_learn_within_the_capacity(
         # driven on the true world, which only adds obstacles to the map
         assert engine.world.path_problems(case.solution) == []
         assert case.meta["cost"] >= 1.0 - 1e-9  # by the ratio, no path beats the ideal
+
+
+def test_a_constrained_robot_is_refused_with_what_plans_for_it(
+        cbr_engine: Callable[..., Engine], cbr_plugins: Callable[..., Plugins]) -> None:
+    cbr_plugins(entry_points=True)
+    with pytest.raises(CbrError, match=r"reuse 'path_cases'.*Forward.*reuse: casegraph"):
+        cbr_engine({"world": {"use": "generated", "kind": "office", "width": 20,
+                              "height": 20}, "kinematics": "forward",
+                    "retrieve": "path_cases", "reuse": "path_cases"})

@@ -29,9 +29,9 @@ class CaseStore(Protocol):
 
     Writes made inside ``with store.transaction():`` commit together or not at all; a write made
     outside one is its own transaction. ``revision`` counts committed write transactions and is
-    the store's logical clock: a case's ``created`` and ``last_used`` are revisions, and a plugin
-    that keeps a derived index (an array of case features, a graph) rebuilds it when the revision
-    it was built at is no longer current. A store that several processes may open at once shows
+    the store's logical clock: a case's ``created`` and ``last_used`` are revisions, and the
+    store mirror (:mod:`cbrcore.casebase.mirror`) compares them to know when an index derived
+    from the cases must be loaded anew. A store that several processes may open at once shows
     each the other's committed writes.
     """
 

@@ -9,6 +9,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated, Any
 
+import attrs
 import typer
 
 from cbrcore.casebase import (
@@ -72,7 +73,13 @@ def _casebase_slot(file: Path | None, store: str | None, config: Path | None, *,
     registry = current().registry
     if config is not None:
         loaded = load_config(config, registry)
-        label, selected = str(loaded.source), Config(seed=loaded.seed, casebase=loaded.casebase,
+        casebase = loaded.casebase
+        if casebase is not None and casebase.name == "sqlite" and casebase.options.path is None:
+            # the file a run of the configuration keeps in its default folder, as cbr run does
+            path = (Path("runs") / config.stem / "casebase.sqlite").resolve()
+            casebase = attrs.evolve(casebase, options=attrs.evolve(
+                casebase.options, path=path, create=create and casebase.options.create))
+        label, selected = str(loaded.source), Config(seed=loaded.seed, casebase=casebase,
                                                      source=loaded.source)
     else:
         if store is not None:

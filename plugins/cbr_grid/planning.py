@@ -1,10 +1,9 @@
 """What the grid family asks of a planner it gets from the registry.
 
-The simulated robot replans around the obstacles it meets, and the path quality measures compare
-a path with the cheapest one; neither plans by itself. Searches live with the solvers, a layer
-above the grid family, so these take a solver component by name from the registry (the
-``replanner`` of the ``trips`` workload) and call it through this protocol, which the grid
-solvers implement.
+The simulated robot replans around the obstacles it meets, but the grid family plans nothing
+itself: searches live with the solvers, a layer above it. So the ``trips`` workload takes a
+solver component by name from the registry (its ``replanner``) and calls it through this
+protocol, which the grid solvers implement.
 """
 
 from __future__ import annotations

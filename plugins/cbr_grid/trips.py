@@ -135,12 +135,12 @@ class Trips:
             ctx, "workload 'trips'")
         self.planner = planner_of(options.replanner, ctx, "workload 'trips': replanner")
         places = self._checked_places(options.places)
-        self.true_world = TrueWorld(self.configured, appear=options.appear, places=places)
+        self.true_world = TrueWorld(self.configured, appear=options.appear, places=places,
+                                    what="workload 'trips'")
         sites = [(site.cells, site.appear) for site in options.sites]
         # the random unknowns keep off the listed sites and the places, so they cannot collide
         pool = self.configured.passable.copy()
-        for cells in self.true_world.site_cells([cells for cells, _ in sites],
-                                                "workload 'trips'"):
+        for cells in self.true_world.site_cells([cells for cells, _ in sites]):
             pool[cells[:, 1], cells[:, 0]] = False
         if places is not None:
             pool[places[:, 1], places[:, 0]] = False

@@ -35,8 +35,11 @@ class TrueWorld:
     ``places`` are cells trips start and end on: no unknown obstacle or site may cover one.
     """
 
-    def __init__(self, grid: Grid, *, appear: float, places: np.ndarray | None = None) -> None:
+    def __init__(self, grid: Grid, *, appear: float, places: np.ndarray | None = None,
+                 what: str = "the true world") -> None:
         self.grid = grid
+        self.what = what
+        """Who owns the true world, as errors name it."""
         self.appear = appear
         self.places = places
         self.static = np.zeros((0, 2), dtype=np.int64)
@@ -51,14 +54,13 @@ class TrueWorld:
         """Cells holding an unknown obstacle or belonging to a site."""
         self._static_passable = grid.passable
 
-    def site_cells(self, sites: Sequence[Sequence[tuple[int, int]]], what: str
-                   ) -> list[np.ndarray]:
+    def site_cells(self, sites: Sequence[Sequence[tuple[int, int]]]) -> list[np.ndarray]:
         """The (k, 2) cells of each site; a CbrError naming the site and the cell unless each is
         free in the map."""
         groups = [path_array(cells) for cells in sites]
         for i, cells in enumerate(groups):
             for x, y in cells.tolist():
-                self.grid.check_cell((x, y), f"{what}: sites[{i}] cell")
+                self.grid.check_cell((x, y), f"{self.what}: sites[{i}] cell")
         return groups
 
     def place(self, static: object, dynamic: object,
@@ -70,23 +72,23 @@ class TrueWorld:
         place; a refused placement leaves the world as it was."""
         static_cells, dynamic_cells = path_array(static), path_array(dynamic)
         for x, y in np.concatenate((static_cells, dynamic_cells)).tolist():
-            self.grid.check_cell((x, y), "an unknown obstacle")
-        site_cells = self.site_cells([cells for cells, _ in sites], "workload 'trips'")
+            self.grid.check_cell((x, y), f"{self.what}: an unknown obstacle")
+        site_cells = self.site_cells([cells for cells, _ in sites])
         cells = np.concatenate((static_cells, dynamic_cells, *site_cells))
         unique, counts = np.unique(cells, axis=0, return_counts=True)
         if (counts > 1).any():
             twice = tuple(unique[np.argmax(counts > 1)].tolist())
-            raise CbrError(f"workload 'trips': cell {twice} holds two unknown obstacles or "
-                           f"sites; expected distinct cells")
+            raise CbrError(f"{self.what}: cell {twice} holds two unknown obstacles or sites; "
+                           f"expected distinct cells")
         unknown = np.zeros(self.grid.passable.shape, dtype=bool)
         unknown[cells[:, 1], cells[:, 0]] = True
         if self.places is not None:
             taken = unknown[self.places[:, 1], self.places[:, 0]]
             if taken.any():
                 i = int(np.argmax(taken))
-                raise CbrError(f"workload 'trips': places[{i}] {tuple(self.places[i].tolist())} "
-                               f"is on an unknown obstacle or a site; expected a cell the "
-                               f"robot can always stand on")
+                raise CbrError(f"{self.what}: places[{i}] {tuple(self.places[i].tolist())} is "
+                               f"on an unknown obstacle or a site; expected a cell the robot "
+                               f"can always stand on")
         self.unknown = unknown
         self.static, self.dynamic, self.sites = static_cells, dynamic_cells, site_cells
         self.site_appear = np.array([appear for _, appear in sites], dtype=np.float64)

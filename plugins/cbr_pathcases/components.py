@@ -17,11 +17,13 @@ from cbr_grid.distances import DistanceName, distance
 from cbr_grid.drive import DriveReport
 from cbr_grid.grid import Grid
 from cbr_grid.query import GridQuery, path_array, without_loops
+from cbr_kinematics import robot_kinematics
 from cbr_pathcases.base import PATH, PathBase, base_of
 from cbr_pathcases.cost import Combine, Measure, measure
 from cbr_pathcases.selection import Rule, probabilities
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
+from cbrcore.errors import CbrError
 from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Case, Match, Outcome, Retrieval, Solution
 from cbrcore.options import option
@@ -134,6 +136,11 @@ class PathReuser:
     def __init__(self, options: ReuseOptions, ctx: Context) -> None:
         from cbr_solvers import load_search  # numba loads with the first reuse
 
+        robot = robot_kinematics(ctx, "reuse 'path_cases'")
+        if robot is not None:
+            raise CbrError(f"reuse 'path_cases' extends paths for robots that may make any "
+                           f"move; the configuration's kinematics is {type(robot).__name__}, "
+                           f"for which the case graph plans (reuse: casegraph)")
         self.options = options
         self.connect_search = load_search(options.connector)
         self.genetic = load_search("genetic") if options.improve == "genetic" else None

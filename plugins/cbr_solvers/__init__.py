@@ -25,7 +25,7 @@ import attrs
 import numpy as np
 import typer
 
-from cbr_grid.grid import Grid
+from cbr_grid.grid import Grid, grid_world
 from cbr_grid.planning import Window
 from cbr_grid.query import Cell, GridQuery
 from cbr_kinematics import robot_kinematics
@@ -64,9 +64,7 @@ class GridSolver:
     name = ""
 
     def __init__(self, options: object, ctx: Context) -> None:
-        if not isinstance(ctx.world, Grid):
-            raise CbrError(f"solver {self.name!r} plans on a grid world; the configured world is "
-                           f"{type(ctx.world).__name__}")
+        grid_world(ctx, f"solver {self.name!r}")
         self.kinematics = robot_kinematics(ctx, f"solver {self.name!r}")
         if self.kinematics is not None and self.name not in KINEMATIC_MODULES:
             raise CbrError(f"solver {self.name!r} plans for robots that may make any move; the "
