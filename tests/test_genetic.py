@@ -19,8 +19,10 @@ from cbr_grid.query import GridQuery
 from cbr_solvers import Genetic, GeneticOptions
 from cbr_solvers.genetic import genetic
 from cbr_solvers.search import SearchResult, dijkstra
+from cbrcore.config import parse_config
 from cbrcore.context import Context
 from cbrcore.engine import Engine
+from cbrcore.errors import ConfigError
 from cbrcore.plugins import Plugins
 from cbrcore.registry import Registry
 from cbrcore.testing import CliResult
@@ -258,3 +260,12 @@ def test_cbr_plan_with_the_genetic_solver(cbr_plugins: Callable[..., Plugins], c
     assert {**again, "time_ms": None} == {**record, "time_ms": None}
     refused = cbr_cli("plan", str(map_file), "--start", "0,0", "--goal", "5,3", "--seed", "3")
     assert refused.exit_code == 2 and "--solver genetic" in refused.stderr
+
+
+def test_a_constrained_robot_is_refused_when_the_configuration_is_read(
+        cbr_plugins: Callable[..., Plugins]) -> None:
+    registry = cbr_plugins(entry_points=True).registry
+    world = {"use": "generated", "kind": "office", "width": 20, "height": 20}
+    with pytest.raises(ConfigError, match=r"solver: the genetic algorithm .*'forward'"):
+        parse_config({"world": world, "kinematics": "forward", "solver": "genetic"}, registry)
+    assert parse_config({"world": world, "solver": "genetic"}, registry).solver.name == "genetic"

@@ -28,13 +28,13 @@ import typer
 from cbr_grid.grid import Grid, grid_world
 from cbr_grid.planning import Window
 from cbr_grid.query import Cell, GridQuery
-from cbr_kinematics import robot_kinematics
+from cbr_kinematics import HOLONOMIC, robot_kinematics
 from cbr_solvers.cli import add_commands
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Solution
-from cbrcore.options import option
+from cbrcore.options import configured, option
 from cbrcore.registry import Registry
 
 SEARCH_MODULES = {"dijkstra": "cbr_solvers.search", "astar": "cbr_solvers.search",
@@ -155,6 +155,14 @@ class GeneticOptions:
         None, "The random seed of every query (an integer >= 0); null draws one per query from "
         "the run's seeded generator.",
         validator=attrs.validators.optional(attrs.validators.ge(0)))
+
+
+    def __attrs_post_init__(self) -> None:
+        robot = configured("kinematics")
+        if robot not in (None, HOLONOMIC):
+            raise ValueError(f"the genetic algorithm plans for robots that may make any move, "
+                             f"not for kinematics {robot!r} (the configuration's robot); "
+                             f"{', '.join(sorted(KINEMATIC_MODULES))} plan for it")
 
 
 class Genetic(GridSolver):
