@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from cbr_casegraph.experiments import accepted
+from cbr_casegraph.experiments.common import accepted
 from cbr_casegraph.graph import CaseGraph
 from cbr_casegraph.planner import Plan, Settings, plan
 from cbr_grid.costs import path_length

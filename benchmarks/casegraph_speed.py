@@ -3,12 +3,12 @@
 Targets: the median CBR planning time grows less than 2x from a 100x100 to a 1000x1000 map, and
 on 600x600 and 1000x1000 maps CBR takes at most 1/20 of A*'s time on the same queries.
 
-Maps are those of the reproductions (:func:`cbr_casegraph.experiments.make_map`: random
+Maps are those of the reproductions (:func:`cbr_casegraph.experiments.common.make_map`: random
 obstacles 15%, terrain risk 0.5). On each, a graph is grown to 3000 vertices from Dijkstra paths
 of random tasks (:func:`cbr_casegraph.build.grow`), and the queries are set so that a CBR path
 lies between them, as in section 6.3 of the paper (start and goal within delta / 2 of random
 vertices, at least a third of the map side apart, CBR giving an accepted path;
-:func:`cbr_casegraph.experiments.cbr_tasks`). Each query is timed ``--repeats`` times per
+:func:`cbr_casegraph.experiments.common.cbr_tasks`). Each query is timed ``--repeats`` times per
 method and its median kept; the tables give medians over
 queries and the median over queries of the per-query ratio CBR / A*, and, for scale, A*'s
 median time on 20 tasks between random reachable cells. A cProfile of the CBR queries on the
@@ -36,9 +36,10 @@ from typing import Any
 import numpy as np
 
 from cbr_casegraph.build import connected_cells, grow, random_task
-from cbr_casegraph.experiments import cbr_tasks, make_map, octile, region_mask, warm_up
+from cbr_casegraph.experiments.common import cbr_tasks, make_map, region_mask, warm_up
 from cbr_casegraph.graph import CaseGraph
 from cbr_casegraph.planner import Settings, plan
+from cbr_grid.distances import octile
 from cbr_solvers.search import astar
 
 VERTICES = 3000
@@ -95,7 +96,7 @@ def run_size(side: int, queries: int, repeats: int) -> dict[str, Any]:
                                           [g]), 1))
     return {"size": side, "vertices": graph.vertex_count, "edges": graph.edge_count,
             "paths": paths, "build_s": build_s, "queries": len(tasks),
-            "octile_median": statistics.median(octile(s, g) for s, g in tasks),
+            "octile_median": statistics.median(float(octile(s, g)) for s, g in tasks),
             "cbr_ms": statistics.median(cbr_s) * 1000,
             "astar_ms": statistics.median(astar_s) * 1000,
             "astar_random_ms": statistics.median(random_s) * 1000,

@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 from cbr_casegraph.build import grow
-from cbr_casegraph.experiments import deviations, make_map
+from cbr_casegraph.experiments.common import make_map
+from cbr_casegraph.experiments.deviation import deviations
 from cbr_casegraph.graph import CaseGraph
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult

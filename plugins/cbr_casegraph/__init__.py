@@ -12,6 +12,7 @@ The reproductions of the papers' experiments are in :mod:`cbr_casegraph.experime
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable
 
 from cbr_casegraph.components import (
@@ -32,23 +33,26 @@ from cbrcore.hookspecs import hookimpl
 from cbrcore.registry import Registry
 
 EXPERIMENTS = {
-    "cbr-share": ("Share", "Fig. 3: share of random tasks planned by CBR against coverage."),
-    "deviation-table": ("DeviationTable", "Table 1: deviation of CBR, Dijkstra, A* and Ai* "
-                        "from the best cost, length and turns."),
-    "time-vs-map-size": ("TimeVsMapSize", "Fig. 4: planning times of CBR and Dijkstra, A*, Ai* "
-                         "against the map size."),
-    "time-vs-vertices": ("TimeVsVertices", "Fig. 2: CBR planning time against the vertex count, "
-                         "full and selective adaptation."),
+    "cbr-share": ("cbr_casegraph.experiments.share", "Share",
+                  "Fig. 3: share of random tasks planned by CBR against coverage."),
+    "deviation-table": ("cbr_casegraph.experiments.deviation", "DeviationTable",
+                        "Table 1: deviation of CBR, Dijkstra, A* and Ai* from the best cost, "
+                        "length and turns."),
+    "time-vs-map-size": ("cbr_casegraph.experiments.timing", "TimeVsMapSize",
+                         "Fig. 4: planning times of CBR and Dijkstra, A*, Ai* against the map "
+                         "size."),
+    "time-vs-vertices": ("cbr_casegraph.experiments.timing", "TimeVsVertices",
+                         "Fig. 2: CBR planning time against the vertex count, full and selective "
+                         "adaptation."),
 }
-"""The reproductions: name, class in :mod:`cbr_casegraph.experiments`, one-line summary."""
+"""The reproductions: name, module and class in :mod:`cbr_casegraph.experiments`, one-line
+summary."""
 
 
-def _experiment(cls: str) -> Callable[[object, Context], object]:
+def _experiment(module: str, cls: str) -> Callable[[object, Context], object]:
     def build(options: object, ctx: Context) -> object:
         # numba and the planner load when an experiment runs, not at every start of ``cbr``
-        from cbr_casegraph import experiments
-
-        return getattr(experiments, cls)(options, ctx)
+        return getattr(importlib.import_module(module), cls)(options, ctx)
 
     return build
 
@@ -61,5 +65,5 @@ def cbr_register(registry: Registry) -> None:
     registry.add("forgetter", "redundant_vertices", RedundantVertices)
     registry.add("forgetter", "risky_segments", RiskySegments, options=RiskyOptions)
     registry.add("forgetter", "vertex_limit", VertexLimit, options=LimitOptions)
-    for name, (cls, doc) in EXPERIMENTS.items():
-        registry.add("experiment", name, _experiment(cls), doc=doc)
+    for name, (module, cls, doc) in EXPERIMENTS.items():
+        registry.add("experiment", name, _experiment(module, cls), doc=doc)

@@ -131,8 +131,9 @@ class Trips:
 
     def __init__(self, options: TripsOptions, ctx: Context) -> None:
         self.options = options
-        self.configured = ctx.stash.get(CONFIGURED_WORLD, None) or grid_world(
-            ctx, "workload 'trips'")
+        # the map as configured, which a learned map (the risk_map retainer) may stand for
+        self.configured = ctx.stash.setdefault(CONFIGURED_WORLD,
+                                               grid_world(ctx, "workload 'trips'"))
         self.planner = planner_of(options.replanner, ctx, "workload 'trips': replanner")
         places = self._checked_places(options.places)
         self.true_world = TrueWorld(self.configured, appear=options.appear, places=places,

@@ -38,7 +38,8 @@ class PathQuality:
 
     def measure(self, problem: GridQuery, proposal: Proposal, outcome: Outcome,
                 ctx: Context) -> Mapping[str, float]:
-        grid = ctx.stash.get(PLANNED_WORLD, None) or grid_world(ctx, "metric 'path_quality'")
+        grid = (ctx.stash[PLANNED_WORLD] if PLANNED_WORLD in ctx.stash
+                else grid_world(ctx, "metric 'path_quality'"))
         nan = float("nan")
         row = {"length": nan, "turns": nan, "cost": nan}
         if proposal.solution is not None:
