@@ -1,0 +1,86 @@
+"""Section 6.2, Fig. 3 of the case graph paper: the share of random tasks planned by CBR against
+the coverage of the map by graph vertices (``cbr experiment cbr-share``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, ClassVar
+
+from cbr_casegraph.build import grow, random_task
+from cbr_casegraph.experiments.common import (
+    MAX_RATIO,
+    GridExperiment,
+    Progress,
+    map_info,
+    median_ms,
+    new_figure,
+    outcome,
+    timed,
+)
+from cbr_casegraph.graph import CaseGraph
+from cbr_casegraph.planner import Settings, plan
+from cbrcore.experiment import ExperimentResult, Size
+
+PAPER_SHARE = {6: 0.50, 10: 0.75, 15: 0.90}
+"""Section 6.2: share of tasks planned by CBR at a coverage (percent of cells that are vertices)."""
+
+
+class Share(GridExperiment):
+    """Fig. 3: share of random tasks planned by CBR against the map's coverage by vertices."""
+
+    SCALE: ClassVar[dict[str, Any]] = {"ci": (64, (5, 10, 15), 200),
+                                       "full": (200, (2, 4, 6, 8, 10, 12, 15, 20), 10000)}
+
+    def run(self, size: Size, out_dir: Path, progress: Progress) -> ExperimentResult:
+        side, coverages, queries = self.SCALE[size]
+        grid, cells = self.prepare(side)
+        graph = CaseGraph(grid)
+        settings = Settings()
+        rows: list[dict[str, Any]] = []
+        paths = 0
+        for step, percent in enumerate(coverages):
+            paths += grow(graph, round(percent / 100 * grid.passable.size), self.rng,
+                          cells=cells)
+            counts: dict[str, int] = {}
+            seconds: list[float] = []
+            for _ in range(queries):
+                start, goal = random_task(cells, self.rng)
+                result, took = timed(lambda s=start, g=goal: plan(graph, s, g, settings))
+                seconds.append(took)
+                kind = outcome(result, start, goal)
+                counts[kind] = counts.get(kind, 0) + 1
+            rows.append({"coverage_percent": percent, "measured_coverage": graph.coverage(),
+                         "vertices": graph.vertex_count, "edges": graph.edge_count,
+                         "paths_retained": paths, "queries": queries,
+                         "share": counts.get("cbr", 0) / queries, "outcomes": counts,
+                         "median_plan_ms": median_ms(seconds)})
+            progress(step + 1, len(coverages))
+        table = ["| coverage (% of cells) | vertices | paths retained | CBR share (ours) "
+                 "| CBR share (paper) | within delta | no case near | no local path "
+                 "| not connected | rejected by quality |",
+                 "|---|---|---|---|---|---|---|---|---|---|"]
+        for row in rows:
+            paper = PAPER_SHARE.get(row["coverage_percent"])
+            counts = row["outcomes"]
+            table.append(
+                f"| {row['measured_coverage'] * 100:.1f} | {row['vertices']} "
+                f"| {row['paths_retained']} | {row['share']:.3f} "
+                f"| {'' if paper is None else f'{paper:.2f}'} "
+                f"| {counts.get('within delta', 0) / queries:.3f} "
+                f"| {counts.get('no case near', 0) / queries:.3f} "
+                f"| {counts.get('no local path', 0) / queries:.3f} "
+                f"| {counts.get('graph not connected', 0) / queries:.3f} "
+                f"| {counts.get('rejected by quality', 0) / queries:.3f} |")
+        figure, axes = new_figure()
+        axes.plot([r["measured_coverage"] * 100 for r in rows], [r["share"] for r in rows],
+                  "o-", label=f"ours ({side}x{side}, {queries} tasks each)")
+        axes.plot(list(PAPER_SHARE), list(PAPER_SHARE.values()), "s", color="black",
+                  label="paper (section 6.2)")
+        axes.set(xlabel="coverage: vertices / cells (%)", ylabel="share planned by CBR",
+                 ylim=(0, 1), title="Frequency of CBR method choice (Fig. 3)")
+        axes.grid(True, alpha=0.3)
+        axes.legend()
+        return ExperimentResult(
+            results={"map": map_info(side, self.seed), "delta": settings.delta,
+                     "max_ratio": MAX_RATIO, "rows": rows},
+            table="\n".join(table), figures={"cbr_share": figure})
