@@ -31,6 +31,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+from cbrcore import files
 from cbrcore.config import Config
 from cbrcore.engine import Engine
 from cbrcore.errors import CbrError, ConfigError, PluginError
@@ -79,9 +80,7 @@ def manifest(config: Config | None, plugins: Plugins, *, seed: int,
 
 def write_json(path: Path, data: Any) -> None:
     """Write ``data`` as indented JSON, replacing the file only once it is complete."""
-    partial = path.with_name(path.name + ".partial")
-    partial.write_text(json.dumps(data, indent=2, default=str) + "\n", encoding="utf-8")
-    partial.replace(path)
+    files.write_text(path, json.dumps(data, indent=2, default=str) + "\n")
 
 
 def _row(index: int, problem: Any, proposal: Proposal, outcome: Outcome,
