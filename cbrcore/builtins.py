@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import attrs
 
 from cbrcore.casebase import MemoryStore, SQLiteStore
 from cbrcore.context import Context
 from cbrcore.errors import ConfigError
 from cbrcore.hookspecs import hookimpl
-from cbrcore.options import option
+from cbrcore.options import OutputPath, in_run_folder, option
 from cbrcore.registry import NoOptions, Registry
 
 
@@ -18,9 +16,9 @@ from cbrcore.registry import NoOptions, Registry
 class SQLiteOptions:
     """Options of the ``sqlite`` store."""
 
-    path: Path | None = option(
+    path: OutputPath | None = option(
         None,
-        "Case base file; relative paths resolve against the config file. "
+        "Case base file: an absolute path, or a file inside the run's output folder. "
         "Default: casebase.sqlite in the run's output folder.",
     )
     busy_timeout: float = option(
@@ -30,6 +28,8 @@ class SQLiteOptions:
     )
     create: bool = option(True, "Create the case base file when it is missing; false refuses a "
                                 "missing file instead.")
+    read_only: bool = option(False, "Open an existing case base for reading alone, also in a "
+                                    "folder that may not be written; a write is an error.")
 
 
 def memory_store(options: NoOptions, ctx: Context) -> MemoryStore:
@@ -44,17 +44,20 @@ def memory_store(options: NoOptions, ctx: Context) -> MemoryStore:
 def sqlite_store(options: SQLiteOptions, ctx: Context) -> SQLiteStore:
     """A case base in a SQLite file: survives crashes and can be shared by processes.
 
-    The file is created when missing, unless told not to. One that is not a cbrcore case base, is
-    corrupt or has another schema version is refused and left untouched.
+    The file is created when missing, unless told not to or opened read-only. One that is not a
+    cbrcore case base, is corrupt, has another schema version or a schema a case base does not
+    have is refused and left untouched.
     """
-    path = options.path
+    path = (None if options.path is None
+            else in_run_folder(options.path, ctx.out_dir, ctx.config_dir))
     if path is None:
         if ctx.out_dir is None:
             raise ConfigError("casebase.path",
                               ["casebase.path: required when the run has no output folder to "
                                "keep the case base in"])
         path = ctx.out_dir / "casebase.sqlite"
-    return SQLiteStore(path, busy_timeout=options.busy_timeout, create=options.create)
+    return SQLiteStore(path, busy_timeout=options.busy_timeout, create=options.create,
+                       read_only=options.read_only)
 
 
 @hookimpl

@@ -28,6 +28,7 @@ from typing import Any
 import attrs
 import yaml
 
+from cbrcore.documents import DocumentError, compose_yaml, construct_yaml, load_yaml, read_text
 from cbrcore.errors import ConfigError
 from cbrcore.options import (
     option_problems,
@@ -132,16 +133,20 @@ class _Marks:
 
 
 def parse_yaml(text: str, label: str) -> tuple[Any, _Marks]:
-    """Parse YAML text safely; errors name ``label`` and the line and column of the fault."""
+    """Parse YAML text safely within the document limits (:mod:`cbrcore.documents`); errors
+    name ``label`` and the line and column of the fault."""
     try:
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
-        data = yaml.safe_load(text)
+        node = compose_yaml(text, label)
+        # the marks are taken before construction, which rewrites the nodes of '<<' merges
+        marks = _Marks(node)
+        data = construct_yaml(node, label)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
         problem = getattr(exc, "problem", None) or str(exc)
         raise ConfigError(label, [f"{where}malformed YAML: {problem}"]) from None
-    marks = _Marks(node)
+    except DocumentError as exc:
+        raise ConfigError(label, [exc.problem]) from None
     if marks.duplicates:
         raise ConfigError(label, marks.duplicates)
     return data, marks
@@ -150,16 +155,19 @@ def parse_yaml(text: str, label: str) -> tuple[Any, _Marks]:
 def read_yaml(path: Path) -> tuple[Any, _Marks]:
     """Read and parse a YAML file; errors name the file."""
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_text(path)
     except FileNotFoundError:
         raise ConfigError(str(path), ["file not found"]) from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(str(path), [f"cannot read the file: {exc}"]) from None
+    except DocumentError as exc:
+        raise ConfigError(str(path), [exc.problem]) from None
     return parse_yaml(text, str(path))
 
 
 def apply_overrides(data: Any, overrides: Sequence[str], source: str) -> Any:
-    """Apply ``key.path=value`` overrides (values parsed as YAML) to the raw configuration."""
+    """Apply ``key.path=value`` overrides (values parsed as YAML within the document limits) to
+    the raw configuration."""
     if data is None:
         data = {}
     problems = []
@@ -169,9 +177,12 @@ def apply_overrides(data: Any, overrides: Sequence[str], source: str) -> Any:
             problems.append(f"--set {text!r}: expected KEY.PATH=VALUE")
             continue
         try:
-            value = yaml.safe_load(raw)
+            value = load_yaml(raw, f"--set {key.strip()}")
         except yaml.YAMLError as exc:
             problems.append(f"--set {text!r}: the value is not valid YAML ({exc})")
+            continue
+        except DocumentError as exc:  # the value may be huge: name its key alone
+            problems.append(f"--set {key.strip()}=...: the value is refused: {exc.problem}")
             continue
         parts = key.strip().split(".")
         node = data

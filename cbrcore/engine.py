@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import collections
+import os
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any
@@ -23,6 +24,30 @@ from cbrcore.plugins import Plugins, current, new_plugin_manager
 from cbrcore.registry import KIND_HOOK
 
 _PHASE_OF_HOOK = {hook: phase for phase, hook in PHASE_HOOKS.items()}
+
+MEASURE = "measure"
+"""The phase a metric fails in: measuring a carried-out proposal, before its learn step."""
+
+
+def output_folder(path: Path) -> None:
+    """Make ``path`` a folder the program can write into, or raise a CbrError saying why not.
+
+    Checked before anything is written, so a bad ``--out`` is one message rather than an
+    OSError from whichever file happens to be written first.
+    """
+    expected = "expected a folder, or a path where one can be made, that this user can write into"
+    try:
+        if path.exists() and not path.is_dir():
+            raise CbrError(f"output folder {path}: is a file; {expected}")
+        blocking = next((parent for parent in path.parents if parent.is_file()), None)
+        if blocking is not None:
+            raise CbrError(f"output folder {path}: {blocking} is a file; {expected}")
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:  # a parent that cannot be searched or written
+        raise CbrError(f"output folder {path}: cannot be made ({exc.strerror}); {expected}"
+                       ) from exc
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise CbrError(f"output folder {path}: not writable; {expected}")
 
 
 @attrs.define
@@ -150,7 +175,7 @@ class Engine:
         self.casebase: CaseStore | None = None
         self._closed = False
         if out_dir is not None:
-            out_dir.mkdir(parents=True, exist_ok=True)
+            output_folder(out_dir)
         try:
             self.world = self._build(config.world)
             self.ctx.world = self.world
@@ -295,6 +320,29 @@ class Engine:
         self.stats.learned += 1
         timings["learn"] = time.perf_counter() - started
         return timings
+
+    def measure(self, problem: Any, proposal: Proposal, outcome: Outcome) -> dict[str, Any]:
+        """What the configured metrics measure of ``proposal`` carried out with ``outcome``.
+
+        The figures of every metric, in the order configured. A metric that raises, or returns
+        anything but a mapping, is a :class:`~cbrcore.errors.PhaseError` of the phase
+        ``measure`` naming the metric and its plugin; a ``CbrError`` passes through unchanged.
+        """
+        figures: dict[str, Any] = {}
+        for ref, metric in zip(self.config.metrics, self.metrics, strict=True):
+            culprit = f"{ref.name} ({self.plugins.registry.get(ref.kind, ref.name).plugin})"
+            try:
+                measured = metric.measure(problem, proposal, outcome, self.ctx)
+            except CbrError:
+                raise
+            except Exception as exc:
+                raise PhaseError(MEASURE, culprit, exc) from exc
+            if not isinstance(measured, Mapping):
+                raise PhaseError(MEASURE, culprit, TypeError(
+                    f"returned {type(measured).__name__}, expected a mapping of names to "
+                    "numbers"))
+            figures.update(measured)
+        return figures
 
     def close(self) -> None:
         """Close every component that has a ``close()`` method, the case base last; idempotent."""

@@ -28,6 +28,14 @@ class PluginError(CbrError):
     """A plugin that could not be imported, could not register, or was asked for and is missing."""
 
 
+class PluginWarning(UserWarning):
+    """A plugin that failed to load and was skipped while the others loaded.
+
+    Its own category, so that an application can filter it or show it its own way: the ``cbr``
+    command line prints each as one ``warning:`` line on stderr.
+    """
+
+
 class PhaseError(CbrError):
     """A plugin raised inside a phase of the cycle; the original exception is the ``__cause__``."""
 

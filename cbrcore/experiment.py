@@ -2,7 +2,8 @@
 
 An experiment is a component of kind ``experiment`` whose instance has a ``run`` method. cbrcore
 writes what it returns into the output folder: ``results.json``, ``results.md`` (the markdown
-table, usually the paper's numbers beside ours), one PNG per figure, and ``manifest.json``.
+table, usually the paper's numbers beside ours), one PNG per figure, and ``manifest.json``; each
+file appears whole or not at all (:mod:`cbrcore.files`).
 """
 
 from __future__ import annotations
@@ -13,10 +14,12 @@ from typing import Any, Literal, Protocol, runtime_checkable
 
 import attrs
 
+from cbrcore import files
 from cbrcore.context import Context
+from cbrcore.engine import output_folder
 from cbrcore.errors import CbrError, PluginError
 from cbrcore.plugins import Plugins
-from cbrcore.run import manifest, write_json
+from cbrcore.run import manifest, write_json, writing
 
 Size = Literal["ci", "full"]
 
@@ -46,7 +49,7 @@ def run_experiment(name: str, plugins: Plugins, *, size: Size, out_dir: Path, se
     """Run the experiment ``name`` and write its files into ``out_dir``; return their paths."""
     component = plugins.registry.get("experiment", name)
     ctx = Context(registry=plugins.registry, seed=seed, out_dir=out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    output_folder(out_dir)
     try:
         experiment = component.factory(component.options(), ctx)
         result = experiment.run(size, out_dir, progress or (lambda done, total: None))
@@ -60,11 +63,13 @@ def run_experiment(name: str, plugins: Plugins, *, size: Size, out_dir: Path, se
                           "expected ExperimentResult")
     written = [out_dir / "results.json", out_dir / "results.md", out_dir / "manifest.json"]
     write_json(written[0], dict(result.results))
-    written[1].write_text(result.table.rstrip() + "\n", encoding="utf-8")
+    with writing(written[1]):
+        files.write_text(written[1], result.table.rstrip() + "\n")
     write_json(written[2], manifest(None, plugins, seed=seed,
                                     extra={"experiment": name, "size": size}))
     for stem, figure in result.figures.items():
         path = out_dir / f"{stem}.png"
-        figure.savefig(path, dpi=120, bbox_inches="tight")
+        with writing(path), files.replacing(path, "wb") as image:
+            figure.savefig(image, format="png", dpi=120, bbox_inches="tight")
         written.append(path)
     return written

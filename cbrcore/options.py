@@ -8,7 +8,9 @@ A plugin declares its options as an attrs class and documents each field with :f
 
 Values are checked strictly (YAML ``"3"`` is not an integer, ``3.5`` is not silently truncated),
 unknown keys are refused, and ``pathlib.Path`` fields resolve relative to the configuration
-file's folder.
+file's folder. A file the component writes is an :data:`OutputPath` instead: a relative one names
+a file inside the run's output folder (see :func:`in_run_folder`), and one whose ``..`` would
+leave that folder is refused; to write elsewhere, the configuration gives an absolute path.
 
 An option that names another component is declared with :func:`reference`, giving the kind it
 names; a configuration naming a component of that kind nobody registered is refused::
@@ -22,11 +24,12 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import os
 import re
 import typing
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, NewType
 
 import attrs
 import cattrs
@@ -130,6 +133,19 @@ def _items(value: Any, path: str) -> Iterator[tuple[str, Any]]:
         yield path, value
 
 
+INT64 = (-2**63, 2**63 - 1)
+"""The integers an option may hold: what numpy, SQLite and ``len()`` can take, not Python's
+unbounded ``int``."""
+
+
+def _integer(value: Any, _: type) -> int:
+    number = _strict(int, "an integer", (int,))(value, int)
+    low, high = INT64
+    if not low <= number <= high:
+        raise ValueError(f"expected an integer from {low} to {high}, got {value!r}")
+    return number
+
+
 def _strict(kind: type, label: str, accept: tuple[type, ...]) -> Callable[[Any, type], Any]:
     def structure(value: Any, _: type) -> Any:
         if isinstance(value, bool) and kind is not bool:
@@ -156,13 +172,43 @@ def _path(value: Any, _: type) -> Path:
     return path if path.is_absolute() or base is None else base / path
 
 
+OutputPath = NewType("OutputPath", Path)
+"""The type of an option naming a file the component writes: absolute (``~`` expanded) as
+written, or relative to the run's output folder and inside it; resolve it with
+:func:`in_run_folder`."""
+
+
+def _output_path(value: Any, _: type) -> Path:
+    if not isinstance(value, str | Path):
+        raise TypeError(f"expected a file path, got {value!r}")
+    path = Path(value).expanduser()
+    if path.is_absolute():
+        return path
+    # checked by its text: the run folder may not exist yet, or not be known (cbr validate)
+    inside = Path(os.path.normpath(path))
+    if inside.parts[:1] in ((), (os.pardir,)):
+        raise ValueError(f"expected a file inside the run's output folder, got {str(value)!r}; "
+                         "give an absolute path to write outside it")
+    return inside
+
+
+def in_run_folder(path: Path, out_dir: Path | None, config_dir: Path) -> Path:
+    """Where the :data:`OutputPath` ``path`` writes: an absolute path as it is, a relative one
+    inside ``out_dir``, or, without an output folder (an engine embedded without one, ``cbr
+    casebase``), inside ``config_dir``, the configuration's folder, as a read path would be."""
+    if path.is_absolute():
+        return path
+    return (config_dir if out_dir is None else out_dir) / path
+
+
 def _make_converter() -> cattrs.Converter:
     converter = cattrs.Converter(forbid_extra_keys=True, detailed_validation=True)
-    converter.register_structure_hook(int, _strict(int, "an integer", (int,)))
+    converter.register_structure_hook(int, _integer)
     converter.register_structure_hook(float, _strict(float, "a number", (int, float)))
     converter.register_structure_hook(bool, _strict(bool, "true or false", (bool,)))
     converter.register_structure_hook(str, _strict(str, "a string", (str,)))
     converter.register_structure_hook(Path, _path)
+    converter.register_structure_hook(OutputPath, _output_path)
     converter.register_structure_hook_func(lambda t: typing.get_origin(t) is Literal, _literal)
     converter.register_unstructure_hook(Path, str)
     return converter

@@ -1,13 +1,19 @@
 """Finding, loading and listing plugins.
 
 Plugins are found through the ``cbr`` entry point group; cbrcore's own built-ins are declared
-there too, so they load exactly as a third party's do. A plugin that fails to import or register
-is reported and skipped while the others load, unless ``CBR_STRICT_PLUGINS=1``.
+there too, so they are found exactly as a third party's are. A plugin that fails to import or
+register is reported and skipped while the others load, unless ``CBR_STRICT_PLUGINS=1``.
 
-Plugins register in entry point name order. A component kind may be declared by a plugin that
-loads after one registering components of it, so kinds are checked once all have registered: a
-plugin whose components or options use a kind nobody declared fails then, and with it whatever
-relied on the kinds it declared.
+The built-in plugins, those the ``cbrcore`` distribution declares (:func:`builtin_plugins`),
+register first, then the other distributions' in entry point name order, then those given in
+code. So the built-ins claim their plugin names, component names and kinds before any other
+plugin can: a plugin taking one fails, named as the culprit, whatever the names' order. A
+component kind may be declared by a plugin that loads after one registering components of it,
+so kinds are checked once all have registered: a plugin whose components or options use a kind
+nobody declared fails then, and with it whatever relied on the kinds it declared.
+
+A failure is reported with a :class:`~cbrcore.errors.PluginWarning`, which the ``cbr`` command
+line prints as one ``warning:`` line.
 
 A hook implementation that names no cbrcore hook (``cbr_registr``), or a function named like a
 hook but left without ``@hookimpl``, fails its plugin when it loads;
@@ -28,8 +34,9 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import os
+import types
 import warnings
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence, Set
 from importlib import metadata
 from typing import Any
 
@@ -37,11 +44,15 @@ import attrs
 import pluggy
 
 from cbrcore import hookspecs
-from cbrcore.errors import PluginError
+from cbrcore.errors import PluginError, PluginWarning
 from cbrcore.hookimpls import implemented_hooks, unknown_hooks
 from cbrcore.registry import KIND_HOOK, Registry
 
 ENTRY_POINT_GROUP = "cbr"
+BUILTIN_DISTRIBUTION = "cbrcore"
+
+Source = tuple[str | None, str | None]
+"""The distribution and version a plugin comes from; (None, None) for one given in code."""
 
 
 def new_plugin_manager() -> pluggy.PluginManager:
@@ -88,6 +99,8 @@ class Plugins:
     loaded: list[PluginInfo] = attrs.field(factory=list)
     failed: list[PluginFailure] = attrs.field(factory=list)
     skipped: list[str] = attrs.field(factory=list)
+    builtins: set[str] = attrs.field(factory=set)
+    """The names of the loaded plugins that are cbrcore's own."""
 
     def info(self, name: str) -> PluginInfo:
         for plugin in self.loaded:
@@ -101,9 +114,30 @@ def _names(environ: Mapping[str, str], key: str) -> set[str] | None:
     return {n.strip() for n in value.split(",") if n.strip()} if value else None
 
 
-def _distribution(ep: metadata.EntryPoint) -> tuple[str | None, str | None]:
+def builtin_plugins() -> dict[str, str]:
+    """cbrcore's own plugins, entry point name to module, as its distribution declares them."""
+    try:
+        dist = metadata.distribution(BUILTIN_DISTRIBUTION)
+    except metadata.PackageNotFoundError:  # a source tree on sys.path, never installed
+        return {}
+    return {ep.name: ep.module for ep in dist.entry_points.select(group=ENTRY_POINT_GROUP)}
+
+
+def _distribution(ep: metadata.EntryPoint) -> Source:
     dist = ep.dist
     return (dist.name, dist.version) if dist is not None else (None, None)
+
+
+def _is_builtin(source: Any, dist: Source, modules: Set[str]) -> bool:
+    """Whether a candidate plugin is one of cbrcore's: its entry point, or its module in code.
+
+    The testing kit registers the built-in modules in code (under any name); they count as the
+    built-ins they are. An entry point counts only from cbrcore's own distribution, so another
+    distribution cannot claim a built-in by declaring an entry point of the same name.
+    """
+    if isinstance(source, metadata.EntryPoint):
+        return dist[0] == BUILTIN_DISTRIBUTION
+    return isinstance(source, types.ModuleType) and source.__name__ in modules
 
 
 def _component_hooks(registry: Registry, name: str) -> set[str]:
@@ -126,35 +160,48 @@ def load_plugins(extra: Sequence[tuple[str, Any]] = (), *, entry_points: bool = 
     """Load the plugins of the ``cbr`` entry point group, then ``extra`` (name, module) pairs.
 
     ``extra`` registers plugins that no distribution declares (the testing kit uses it);
-    ``entry_points=False`` loads only those.
+    ``entry_points=False`` loads only those. The built-in plugins go first wherever they come
+    from (see the module's documentation).
     """
     environ = os.environ if environ is None else environ
     allow = _names(environ, "CBR_PLUGINS")
     block = _names(environ, "CBR_DISABLE_PLUGINS") or set()
     strict = environ.get("CBR_STRICT_PLUGINS", "") not in ("", "0")
     plugins = Plugins(pm=new_plugin_manager(), registry=Registry())
-    sources: dict[str, tuple[str | None, str | None]] = {}
+    sources: dict[str, Source] = {}
 
-    def fail(name: str, dist: tuple[str | None, str | None], stage: str, error: str) -> None:
+    def fail(name: str, dist: Source, stage: str, error: str) -> None:
         failure = PluginFailure(name, dist[0], dist[1], stage, error)
         if strict:
             raise PluginError(failure.describe())
         plugins.failed.append(failure)
-        warnings.warn(failure.describe(), stacklevel=3)
+        warnings.warn(failure.describe(), PluginWarning, stacklevel=3)
 
-    candidates: list[tuple[str, Any, tuple[str | None, str | None]]] = []
+    candidates: list[tuple[str, Any, Source]] = []
     if entry_points:
         for ep in sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
             candidates.append((ep.name, ep, _distribution(ep)))
     candidates.extend((name, obj, (None, None)) for name, obj in extra)
-
+    # names go to whoever comes first, and that must be a built-in whatever the order: its
+    # plugin name is reserved here, its component names and kinds by registering first
+    modules = set(builtin_plugins().values())
+    wanted: list[tuple[str, Any, Source, bool]] = []
+    reserved: dict[str, Source] = {}
     for name, source, dist in candidates:
         if name in block or (allow is not None and name not in allow):
             plugins.skipped.append(name)
             continue
-        if name in sources:
-            taken = sources[name][0] or "a plugin registered in code"
-            fail(name, dist, "load", f"the plugin name is already taken by {taken}")
+        builtin = _is_builtin(source, dist, modules)
+        if builtin:
+            reserved.setdefault(name, dist)
+        wanted.append((name, source, dist, builtin))
+
+    builtins = plugins.builtins
+    for name, source, dist, builtin in wanted:
+        taken = sources.get(name) or (None if builtin else reserved.get(name))
+        if taken is not None:
+            owner = taken[0] or "a plugin registered in code"
+            fail(name, dist, "load", f"the plugin name is already taken by {owner}")
             continue
         try:
             obj = source.load() if isinstance(source, metadata.EntryPoint) else source
@@ -174,9 +221,12 @@ def load_plugins(extra: Sequence[tuple[str, Any]] = (), *, entry_points: bool = 
             fail(name, dist, "import", f"{type(exc).__name__}: {exc}")
             continue
         sources[name] = dist
+        if builtin:
+            builtins.add(name)
 
     registered = []
-    for name, dist in sources.items():
+    for name in sorted(sources, key=lambda n: n not in builtins):  # stable: the built-ins first
+        dist = sources[name]
         obj = plugins.pm.get_plugin(name)
         plugins.registry._begin(name)
         try:
@@ -194,9 +244,11 @@ def load_plugins(extra: Sequence[tuple[str, Any]] = (), *, entry_points: bool = 
         for name, problems in unresolved.items():
             _withdraw(plugins, name)
             registered.remove(name)
+            builtins.discard(name)
             fail(name, sources[name], "register", "; ".join(problems))
 
-    for name in registered:
+    # listed as they came (entry point names, then code): `cbr plugins` and manifests
+    for name in (n for n in sources if n in registered):
         obj = plugins.pm.get_plugin(name)
         hooks = set(implemented_hooks(obj)) | _component_hooks(plugins.registry, name)
         plugins.loaded.append(PluginInfo(

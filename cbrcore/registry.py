@@ -2,9 +2,11 @@
 
 cbrcore declares the kinds its engine uses (:data:`KINDS`). A plugin declares further kinds with
 :meth:`Registry.add_kind` from its ``cbr_register``; a kind may own a top-level configuration
-slot, so that a configuration chooses its component once for the whole run. Plugins register in
-name order, so a plugin may register components of a kind that a later plugin declares: kinds
-are checked once every plugin has registered (:meth:`Registry.unresolved`).
+slot, so that a configuration chooses its component once for the whole run. A name (of a kind,
+or of a component within its kind) goes to the first plugin registering it; the built-in plugins
+register first, so their names are theirs (see :mod:`cbrcore.plugins`). A plugin may register
+components of a kind that a later plugin declares: kinds are checked once every plugin has
+registered (:meth:`Registry.unresolved`).
 """
 
 from __future__ import annotations
@@ -186,7 +188,7 @@ class Registry:
 
     @property
     def kinds(self) -> Mapping[str, Kind]:
-        """Every declared kind by name: cbrcore's, then the plugins' in the order they loaded."""
+        """Every declared kind by name: cbrcore's, then the plugins' as they registered."""
         return dict(self._kinds)
 
     @property

@@ -7,16 +7,21 @@ outcome becomes known (:mod:`cbrcore.workload`). A run writes into its output fo
 
 ``results.csv``
     One row per learned decision, in the order the outcomes became known (query order for the
-    default loop), written as the run goes (a killed run keeps the rows so far).
+    default loop), appended as the run goes (a killed run keeps the rows so far). A row is
+    measured before its learn step and written once the step has committed, so the rows and
+    the case base's learn steps agree when a metric, a phase or the step itself fails.
 ``summary.json``
     Where answers came from, the CBR share, success rate, phase timings and metric means.
 ``manifest.json``
     The configuration as resolved, the seed, and the versions of Python, cbrcore, its
     dependencies and every loaded plugin: what is needed to repeat the run.
+
+The summary and the manifest are replaced whole or not at all (:mod:`cbrcore.files`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import datetime as dt
 import json
@@ -26,19 +31,19 @@ import re
 import statistics
 import sys
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from importlib import metadata
 from pathlib import Path
 from typing import Any
 
 from cbrcore import files
 from cbrcore.config import Config
-from cbrcore.engine import Engine
+from cbrcore.engine import Engine, output_folder
 from cbrcore.errors import CbrError, ConfigError, PluginError
 from cbrcore.hookspecs import PHASE_HOOKS
 from cbrcore.model import CASEBASE, Outcome, Proposal
 from cbrcore.plugins import Plugins
-from cbrcore.workload import Decision, Session
+from cbrcore.workload import Decision, Session, Write
 
 PHASES = (*PHASE_HOOKS, "learn")
 
@@ -78,15 +83,32 @@ def manifest(config: Config | None, plugins: Plugins, *, seed: int,
     }
 
 
+@contextlib.contextmanager
+def writing(path: Path) -> Iterator[None]:
+    """Turn an OSError while ``path`` is written (a full disk, a folder where the file goes)
+    into a CbrError naming the file."""
+    try:
+        yield
+    except OSError as exc:
+        raise CbrError(f"{path}: cannot be written ({exc.strerror or exc})") from exc
+
+
 def write_json(path: Path, data: Any) -> None:
     """Write ``data`` as indented JSON, replacing the file only once it is complete."""
-    files.write_text(path, json.dumps(data, indent=2, default=str) + "\n")
+    with writing(path):
+        files.write_text(path, json.dumps(data, indent=2, default=str) + "\n")
 
 
-def _row(index: int, problem: Any, proposal: Proposal, outcome: Outcome,
-         learn_timings: Mapping[str, float], engine: Engine) -> dict[str, Any]:
+def _milliseconds(timings: Mapping[str, float]) -> dict[str, float]:
+    return {f"ms_{phase}": round(seconds * 1000, 4) for phase, seconds in timings.items()
+            if phase in PHASES}
+
+
+def _row(index: int, problem: Any, proposal: Proposal, outcome: Outcome, engine: Engine
+         ) -> dict[str, Any]:
+    """A decision's row before its learn step: the learn step's columns are left empty, to be
+    filled in once it has committed."""
     matches = proposal.retrieval.matches if proposal.retrieval is not None else ()
-    timings = {**proposal.timings, **learn_timings}
     row: dict[str, Any] = {
         "query": index,
         **{f"q_{key}": value for key, value in engine.workload.describe(problem).items()},
@@ -97,11 +119,10 @@ def _row(index: int, problem: Any, proposal: Proposal, outcome: Outcome,
         "solution_cost": proposal.solution.cost if proposal.solution is not None else "",
         "success": outcome.success,
         "outcome_cost": "" if outcome.cost is None else outcome.cost,
-        **{f"ms_{phase}": round(timings[phase] * 1000, 4) if phase in timings else ""
-           for phase in PHASES},
+        **{f"ms_{phase}": "" for phase in PHASES},
+        **_milliseconds(proposal.timings),
+        **engine.measure(problem, proposal, outcome),
     }
-    for metric in engine.metrics:
-        row.update(metric.measure(problem, proposal, outcome, engine.ctx))
     return row
 
 
@@ -184,33 +205,44 @@ def run_workload(engine: Engine, out_dir: Path, *, overrides: Sequence[str] = ()
                           ["workload: required to run; name the workload component that "
                            "produces the queries"])
     loop = _own_loop if _owns_its_loop(engine) else _default_loop
-    out_dir.mkdir(parents=True, exist_ok=True)
+    output_folder(out_dir)
     write_json(out_dir / "manifest.json", manifest(
         engine.config, engine.plugins, seed=engine.config.seed,
         extra={"overrides": list(overrides)}))
     total = len(engine.workload)
     rows: list[dict[str, Any]] = []
     started = time.perf_counter()
-    with (out_dir / "results.csv").open("w", newline="", encoding="utf-8") as handle:
+    path = out_dir / "results.csv"
+    with writing(path):
+        # appended row by row rather than replaced whole: a killed run keeps its rows
+        handle = path.open("w", newline="", encoding="utf-8")
+    with handle:
         writer: csv.DictWriter[str] | None = None
+        columns: list[str] = []
 
-        def record(decision: Decision, outcome: Outcome, learn_timings: Mapping[str, float]
-                   ) -> None:
-            nonlocal writer
-            row = _row(decision.index, decision.problem, decision.proposal, outcome,
-                       learn_timings, engine)
-            if writer is None:
-                writer = csv.DictWriter(handle, fieldnames=list(row))
-                writer.writeheader()
-            elif row.keys() != set(writer.fieldnames):
+        def record(decision: Decision, outcome: Outcome) -> Write:
+            row = _row(decision.index, decision.problem, decision.proposal, outcome, engine)
+            if not columns:
+                columns.extend(row)
+            elif row.keys() != set(columns):
                 raise PluginError(f"query {decision.index}: the workload's describe() or a "
                                   f"metric gave columns {sorted(row)} instead of "
-                                  f"{sorted(writer.fieldnames)}")
-            writer.writerow(row)
-            handle.flush()
-            rows.append(row)
-            if progress is not None:
-                progress(len(rows), total)
+                                  f"{sorted(columns)}")
+
+            def write(learn_timings: Mapping[str, float]) -> None:
+                nonlocal writer
+                row.update(_milliseconds(learn_timings))
+                with writing(path):
+                    if writer is None:
+                        writer = csv.DictWriter(handle, fieldnames=columns)
+                        writer.writeheader()
+                    writer.writerow(row)
+                    handle.flush()
+                rows.append(row)
+                if progress is not None:
+                    progress(len(rows), total)
+
+            return write
 
         session = Session(engine, record=record)
         loop(engine, session)

@@ -92,17 +92,28 @@ class Decision:
     _step: int = attrs.field(repr=False)
 
 
-Record = Callable[[Decision, Outcome, Mapping[str, float]], None]
-"""What a session does with each learned decision: its outcome and the learn step's timings."""
+Write = Callable[[Mapping[str, float]], None]
+"""What a session calls once a decision's learn step has committed, with the step's timings."""
+
+Record = Callable[[Decision, Outcome], Write]
+"""What a session does with each decision it learns, in two steps around the learn step.
+
+Called with the decision and its outcome before the step (``cbr run`` measures the metrics and
+checks the row's columns), it returns what to call once the step has committed (``cbr run``
+writes the row). A failure before the step leaves the case base as it was; a failed step
+writes nothing. So the case base and what was recorded learn the same decisions.
+"""
 
 
 class Session:
     """The engine as a closed-loop workload consults it during one run.
 
     ``consult`` answers a query and opens a :class:`Decision`; ``learn`` learns it, in one case
-    base transaction, when its outcome is known, and hands it to ``record`` (``cbr run`` writes
-    its ``results.csv`` row). While a decision is learned, retainers, forgetters, observers and
-    metrics see ``ctx.step`` as it was when the decision was consulted. Misuse is a
+    base transaction, when its outcome is known, and hands it to ``record`` around that
+    transaction (``cbr run`` measures it first and writes its ``results.csv`` row once the
+    transaction has committed; see :data:`Record`). While a decision is learned, retainers,
+    forgetters, observers and metrics see ``ctx.step`` as it was when the decision was
+    consulted. Misuse is a
     :class:`~cbrcore.errors.PluginError` naming the workload: learning a decision twice, a
     decision of another session, anything but a decision and an outcome, using the
     session after it was closed, and closing it with decisions still open.
@@ -165,11 +176,12 @@ class Session:
         ctx = self.ctx
         current, ctx.step = ctx.step, decision._step
         try:
+            write = self._record(decision, outcome) if self._record is not None else None
             timings = self._engine.learn(decision.problem, decision.proposal, outcome)
-            # learned: whatever recording does, the decision is no longer open
+            # learned: whatever writing does, the decision is no longer open
             del self._open[decision.index]
-            if self._record is not None:
-                self._record(decision, outcome, timings)
+            if write is not None:
+                write(timings)
         finally:
             ctx.step = current
 

@@ -346,7 +346,7 @@ def test_the_casebase_slot_of_a_configuration(shelf: ShelfPlugin, cbr_cli: Cli, 
     folder = tmp_path / "configs"
     folder.mkdir()
     (folder / "file.yaml").write_text(f"seed: 3\ncasebase: {{use: sqlite, path: "
-                                      f"../{casebase.name}}}\n", encoding="utf-8")
+                                      f"{casebase.resolve()}}}\n", encoding="utf-8")
     (folder / "shelf.yaml").write_text("casebase: {use: shelf, name: b}\n", encoding="utf-8")
     (folder / "default.yaml").write_text("seed: 1\n", encoding="utf-8")
     monkeypatch.chdir(tmp_path)
@@ -436,3 +436,25 @@ def test_a_configuration_without_a_case_base_path_names_its_run_folders_file(
         store.add(Case(1, 1))
     found = json.loads(cbr_cli("casebase", "info", "-c", "floor.yaml", "--json").stdout)
     assert (found["store"], found["cases"], Path(found["path"])) == ("sqlite", 1, kept)
+
+
+def test_a_file_or_a_configurations_relative_path_names_the_file_runs_keep(
+        cbr_cli: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    here = tmp_path / "here"
+    here.mkdir()
+    with SQLiteStore(tmp_path / "above.sqlite") as store:
+        store.add(Case(1, 1))
+    (here / "floor.yaml").write_text("casebase: {use: sqlite, path: kept.sqlite}\n",
+                                     encoding="utf-8")
+    kept = here / "runs" / "floor" / "kept.sqlite"
+    kept.parent.mkdir(parents=True)
+    with SQLiteStore(kept) as store:
+        store.add(Case(1, 1))
+        store.add(Case(2, 2))
+    monkeypatch.chdir(here)
+
+    above = json.loads(cbr_cli("casebase", "info", "../above.sqlite", "--json").stdout)
+    run = json.loads(cbr_cli("casebase", "info", "-c", "floor.yaml", "--json").stdout)
+
+    assert (Path(above["path"]), above["cases"]) == (tmp_path / "above.sqlite", 1)
+    assert (Path(run["path"]), run["cases"]) == (kept, 2)

@@ -148,7 +148,7 @@ def test_map_extension_reads_moving_ai(tmp_path: Path) -> None:
      "(8-bit pixels), got 65535"),
     ("bad.pgm", b"P5\n2 2\n255\n\x00\x00\x00", "expected 4 pixel bytes (2x2) after the header, "
      "got 3"),
-    ("bad.pgm", b"P2\n2 1\n255\n0 x\n", "line 4: expected a pixel value, got 'x'"),
+    ("bad.pgm", b"P2\n2 1\n255\n0 x\n", "line 4: expected a pixel value"),
     ("bad.pgm", b"P2\n2 1\n255\n0\n", "expected 2 pixel values (2x1) after the header, got 1"),
     ("bad.pgm", b"P2\n2 2\n15\n0 0\n0 16\n", "line 5: expected pixel values up to the maximum "
      "15, got 16 at (1, 1)"),
@@ -202,7 +202,7 @@ def test_bad_png_npy_and_text(tmp_path: Path) -> None:
         (write(tmp_path, "ragged.grid", "...\n..\n"), "line 2: expected a row of 3 cells like "
          "line 1, got 2"),
         (write(tmp_path, "char.grid", "..\n.x\n"), "line 2: expected '.', '#' or a digit at "
-         "column 2, got 'x'"),
+         "column 2"),
         (write(tmp_path, "empty.grid", "\n\n"), "line 1: expected a row of cells"),
         (write(tmp_path, "map.txt", ".."), "expected a map file ending in .map"),
     ]

@@ -185,8 +185,9 @@ def test_guide_example_runs_through_its_entry_point(guide_example: tuple[Path, P
 
     config = package / "floor.yaml"
     assert cbr("validate", str(config)).returncode == 0
+    kept = tmp_path / "first" / "floor.sqlite"  # a relative case base path is in the run folder
     for out in ("first", "second"):
-        done = cbr("run", str(config), "--out", out)
+        done = cbr("run", str(config), "--out", out, "--set", f"casebase.path={kept}")
         assert done.returncode == 0, done.stderr
     first, second = (json.loads((tmp_path / out / "summary.json").read_text(encoding="utf-8"))
                      for out in ("first", "second"))

@@ -225,7 +225,7 @@ def test_the_manifest_records_what_repeats_the_run(
         "workload": {"use": "squares", "count": 30, "high": 8},
         "retain": [{"use": "keep"}],
         "forget": [{"use": "capacity", "limit": 6}],
-        "observers": [{"use": "trace", "file": str(config_file.parent / "trace.jsonl")}],
+        "observers": [{"use": "trace", "file": "trace.jsonl"}],  # in the run folder
         "metrics": [{"use": "abs_error"}],
     }
     assert manifest["config_file"] == str(config_file)

@@ -20,6 +20,10 @@ from cbrcore.model import JSON, Case
 REVISION_KEY = "cbrcore.revision"
 """The meta key a store keeps its revision under; plugins cannot use it."""
 
+MAX_INTEGER = 2**63 - 1
+"""The largest id, use count, revision or revision stamp a case base holds (SQLite's largest
+integer)."""
+
 
 def is_json(value: Any) -> bool:
     """Whether ``value`` is plain JSON data (the fast test; :func:`json_problems` says why not)."""
@@ -34,8 +38,8 @@ def is_json(value: Any) -> bool:
     return False
 
 
-def _step(path: str, key: str) -> str:
-    return f"{path}.{key}" if key.isidentifier() else f"{path}[{key!r}]"
+def _step(path: str, key: Any) -> str:
+    return f"{path}.{key}" if isinstance(key, str) and key.isidentifier() else f"{path}[{key!r}]"
 
 
 def json_problems(value: Any, path: str) -> Iterator[str]:
@@ -99,12 +103,18 @@ def case_problems(case: Case, revision: int | None) -> list[str]:
         problems.extend(json_problems(dict(case.meta), "meta"))
     if not _is_count(case.uses):
         problems.append(f"uses: expected a non-negative integer, got {_short(case.uses)}")
+    elif case.uses > MAX_INTEGER:
+        problems.append(f"uses: {_short(case.uses)} is beyond the largest integer a case base "
+                        "holds (2^63 - 1)")
     for field in ("created", "last_used"):
         stamp = getattr(case, field)
         if stamp is None:
             continue
         if not _is_count(stamp):
             problems.append(f"{field}: expected a revision number, got {_short(stamp)}")
+        elif stamp > MAX_INTEGER:
+            problems.append(f"{field}: {_short(stamp)} is beyond the largest integer a case "
+                            "base holds (2^63 - 1)")
         elif revision is not None and stamp > revision:
             problems.append(f"{field}: revision {stamp} is after the case base's "
                             f"revision {revision}")

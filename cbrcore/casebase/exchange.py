@@ -26,8 +26,17 @@ from typing import Any, Literal, TextIO
 import attrs
 import yaml
 
-from cbrcore.casebase.data import REVISION_KEY, _is_unicode, _short, _step, is_json, json_problems
+from cbrcore.casebase.data import (
+    MAX_INTEGER,
+    REVISION_KEY,
+    _is_unicode,
+    _short,
+    _step,
+    is_json,
+    json_problems,
+)
 from cbrcore.casebase.store import CaseStore
+from cbrcore.documents import DocumentError, load_json, load_yaml, read_text
 from cbrcore.errors import CaseBaseError
 from cbrcore.model import JSON, Case
 
@@ -104,9 +113,13 @@ class _Reader:
         self.problems.append(f"{path}: {message}")
 
     def count(self, value: Any, path: str, *, least: int = 0) -> int | None:
-        if isinstance(value, int) and not isinstance(value, bool) and value >= least:
+        if not isinstance(value, int) or isinstance(value, bool) or value < least:
+            self.problem(path, f"expected an integer >= {least}, got {_short(value)}")
+        elif value > MAX_INTEGER:  # a SQLite integer is a signed 64-bit one
+            self.problem(path, f"{_short(value)} is beyond the largest integer a case base "
+                               "holds (2^63 - 1)")
+        else:
             return value
-        self.problem(path, f"expected an integer >= {least}, got {_short(value)}")
         return None
 
     def plain(self, value: Any, path: str) -> Any:
@@ -182,6 +195,8 @@ def document_from_data(data: Any, source: str) -> Document:
     revision = reader.count(data.get("revision", 0), "revision")
     meta = reader.mapping(data.get("meta", {}), "meta")
     for key in meta or {}:
+        if not isinstance(key, str):
+            continue  # the mapping's check named it
         if key == REVISION_KEY:
             reader.problem(_step("meta", key), "this key is reserved for the revision")
         elif not _is_unicode(key):
@@ -235,13 +250,16 @@ def dump_document(document: Document, format: Format = "yaml") -> str:
 
 
 def parse_document(text: str, format: Format, source: str = "<text>") -> Document:
-    """Parse and validate YAML or JSON text; ``source`` names it in error messages."""
+    """Parse and validate YAML or JSON text within the document limits
+    (:mod:`cbrcore.documents`); ``source`` names it in error messages."""
     try:
-        data = json.loads(text) if format == "json" else yaml.load(text, Loader=yaml.SafeLoader)
+        data = load_json(text, source) if format == "json" else load_yaml(text, source)
     except json.JSONDecodeError as exc:
         raise CaseBaseError(f"{source}: not valid JSON: {exc}") from exc
     except yaml.YAMLError as exc:
         raise CaseBaseError(f"{source}: not valid YAML: {exc}") from exc
+    except DocumentError as exc:
+        raise CaseBaseError(str(exc)) from None
     return document_from_data(data, source)
 
 
@@ -258,7 +276,9 @@ def read_document(path: str | os.PathLike[str], format: Format | None = None) ->
     """Read and validate an exported case base file (format from the extension by default)."""
     fmt = format or format_of(path)
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        text = read_text(path)
+    except DocumentError as exc:
+        raise CaseBaseError(str(exc)) from None
     except FileNotFoundError as exc:
         raise CaseBaseError(f"no such file: {path}") from exc
     except UnicodeDecodeError as exc:

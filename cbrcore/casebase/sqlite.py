@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import operator
 import os
@@ -30,7 +31,11 @@ APPLICATION_ID = 0x43425243
 SCHEMA_VERSION = SCHEMA
 """``PRAGMA user_version`` of the case bases this cbrcore reads and writes."""
 
+MAX_ID = 2**63 - 1
+"""The largest case id: SQLite's largest integer."""
+
 _HEADER = b"SQLite format 3\x00"
+_WAL_VERSION_OFFSET = 18  # the header's "file format write version": 2 in WAL mode
 _COLUMNS = "id, kind, problem, solution, meta, uses, created, last_used"
 _SCHEMA = (
     # AUTOINCREMENT: ids are never reused, because solutions and plugin meta refer to cases by id
@@ -47,6 +52,41 @@ _SCHEMA = (
     "CREATE INDEX cases_kind ON cases (kind)",
     "CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)",
 )
+_SCHEMA_EXPECTED = ("a case base has the tables cases and meta, the index cases_kind and no other "
+                    "tables, indexes, views or triggers")
+
+
+def _schema_of(conn: sqlite3.Connection) -> dict[tuple[str, str], tuple[str, str | None]]:
+    """Every schema object by type and name: its table and its SQL, whitespace normalised."""
+    rows = conn.execute("SELECT type, name, tbl_name, sql FROM sqlite_master").fetchall()
+    return {(kind, name): (table, None if sql is None else " ".join(sql.split()))
+            for kind, name, table, sql in rows}
+
+
+@functools.cache
+def _case_base_schema() -> dict[tuple[str, str], tuple[str, str | None]]:
+    """The schema objects of a case base, with those SQLite adds (sqlite_sequence, autoindexes).
+
+    Read from a database built by :data:`_SCHEMA`, so the two cannot disagree.
+    """
+    conn = sqlite3.connect(":memory:")
+    try:
+        for statement in _SCHEMA:
+            conn.execute(statement)
+        return _schema_of(conn)
+    finally:
+        conn.close()
+
+
+def _parse_revision(text: str | None) -> int | None:
+    """The revision a meta record holds; None unless it is a non-negative integer."""
+    try:
+        revision = json.loads(text) if text is not None else None
+    except ValueError:
+        return None
+    if isinstance(revision, int) and not isinstance(revision, bool) and revision >= 0:
+        return revision
+    return None
 
 
 def _dumps(value: JSON) -> str:
@@ -73,32 +113,69 @@ class SQLiteStore:
     seconds for the write lock before giving up with a CaseBaseError. Readers never wait.
     Every transaction starts with the write lock held (``BEGIN IMMEDIATE``), so it never fails
     halfway for want of it.
+
+    ``read_only`` opens an existing case base for reading alone (a write raises CaseBaseError),
+    also in a folder the process may not write into; then a transaction is a consistent snapshot
+    that takes no lock.
     """
 
     def __init__(self, path: str | os.PathLike[str], *, busy_timeout: float = 5.0,
-                 create: bool = True) -> None:
+                 create: bool = True, read_only: bool = False) -> None:
         self.path = Path(path)
         self.busy_timeout = busy_timeout
+        self.read_only = read_only
         self._depth = 0
         self._pending = 0
         self._wrote = False
+        self._immutable = False
+        create = create and not read_only
         new = self._inspect_file(create)
-        mode = "rwc" if create else "rw"
-        try:
-            self._conn = sqlite3.connect(f"{self.path.absolute().as_uri()}?mode={mode}", uri=True,
-                                         timeout=busy_timeout, isolation_level=None)
-        except sqlite3.Error as exc:
-            raise self._translate(exc) or CaseBaseError(f"cannot open {self.path}: {exc}") from exc
+        self._conn = self._connect_reading() if read_only else self._connect(
+            "mode=rwc" if create else "mode=rw")
         try:
             if new:
                 self._create_schema()
             self._validate()
-            if self._value("PRAGMA journal_mode") != "wal":
-                self._rows("PRAGMA journal_mode = WAL")
-            self._run("PRAGMA synchronous = NORMAL")
+            if not read_only:
+                if self._value("PRAGMA journal_mode") != "wal":
+                    self._rows("PRAGMA journal_mode = WAL")
+                self._run("PRAGMA synchronous = NORMAL")
         except BaseException:
             self._conn.close()
             raise
+
+    def _connect(self, parameters: str) -> sqlite3.Connection:
+        try:
+            return sqlite3.connect(f"{self.path.absolute().as_uri()}?{parameters}", uri=True,
+                                   timeout=self.busy_timeout, isolation_level=None)
+        except sqlite3.Error as exc:
+            raise self._translate(exc) or CaseBaseError(f"cannot open {self.path}: {exc}") from exc
+
+    def _connect_reading(self) -> sqlite3.Connection:
+        """A connection that cannot write the case base.
+
+        A read-write connection told to write nothing comes first: unlike a read-only one, the
+        last such connection to close removes the ``-wal`` and ``-shm`` files beside the case
+        base, so reading leaves nothing behind. In a folder the process may not write, reading
+        a WAL database needs its ``-shm`` file to exist already; without a ``-wal`` file
+        everything committed is in the case base file itself, and SQLite may read it as
+        immutable (a snapshot that takes no locks).
+        """
+        conn = self._connect("mode=rw")
+        try:
+            conn.execute("PRAGMA query_only = ON")
+            # the first read opens the -shm file, which fails in a folder that may not be written
+            conn.execute("SELECT count(*) FROM sqlite_master").fetchall()
+            return conn
+        except sqlite3.Error as exc:
+            conn.close()
+            if getattr(exc, "sqlite_errorname", "") != "SQLITE_CANTOPEN":
+                raise self._translate(exc) or CaseBaseError(
+                    f"cannot open {self.path}: {exc}") from exc
+        if self.path.with_name(self.path.name + "-wal").exists():
+            return self._connect("mode=ro")
+        self._immutable = True
+        return self._connect("mode=ro&immutable=1")
 
     def _inspect_file(self, create: bool) -> bool:
         """Refuse what cannot be a case base before SQLite touches it; True for a new file."""
@@ -157,6 +234,35 @@ class SQLiteStore:
         verdict = [row[0] for row in self._rows("PRAGMA quick_check")]
         if verdict != ["ok"]:
             raise UnusableCaseBase(f"{self.path} is corrupt: {'; '.join(verdict[:3])}")
+        problems = self._schema_problems()
+        if problems:
+            raise UnusableCaseBase(f"{self.path} is not a sound case base: "
+                                   f"{'; '.join(problems)} ({_SCHEMA_EXPECTED})")
+
+    def _schema_problems(self) -> list[str]:
+        """How the file's schema differs from a case base's.
+
+        Anything added is refused, not only what is missing or changed: a trigger or a view runs
+        or answers behind the store's back (a trigger deleting every inserted case would make an
+        import report cases it never kept).
+        """
+        expected = _case_base_schema()
+        with self._errors():
+            found = _schema_of(self._conn)
+        tables = {name for kind, name in found if kind == "table"}
+        problems = []
+        for (kind, name), (table, sql) in sorted(expected.items()):
+            if (kind, name) not in found:
+                # the indexes of a missing table, and SQLite's own objects, go with the table
+                if table in tables and not name.startswith("sqlite_"):
+                    problems.append(f"{kind} {name} is missing")
+            elif found[kind, name][1] != sql:
+                problems.append(f"{kind} {name} is not defined as in a case base")
+        problems[:0] = [f"table {name} is missing" for name in ("cases", "meta")
+                        if name not in tables]
+        problems += [f"{kind} {name!r} does not belong in a case base"
+                     for kind, name in sorted(found.keys() - expected.keys())]
+        return problems
 
     def __str__(self) -> str:
         return str(self.path)
@@ -181,10 +287,32 @@ class SQLiteStore:
         if name.startswith("SQLITE_CORRUPT") or name == "SQLITE_NOTADB":
             return UnusableCaseBase(f"{self.path} is corrupt: {exc}")
         if name.startswith("SQLITE_READONLY"):
+            if self.read_only:
+                return CaseBaseError(f"{self.path} is open for reading only and cannot be "
+                                     f"written")
             return CaseBaseError(f"{self.path} cannot be written: {exc}")
+        if name.startswith("SQLITE_FULL") and self._ids_used_up():
+            return self._no_id_left()
         if name.startswith(("SQLITE_IOERR", "SQLITE_FULL", "SQLITE_CANTOPEN", "SQLITE_PERM")):
             return CaseBaseError(f"{self.path}: {exc}")
+        if str(exc).startswith(("no such table", "no such column")):
+            # the schema was checked when the file was opened; another program changed it since
+            return UnusableCaseBase(f"{self.path} is not a sound case base: {exc} "
+                                    f"({_SCHEMA_EXPECTED})")
         return None
+
+    def _no_id_left(self) -> CaseBaseError:
+        return CaseBaseError(f"{self.path} has used every case id: ids are never reused, and the "
+                             f"largest, {MAX_ID}, is taken")
+
+    def _ids_used_up(self) -> bool:
+        """Whether SQLite has no id left to give a new case (it then says the disk is full)."""
+        with contextlib.suppress(sqlite3.Error):
+            largest = self._conn.execute(
+                "SELECT max(coalesce((SELECT seq FROM sqlite_sequence WHERE name = 'cases'), 0), "
+                "coalesce((SELECT max(id) FROM cases), 0))").fetchone()[0]
+            return bool(largest >= MAX_ID)
+        return False
 
     @contextlib.contextmanager
     def _errors(self) -> Iterator[None]:
@@ -223,7 +351,11 @@ class SQLiteStore:
         text = self._value("SELECT value FROM meta WHERE key = ?", (REVISION_KEY,))
         if text is None:
             raise UnusableCaseBase(f"{self.path} is corrupt: its revision record is missing")
-        return int(text)
+        revision = _parse_revision(text)
+        if revision is None:
+            raise UnusableCaseBase(f"{self.path} is corrupt: its revision record is {text!r}, "
+                                   f"expected a non-negative integer")
+        return revision
 
     @contextlib.contextmanager
     def transaction(self) -> Iterator[None]:
@@ -236,7 +368,8 @@ class SQLiteStore:
             with self._savepoint():
                 yield
             return
-        self._run("BEGIN IMMEDIATE")
+        # reading alone takes no lock: a deferred transaction is a consistent snapshot
+        self._run("BEGIN" if self.read_only else "BEGIN IMMEDIATE")
         try:
             self._pending = self.revision + 1
             self._wrote = False
@@ -262,8 +395,11 @@ class SQLiteStore:
         try:
             yield
         except BaseException:
-            self._run(f"ROLLBACK TO {name}")
-            self._run(f"RELEASE {name}")
+            # after some errors (a full disk, no id left) SQLite has rolled back the whole
+            # transaction and the savepoint is gone; the error says what happened
+            if self._conn.in_transaction:
+                self._run(f"ROLLBACK TO {name}")
+                self._run(f"RELEASE {name}")
             self._pending, self._wrote = saved
             raise
         finally:
@@ -383,7 +519,14 @@ class SQLiteStore:
         """A plugin's stored value (plain JSON data) under ``key``."""
         check_meta_key(key)
         text = self._value("SELECT value FROM meta WHERE key = ?", (key,))
-        return default if text is None else json.loads(text)
+        return default if text is None else self._meta_value(key, text)
+
+    def _meta_value(self, key: str, text: str) -> JSON:
+        try:
+            return json.loads(text)
+        except (TypeError, ValueError) as exc:
+            raise UnusableCaseBase(f"{self.path} is corrupt: meta key {key!r} cannot be decoded "
+                                   f"({exc})") from exc
 
     def set_meta(self, key: str, value: JSON) -> None:
         """Store a plugin's value under ``key``; it commits with the surrounding transaction."""
@@ -397,7 +540,7 @@ class SQLiteStore:
         """Every plugin meta value, by key."""
         rows = self._rows("SELECT key, value FROM meta WHERE key != ? ORDER BY key",
                           (REVISION_KEY,))
-        return {key: json.loads(text) for key, text in rows}
+        return {key: self._meta_value(key, text) for key, text in rows}
 
     def restore(self, cases: Iterable[Case], meta: Mapping[str, JSON], revision: int) -> None:
         """Fill this store, which holds no cases, with ``cases`` keeping their ids and stamps.
@@ -416,6 +559,9 @@ class SQLiteStore:
             cases = list(cases)
             # cases with ids go in first, so the ids SQLite hands out come after all of them
             ordered = [c for c in cases if c.id is not None] + [c for c in cases if c.id is None]
+            if ordered and ordered[-1].id is None and MAX_ID in (c.id for c in ordered):
+                # SQLite would say the disk is full, and roll back what shows it is not
+                raise self._no_id_left()
             for case in ordered:
                 stored = case if case.created is not None else attrs.evolve(
                     case, created=self._pending)
@@ -442,6 +588,12 @@ class SQLiteStore:
     @property
     def journal_mode(self) -> str:
         """SQLite's journal mode for the file (``wal`` for every case base this store opened)."""
+        if self._immutable:
+            # SQLite ignores the log of a file it reads as immutable and reports "delete"; the
+            # file's header says whether it is in WAL mode (format version 2)
+            with self._errors(), self.path.open("rb") as file:
+                header = file.read(_WAL_VERSION_OFFSET + 1)
+            return "wal" if header[_WAL_VERSION_OFFSET:] == b"\x02" else "delete"
         return str(self._value("PRAGMA journal_mode"))
 
     def describe(self) -> dict[str, JSON]:
@@ -465,10 +617,15 @@ class SQLiteStore:
         try:
             problems += [f"integrity: {row[0]}" for row in self._rows("PRAGMA integrity_check")
                          if row[0] != "ok"]
+            schema = self._schema_problems()
+            if schema:
+                # found when the file was opened, unless another program changed it since
+                return [*problems, *(f"schema: {p}" for p in schema)]
             rows = self._rows(f"SELECT {_COLUMNS} FROM cases ORDER BY id")
             problems += [f"case {row[0]}: id is used {row[1]} times" for row in self._rows(
                 "SELECT id, count(*) FROM cases GROUP BY id HAVING count(*) > 1")]
-            meta = self._rows("SELECT key, value FROM meta")
+            # the revision record is checked on its own, below
+            meta = self._rows("SELECT key, value FROM meta WHERE key != ?", (REVISION_KEY,))
             # read after the cases: the revision only grows, so a sound case is never after it
             bound = self._pending if self._depth else self._revision_or_problem(problems)
         except CaseBaseError as exc:
@@ -484,11 +641,8 @@ class SQLiteStore:
 
     def _revision_or_problem(self, problems: list[str]) -> int | None:
         text = self._value("SELECT value FROM meta WHERE key = ?", (REVISION_KEY,))
-        try:
-            revision = json.loads(text)
-        except (TypeError, ValueError):
-            revision = None
-        if not isinstance(revision, int) or isinstance(revision, bool) or revision < 0:
+        revision = _parse_revision(text)
+        if revision is None:
             problems.append(f"revision: expected a non-negative integer, got {text!r}")
             return None
         return revision

@@ -1,20 +1,23 @@
 """The ``cbr`` command line.
 
 User errors (bad configuration, unknown component, broken plugin, unusable case base, bad usage)
-print one clear message and exit with code 2; ``--traceback`` shows where they came from.
+print one clear message and exit with code 2; ``--traceback`` shows where they came from. A
+plugin that failed to load while the others did is one ``warning:`` line on stderr.
 """
 
 from __future__ import annotations
 
 import sys
 import traceback
-from collections.abc import Sequence
+import warnings
+from collections.abc import Callable, Sequence
+from typing import TextIO
 
 import typer
 from rich.console import Console
 
 from cbrcore.cli import casebase, commands
-from cbrcore.errors import CbrError
+from cbrcore.errors import CbrError, PluginWarning
 from cbrcore.plugins import current
 
 
@@ -27,20 +30,52 @@ def _options(
 
 
 def build_app() -> typer.Typer:
-    """The ``cbr`` application: plugin commands first, so a built-in name always wins."""
+    """The ``cbr`` application. A command added later replaces one of the same name, so third
+    parties' commands come first, then those of cbrcore's own plugins, then the core's: a
+    built-in name always wins."""
     app = typer.Typer(name="cbr", no_args_is_help=True, pretty_exceptions_enable=False,
                       rich_markup_mode=None, callback=_options)
-    current().pm.hook.cbr_cli(app=app)
+    plugins = current()
+    builtin = [plugins.pm.get_plugin(name) for name in plugins.builtins]
+    third_party = [obj for _, obj in plugins.pm.list_name_plugin() if obj not in builtin]
+    plugins.pm.subset_hook_caller("cbr_cli", remove_plugins=builtin)(app=app)
+    plugins.pm.subset_hook_caller("cbr_cli", remove_plugins=third_party)(app=app)
     commands.install(app)
     app.add_typer(casebase.app)
     return app
 
 
+ShowWarning = Callable[[Warning | str, type[Warning], str, int, TextIO | None, str | None], None]
+
+
+def _plugin_warnings_as_lines(err: Console, show: ShowWarning) -> ShowWarning:
+    """A ``warnings.showwarning`` printing a :class:`PluginWarning` as one ``warning:`` line.
+
+    The source line a warning names is cbrcore's, not the user's, so it would only distract;
+    other categories go on to ``show``. Filters still apply, since they run before display.
+    """
+
+    def display(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                file: TextIO | None = None, line: str | None = None) -> None:
+        if issubclass(category, PluginWarning):
+            err.print(f"warning: {message}", markup=False)
+        else:
+            show(message, category, filename, lineno, file, line)
+
+    return display
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``cbr`` with ``argv`` (default: the process's arguments); return the exit code."""
-    args = list(sys.argv[1:] if argv is None else argv)
-    show_traceback = "--traceback" in args
     err = Console(stderr=True, highlight=False, soft_wrap=True)
+    # catch_warnings restores the display on return, for callers running ``main`` in-process
+    with warnings.catch_warnings():
+        warnings.showwarning = _plugin_warnings_as_lines(err, warnings.showwarning)
+        return _run(list(sys.argv[1:] if argv is None else argv), err)
+
+
+def _run(args: list[str], err: Console) -> int:
+    show_traceback = "--traceback" in args
     try:
         command = typer.main.get_command(build_app())
         result = command.main(args, prog_name="cbr", standalone_mode=False)

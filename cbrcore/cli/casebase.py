@@ -5,6 +5,8 @@ from __future__ import annotations
 import contextlib
 import enum
 import json
+import os
+import secrets
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated, Any
@@ -12,19 +14,20 @@ from typing import Annotated, Any
 import attrs
 import typer
 
+from cbrcore import files
 from cbrcore.casebase import (
     CaseStore,
     UnusableCaseBase,
     describe,
     document_of,
     dump_document,
+    format_of,
     load_document,
     read_document,
-    write_document,
 )
 from cbrcore.config import Config, load_config, parse_config, parse_yaml
 from cbrcore.engine import Engine
-from cbrcore.errors import CbrError, ConfigError
+from cbrcore.errors import CaseBaseError, CbrError, ConfigError
 from cbrcore.plugins import current
 
 app = typer.Typer(
@@ -62,8 +65,12 @@ FormatOption = Annotated[
 
 
 def _casebase_slot(file: Path | None, store: str | None, config: Path | None, *,
-                   create: bool) -> Config:
-    """A configuration holding only the case base that ``FILE``, --store or --config names."""
+                   reading: bool) -> Config:
+    """A configuration holding only the case base that ``FILE``, --store or --config names.
+
+    For a command that only reads (``reading``), a SQLite case base is opened read-only: that
+    never creates a file, and works in a folder the user may not write.
+    """
     given = [name for name, value in (("FILE", file), ("--store", store), ("--config", config))
              if value is not None]
     if len(given) != 1:
@@ -74,37 +81,46 @@ def _casebase_slot(file: Path | None, store: str | None, config: Path | None, *,
     if config is not None:
         loaded = load_config(config, registry)
         casebase = loaded.casebase
-        if casebase is not None and casebase.name == "sqlite" and casebase.options.path is None:
-            # the file a run of the configuration keeps in its default folder, as cbr run does
-            path = (Path("runs") / config.stem / "casebase.sqlite").resolve()
-            casebase = attrs.evolve(casebase, options=attrs.evolve(
-                casebase.options, path=path, create=create and casebase.options.create))
+        if casebase is not None and casebase.name == "sqlite" and not (
+                casebase.options.path and casebase.options.path.is_absolute()):
+            # the file a run of the configuration keeps in its default output folder, as
+            # cbr run does: a relative path names a file inside that folder
+            inside = casebase.options.path or Path("casebase.sqlite")
+            path = (Path("runs") / config.stem / inside).resolve()
+            casebase = attrs.evolve(casebase, options=attrs.evolve(casebase.options, path=path))
         label, selected = str(loaded.source), Config(seed=loaded.seed, casebase=casebase,
                                                      source=loaded.source)
     else:
         if store is not None:
             label, (raw, _) = "--store", parse_yaml(store, "--store")
         else:
-            # a command that only reads must not leave a new, empty case base file behind
-            label, raw = str(file), {"use": "sqlite", "path": str(file), "create": create}
+            # the file as named on the command line, wherever it is
+            label, raw = str(file), {"use": "sqlite", "path": str(file.resolve())}
         try:
             selected = Config(casebase=parse_config({"casebase": raw}, registry).casebase)
         except ConfigError as exc:
             raise ConfigError(label, exc.problems) from None
     if selected.casebase is None:
         raise CbrError(f"{label}: names no case base (its casebase slot is empty)")
+    if reading and selected.casebase.name == "sqlite":
+        selected = _with_sqlite_options(selected, read_only=True)
     return selected
 
 
+def _with_sqlite_options(selected: Config, **changes: Any) -> Config:
+    assert selected.casebase is not None
+    options = attrs.evolve(selected.casebase.options, **changes)
+    return attrs.evolve(selected, casebase=attrs.evolve(selected.casebase, options=options))
+
+
 @contextlib.contextmanager
-def _opened(file: Path | None, store: str | None, config: Path | None, *,
-            create: bool = False) -> Iterator[tuple[str, CaseStore]]:
-    """The named case base and its store's registered name, closed after the block.
+def _opened(selected: Config) -> Iterator[tuple[str, CaseStore]]:
+    """The case base ``selected`` configures and its store's registered name, closed after the
+    block.
 
     It is opened by an engine configured with it alone, so the store is built exactly as a run
     builds it.
     """
-    selected = _casebase_slot(file, store, config, create=create)
     with Engine(selected) as engine:
         assert selected.casebase is not None and engine.casebase is not None
         yield selected.casebase.name, engine.casebase
@@ -123,7 +139,7 @@ def info(
 ) -> None:
     """Show a case base's store, revision, case counts by kind, and what its store tells of it
     (for a SQLite file: path, schema version, sizes and journal mode)."""
-    with _opened(file, store, config) as (name, casebase):
+    with _opened(_casebase_slot(file, store, config, reading=True)) as (name, casebase):
         facts: dict[str, Any] = {"store": name, "revision": casebase.revision,
                                  "cases": casebase.count(), "kinds": casebase.kind_counts(),
                                  **describe(casebase)}
@@ -152,7 +168,7 @@ def check(
     when it does not exist.
     """
     try:
-        with _opened(file, store, config) as (_, casebase):
+        with _opened(_casebase_slot(file, store, config, reading=True)) as (_, casebase):
             problems = casebase.check()
             label = str(casebase)
     except UnusableCaseBase as exc:
@@ -177,13 +193,18 @@ def export(
     fmt: FormatOption = None,
 ) -> None:
     """Write a case base as YAML or JSON text (YAML on standard output unless told)."""
-    with _opened(file, store, config) as (_, casebase):
+    with _opened(_casebase_slot(file, store, config, reading=True)) as (_, casebase):
         document = document_of(casebase)
     chosen = fmt.value if fmt is not None else None
     if output is None:
         typer.echo(dump_document(document, chosen or "yaml"), nl=False)
         return
-    write_document(document, output, chosen)
+    text = dump_document(document, chosen or format_of(output))
+    try:
+        # a full disk or a kill leaves the earlier export, never a truncated one
+        files.write_text(output, text)
+    except OSError as exc:
+        raise CaseBaseError(f"cannot write {output}: {exc.strerror or exc}") from exc
     typer.echo(f"exported {len(document.cases)} cases (revision {document.revision}) "
                f"to {output}")
 
@@ -213,8 +234,62 @@ def import_(
         raise typer.BadParameter("name the exported file to import", param_hint="DOCUMENT")
     # read and validate first, so that a bad document does not leave an empty case base behind
     loaded = read_document(document, fmt.value if fmt is not None else None)
-    with _opened(file, store, config, create=True) as (_, casebase):
-        added = load_document(casebase, loaded, append=append)
-        revision = casebase.revision
-        label = str(casebase)
+    selected = _casebase_slot(file, store, config, reading=False)
+    target = _new_sqlite_file(selected)
+    if target is None:
+        with _opened(selected) as (_, casebase):
+            added = load_document(casebase, loaded, append=append)
+            revision = casebase.revision
+            label = str(casebase)
+    else:
+        # a new case base is made beside its place and moved there once it is complete: a
+        # failed import leaves no file, and no other process sees the case base half imported
+        partial = target.with_name(f".{target.name}.{secrets.token_hex(8)}.partial")
+        try:
+            with _opened(_with_sqlite_options(selected, path=partial, create=True)) as (
+                    _, casebase):
+                added = load_document(casebase, loaded, append=append)
+                revision = casebase.revision
+            _move_into_place(partial, target)
+        except CaseBaseError as exc:
+            # the user knows the case base by the name it is to have
+            raise type(exc)(str(exc).replace(str(partial), str(target))) from exc
+        finally:
+            for leftover in (partial, *(partial.with_name(partial.name + suffix)
+                                        for suffix in ("-wal", "-shm"))):
+                with contextlib.suppress(FileNotFoundError):
+                    leftover.unlink()
+        label = str(target)
     typer.echo(f"imported {added} cases into {label} (revision {revision})")
+
+
+def _new_sqlite_file(selected: Config) -> Path | None:
+    """The file of a SQLite case base that an import would create; None for any other."""
+    casebase = selected.casebase
+    if (casebase is None or casebase.name != "sqlite" or casebase.options.path is None
+            or not casebase.options.create):  # the store refuses to create it, and says so
+        return None
+    path = Path(casebase.options.path)
+    with contextlib.suppress(OSError):
+        # an empty file is what a process killed while creating a case base leaves behind
+        if path.stat().st_size:
+            return None
+    return path
+
+
+def _move_into_place(partial: Path, target: Path) -> None:
+    """Give the complete case base ``partial`` the name ``target``, unless a case base appeared
+    there meanwhile."""
+    try:
+        try:
+            os.link(partial, target)  # fails rather than replace a file created meanwhile
+            return
+        except FileExistsError:
+            if target.stat().st_size:
+                raise CaseBaseError(f"{target} was created by another process during the "
+                                    f"import; the import was not applied") from None
+        except OSError:
+            pass  # a file system without hard links
+        os.replace(partial, target)
+    except OSError as exc:
+        raise CaseBaseError(f"cannot create case base {target}: {exc.strerror or exc}") from exc

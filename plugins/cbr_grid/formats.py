@@ -3,7 +3,9 @@
 Every loader returns a :class:`~cbr_grid.grid.Grid` whose row y = 0 is the image's (or file's)
 top row, as in Moving AI maps, so a picture of the map reads the same way as the grid. Every
 error names the file and says what was expected; where a line number means something the error
-reads ``<file>, line N: expected ..., got ...``.
+reads ``<file>, line N: expected ...``. Errors quote numbers and the format's own words (a PGM
+magic number, a ROS ``mode``) but never other text of the file: a configuration that names the
+wrong file, a secret one say, must not get it printed.
 
 ROS map_server (``.yaml``)
     A YAML mapping with ``image`` (relative to the YAML file), ``resolution`` (> 0), ``origin``
@@ -25,7 +27,8 @@ PNG (``.png``)
     (alpha ignored). Cells darker than ``threshold`` (luminance in [0, 1]) are obstacles, the
     rest free.
 NumPy (``.npy``)
-    A 2-D array of risk values in [0, 1], ``[y, x]``; pickled arrays are refused.
+    A 2-D array of real risk values in [0, 1], ``[y, x]``; pickled and complex arrays are
+    refused.
 Text (``.grid``)
     One row per line, y = 0 first: ``.`` free (risk 0), ``#`` obstacle (risk 1), a digit d
     risk d / 10 (``0`` to ``9``: 0.0 to 0.9). Every row has the same length; LF or CRLF line
@@ -65,6 +68,7 @@ def _grid(path: Path, risk: np.ndarray, corner_cutting: bool) -> Grid:
 # --- PGM -----------------------------------------------------------------------------------------
 
 _PGM_TOKEN = re.compile(rb"#[^\n]*|[^\s#]+")
+_MAGIC = re.compile(rb"P[0-9]")
 
 
 def _line_of(data: bytes, offset: int) -> int:
@@ -93,8 +97,10 @@ def load_pgm(path: str | Path) -> tuple[np.ndarray, int]:
     names = ("the magic number P2 or P5", "a positive width", "a positive height",
              "a maximum value from 1 to 255")
     if tokens and tokens[0][0] not in (b"P2", b"P5"):
-        raise CbrError(f"{path}, line {_line_of(data, tokens[0][1])}: expected {names[0]}, "
-                       f"got {tokens[0][0].decode('ascii', 'backslashreplace')!r}")
+        # another Netpbm magic number is named; anything else may not be an image at all
+        magic = tokens[0][0]
+        got = f", got {magic.decode()!r}" if _MAGIC.fullmatch(magic) else ""
+        raise CbrError(f"{path}, line {_line_of(data, tokens[0][1])}: expected {names[0]}{got}")
     if len(tokens) < 4:
         raise CbrError(f"{path}, line {_line_of(data, len(data))}: expected "
                        f"{names[len(tokens)]}, the file ends")
@@ -102,8 +108,8 @@ def load_pgm(path: str | Path) -> tuple[np.ndarray, int]:
     numbers = []
     for name, (token, offset) in zip(names[1:], tokens[1:], strict=True):
         if not token.isdigit() or int(token) < 1:
-            raise CbrError(f"{path}, line {_line_of(data, offset)}: expected {name}, "
-                           f"got {token.decode('ascii', 'backslashreplace')!r}")
+            got = f", got {token.decode()!r}" if token.isdigit() else ""  # digits: a number
+            raise CbrError(f"{path}, line {_line_of(data, offset)}: expected {name}{got}")
         numbers.append(int(token))
     width, height, maxval = numbers
     if maxval > 255:
@@ -122,8 +128,7 @@ def load_pgm(path: str | Path) -> tuple[np.ndarray, int]:
                 if not m.group().startswith(b"#")]
         bad = next(((t, o) for t, o in body if not t.isdigit()), None)
         if bad is not None:
-            raise CbrError(f"{path}, line {_line_of(data, bad[1])}: expected a pixel value, "
-                           f"got {bad[0].decode('ascii', 'backslashreplace')!r}")
+            raise CbrError(f"{path}, line {_line_of(data, bad[1])}: expected a pixel value")
         if len(body) != width * height:
             raise CbrError(f"{path}: expected {width * height} pixel values ({width}x{height}) "
                            f"after the header, got {len(body)}")
@@ -150,7 +155,8 @@ def _image(path: Path) -> np.ndarray:
     try:
         image = np.asarray(matplotlib.image.imread(path))
     except Exception as exc:  # the image libraries raise many unrelated types for a bad file
-        raise CbrError(f"{path}: cannot read the image: {exc}") from exc
+        # their messages may quote the file's first bytes, so only the expectation is said
+        raise CbrError(f"{path}: cannot read the image; expected a PNG file") from exc
     if np.issubdtype(image.dtype, np.integer):
         image = image / np.iinfo(image.dtype).max
     if image.ndim not in (2, 3) or image.size == 0:
@@ -179,6 +185,20 @@ def _number(value: Any) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
+def _kind(value: Any) -> str:
+    """``value`` as an error may show it: a number or boolean as written, text and containers
+    by their kind only, as they may come from a file that is no map description."""
+    if isinstance(value, bool | int | float):
+        return repr(value)
+    if value is None:
+        return "null"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, list):
+        return f"a list of {len(value)}"
+    return "a mapping" if isinstance(value, dict) else type(value).__name__
+
+
 def _yaml_mapping(path: Path) -> tuple[dict[str, Any], dict[str, int]]:
     """The YAML file's top-level mapping and the line of each key."""
     text = _read(path).decode("utf-8", errors="replace")
@@ -186,14 +206,14 @@ def _yaml_mapping(path: Path) -> tuple[dict[str, Any], dict[str, int]]:
         node = yaml.compose(text, Loader=yaml.SafeLoader)
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
+        # PyYAML's problem texts quote the offending characters; the place is enough
         mark = getattr(exc, "problem_mark", None)
-        where = f", line {mark.line + 1}" if mark is not None else ""
-        raise CbrError(f"{path}{where}: expected a YAML map description, got invalid YAML: "
-                       f"{getattr(exc, 'problem', None) or exc}") from exc
+        where = f", line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        raise CbrError(f"{path}{where}: expected a YAML map description, got invalid "
+                       "YAML") from exc
     if not isinstance(node, yaml.MappingNode) or not isinstance(data, dict):
         raise CbrError(f"{path}, line 1: expected a YAML mapping with image, resolution, "
-                       f"origin, negate, occupied_thresh and free_thresh, got "
-                       f"{type(data).__name__}")
+                       f"origin, negate, occupied_thresh and free_thresh, got {_kind(data)}")
     lines = {key.value: key.start_mark.line + 1 for key, _ in node.value
              if isinstance(key, yaml.ScalarNode)}
     return data, lines
@@ -206,7 +226,7 @@ def _field(path: Path, data: dict[str, Any], lines: dict[str, int], key: str, ex
     value = data[key]
     if not ok(value):
         raise CbrError(f"{path}, line {lines.get(key, 1)}: expected '{key}' to be {expected}, "
-                       f"got {value!r}")
+                       f"got {_kind(value)}")
     return value
 
 
@@ -225,7 +245,7 @@ def load_ros(path: str | Path, *, unknown_risk: float = 1.0,
     extra = sorted(str(k) for k in data if k not in known)
     if extra:
         raise CbrError(f"{path}, line {lines.get(extra[0], 1)}: expected only the keys "
-                       f"{', '.join(sorted(known))}, got {extra[0]!r}")
+                       f"{', '.join(sorted(known))}, got another key")
     image = _field(path, data, lines, "image", "an image file name",
                    lambda v: isinstance(v, str) and v != "")
     _field(path, data, lines, "resolution", "a positive number", lambda v: _number(v) and v > 0)
@@ -240,8 +260,10 @@ def load_ros(path: str | Path, *, unknown_risk: float = 1.0,
                   lambda v: _number(v) and 0 <= v <= occupied)
     mode = data.get("mode", "trinary")
     if mode not in ("trinary", "scale"):
+        # raw, map_server's third mode, is named; other values may be anything
+        got = "'raw'" if mode == "raw" else _kind(mode)
         raise CbrError(f"{path}, line {lines.get('mode', 1)}: expected 'mode' to be trinary or "
-                       f"scale, got {mode!r}")
+                       f"scale, got {got}")
 
     image_path = path.parent / image
     if image_path.suffix.lower() == ".pgm":
@@ -269,10 +291,15 @@ def load_npy(path: str | Path, *, corner_cutting: bool = False) -> Grid:
     except OSError as exc:
         raise CbrError(f"{path}: cannot read: {exc.strerror or exc}") from exc
     except ValueError as exc:
-        raise CbrError(f"{path}: expected a NumPy array file, got {exc}") from exc
+        # NumPy's message quotes the file's first bytes when they are not the .npy magic
+        raise CbrError(f"{path}: expected a NumPy array file (.npy)") from exc
     if not isinstance(risk, np.ndarray) or not (
             np.issubdtype(risk.dtype, np.number) or risk.dtype == bool):
-        raise CbrError(f"{path}: expected a numeric array, got {getattr(risk, 'dtype', risk)}")
+        # a structured dtype's field names are the file's text, so the dtype is not shown
+        raise CbrError(f"{path}: expected a numeric array")
+    if np.iscomplexobj(risk):
+        # converting to risk values would drop the imaginary parts silently
+        raise CbrError(f"{path}: expected real risk values, got a complex array")
     return _grid(path, risk, corner_cutting)
 
 
@@ -302,9 +329,7 @@ def load_text(path: str | Path, *, corner_cutting: bool = False) -> Grid:
     unknown = np.isnan(risk)
     if unknown.any():
         y, x = (int(i) for i in np.argwhere(unknown)[0])
-        char = bytes([codes[y, x]]).decode("ascii", "backslashreplace")
-        raise CbrError(f"{path}, line {y + 1}: expected '.', '#' or a digit at column {x + 1}, "
-                       f"got {char!r}")
+        raise CbrError(f"{path}, line {y + 1}: expected '.', '#' or a digit at column {x + 1}")
     return _grid(path, risk, corner_cutting)
 
 

@@ -4,7 +4,9 @@ A map file is ``type octile``, ``height H``, ``width W``, ``map`` and H rows of 
 row y holding cells (0, y) .. (W-1, y). ``.``, ``G`` and ``S`` are passable ground (risk 0);
 ``@``, ``O``, ``T`` and ``W`` are blocked (risk 1). A scenario file is ``version 1`` (or
 ``1.0``) and one line per problem: bucket, map, W, H, start x, y, goal x, y, optimal length,
-separated by tabs or spaces. Line ends may be LF or CRLF. Every error names the file and line.
+separated by tabs or spaces. Line ends may be LF or CRLF. Every error names the file and line
+and says what was expected there; it quotes numbers it read but never other text of the file,
+which may not be a map at all (a configuration naming the wrong file must not print it).
 """
 
 from __future__ import annotations
@@ -41,22 +43,23 @@ def _text(line: bytes) -> str:
     return line.decode("ascii", errors="backslashreplace")
 
 
-def _header(path: Path, lines: list[bytes], number: int, key: str) -> str:
-    """The value of header line ``number`` (1-based), which must be ``key value``."""
+def _header(path: Path, lines: list[bytes], number: int, key: str, expected: str) -> str:
+    """The value of header line ``number`` (1-based), which must be ``key value``; ``expected``
+    says what the line should hold."""
     if number > len(lines):
-        raise CbrError(f"{path}, line {number}: expected '{key} ...', the file ends")
+        raise CbrError(f"{path}, line {number}: expected {expected}, the file ends")
     words = _text(lines[number - 1]).split()
     if len(words) != 2 or words[0] != key:
-        raise CbrError(f"{path}, line {number}: expected '{key} ...', "
-                       f"got {_text(lines[number - 1])!r}")
+        raise CbrError(f"{path}, line {number}: expected {expected}")
     return words[1]
 
 
 def _size(path: Path, lines: list[bytes], number: int, key: str) -> int:
-    value = _header(path, lines, number, key)
+    expected = f"'{key}' followed by a positive integer"
+    value = _header(path, lines, number, key, expected)
     if not value.isdigit() or int(value) < 1:
-        raise CbrError(f"{path}, line {number}: expected '{key}' followed by a positive integer, "
-                       f"got {value!r}")
+        got = f", got {value!r}" if value.isdigit() else ""  # digits only: a number
+        raise CbrError(f"{path}, line {number}: expected {expected}{got}")
     return int(value)
 
 
@@ -64,14 +67,15 @@ def load_map(path: str | Path, *, corner_cutting: bool = False) -> Grid:
     """The grid of a Moving AI ``.map`` file."""
     path = Path(path)
     lines = _lines(path)
-    kind = _header(path, lines, 1, "type")
-    if kind != "octile":
-        raise CbrError(f"{path}, line 1: expected 'type octile', got 'type {kind}'")
+    header = "the Moving AI header 'type octile'"
+    if _header(path, lines, 1, "type", header) != "octile":
+        raise CbrError(f"{path}, line 1: expected {header}")
     height = _size(path, lines, 2, "height")
     width = _size(path, lines, 3, "width")
-    if len(lines) < 4 or _text(lines[3]).strip() != "map":
-        got = repr(_text(lines[3])) if len(lines) >= 4 else "the end of the file"
-        raise CbrError(f"{path}, line 4: expected 'map', got {got}")
+    if len(lines) < 4:
+        raise CbrError(f"{path}, line 4: expected 'map', got the end of the file")
+    if _text(lines[3]).strip() != "map":
+        raise CbrError(f"{path}, line 4: expected 'map'")
     rows = lines[4:4 + height]
     if len(rows) < height:
         raise CbrError(f"{path}, line {5 + len(rows)}: expected {height} map rows (height "
@@ -85,14 +89,13 @@ def load_map(path: str | Path, *, corner_cutting: bool = False) -> Grid:
     extra = [i for i, line in enumerate(lines[4 + height:], 5 + height) if line.strip()]
     if extra:
         raise CbrError(f"{path}, line {extra[0]}: expected the end of the map after {height} rows "
-                       f"(height {height}), got {_text(lines[extra[0] - 1])!r}")
+                       f"(height {height}), got more text")
     codes = np.frombuffer(b"".join(rows), dtype=np.uint8).reshape(height, width)
     risk = _RISK[codes]
     unknown = np.isnan(risk)
     if unknown.any():
         y, x = (int(i) for i in np.argwhere(unknown)[0])
-        char = _text(bytes([codes[y, x]]))
-        raise CbrError(f"{path}, line {5 + y}: unknown map character {char!r} at column {x + 1}; "
+        raise CbrError(f"{path}, line {5 + y}: unknown map character at column {x + 1}; "
                        f"expected one of {' '.join(PASSABLE)} (passable) or "
                        f"{' '.join(BLOCKED)} (blocked)")
     return Grid(risk, corner_cutting=corner_cutting)
@@ -103,7 +106,9 @@ class Scenario:
     """One Moving AI problem: plan from ``start`` to ``goal`` on the named map.
 
     ``optimal`` is the published shortest 8-connected length without corner cutting;
-    ``precision`` is half a unit in the last digit printed for it.
+    ``precision`` is half a unit in the last digit printed for it. ``line`` is the line of the
+    ``.scen`` file it was read from (0 for one made otherwise), for errors about the problem;
+    it takes no part in comparisons, so the same problem read from two files compares equal.
     """
 
     bucket: int
@@ -114,6 +119,7 @@ class Scenario:
     goal: Cell
     optimal: float
     precision: float
+    line: int = attrs.field(default=0, eq=False)
 
     def agrees(self, length: float) -> bool:
         """Whether ``length`` could have been printed as ``optimal``.
@@ -129,12 +135,13 @@ class Scenario:
 
 
 _INTEGER = re.compile(r"-?[0-9]+")
+_LONGEST = Decimal("1e300")
 _FIELDS = "bucket map width height start_x start_y goal_x goal_y optimal"
 
 
 def _integer(path: Path, number: int, name: str, value: str) -> int:
     if not _INTEGER.fullmatch(value):
-        raise CbrError(f"{path}, line {number}: expected an integer {name}, got {value!r}")
+        raise CbrError(f"{path}, line {number}: expected an integer {name}")
     return int(value)
 
 
@@ -142,7 +149,7 @@ def _scenario(path: Path, number: int, line: str) -> Scenario:
     fields = line.split()
     if len(fields) != 9:
         raise CbrError(f"{path}, line {number}: expected 9 fields ({_FIELDS}), "
-                       f"got {len(fields)}: {line!r}")
+                       f"got {len(fields)}")
     bucket = _integer(path, number, "bucket", fields[0])
     width, height, sx, sy, gx, gy = (
         _integer(path, number, name, value) for name, value in
@@ -158,13 +165,21 @@ def _scenario(path: Path, number: int, line: str) -> Scenario:
         written = Decimal(fields[8])
     except InvalidOperation:
         written = None
-    if written is None or not written.is_finite() or written < 0:
+    if written is None:
+        # not a number: the field is quoted only when it reads as one
+        raise CbrError(f"{path}, line {number}: expected a non-negative optimal length")
+    if not written.is_finite() or written < 0:
         raise CbrError(f"{path}, line {number}: expected a non-negative optimal length, "
                        f"got {fields[8]!r}")
     # a finite Decimal's exponent is the power of ten of its last written digit
     exponent = int(written.as_tuple().exponent)
+    if written >= _LONGEST or exponent >= 300:
+        # a float holds at most 1.8e308 and 10.0 ** exponent overflows past 308; no grid has a
+        # path anywhere near that long (0e400 is refused too: its precision would overflow)
+        raise CbrError(f"{path}, line {number}: expected an optimal length below 1e300, "
+                       f"got {fields[8]!r}")
     return Scenario(bucket, fields[1], width, height, (sx, sy), (gx, gy), float(written),
-                    0.5 * 10.0 ** exponent)
+                    0.5 * 10.0 ** exponent, number)
 
 
 def load_scen(path: str | Path, grid: Grid | None = None) -> list[Scenario]:
@@ -172,8 +187,8 @@ def load_scen(path: str | Path, grid: Grid | None = None) -> list[Scenario]:
     path = Path(path)
     lines = [_text(line) for line in _lines(path)]
     if not lines or lines[0].split() not in (["version", "1"], ["version", "1.0"]):
-        got = repr(lines[0]) if lines else "an empty file"
-        raise CbrError(f"{path}, line 1: expected 'version 1' or 'version 1.0', got {got}")
+        got = ", got an empty file" if not lines else ""
+        raise CbrError(f"{path}, line 1: expected 'version 1' or 'version 1.0'{got}")
     scenarios = []
     for number, line in enumerate(lines[1:], 2):
         if not line.strip():

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Generator
-from pathlib import Path
 from typing import IO, Any
 
 import attrs
@@ -14,14 +13,14 @@ from cbrcore.context import Context
 from cbrcore.errors import ConfigError
 from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Retrieval, Revision, Solution
-from cbrcore.options import option
+from cbrcore.options import OutputPath, in_run_folder, option
 
 
 @attrs.frozen
 class TraceOptions:
-    file: Path | None = option(
-        None, "Where to write the trace (JSON lines). Relative paths resolve against the config "
-        "file; default: trace.jsonl in the run's output folder.")
+    file: OutputPath | None = option(
+        None, "Where to write the trace (JSON lines): an absolute path, or a file inside the "
+        "run's output folder; default: trace.jsonl there.")
 
 
 def _summary(result: Any) -> dict[str, Any]:
@@ -45,11 +44,12 @@ class Trace:
     """
 
     def __init__(self, options: TraceOptions, ctx: Context) -> None:
-        path = options.file
-        if path is None:
-            if ctx.out_dir is None:
-                raise ConfigError("observers", [
-                    "observers: trace needs a 'file' when the engine has no output folder"])
+        if options.file is not None:
+            path = in_run_folder(options.file, ctx.out_dir, ctx.config_dir)
+        elif ctx.out_dir is None:
+            raise ConfigError("observers", [
+                "observers: trace needs a 'file' when the engine has no output folder"])
+        else:
             path = ctx.out_dir / "trace.jsonl"
         path.parent.mkdir(parents=True, exist_ok=True)
         self._handle: IO[str] = path.open("a", encoding="utf-8")

@@ -150,8 +150,12 @@ def _plan_scenarios(search: Search, solver: SolverName, grid: Grid, scen: Path,
     matched = 0
     times = []
     for scenario in scenarios:
-        start = grid.check_cell(scenario.start, "start")
-        goal = grid.check_cell(scenario.goal, "goal")
+        try:
+            start = grid.check_cell(scenario.start, "start")
+            goal = grid.check_cell(scenario.goal, "goal")
+        except CbrError as exc:
+            # the cell is the scenario file's, so its line is what the reader must find
+            raise CbrError(f"{scen}, line {scenario.line}: {exc}") from exc
         record = _plan(search, solver, grid, start, goal)
         if record is None:
             # a scenario without a path still gets its line, so the output stays one per problem

@@ -1,0 +1,139 @@
+"""Bad inputs to ``cbr run`` and ``cbr plan``: one clear error, exit code 2, no leaked content.
+
+A configuration or command that names a file of the wrong kind (a secret, say) must not get that
+file's text printed: the error names the file and line and says what was expected there. Output
+paths that would leave the run folder are refused unless given absolute.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cbrcore.plugins import Plugins
+from cbrcore.testing import CliResult
+
+Cli = Callable[..., CliResult]
+
+HYBRID = Path(__file__).resolve().parents[1] / "configs" / "hybrid_grid.yaml"
+SECRET = "TOPSECRET password=hunter2\nTOPSECRET: second line\n"
+MARKER = "TOPSECRET"
+
+# 3x2, with an obstacle at (2, 0)
+SMALL_MAP = "type octile\nheight 2\nwidth 3\nmap\n..@\n...\n"
+ROS_YAML = ("image: secret.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\n"
+            "occupied_thresh: 0.65\nfree_thresh: 0.2\n")
+
+
+@pytest.fixture(autouse=True)
+def installed(cbr_plugins: Callable[..., Plugins]) -> Plugins:
+    """The installed plugins, grid and solvers among them, made current for every test."""
+    return cbr_plugins(entry_points=True)
+
+
+def _config(folder: Path, extra: str) -> Path:
+    """The hybrid grid configuration in ``folder`` with the line ``extra`` first, in place of
+    the file's own line for that key (so errors about it are on line 1)."""
+    key = extra.split(":", 1)[0]
+    kept = [line for line in HYBRID.read_text(encoding="utf-8").splitlines()
+            if line.split(":", 1)[0] != key]
+    path = folder / "run.yaml"
+    path.write_text("\n".join([extra, *kept]) + "\n", encoding="utf-8")
+    return path
+
+
+Case = Callable[[Path, Cli], CliResult]
+
+
+def _run(extra: str) -> Case:
+    """``cbr run`` of the hybrid configuration in tmp/a/b with the line ``extra``."""
+    def case(tmp: Path, cbr_cli: Cli) -> CliResult:
+        return cbr_cli("run", str(_config(tmp / "a" / "b", extra)), "--out", str(tmp / "out"))
+
+    return case
+
+
+def _plan(*args: str) -> Case:
+    """``cbr plan`` with ``args``, file names taken in tmp."""
+    def case(tmp: Path, cbr_cli: Cli) -> CliResult:
+        return cbr_cli("plan", *(str(tmp / a) if a.endswith((".txt", ".map", ".scen")) else a
+                                 for a in args))
+
+    return case
+
+
+def _scen(*lines: str) -> str:
+    return "version 1\n" + "".join(f"0\tsmall.map\t3\t2\t{line}\n" for line in lines)
+
+
+CASES = {
+    "movingai map": (_run("world: {use: movingai, map: ../../secret.txt}"),
+                     "secret.txt, line 1: expected the Moving AI header 'type octile'"),
+    "map_file .map": (_run("world: {use: map_file, path: ../../secret.map}"),
+                      "secret.map, line 1: expected the Moving AI header 'type octile'"),
+    "map_file .grid": (_run("world: {use: map_file, path: ../../secret.grid}"),
+                       "secret.grid, line 2: expected a row of 26 cells like line 1"),
+    "map_file ROS yaml": (_run("world: {use: map_file, path: ../../secret.yaml}"),
+                          "secret.yaml, line 2: expected only the keys"),
+    "ROS image .pgm": (_run("world: {use: map_file, path: ../../ros.yaml}"),
+                       "secret.pgm, line 1: expected the magic number P2 or P5"),
+    "map_file .npy text": (_run("world: {use: map_file, path: ../../secret.npy}"),
+                           "secret.npy: expected a NumPy array file"),
+    "map_file .npy complex": (_run("world: {use: map_file, path: ../../complex.npy}"),
+                              "complex.npy: expected real risk values, got a complex array"),
+    "plan a secret as map": (_plan("secret.txt", "--start", "0,0", "--goal", "1,1"),
+                             "secret.txt, line 1: expected the Moving AI header 'type octile'"),
+    "plan a secret as scen": (_plan("small.map", "--scen", "secret.txt"),
+                              "secret.txt, line 1: expected 'version 1' or 'version 1.0'"),
+    "scen start on an obstacle": (_plan("small.map", "--scen", "obstacle.scen"),
+                                  "obstacle.scen, line 3: start (2, 0) is on an obstacle"),
+    "scen optimum 1e400": (_plan("small.map", "--scen", "huge.scen"),
+                           "huge.scen, line 2: expected an optimal length below 1e300"),
+    "trace file escaping the run folder": (
+        _run("observers: [{use: trace, file: ../trace.jsonl}]"),
+        "observers.0.file (line 1, column 32): expected a file inside the run's output folder, "
+        "got '../trace.jsonl'; give an absolute path to write outside it"),
+    "case base escaping the run folder": (
+        _run("casebase: {use: sqlite, path: sub/../../cb.sqlite}"),
+        "casebase.path (line 1, column 31): expected a file inside the run's output folder"),
+}
+
+
+@pytest.mark.parametrize(("case", "message"), CASES.values(), ids=list(CASES))
+def test_a_bad_input_is_one_error_naming_the_place_without_its_content(
+        cbr_cli: Cli, tmp_path: Path, case: Case, message: str) -> None:
+    (tmp_path / "a" / "b").mkdir(parents=True)
+    for name in ("secret.txt", "secret.map", "secret.grid", "secret.pgm", "secret.npy"):
+        (tmp_path / name).write_text(SECRET, encoding="utf-8")
+    # a YAML mapping whose second key is the secret
+    (tmp_path / "secret.yaml").write_text("resolution: 0.05\nTOPSECRET password: hunter2\n",
+                                          encoding="utf-8")
+    (tmp_path / "ros.yaml").write_text(ROS_YAML, encoding="utf-8")
+    np.save(tmp_path / "complex.npy", np.zeros((2, 2)) + 0.5j)
+    (tmp_path / "small.map").write_text(SMALL_MAP, encoding="ascii")
+    (tmp_path / "obstacle.scen").write_text(_scen("0 0 1 1 1.41421356", "2 0 0 0 2"),
+                                            encoding="ascii")
+    (tmp_path / "huge.scen").write_text(_scen("0 0 1 1 1e400"), encoding="ascii")
+
+    result = case(tmp_path, cbr_cli)
+
+    assert result.exit_code == 2, result
+    assert "Traceback" not in result.stderr
+    assert MARKER not in result.stdout + result.stderr
+    assert "hunter2" not in result.stdout + result.stderr
+    assert message in result.stderr
+    assert not (tmp_path / "trace.jsonl").exists() and not (tmp_path / "cb.sqlite").exists()
+
+
+def test_an_absolute_output_path_may_leave_the_run_folder(cbr_cli: Cli, tmp_path: Path) -> None:
+    """Writing elsewhere is allowed when said explicitly, by an absolute path."""
+    (tmp_path / "a" / "b").mkdir(parents=True)
+    trace = tmp_path / "trace.jsonl"
+    config = _config(tmp_path / "a" / "b", f"observers: [{{use: trace, file: {trace}}}]")
+
+    result = cbr_cli("validate", str(config))
+
+    assert result.exit_code == 0, result
