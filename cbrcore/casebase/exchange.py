@@ -26,6 +26,7 @@ from typing import Any, Literal, TextIO
 import attrs
 import yaml
 
+from cbrcore import files
 from cbrcore.casebase.data import (
     MAX_INTEGER,
     REVISION_KEY,
@@ -299,7 +300,7 @@ def write_document(document: Document, target: str | os.PathLike[str] | TextIO,
         return
     text = dump_document(document, format or format_of(target))
     try:
-        Path(target).write_text(text, encoding="utf-8")
+        files.write_text(Path(target), text)
     except OSError as exc:
         raise CaseBaseError(f"cannot write {target}: {exc.strerror}") from exc
 
