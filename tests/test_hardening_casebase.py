@@ -17,7 +17,7 @@ import pytest
 import cbrcore.builtins
 import cbrcore.files
 from cbrcore.casebase import SQLiteStore, UnusableCaseBase
-from cbrcore.casebase.sqlite import MAX_ID
+from cbrcore.casebase.sqlite_file import MAX_ID
 from cbrcore.errors import CaseBaseError
 from cbrcore.model import Case
 from cbrcore.plugins import Plugins

@@ -17,7 +17,8 @@ from cbrcore.casebase.exchange import (
     write_document,
 )
 from cbrcore.casebase.memory import MemoryStore
-from cbrcore.casebase.sqlite import APPLICATION_ID, SCHEMA_VERSION, SQLiteStore
+from cbrcore.casebase.sqlite import SQLiteStore
+from cbrcore.casebase.sqlite_file import APPLICATION_ID, SCHEMA_VERSION
 from cbrcore.casebase.store import SUMMARY_KEYS, CaseStore, describe
 from cbrcore.errors import UnusableCaseBase
 

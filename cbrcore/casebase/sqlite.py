@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import functools
 import json
 import operator
 import os
@@ -21,74 +20,21 @@ from cbrcore.casebase.data import (
     check_meta,
     check_meta_key,
 )
-from cbrcore.casebase.exchange import SCHEMA
+from cbrcore.casebase.sqlite_file import (
+    MAX_ID,
+    SCHEMA_EXPECTED,
+    WAL_VERSION_OFFSET,
+    create_schema,
+    inspect_file,
+    parse_revision,
+    rollback,
+    schema_problems,
+    validate,
+)
 from cbrcore.errors import CaseBaseError, UnusableCaseBase
 from cbrcore.model import JSON, Case
 
-APPLICATION_ID = 0x43425243
-"""``PRAGMA application_id`` of a cbrcore case base ("CBRC")."""
-
-SCHEMA_VERSION = SCHEMA
-"""``PRAGMA user_version`` of the case bases this cbrcore reads and writes."""
-
-MAX_ID = 2**63 - 1
-"""The largest case id: SQLite's largest integer."""
-
-_HEADER = b"SQLite format 3\x00"
-_WAL_VERSION_OFFSET = 18  # the header's "file format write version": 2 in WAL mode
 _COLUMNS = "id, kind, problem, solution, meta, uses, created, last_used"
-_SCHEMA = (
-    # AUTOINCREMENT: ids are never reused, because solutions and plugin meta refer to cases by id
-    """CREATE TABLE cases (
-        id INTEGER PRIMARY KEY AUTOINCREMENT,
-        kind TEXT NOT NULL,
-        problem TEXT NOT NULL,
-        solution TEXT NOT NULL,
-        meta TEXT NOT NULL,
-        uses INTEGER NOT NULL,
-        created INTEGER NOT NULL,
-        last_used INTEGER
-    )""",
-    "CREATE INDEX cases_kind ON cases (kind)",
-    "CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)",
-)
-_SCHEMA_EXPECTED = ("a case base has the tables cases and meta, the index cases_kind and no other "
-                    "tables, indexes, views or triggers")
-
-
-def _schema_of(conn: sqlite3.Connection) -> dict[tuple[str, str], tuple[str, str | None]]:
-    """Every schema object by type and name: its table and its SQL, whitespace normalised."""
-    rows = conn.execute("SELECT type, name, tbl_name, sql FROM sqlite_master").fetchall()
-    return {(kind, name): (table, None if sql is None else " ".join(sql.split()))
-            for kind, name, table, sql in rows}
-
-
-@functools.cache
-def _case_base_schema() -> dict[tuple[str, str], tuple[str, str | None]]:
-    """The schema objects of a case base, with those SQLite adds (sqlite_sequence, autoindexes).
-
-    Read from a database built by :data:`_SCHEMA`, so the two cannot disagree.
-    """
-    conn = sqlite3.connect(":memory:")
-    try:
-        for statement in _SCHEMA:
-            conn.execute(statement)
-        return _schema_of(conn)
-    finally:
-        conn.close()
-
-
-def _parse_revision(text: str | None) -> int | None:
-    """The revision a meta record holds; None unless it is a non-negative integer."""
-    try:
-        revision = json.loads(text) if text is not None else None
-    except ValueError:
-        return None
-    if isinstance(revision, int) and not isinstance(revision, bool) and revision >= 0:
-        return revision
-    return None
-
-
 def _dumps(value: JSON) -> str:
     # ASCII escapes keep strings that are not valid Unicode (lone surrogates) storable as UTF-8
     return json.dumps(value, allow_nan=False, separators=(",", ":"))
@@ -129,13 +75,14 @@ class SQLiteStore:
         self._wrote = False
         self._immutable = False
         create = create and not read_only
-        new = self._inspect_file(create)
+        new = inspect_file(self.path, create)
         self._conn = self._connect_reading() if read_only else self._connect(
             "mode=rwc" if create else "mode=rw")
         try:
-            if new:
-                self._create_schema()
-            self._validate()
+            with self._errors():
+                if new:
+                    create_schema(self._conn)
+                validate(self._conn, self.path)
             if not read_only:
                 if self._value("PRAGMA journal_mode") != "wal":
                     self._rows("PRAGMA journal_mode = WAL")
@@ -177,93 +124,6 @@ class SQLiteStore:
         self._immutable = True
         return self._connect("mode=ro&immutable=1")
 
-    def _inspect_file(self, create: bool) -> bool:
-        """Refuse what cannot be a case base before SQLite touches it; True for a new file."""
-        path = self.path
-        try:
-            with path.open("rb") as file:
-                header = file.read(len(_HEADER))
-        except FileNotFoundError:
-            if not create:
-                raise CaseBaseError(f"no case base at {path}") from None
-            if not path.parent.is_dir():
-                raise CaseBaseError(f"cannot create case base {path}: "
-                                    f"folder {path.parent} does not exist") from None
-            return True
-        except IsADirectoryError:
-            raise CaseBaseError(f"{path} is a folder, not a case base") from None
-        except OSError as exc:
-            raise CaseBaseError(f"cannot read {path}: {exc.strerror}") from exc
-        if not header:
-            if not create:
-                raise CaseBaseError(f"no case base at {path}: the file is empty")
-            return True
-        if header != _HEADER:
-            raise UnusableCaseBase(f"{path} is not a case base: not a SQLite database file")
-        return False
-
-    def _create_schema(self) -> None:
-        # another process may be creating the same file: whoever gets the write lock first
-        # creates the schema, the other finds it there
-        self._run("BEGIN IMMEDIATE")
-        try:
-            if self._value("PRAGMA application_id") == 0 and not self._rows(
-                    "SELECT name FROM sqlite_master"):
-                self._run(f"PRAGMA application_id = {APPLICATION_ID}")
-                self._run(f"PRAGMA user_version = {SCHEMA_VERSION}")
-                for statement in _SCHEMA:
-                    self._run(statement)
-                self._run("INSERT INTO meta (key, value) VALUES (?, '0')", (REVISION_KEY,))
-            self._run("COMMIT")
-        except BaseException:
-            self._rollback()
-            raise
-
-    def _validate(self) -> None:
-        application_id = self._value("PRAGMA application_id")
-        if application_id != APPLICATION_ID:
-            raise UnusableCaseBase(f"{self.path} is not a cbrcore case base: it is a SQLite "
-                                   f"database of another application (application_id "
-                                   f"{application_id:#x}, a case base has {APPLICATION_ID:#x})")
-        version = self._value("PRAGMA user_version")
-        if version != SCHEMA_VERSION:
-            which = "a newer" if version > SCHEMA_VERSION else "an older"
-            raise UnusableCaseBase(f"{self.path} has case base schema version {version} (from "
-                                   f"{which} cbrcore); this cbrcore reads version "
-                                   f"{SCHEMA_VERSION}")
-        verdict = [row[0] for row in self._rows("PRAGMA quick_check")]
-        if verdict != ["ok"]:
-            raise UnusableCaseBase(f"{self.path} is corrupt: {'; '.join(verdict[:3])}")
-        problems = self._schema_problems()
-        if problems:
-            raise UnusableCaseBase(f"{self.path} is not a sound case base: "
-                                   f"{'; '.join(problems)} ({_SCHEMA_EXPECTED})")
-
-    def _schema_problems(self) -> list[str]:
-        """How the file's schema differs from a case base's.
-
-        Anything added is refused, not only what is missing or changed: a trigger or a view runs
-        or answers behind the store's back (a trigger deleting every inserted case would make an
-        import report cases it never kept).
-        """
-        expected = _case_base_schema()
-        with self._errors():
-            found = _schema_of(self._conn)
-        tables = {name for kind, name in found if kind == "table"}
-        problems = []
-        for (kind, name), (table, sql) in sorted(expected.items()):
-            if (kind, name) not in found:
-                # the indexes of a missing table, and SQLite's own objects, go with the table
-                if table in tables and not name.startswith("sqlite_"):
-                    problems.append(f"{kind} {name} is missing")
-            elif found[kind, name][1] != sql:
-                problems.append(f"{kind} {name} is not defined as in a case base")
-        problems[:0] = [f"table {name} is missing" for name in ("cases", "meta")
-                        if name not in tables]
-        problems += [f"{kind} {name!r} does not belong in a case base"
-                     for kind, name in sorted(found.keys() - expected.keys())]
-        return problems
-
     def __str__(self) -> str:
         return str(self.path)
 
@@ -298,7 +158,7 @@ class SQLiteStore:
         if str(exc).startswith(("no such table", "no such column")):
             # the schema was checked when the file was opened; another program changed it since
             return UnusableCaseBase(f"{self.path} is not a sound case base: {exc} "
-                                    f"({_SCHEMA_EXPECTED})")
+                                    f"({SCHEMA_EXPECTED})")
         return None
 
     def _no_id_left(self) -> CaseBaseError:
@@ -337,11 +197,7 @@ class SQLiteStore:
         return rows[0][0] if rows else None
 
     def _rollback(self) -> None:
-        # the error that got us here says more than a failed rollback would, and SQLite rolls
-        # back by itself when it cannot go on
-        with contextlib.suppress(sqlite3.Error):
-            if self._conn.in_transaction:
-                self._conn.execute("ROLLBACK")
+        rollback(self._conn)
 
     # -- transactions -----------------------------------------------------------------------
 
@@ -351,7 +207,7 @@ class SQLiteStore:
         text = self._value("SELECT value FROM meta WHERE key = ?", (REVISION_KEY,))
         if text is None:
             raise UnusableCaseBase(f"{self.path} is corrupt: its revision record is missing")
-        revision = _parse_revision(text)
+        revision = parse_revision(text)
         if revision is None:
             raise UnusableCaseBase(f"{self.path} is corrupt: its revision record is {text!r}, "
                                    f"expected a non-negative integer")
@@ -592,8 +448,8 @@ class SQLiteStore:
             # SQLite ignores the log of a file it reads as immutable and reports "delete"; the
             # file's header says whether it is in WAL mode (format version 2)
             with self._errors(), self.path.open("rb") as file:
-                header = file.read(_WAL_VERSION_OFFSET + 1)
-            return "wal" if header[_WAL_VERSION_OFFSET:] == b"\x02" else "delete"
+                header = file.read(WAL_VERSION_OFFSET + 1)
+            return "wal" if header[WAL_VERSION_OFFSET:] == b"\x02" else "delete"
         return str(self._value("PRAGMA journal_mode"))
 
     def describe(self) -> dict[str, JSON]:
@@ -617,7 +473,8 @@ class SQLiteStore:
         try:
             problems += [f"integrity: {row[0]}" for row in self._rows("PRAGMA integrity_check")
                          if row[0] != "ok"]
-            schema = self._schema_problems()
+            with self._errors():
+                schema = schema_problems(self._conn)
             if schema:
                 # found when the file was opened, unless another program changed it since
                 return [*problems, *(f"schema: {p}" for p in schema)]
@@ -641,7 +498,7 @@ class SQLiteStore:
 
     def _revision_or_problem(self, problems: list[str]) -> int | None:
         text = self._value("SELECT value FROM meta WHERE key = ?", (REVISION_KEY,))
-        revision = _parse_revision(text)
+        revision = parse_revision(text)
         if revision is None:
             problems.append(f"revision: expected a non-negative integer, got {text!r}")
             return None

@@ -1,0 +1,182 @@
+"""What a sound case base file is, and how one is recognised, created and checked.
+
+A cbrcore case base is a SQLite file with its own ``application_id`` and schema version, the
+tables ``cases`` and ``meta`` and nothing else: a trigger or a view would act or answer behind
+the store's back. :class:`~cbrcore.casebase.sqlite.SQLiteStore` opens files through these
+checks and keeps to its operations.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import json
+import sqlite3
+from pathlib import Path
+
+from cbrcore.casebase.data import REVISION_KEY
+from cbrcore.casebase.exchange import SCHEMA
+from cbrcore.errors import CaseBaseError, UnusableCaseBase
+
+APPLICATION_ID = 0x43425243
+"""``PRAGMA application_id`` of a cbrcore case base ("CBRC")."""
+
+SCHEMA_VERSION = SCHEMA
+"""``PRAGMA user_version`` of the case bases this cbrcore reads and writes."""
+
+MAX_ID = 2**63 - 1
+"""The largest case id: SQLite's largest integer."""
+
+HEADER = b"SQLite format 3\x00"
+WAL_VERSION_OFFSET = 18  # the header's "file format write version": 2 in WAL mode
+SCHEMA_STATEMENTS = (
+    # AUTOINCREMENT: ids are never reused, because solutions and plugin meta refer to cases by id
+    """CREATE TABLE cases (
+        id INTEGER PRIMARY KEY AUTOINCREMENT,
+        kind TEXT NOT NULL,
+        problem TEXT NOT NULL,
+        solution TEXT NOT NULL,
+        meta TEXT NOT NULL,
+        uses INTEGER NOT NULL,
+        created INTEGER NOT NULL,
+        last_used INTEGER
+    )""",
+    "CREATE INDEX cases_kind ON cases (kind)",
+    "CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)",
+)
+SCHEMA_EXPECTED = ("a case base has the tables cases and meta, the index cases_kind and no other "
+                    "tables, indexes, views or triggers")
+
+
+def schema_of(conn: sqlite3.Connection) -> dict[tuple[str, str], tuple[str, str | None]]:
+    """Every schema object by type and name: its table and its SQL, whitespace normalised."""
+    rows = conn.execute("SELECT type, name, tbl_name, sql FROM sqlite_master").fetchall()
+    return {(kind, name): (table, None if sql is None else " ".join(sql.split()))
+            for kind, name, table, sql in rows}
+
+
+@functools.cache
+def case_base_schema() -> dict[tuple[str, str], tuple[str, str | None]]:
+    """The schema objects of a case base, with those SQLite adds (sqlite_sequence, autoindexes).
+
+    Read from a database built by :data:`SCHEMA_STATEMENTS`, so the two cannot disagree.
+    """
+    conn = sqlite3.connect(":memory:")
+    try:
+        for statement in SCHEMA_STATEMENTS:
+            conn.execute(statement)
+        return schema_of(conn)
+    finally:
+        conn.close()
+
+
+def parse_revision(text: str | None) -> int | None:
+    """The revision a meta record holds; None unless it is a non-negative integer."""
+    try:
+        revision = json.loads(text) if text is not None else None
+    except ValueError:
+        return None
+    if isinstance(revision, int) and not isinstance(revision, bool) and revision >= 0:
+        return revision
+    return None
+
+
+def inspect_file(path: Path, create: bool) -> bool:
+    """Refuse what cannot be a case base before SQLite touches it; True for a new file."""
+    try:
+        with path.open("rb") as file:
+            header = file.read(len(HEADER))
+    except FileNotFoundError:
+        if not create:
+            raise CaseBaseError(f"no case base at {path}") from None
+        if not path.parent.is_dir():
+            raise CaseBaseError(f"cannot create case base {path}: "
+                                f"folder {path.parent} does not exist") from None
+        return True
+    except IsADirectoryError:
+        raise CaseBaseError(f"{path} is a folder, not a case base") from None
+    except OSError as exc:
+        raise CaseBaseError(f"cannot read {path}: {exc.strerror}") from exc
+    if not header:
+        if not create:
+            raise CaseBaseError(f"no case base at {path}: the file is empty")
+        return True
+    if header != HEADER:
+        raise UnusableCaseBase(f"{path} is not a case base: not a SQLite database file")
+    return False
+
+
+def create_schema(conn: sqlite3.Connection) -> None:
+    """Give a new, empty file the schema of a case base, at revision 0."""
+    # another process may be creating the same file: whoever gets the write lock first
+    # creates the schema, the other finds it there
+    conn.execute("BEGIN IMMEDIATE")
+    try:
+        if conn.execute("PRAGMA application_id").fetchone()[0] == 0 and not conn.execute(
+                "SELECT name FROM sqlite_master").fetchall():
+            conn.execute(f"PRAGMA application_id = {APPLICATION_ID}")
+            conn.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+            for statement in SCHEMA_STATEMENTS:
+                conn.execute(statement)
+            conn.execute("INSERT INTO meta (key, value) VALUES (?, '0')", (REVISION_KEY,))
+        conn.execute("COMMIT")
+    except BaseException:
+        rollback(conn)
+        raise
+
+
+def validate(conn: sqlite3.Connection, path: Path) -> None:
+    """Refuse, with UnusableCaseBase naming ``path``, a file that is not a sound case base of
+    this schema version."""
+    application_id = conn.execute("PRAGMA application_id").fetchone()[0]
+    if application_id != APPLICATION_ID:
+        raise UnusableCaseBase(f"{path} is not a cbrcore case base: it is a SQLite "
+                               f"database of another application (application_id "
+                               f"{application_id:#x}, a case base has {APPLICATION_ID:#x})")
+    version = conn.execute("PRAGMA user_version").fetchone()[0]
+    if version != SCHEMA_VERSION:
+        which = "a newer" if version > SCHEMA_VERSION else "an older"
+        raise UnusableCaseBase(f"{path} has case base schema version {version} (from "
+                               f"{which} cbrcore); this cbrcore reads version "
+                               f"{SCHEMA_VERSION}")
+    verdict = [row[0] for row in conn.execute("PRAGMA quick_check").fetchall()]
+    if verdict != ["ok"]:
+        raise UnusableCaseBase(f"{path} is corrupt: {'; '.join(verdict[:3])}")
+    problems = schema_problems(conn)
+    if problems:
+        raise UnusableCaseBase(f"{path} is not a sound case base: "
+                               f"{'; '.join(problems)} ({SCHEMA_EXPECTED})")
+
+
+def schema_problems(conn: sqlite3.Connection) -> list[str]:
+    """How the file's schema differs from a case base's.
+
+    Anything added is refused, not only what is missing or changed: a trigger or a view runs
+    or answers behind the store's back (a trigger deleting every inserted case would make an
+    import report cases it never kept).
+    """
+    expected = case_base_schema()
+    found = schema_of(conn)
+    tables = {name for kind, name in found if kind == "table"}
+    problems = []
+    for (kind, name), (table, sql) in sorted(expected.items()):
+        if (kind, name) not in found:
+            # the indexes of a missing table, and SQLite's own objects, go with the table
+            if table in tables and not name.startswith("sqlite_"):
+                problems.append(f"{kind} {name} is missing")
+        elif found[kind, name][1] != sql:
+            problems.append(f"{kind} {name} is not defined as in a case base")
+    problems[:0] = [f"table {name} is missing" for name in ("cases", "meta")
+                    if name not in tables]
+    problems += [f"{kind} {name!r} does not belong in a case base"
+                 for kind, name in sorted(found.keys() - expected.keys())]
+    return problems
+
+
+def rollback(conn: sqlite3.Connection) -> None:
+    """Roll back the transaction under way, if any, whatever went wrong."""
+    # the error that got us here says more than a failed rollback would, and SQLite rolls
+    # back by itself when it cannot go on
+    with contextlib.suppress(sqlite3.Error):
+        if conn.in_transaction:
+            conn.execute("ROLLBACK")
