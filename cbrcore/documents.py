@@ -104,18 +104,26 @@ def _mark(mark: yaml.Mark | None) -> str:
     return _at(mark.line + 1, mark.column + 1) if mark is not None else ""
 
 
-def read_text(path: str | os.PathLike[str], limits: Limits | None = None) -> str:
-    """The UTF-8 text of the file at ``path``, refused when larger than the byte limit.
+def read_bytes(path: str | os.PathLike[str], limits: Limits | None = None) -> bytes:
+    """The content of the file at ``path``, refused when larger than the byte limit.
 
     No more than the limit is read, so a huge file (or a device that never ends) costs nothing.
-    :class:`OSError` and :class:`UnicodeDecodeError` are left to the caller to explain.
+    :class:`OSError` is left to the caller to explain.
     """
     limits = limits or Limits.from_environ()
     with open(path, "rb") as file:
         data = file.read(limits.bytes + 1)
     if len(data) > limits.bytes:
         raise DocumentError(str(path), _over("bytes", limits, "the file is larger than {} bytes"))
-    return data.decode("utf-8")
+    return data
+
+
+def read_text(path: str | os.PathLike[str], limits: Limits | None = None) -> str:
+    """The UTF-8 text of the file at ``path``, refused when larger than the byte limit.
+
+    :class:`OSError` and :class:`UnicodeDecodeError` are left to the caller to explain.
+    """
+    return read_bytes(path, limits).decode("utf-8")
 
 
 def _check_size(text: str, source: str, limits: Limits) -> None:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import stat
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -19,19 +20,34 @@ from typing import IO
 def replacing(path: Path, mode: str = "w") -> Iterator[IO[str]]:
     """A file object whose content replaces ``path`` when the block ends without an error.
 
-    ``mode`` is ``"w"`` (text, UTF-8, newlines as written) or ``"wb"``.
+    ``mode`` is ``"w"`` (text, UTF-8, newlines as written) or ``"wb"``. A symbolic link is
+    followed: the file it names is replaced, and the link stays. A replaced file keeps its
+    permissions. Something that is not a regular file (a terminal, a pipe, ``/dev/stdout``)
+    cannot be replaced and is written directly.
     """
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.",
+    target = Path(os.path.realpath(path))
+    options: dict[str, str] = {} if "b" in mode else {"encoding": "utf-8", "newline": ""}
+    try:
+        existing = target.stat()
+    except FileNotFoundError:
+        existing = None
+    if existing is not None and not stat.S_ISREG(existing.st_mode):
+        with target.open(mode, **options) as file:
+            yield file
+        return
+    handle, temporary = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.",
                                          suffix=".partial")
     try:
-        # mkstemp makes the file private; the target gets the permissions of any new file
-        os.chmod(temporary, 0o666 & ~_umask())
-        with os.fdopen(handle, mode, **({} if "b" in mode else
-                                        {"encoding": "utf-8", "newline": ""})) as file:
+        # mkstemp makes the file private; the result keeps the permissions the file had, or
+        # gets those of any new file
+        permissions = (stat.S_IMODE(existing.st_mode) if existing is not None
+                       else 0o666 & ~_umask())
+        os.chmod(temporary, permissions)
+        with os.fdopen(handle, mode, **options) as file:
             yield file
             file.flush()
             os.fsync(file.fileno())
-        os.replace(temporary, path)
+        os.replace(temporary, target)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(temporary)

@@ -9,6 +9,7 @@ import os
 import shutil
 import sqlite3
 import subprocess
+import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -68,6 +69,8 @@ def folder_state(folder: Path) -> dict[str, bytes]:
 
 
 DAMAGES: dict[str, Callable[[Path], None]] = {
+    "revision-beyond-int64": lambda p: damage(
+        p, f"UPDATE meta SET value = '{2**63}' WHERE key = 'cbrcore.revision'"),
     "revision-not-a-number": lambda p: damage(
         p, "UPDATE meta SET value = 'x' WHERE key = 'cbrcore.revision'"),
     "meta-not-json": lambda p: damage(p, "UPDATE meta SET value = '{bad' WHERE key = 'grid'"),
@@ -86,9 +89,13 @@ SCHEMA = "a case base has the tables cases and meta, the index cases_kind and no
 
 @pytest.mark.parametrize(("damaged", "command", "code", "message"), [
     ("revision-not-a-number", "export", 2,
-     "is corrupt: its revision record is 'x', expected a non-negative integer"),
+     f"is corrupt: its revision record is 'x', expected an integer from 0 to {MAX_ID}"),
     ("revision-not-a-number", "info", 2, "is corrupt: its revision record is 'x'"),
-    ("revision-not-a-number", "check", 1, "revision: expected a non-negative integer, got 'x'"),
+    ("revision-not-a-number", "check", 1, f"revision: expected an integer from 0 to {MAX_ID}, "
+                                          "got 'x'"),
+    ("revision-beyond-int64", "info", 2, f"its revision record is '{2**63}'"),
+    ("revision-beyond-int64", "check", 1, f"revision: expected an integer from 0 to {MAX_ID}, "
+                                          f"got '{2**63}'"),
     ("meta-not-json", "export", 2, "is corrupt: meta key 'grid' cannot be decoded"),
     ("meta-not-json", "check", 1, "meta key 'grid': not valid JSON"),
     ("no-tables", "info", 2, f"is not a sound case base: {MISSING}; table meta is missing "
@@ -296,3 +303,45 @@ def test_a_read_only_store_writes_nothing(casebase: Path) -> None:
     with pytest.raises(CaseBaseError, match="no case base at"):
         SQLiteStore(missing, read_only=True)
     assert not missing.exists()
+
+
+def test_an_export_follows_a_link_keeps_permissions_and_never_replaces_a_pipe(
+        cbr_cli: Cli, casebase: Path, tmp_path: Path) -> None:
+    private = tmp_path / "private.yaml"
+    private.write_text("old\n", encoding="utf-8")
+    private.chmod(0o600)
+    link = tmp_path / "link.yaml"
+    link.symlink_to(private)
+    pipe = tmp_path / "pipe.yaml"
+    os.mkfifo(pipe)
+    received: list[str] = []
+    reader = threading.Thread(target=lambda: received.append(pipe.read_text(encoding="utf-8")))
+    reader.start()
+
+    for target in (link, pipe):
+        assert cbr_cli("casebase", "export", str(casebase), "-o", str(target)).exit_code == 0
+    reader.join(timeout=30)
+
+    assert link.is_symlink() and "format: cbrcore-casebase" in private.read_text()
+    assert private.stat().st_mode & 0o777 == 0o600
+    assert pipe.is_fifo() and "format: cbrcore-casebase" in received[0]
+
+
+def test_an_import_onto_something_else_than_a_file_is_refused(cbr_cli: Cli, tmp_path: Path
+                                                               ) -> None:
+    document = tmp_path / "one.json"
+    document.write_text('{"format": "cbrcore-casebase", "schema": 1, "cases": '
+                        '[{"problem": 1, "solution": 1}]}', encoding="utf-8")
+    pipe = tmp_path / "pipe.sqlite"
+    os.mkfifo(pipe)
+    empty = tmp_path / "empty.sqlite"
+    empty.touch()
+    empty.chmod(0o600)
+
+    refused = cbr_cli("casebase", "import", str(pipe), str(document))
+    imported = cbr_cli("casebase", "import", str(empty), str(document))
+
+    assert refused.exit_code == 2 and "is not a regular file" in refused.stderr
+    assert pipe.is_fifo()
+    assert imported.exit_code == 0, imported.stderr
+    assert empty.stat().st_mode & 0o777 == 0o600 and empty.stat().st_size > 0

@@ -92,6 +92,11 @@ CASES = {
                                   "obstacle.scen, line 3: start (2, 0) is on an obstacle"),
     "scen optimum 1e400": (_plan("small.map", "--scen", "huge.scen"),
                            "huge.scen, line 2: expected an optimal length below 1e300"),
+    "map that never ends": (_plan("endless.map", "--start", "0,0", "--goal", "1,1"),
+                            "endless.map: the file is larger than 100000000 bytes"),
+    "ROS yaml 20,000 lists deep": (_run("world: {use: map_file, path: ../../deep.yaml}"),
+                                   "deep.yaml: line 1, column 107: collections nested more "
+                                   "than 100 levels deep"),
     "trace file escaping the run folder": (
         _run("observers: [{use: trace, file: ../trace.jsonl}]"),
         "observers.0.file (line 1, column 32): expected a file inside the run's output folder, "
@@ -117,6 +122,9 @@ def test_a_bad_input_is_one_error_naming_the_place_without_its_content(
     (tmp_path / "obstacle.scen").write_text(_scen("0 0 1 1 1.41421356", "2 0 0 0 2"),
                                             encoding="ascii")
     (tmp_path / "huge.scen").write_text(_scen("0 0 1 1 1e400"), encoding="ascii")
+    (tmp_path / "endless.map").symlink_to("/dev/zero")
+    (tmp_path / "deep.yaml").write_text("image: " + "[" * 20_000 + "]" * 20_000 + "\n",
+                                        encoding="ascii")
 
     result = case(tmp_path, cbr_cli)
 

@@ -242,20 +242,25 @@ def test_the_cli_shows_a_plugin_warning_as_one_line_and_leaves_others_be(
         warnings.warn("after", PluginWarning, stacklevel=1)
 
 
+@pytest.mark.parametrize("warnings_are_errors", [False, True])
 def test_cbr_keeps_its_builtins_and_blames_the_rival_in_one_line(
-        install_rival: InstallRival, tmp_path: Path) -> None:
+        install_rival: InstallRival, tmp_path: Path, warnings_are_errors: bool) -> None:
     site = install_rival(f"a_rival = {RIVAL_MODULE}", TAKES_ASTAR)
-    environ = {k: v for k, v in os.environ.items() if not k.startswith("CBR_")}
+    environ = {k: v for k, v in os.environ.items()
+               if not k.startswith("CBR_") and k != "PYTHONWARNINGS"}
     environ["PYTHONPATH"] = os.pathsep.join(
         p for p in (str(site), environ.get("PYTHONPATH")) if p)
+    if warnings_are_errors:
+        environ["PYTHONWARNINGS"] = "error"
 
     done = subprocess.run([sys.executable, "-m", "cbrcore", "plan", "--help"],
                           capture_output=True, text=True, cwd=tmp_path, env=environ, check=False)
 
-    assert done.returncode == 0, done.stderr
-    assert done.stderr == ("warning: plugin 'a_rival' from cbr-rival 1.0 failed to register: "
-                           "PluginError: solver 'astar' is already registered by plugin "
-                           "'solvers'\n")
+    # with warnings made errors, the failure stops the command: one error line, exit 2
+    assert done.returncode == (2 if warnings_are_errors else 0), done.stderr
+    assert done.stderr == (f"{'error' if warnings_are_errors else 'warning'}: plugin 'a_rival' "
+                           "from cbr-rival 1.0 failed to register: PluginError: solver 'astar' "
+                           "is already registered by plugin 'solvers'\n")
 
 
 @pytest.mark.parametrize("order", list(ORDERS))

@@ -210,7 +210,7 @@ class SQLiteStore:
         revision = parse_revision(text)
         if revision is None:
             raise UnusableCaseBase(f"{self.path} is corrupt: its revision record is {text!r}, "
-                                   f"expected a non-negative integer")
+                                   f"expected an integer from 0 to {MAX_ID}")
         return revision
 
     @contextlib.contextmanager
@@ -500,7 +500,7 @@ class SQLiteStore:
         text = self._value("SELECT value FROM meta WHERE key = ?", (REVISION_KEY,))
         revision = parse_revision(text)
         if revision is None:
-            problems.append(f"revision: expected a non-negative integer, got {text!r}")
+            problems.append(f"revision: expected an integer from 0 to {MAX_ID}, got {text!r}")
             return None
         return revision
 

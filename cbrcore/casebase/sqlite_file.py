@@ -71,12 +71,13 @@ def case_base_schema() -> dict[tuple[str, str], tuple[str, str | None]]:
 
 
 def parse_revision(text: str | None) -> int | None:
-    """The revision a meta record holds; None unless it is a non-negative integer."""
+    """The revision a meta record holds; None unless it is an integer from 0 to
+    :data:`MAX_ID`."""
     try:
         revision = json.loads(text) if text is not None else None
     except ValueError:
         return None
-    if isinstance(revision, int) and not isinstance(revision, bool) and revision >= 0:
+    if isinstance(revision, int) and not isinstance(revision, bool) and 0 <= revision <= MAX_ID:
         return revision
     return None
 

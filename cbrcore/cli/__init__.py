@@ -87,7 +87,7 @@ def _run(args: list[str], err: Console) -> int:
     except typer.Abort:
         err.print("Aborted.")
         return 1
-    except CbrError as exc:
+    except (CbrError, PluginWarning) as exc:  # a plugin warning is raised under -W error
         if show_traceback:
             err.print(traceback.format_exc(), markup=False)
         err.print(f"error: {exc}", markup=False)

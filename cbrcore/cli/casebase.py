@@ -7,6 +7,7 @@ import enum
 import json
 import os
 import secrets
+import stat
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated, Any
@@ -269,12 +270,16 @@ def _new_sqlite_file(selected: Config) -> Path | None:
     if (casebase is None or casebase.name != "sqlite" or casebase.options.path is None
             or not casebase.options.create):  # the store refuses to create it, and says so
         return None
-    path = Path(casebase.options.path)
-    with contextlib.suppress(OSError):
-        # an empty file is what a process killed while creating a case base leaves behind
-        if path.stat().st_size:
-            return None
-    return path
+    # the file a link names is the case base; the link stays
+    path = Path(os.path.realpath(casebase.options.path))
+    try:
+        found = path.stat()
+    except OSError:
+        return path
+    if not stat.S_ISREG(found.st_mode):
+        raise CaseBaseError(f"{path} is not a regular file, so it cannot hold a case base")
+    # an empty file is what a process killed while creating a case base leaves behind
+    return None if found.st_size else path
 
 
 def _move_into_place(partial: Path, target: Path) -> None:
@@ -290,6 +295,9 @@ def _move_into_place(partial: Path, target: Path) -> None:
                                     f"import; the import was not applied") from None
         except OSError:
             pass  # a file system without hard links
+        with contextlib.suppress(FileNotFoundError):
+            # the empty file left in its place keeps its permissions
+            os.chmod(partial, stat.S_IMODE(target.stat().st_mode))
         os.replace(partial, target)
     except OSError as exc:
         raise CaseBaseError(f"cannot create case base {target}: {exc.strerror or exc}") from exc

@@ -37,6 +37,7 @@ Text (``.grid``)
 
 from __future__ import annotations
 
+import io
 import math
 import re
 from pathlib import Path
@@ -47,12 +48,13 @@ import yaml
 
 from cbr_grid.grid import Grid
 from cbr_grid.movingai import load_map
+from cbrcore.documents import compose_yaml, construct_yaml, read_bytes
 from cbrcore.errors import CbrError
 
 
 def _read(path: Path) -> bytes:
     try:
-        return path.read_bytes()
+        return read_bytes(path)
     except OSError as exc:
         raise CbrError(f"{path}: cannot read: {exc.strerror or exc}") from exc
 
@@ -152,8 +154,9 @@ def _image(path: Path) -> np.ndarray:
 
     if not path.is_file():
         raise CbrError(f"{path}: cannot read: no such file")
+    data = _read(path)
     try:
-        image = np.asarray(matplotlib.image.imread(path))
+        image = np.asarray(matplotlib.image.imread(io.BytesIO(data), format="png"))
     except Exception as exc:  # the image libraries raise many unrelated types for a bad file
         # their messages may quote the file's first bytes, so only the expectation is said
         raise CbrError(f"{path}: cannot read the image; expected a PNG file") from exc
@@ -203,8 +206,8 @@ def _yaml_mapping(path: Path) -> tuple[dict[str, Any], dict[str, int]]:
     """The YAML file's top-level mapping and the line of each key."""
     text = _read(path).decode("utf-8", errors="replace")
     try:
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
-        data = yaml.safe_load(text)
+        node = compose_yaml(text, str(path))
+        data = construct_yaml(node, str(path))
     except yaml.YAMLError as exc:
         # PyYAML's problem texts quote the offending characters; the place is enough
         mark = getattr(exc, "problem_mark", None)
@@ -286,11 +289,10 @@ def load_ros(path: str | Path, *, unknown_risk: float = 1.0,
 def load_npy(path: str | Path, *, corner_cutting: bool = False) -> Grid:
     """The grid of a ``.npy`` file holding a 2-D risk array ``[y, x]``."""
     path = Path(path)
+    data = _read(path)
     try:
-        risk = np.load(path, allow_pickle=False)
-    except OSError as exc:
-        raise CbrError(f"{path}: cannot read: {exc.strerror or exc}") from exc
-    except ValueError as exc:
+        risk = np.load(io.BytesIO(data), allow_pickle=False)
+    except (OSError, ValueError, EOFError) as exc:
         # NumPy's message quotes the file's first bytes when they are not the .npy magic
         raise CbrError(f"{path}: expected a NumPy array file (.npy)") from exc
     if not isinstance(risk, np.ndarray) or not (

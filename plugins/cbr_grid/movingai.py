@@ -20,6 +20,7 @@ import numpy as np
 
 from cbr_grid.grid import Grid
 from cbr_grid.query import Cell
+from cbrcore.documents import read_bytes
 from cbrcore.errors import CbrError
 
 PASSABLE = ".GS"
@@ -32,7 +33,7 @@ _RISK[np.frombuffer(BLOCKED.encode(), dtype=np.uint8)] = 1.0
 
 def _lines(path: Path) -> list[bytes]:
     try:
-        data = path.read_bytes()
+        data = read_bytes(path)
     except OSError as exc:
         raise CbrError(f"{path}: cannot read: {exc.strerror or exc}") from exc
     # bytes.splitlines splits on LF, CRLF and CR only, unlike str.splitlines
