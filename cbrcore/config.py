@@ -173,7 +173,7 @@ def apply_overrides(data: Any, overrides: Sequence[str], source: str) -> Any:
     problems = []
     for text in overrides:
         key, sep, raw = text.partition("=")
-        if not sep or not key.strip():
+        if not sep or not all(part.strip() for part in key.split(".")):
             problems.append(f"--set {text!r}: expected KEY.PATH=VALUE")
             continue
         try:

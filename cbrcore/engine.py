@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import collections
+import contextlib
 import os
 import time
 from collections.abc import Mapping, Sequence
@@ -174,6 +175,7 @@ class Engine:
         plugin slots', the phase components and the observers."""
         self.casebase: CaseStore | None = None
         self._closed = False
+        made = out_dir is not None and not out_dir.exists()
         if out_dir is not None:
             output_folder(out_dir)
         try:
@@ -197,6 +199,9 @@ class Engine:
             self.metrics = [self._build(ref) for ref in config.metrics]
         except BaseException:
             self.close()
+            if made:  # an engine that could not be built leaves no empty output folder behind
+                with contextlib.suppress(OSError):
+                    out_dir.rmdir()
             raise
         self.hooks = Hooks(self._pm, self._owners)
 

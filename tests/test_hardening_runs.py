@@ -274,3 +274,27 @@ def test_metrics_are_measured_before_the_learn_step(cbr_cli: Cli, tmp_path: Path
     assert {row["gauge"] for row in rows} == {"1.0"}
     assert list(rows[0])[-3:] == ["ms_learn", "abs_error", "gauge"]
 
+
+
+@pytest.mark.parametrize("override", ["..=1", "a..b=1", ".seed=1", "seed.=1"])
+def test_an_override_with_an_empty_name_is_refused_naming_the_option(
+        override: str, cbr_cli: Callable[..., CliResult], tmp_path: Path) -> None:
+    config = tmp_path / "toy.yaml"
+    config.write_text("seed: 1\n", encoding="utf-8")
+
+    result = cbr_cli("validate", str(config), "--set", override)
+
+    assert result.exit_code == 2
+    assert f"--set {override!r}: expected KEY.PATH=VALUE" in result.stderr
+
+
+def test_a_run_that_cannot_be_built_leaves_no_output_folder(
+        cbr_cli: Callable[..., CliResult], tmp_path: Path) -> None:
+    config = tmp_path / "bad.yaml"
+    config.write_text("world: {use: map_file, path: missing.map}\n"
+                      "workload: {use: trips, count: 1}\n", encoding="utf-8")
+
+    result = cbr_cli("run", str(config), "--out", str(tmp_path / "out"))
+
+    assert result.exit_code == 2 and "missing.map" in result.stderr
+    assert not (tmp_path / "out").exists()
