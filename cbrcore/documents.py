@@ -74,7 +74,7 @@ class Limits:
             if not text:
                 continue
             ceiling = MAX_DEPTH_CEILING if field.name == "depth" else None
-            value = int(text) if text.isdigit() else 0
+            value = int(text) if text.isascii() and text.isdigit() else 0
             if value < 1 or (ceiling is not None and value > ceiling):
                 bound = f" from 1 to {ceiling}" if ceiling else " of 1 or more"
                 raise CbrError(f"environment variable {variable}: expected a whole number"

@@ -25,16 +25,16 @@ def replacing(path: Path, mode: str = "w") -> Iterator[IO[str]]:
     permissions. Something that is not a regular file (a terminal, a pipe, ``/dev/stdout``)
     cannot be replaced and is written directly.
     """
-    target = Path(os.path.realpath(path))
     options: dict[str, str] = {} if "b" in mode else {"encoding": "utf-8", "newline": ""}
     try:
-        existing = target.stat()
+        existing = path.stat()  # through any link
     except FileNotFoundError:
         existing = None
     if existing is not None and not stat.S_ISREG(existing.st_mode):
-        with target.open(mode, **options) as file:
+        with path.open(mode, **options) as file:
             yield file
         return
+    target = Path(os.path.realpath(path))
     handle, temporary = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.",
                                          suffix=".partial")
     try:

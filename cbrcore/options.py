@@ -194,8 +194,8 @@ def _output_path(value: Any, _: type) -> Path:
 
 def in_run_folder(path: Path, out_dir: Path | None, config_dir: Path) -> Path:
     """Where the :data:`OutputPath` ``path`` writes: an absolute path as it is, a relative one
-    inside ``out_dir``, or, without an output folder (an engine embedded without one, ``cbr
-    casebase``), inside ``config_dir``, the configuration's folder, as a read path would be."""
+    inside ``out_dir``, or, without an output folder (an engine embedded without one), inside
+    ``config_dir``, the configuration's folder, as a read path would be."""
     if path.is_absolute():
         return path
     return (config_dir if out_dir is None else out_dir) / path

@@ -7,6 +7,7 @@ import json
 import operator
 import os
 import sqlite3
+import sys
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
@@ -73,6 +74,8 @@ class SQLiteStore:
         self._depth = 0
         self._pending = 0
         self._wrote = False
+        self._aborted: str | None = None
+        """Why SQLite rolled back the transaction under way, when it did so by itself."""
         self._immutable = False
         create = create and not read_only
         new = inspect_file(self.path, create)
@@ -184,7 +187,14 @@ class SQLiteStore:
                 raise
             raise translated from exc
 
+    def _refuse_if_aborted(self) -> None:
+        if self._aborted is not None:
+            raise CaseBaseError(f"{self.path}: the transaction was rolled back by SQLite "
+                                f"({self._aborted}); nothing of it was kept")
+
     def _run(self, sql: str, params: Iterable[Any] = ()) -> sqlite3.Cursor:
+        if self._depth:
+            self._refuse_if_aborted()
         with self._errors():
             return self._conn.execute(sql, tuple(params))
 
@@ -229,12 +239,17 @@ class SQLiteStore:
         try:
             self._pending = self.revision + 1
             self._wrote = False
+            self._aborted = None
             self._depth = 1
             try:
                 yield
             finally:
                 self._depth = 0
+            self._refuse_if_aborted()
             if self._wrote:
+                if self._pending > MAX_ID:
+                    raise CaseBaseError(f"{self.path} has reached the largest revision, "
+                                        f"{MAX_ID}: it takes no more writes")
                 self._run("UPDATE meta SET value = ? WHERE key = ?",
                           (str(self._pending), REVISION_KEY))
             self._run("COMMIT")
@@ -256,6 +271,9 @@ class SQLiteStore:
             if self._conn.in_transaction:
                 self._run(f"ROLLBACK TO {name}")
                 self._run(f"RELEASE {name}")
+            elif self._aborted is None:
+                # the outer block may go on: its writes must not commit one by one
+                self._aborted = str(sys.exc_info()[1])
             self._pending, self._wrote = saved
             raise
         finally:

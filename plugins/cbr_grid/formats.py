@@ -51,6 +51,8 @@ from cbr_grid.movingai import load_map
 from cbrcore.documents import compose_yaml, construct_yaml, read_bytes
 from cbrcore.errors import CbrError
 
+_DIGITS = 18
+"""The most digits a PGM size or pixel value may have: any such number fits in 64 bits."""
 
 def _read(path: Path) -> bytes:
     try:
@@ -109,8 +111,9 @@ def load_pgm(path: str | Path) -> tuple[np.ndarray, int]:
     magic = tokens[0][0]
     numbers = []
     for name, (token, offset) in zip(names[1:], tokens[1:], strict=True):
-        if not token.isdigit() or int(token) < 1:
-            got = f", got {token.decode()!r}" if token.isdigit() else ""  # digits: a number
+        if not token.isdigit() or len(token) > _DIGITS or int(token) < 1:
+            got = (f", got {token.decode()!r}" if token.isdigit() and len(token) <= _DIGITS
+                   else "")  # digits: a number
             raise CbrError(f"{path}, line {_line_of(data, offset)}: expected {name}{got}")
         numbers.append(int(token))
     width, height, maxval = numbers
@@ -128,7 +131,7 @@ def load_pgm(path: str | Path) -> tuple[np.ndarray, int]:
     else:
         body = [(m.group(), m.start()) for m in _PGM_TOKEN.finditer(data, end)
                 if not m.group().startswith(b"#")]
-        bad = next(((t, o) for t, o in body if not t.isdigit()), None)
+        bad = next(((t, o) for t, o in body if not t.isdigit() or len(t) > _DIGITS), None)
         if bad is not None:
             raise CbrError(f"{path}, line {_line_of(data, bad[1])}: expected a pixel value")
         if len(body) != width * height:
@@ -156,7 +159,9 @@ def _image(path: Path) -> np.ndarray:
         raise CbrError(f"{path}: cannot read: no such file")
     data = _read(path)
     try:
-        image = np.asarray(matplotlib.image.imread(io.BytesIO(data), format="png"))
+        # the format by the file's extension, as matplotlib deduces it from a file name
+        image = np.asarray(matplotlib.image.imread(io.BytesIO(data),
+                                                   format=path.suffix[1:].lower() or "png"))
     except Exception as exc:  # the image libraries raise many unrelated types for a bad file
         # their messages may quote the file's first bytes, so only the expectation is said
         raise CbrError(f"{path}: cannot read the image; expected a PNG file") from exc

@@ -58,8 +58,9 @@ def _header(path: Path, lines: list[bytes], number: int, key: str, expected: str
 def _size(path: Path, lines: list[bytes], number: int, key: str) -> int:
     expected = f"'{key}' followed by a positive integer"
     value = _header(path, lines, number, key, expected)
-    if not value.isdigit() or int(value) < 1:
-        got = f", got {value!r}" if value.isdigit() else ""  # digits only: a number
+    # a number of more digits than a size can have is refused before Python converts it
+    if not value.isdigit() or len(value) > _DIGITS or int(value) < 1:
+        got = f", got {value!r}" if value.isdigit() and len(value) <= _DIGITS else ""
         raise CbrError(f"{path}, line {number}: expected {expected}{got}")
     return int(value)
 
@@ -139,10 +140,14 @@ _INTEGER = re.compile(r"-?[0-9]+")
 _LONGEST = Decimal("1e300")
 _FIELDS = "bucket map width height start_x start_y goal_x goal_y optimal"
 
+_DIGITS = 18
+"""The most digits a size or coordinate may have: any such number fits in 64 bits."""
+
 
 def _integer(path: Path, number: int, name: str, value: str) -> int:
-    if not _INTEGER.fullmatch(value):
-        raise CbrError(f"{path}, line {number}: expected an integer {name}")
+    if not _INTEGER.fullmatch(value) or len(value.lstrip("+-")) > _DIGITS:
+        raise CbrError(f"{path}, line {number}: expected an integer {name} of at most "
+                       f"{_DIGITS} digits")
     return int(value)
 
 

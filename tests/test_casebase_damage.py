@@ -165,6 +165,32 @@ def test_the_id_overflow_leaves_the_case_base_usable(casebase: Path) -> None:
         assert store.check() == []
 
 
+def test_a_nested_failure_sqlite_rolled_back_keeps_nothing_of_the_outer_block(
+        casebase: Path) -> None:
+    DAMAGES["last-id-taken"](casebase)
+    with SQLiteStore(casebase) as store:
+        with pytest.raises(CaseBaseError, match="rolled back by SQLite"), store.transaction():
+            with contextlib.suppress(CaseBaseError), store.transaction():
+                store.add(Case(3, 9))  # no id left: SQLite rolls the whole transaction back
+            store.set_meta("after", 1)  # would commit on its own
+        assert (store.meta_items(), store.revision) == ({"grid": {"size": 8}}, 2)
+        assert store.check() == []
+
+
+def test_a_case_base_at_the_largest_revision_takes_no_more_writes(casebase: Path) -> None:
+    damage(casebase, f"UPDATE meta SET value = '{MAX_ID}' WHERE key = 'cbrcore.revision'")
+    with SQLiteStore(casebase) as store:
+        with pytest.raises(CaseBaseError, match="has reached the largest revision"):
+            store.set_meta("more", 1)
+        assert store.revision == MAX_ID and store.check() == []
+
+
+def test_statistics_of_the_query_planner_are_no_foreign_schema(casebase: Path) -> None:
+    damage(casebase, "ANALYZE")
+    with SQLiteStore(casebase) as store:
+        assert store.check() == [] and store.count() == 2
+
+
 # -- a run ------------------------------------------------------------------------------------
 
 

@@ -1,6 +1,6 @@
 """Hostile and careless YAML and JSON documents: each is refused with exit code 2 and a message.
 
-One row per bad input of the hardening issue (configurations given to ``cbr validate`` and
+One row per bad input (configurations given to ``cbr validate`` and
 ``cbr run``, ``--set`` values, documents given to ``cbr casebase import``). Every refusal must
 name the file, say where and what was expected, and show no traceback. The documents that would
 take a long time or exhaust memory or Python's stack if built (alias bombs, deep nesting) are

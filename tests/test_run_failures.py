@@ -110,7 +110,7 @@ class Tiny:
         return ExperimentResult({"n": 1}, "| n |\n|---|\n| 1 |")
 
 
-class Hardening:
+class Faults:
     @hookimpl
     def cbr_register(self, registry: Registry) -> None:
         registry.add("retainer", "tally", Tally, options=FailOptions)
@@ -121,8 +121,8 @@ class Hardening:
 
 
 @pytest.fixture
-def hardening(load_toy: Callable[..., Plugins]) -> Plugins:
-    return load_toy(("hardening", Hardening()))
+def faults(load_toy: Callable[..., Plugins]) -> Plugins:
+    return load_toy(("faults", Faults()))
 
 
 def toy_config(tmp_path: Path, **changes: Any) -> Path:
@@ -184,7 +184,7 @@ OUT_PROBLEMS = pytest.mark.parametrize("problem", [existing_file, below_a_file, 
 
 
 @OUT_PROBLEMS
-@pytest.mark.usefixtures("hardening", "as_if_read_only")
+@pytest.mark.usefixtures("faults", "as_if_read_only")
 def test_run_refuses_an_unusable_out_folder(
         problem: Callable[[Path], tuple[Path, str]], cbr_cli: Cli, tmp_path: Path) -> None:
     out, why = problem(tmp_path)
@@ -196,7 +196,7 @@ def test_run_refuses_an_unusable_out_folder(
 
 
 @OUT_PROBLEMS
-@pytest.mark.usefixtures("hardening", "as_if_read_only")
+@pytest.mark.usefixtures("faults", "as_if_read_only")
 def test_experiment_refuses_an_unusable_out_folder(
         problem: Callable[[Path], tuple[Path, str]], cbr_cli: Cli, tmp_path: Path) -> None:
     out, why = problem(tmp_path)
@@ -209,7 +209,7 @@ def test_experiment_refuses_an_unusable_out_folder(
 
 
 @pytest.mark.parametrize("value", [HUGE, f"-{HUGE}"])
-@pytest.mark.usefixtures("hardening")
+@pytest.mark.usefixtures("faults")
 def test_an_integer_beyond_int64_is_refused_at_validation(value: str, cbr_cli: Cli,
                                                           tmp_path: Path) -> None:
     out = tmp_path / "out"
@@ -225,23 +225,23 @@ def test_an_integer_beyond_int64_is_refused_at_validation(value: str, cbr_cli: C
 
 FAILURES = {
     "metric raises": ({"metrics": ["abs_error", {"use": "gauge", "fail": True}]},
-                      "plugin 'gauge (hardening)' failed in phase 'measure': RuntimeError: "
+                      "plugin 'gauge (faults)' failed in phase 'measure': RuntimeError: "
                       "gauge broke"),
     "metric returns no mapping": ({"metrics": ["abs_error", "shapeless"]},
-                                  "plugin 'shapeless (hardening)' failed in phase 'measure': "
+                                  "plugin 'shapeless (faults)' failed in phase 'measure': "
                                   "TypeError: returned list, expected a mapping"),
     "retainer raises": ({"retain": ["keep", {"use": "tally", "fail": True}],
                          "metrics": ["abs_error", "gauge"]},
-                        "plugin 'tally (hardening)' failed in phase 'retain': RuntimeError: "
+                        "plugin 'tally (faults)' failed in phase 'retain': RuntimeError: "
                         "tally jammed"),
     "observer raises": ({"observers": ["heckler"], "metrics": ["abs_error", "gauge"]},
-                        "plugin 'heckler (hardening)' failed in phase 'forget': RuntimeError: "
+                        "plugin 'heckler (faults)' failed in phase 'forget': RuntimeError: "
                         "heckler shouted"),
 }
 
 
 @pytest.mark.parametrize("changes, message", FAILURES.values(), ids=FAILURES.keys())
-@pytest.mark.usefixtures("hardening")
+@pytest.mark.usefixtures("faults")
 def test_a_failing_plugin_leaves_rows_and_learn_steps_in_agreement(
         changes: dict[str, Any], message: str, cbr_cli: Cli, tmp_path: Path) -> None:
     """The run stops at the failing query with a message naming the plugin; results.csv has a
@@ -258,7 +258,7 @@ def test_a_failing_plugin_leaves_rows_and_learn_steps_in_agreement(
     assert not (out / "summary.json").exists()
 
 
-@pytest.mark.usefixtures("hardening")
+@pytest.mark.usefixtures("faults")
 def test_metrics_are_measured_before_the_learn_step(cbr_cli: Cli, tmp_path: Path) -> None:
     """A run whose plugins all work writes a row per learn step, its learn timings filled in
     although the metrics measured each query before its step."""
