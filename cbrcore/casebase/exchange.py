@@ -300,9 +300,10 @@ def write_document(document: Document, target: str | os.PathLike[str] | TextIO,
         return
     text = dump_document(document, format or format_of(target))
     try:
+        # a full disk or a kill leaves the earlier file, never a truncated one
         files.write_text(Path(target), text)
     except OSError as exc:
-        raise CaseBaseError(f"cannot write {target}: {exc.strerror}") from exc
+        raise CaseBaseError(f"cannot write {target}: {exc.strerror or exc}") from exc
 
 
 def load_document(store: CaseStore, document: Document, *, append: bool = False) -> int:

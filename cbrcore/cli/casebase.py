@@ -15,16 +15,15 @@ from typing import Annotated, Any
 import attrs
 import typer
 
-from cbrcore import files
 from cbrcore.casebase import (
     CaseStore,
     UnusableCaseBase,
     describe,
     document_of,
     dump_document,
-    format_of,
     load_document,
     read_document,
+    write_document,
 )
 from cbrcore.config import Config, load_config, parse_config, parse_yaml
 from cbrcore.engine import Engine
@@ -200,12 +199,7 @@ def export(
     if output is None:
         typer.echo(dump_document(document, chosen or "yaml"), nl=False)
         return
-    text = dump_document(document, chosen or format_of(output))
-    try:
-        # a full disk or a kill leaves the earlier export, never a truncated one
-        files.write_text(output, text)
-    except OSError as exc:
-        raise CaseBaseError(f"cannot write {output}: {exc.strerror or exc}") from exc
+    write_document(document, output, chosen)
     typer.echo(f"exported {len(document.cases)} cases (revision {document.revision}) "
                f"to {output}")
 
