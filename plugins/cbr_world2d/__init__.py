@@ -1,0 +1,81 @@
+"""The continuous 2D world: worlds of walls, landmarks, doors and people; a disc robot with a
+sonar ring, a camera, a bumper and odometry; pilots; trials; and the ``trials`` workload that
+consults the engine from inside a running simulation.
+
+Registers the ``world2d_file`` and ``world2d_generated`` worlds, the ``pilot`` kind (the
+top-level ``pilot:`` slot, ``potential_field`` by default) with the ``potential_field`` and
+``behaviors`` pilots, the ``trials`` workload, the ``rescuer`` solver, and the ``cbr sim``
+commands. See docs/world2d.md.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+import attrs
+import typer
+
+from cbr_world2d.cli import add_commands
+from cbr_world2d.generate import office, semi_structured
+from cbr_world2d.pilots import (
+    PILOT,
+    BehaviorPilotOptions,
+    PotentialFieldOptions,
+    behavior_pilot,
+    potential_field_pilot,
+)
+from cbr_world2d.pilots.rescuer import RescuerOptions
+from cbr_world2d.solver import RescuerSolver
+from cbr_world2d.workload import Trials, TrialsOptions
+from cbr_world2d.world import World
+from cbr_world2d.worldfile import load_world
+from cbrcore.context import Context
+from cbrcore.hookspecs import hookimpl
+from cbrcore.options import option
+from cbrcore.registry import Registry
+
+
+@attrs.frozen
+class WorldFileOptions:
+    path: Path = option(doc="The world file (YAML; relative to the configuration file).")
+
+
+def world_file(options: WorldFileOptions, ctx: Context) -> World:
+    """A 2D world read from a world file (docs/world2d.md lists its keys)."""
+    return load_world(options.path)
+
+
+@attrs.frozen
+class GeneratedWorldOptions:
+    kind: Literal["semi_structured", "office"] = option(
+        doc="The layout: landmarks joined by linear obstacles into walls, corners, U-shapes and "
+        "dead ends (002 Figure 1), or an office floor of hallways, rooms, doors and people "
+        "(004).")
+    seed: int | None = option(None, "The layout's seed; none uses the run's seed.")
+
+
+def generated_world(options: GeneratedWorldOptions, ctx: Context) -> World:
+    """A 2D world generated from a seed: the same seed always gives the same world."""
+    seed = ctx.seed if options.seed is None else options.seed
+    return (semi_structured if options.kind == "semi_structured" else office)(seed)
+
+
+@hookimpl
+def cbr_register(registry: Registry) -> None:
+    registry.add_kind("pilot", "the 2D robot's local controller: turns observations and a "
+                               "target into speed and turn rate commands",
+                      slot="pilot", default="potential_field", key=PILOT)
+    registry.add("pilot", "potential_field", potential_field_pilot,
+                 options=PotentialFieldOptions)
+    registry.add("pilot", "behaviors", behavior_pilot, options=BehaviorPilotOptions)
+    registry.add("world", "world2d_file", world_file, options=WorldFileOptions)
+    registry.add("world", "world2d_generated", generated_world, options=GeneratedWorldOptions)
+    registry.add("workload", "trials", Trials, options=TrialsOptions)
+    registry.add("solver", "rescuer", RescuerSolver, options=RescuerOptions)
+
+
+@hookimpl
+def cbr_cli(app: typer.Typer) -> None:
+    """``cbr sim show``, ``cbr sim run`` and ``cbr sim batch``."""
+    add_commands(app)

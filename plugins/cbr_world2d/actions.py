@@ -1,0 +1,69 @@
+"""What the CBR agent can tell a robot in the 2D world, and how each action ends.
+
+A proposal's ``solution.value`` in the 2D world is an :class:`Action`. The trials workload
+starts it on the running simulation and watches it each step until it ends; the decision that
+proposed it is learned then, with an :class:`ActionReport` as the outcome's report. A family
+adds an action by writing a class with ``start`` and ``ended``; the workload needs no change.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
+
+import attrs
+
+if TYPE_CHECKING:
+    from cbr_world2d.simulation import Simulation
+
+REACHED = "reached"
+"""The action did what it was for (a diverting target reached)."""
+GIVEN_UP = "given_up"
+"""The navigation system gave the action up (a diverting target not reached in time)."""
+TRIAL_ENDED = "trial_ended"
+"""The trial ended (target reached or timeout) while the action was under way."""
+
+
+@runtime_checkable
+class Action(Protocol):
+    """An action of the CBR agent carried out by the running simulation."""
+
+    def start(self, simulation: Simulation) -> None:
+        """Begin the action on ``simulation`` (set a diverting target, install behaviors)."""
+        ...
+
+    def ended(self, simulation: Simulation) -> str | None:
+        """After each step: why the action ended (:data:`REACHED`, :data:`GIVEN_UP`), or None
+        while it is under way."""
+        ...
+
+
+@attrs.frozen
+class Divert:
+    """Ask the Rescuer to lead the robot to ``(x, y)`` before it heads for its target again
+    (002 section 3.3); it ends when the Rescuer restores the original target."""
+
+    x: float
+    y: float
+
+    def start(self, simulation: Simulation) -> None:
+        simulation.navigator.divert((self.x, self.y))
+
+    def ended(self, simulation: Simulation) -> str | None:
+        for event in simulation.events:
+            if event.name == "restored":
+                return REACHED if event.detail == REACHED else GIVEN_UP
+        return None
+
+
+@attrs.frozen
+class ActionReport:
+    """How one action went: why it ended, when it started and ended (seconds into the trial),
+    the distance driven and collisions meanwhile, and, when the trial ended with it, whether
+    the trial reached its target (None while the trial went on)."""
+
+    reason: str
+    started: float
+    ended: float
+    distance: float
+    collisions: int
+    trial_success: bool | None = None

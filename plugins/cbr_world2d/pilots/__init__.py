@@ -1,0 +1,51 @@
+"""Pilots: what turns observations and a target into motion commands.
+
+:mod:`.base` holds the :class:`Pilot` protocol, :mod:`.potential_field` the potential-field
+pilot of 002, :mod:`.behaviors` the behavior-merging controller of 004, :mod:`.monitor` the
+progress monitor and :mod:`.rescuer` the Rescuer that :class:`cbr_world2d.navigator.Navigator`
+combines with a pilot. The two factories below build the registered pilots
+(``potential_field`` and ``behaviors``) from their options.
+"""
+
+from __future__ import annotations
+
+from cbr_world2d.pilots.base import PILOT, Command, Pilot, Point, bearing_error, wrap_angle
+from cbr_world2d.pilots.behaviors import (
+    BEHAVIORS,
+    PRIORITIES,
+    SPEEDS,
+    TURN_RATES,
+    ActiveBehavior,
+    Behavior,
+    BehaviorPilot,
+    BehaviorPilotOptions,
+    Proposal,
+    merge,
+    parse_behavior_set,
+    register_argument,
+    register_behavior,
+)
+from cbr_world2d.pilots.monitor import MonitorOptions, ProgressMonitor, Status
+from cbr_world2d.pilots.potential_field import PotentialField, PotentialFieldOptions
+from cbr_world2d.pilots.rescuer import Rescuer, RescuerOptions, Restored
+from cbrcore.context import Context
+
+__all__ = [
+    "BEHAVIORS", "PILOT", "PRIORITIES", "SPEEDS", "TURN_RATES", "ActiveBehavior", "Behavior",
+    "BehaviorPilot", "BehaviorPilotOptions", "Command", "MonitorOptions", "Pilot", "Point",
+    "PotentialField", "PotentialFieldOptions", "ProgressMonitor", "Proposal", "Rescuer",
+    "RescuerOptions", "Restored", "Status", "bearing_error", "behavior_pilot", "merge",
+    "parse_behavior_set", "potential_field_pilot", "register_argument", "register_behavior",
+    "wrap_angle",
+]
+
+
+def potential_field_pilot(options: PotentialFieldOptions, ctx: Context) -> PotentialField:
+    """The ``potential_field`` pilot: attraction to the target, repulsion from the sonar's
+    echoes (002 section 2); classic, so it gets trapped in U-shapes."""
+    return PotentialField(options)
+
+
+def behavior_pilot(options: BehaviorPilotOptions, ctx: Context) -> BehaviorPilot:
+    """The ``behaviors`` pilot: active behaviors' proposals merged by priority x fit (004)."""
+    return BehaviorPilot.from_data(options.behaviors, options.length_unit)

@@ -1,0 +1,150 @@
+"""The potential-field pilot of 002 section 2: attraction to the target, repulsion from what the
+sonar senses.
+
+Each step the pilot sums two kinds of force on the robot, in the world frame:
+
+* **attraction**: a vector of constant magnitude ``attraction`` pointing at the target. A
+  constant pull (rather than one growing with distance) keeps the balance with the obstacles
+  the same wherever the target is, so a trap is a trap whether the target is 2 m or 20 m away.
+* **repulsion**: for every sonar reading ``d`` (measured from the robot's rim) closer than the
+  influence distance ``d0``, Khatib's term ``repulsion * (1/d - 1/d0) / d**2`` along the beam,
+  pointing away from the echo. Readings below ``min_range`` count as ``min_range`` so that the
+  force stays finite when the robot touches something.
+
+The resulting force's direction is the heading the pilot wants; the heading error ``e`` sets the
+turn rate ``w = clip(turn_gain * e, +-max_turn_rate)`` and the speed is
+``max_speed * max(cos e, 0) * min(1, front / slow_distance) * min(1, distance / approach)``,
+where ``front`` is the nearest reading in the front half (beams within 90 degrees of the
+heading): the robot turns on the spot when the force points sideways or behind, slows down as
+something comes close in front, and as it nears the target.
+
+The pilot is deliberately the classic method with nothing added to escape local minima: where
+the repulsion of a U-shaped obstacle balances the pull toward a target behind it, the force
+flips from side to side and the robot stays there until the trial times out (002 section 4,
+scenario 2). Getting out is the Rescuer's and the CBR agent's job, not the pilot's.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import attrs
+import numba
+import numpy as np
+
+from cbr_world2d.pilots.base import Command, Point
+from cbrcore.options import option
+
+if TYPE_CHECKING:
+    from cbr_world2d.sensors import Observation
+
+_POSITIVE = attrs.validators.gt(0.0)
+_NON_NEGATIVE = attrs.validators.ge(0.0)
+
+
+@attrs.frozen
+class PotentialFieldOptions:
+    """The options of the ``potential_field`` pilot (lengths in metres, angles in radians)."""
+
+    max_speed: float = option(
+        0.4, "The forward speed in m/s with the way clear and the target ahead; the robot's "
+        "own limit caps it (0.4 m/s is an indoor cruising speed for a Pioneer 2 DX, well under "
+        "its top speed).", validator=_POSITIVE)
+    max_turn_rate: float = option(
+        1.0, "The largest turn rate the pilot asks for, in rad/s.", validator=_POSITIVE)
+    turn_gain: float = option(
+        1.5, "Turn rate per radian of heading error, in 1/s.", validator=_POSITIVE)
+    attraction: float = option(
+        1.0, "The magnitude of the pull toward the target (a unit vector times this).",
+        validator=_POSITIVE)
+    repulsion: float = option(
+        0.05, "Khatib's gain k: a reading d closer than the influence distance d0 pushes with "
+        "k * (1/d - 1/d0) / d**2 (0.05 balances the default pull at about 0.32 m from a "
+        "single echo).", validator=_NON_NEGATIVE)
+    influence: float = option(
+        1.0, "d0: readings farther than this (in metres from the robot's rim) do not push.",
+        validator=_POSITIVE)
+    min_range: float = option(
+        0.02, "Readings below this count as this, so that the push stays finite on contact.",
+        validator=_POSITIVE)
+    slow_distance: float = option(
+        1.0, "The speed scales with the nearest reading in the front half divided by this "
+        "(up to 1): the robot slows as something comes close ahead.", validator=_POSITIVE)
+    approach: float = option(
+        0.5, "Within this distance of the target the speed scales down in proportion.",
+        validator=_POSITIVE)
+
+
+@numba.njit(cache=True)
+def field_force(x: float, y: float, theta: float, tx: float, ty: float, ranges: np.ndarray,
+                angles: np.ndarray, attraction: float, repulsion: float, influence: float,
+                min_range: float) -> tuple[float, float]:
+    """The total force ``(fx, fy)`` in the world frame on a robot at ``(x, y, theta)`` heading
+    for ``(tx, ty)`` with sonar ``ranges`` along ``angles`` (relative to the heading)."""
+    dx, dy = tx - x, ty - y
+    norm = math.hypot(dx, dy)
+    fx = fy = 0.0
+    if norm > 0.0:
+        fx, fy = attraction * dx / norm, attraction * dy / norm
+    for i in range(ranges.shape[0]):
+        d = ranges[i]
+        if d >= influence:
+            continue
+        d = max(d, min_range)
+        push = repulsion * (1.0 / d - 1.0 / influence) / (d * d)
+        phi = theta + angles[i]
+        fx -= push * math.cos(phi)
+        fy -= push * math.sin(phi)
+    return fx, fy
+
+
+@numba.njit(cache=True)
+def field_command(x: float, y: float, theta: float, tx: float, ty: float, ranges: np.ndarray,
+                  angles: np.ndarray, attraction: float, repulsion: float, influence: float,
+                  min_range: float, turn_gain: float, max_turn_rate: float, max_speed: float,
+                  slow_distance: float, approach: float) -> tuple[float, float]:
+    """The command ``(v, w)`` of the potential field (see the module docstring)."""
+    fx, fy = field_force(x, y, theta, tx, ty, ranges, angles, attraction, repulsion,
+                         influence, min_range)
+    if fx == 0.0 and fy == 0.0:
+        return 0.0, 0.0
+    error = math.atan2(fy, fx) - theta
+    error = (error + math.pi) % (2.0 * math.pi) - math.pi
+    w = min(max(turn_gain * error, -max_turn_rate), max_turn_rate)
+    front = slow_distance
+    for i in range(ranges.shape[0]):
+        a = (angles[i] + math.pi) % (2.0 * math.pi) - math.pi
+        if abs(a) < 0.5 * math.pi and ranges[i] < front:
+            front = max(ranges[i], 0.0)
+    v = max_speed * max(math.cos(error), 0.0) * (front / slow_distance)
+    v *= min(1.0, math.hypot(tx - x, ty - y) / approach)
+    return v, w
+
+
+class PotentialField:
+    """The potential-field pilot (see the module docstring); it keeps no state between steps."""
+
+    def __init__(self, options: PotentialFieldOptions | None = None) -> None:
+        self.options = options if options is not None else PotentialFieldOptions()
+
+    def force(self, obs: Observation, target: Point) -> tuple[float, float]:
+        """The total force ``(fx, fy)`` in the world frame for this observation."""
+        o, pose = self.options, obs.pose
+        return field_force(pose.x, pose.y, pose.theta, float(target[0]), float(target[1]),
+                           _floats(obs.sonar), _floats(obs.sonar_angles), o.attraction,
+                           o.repulsion, o.influence, o.min_range)
+
+    def command(self, obs: Observation, target: Point) -> Command:
+        o, pose = self.options, obs.pose
+        return field_command(pose.x, pose.y, pose.theta, float(target[0]), float(target[1]),
+                             _floats(obs.sonar), _floats(obs.sonar_angles), o.attraction,
+                             o.repulsion, o.influence, o.min_range, o.turn_gain,
+                             o.max_turn_rate, o.max_speed, o.slow_distance, o.approach)
+
+    def reset(self) -> None:
+        """Nothing to forget: the field depends on the current observation alone."""
+
+
+def _floats(values: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(values, dtype=np.float64)

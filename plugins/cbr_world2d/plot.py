@@ -1,0 +1,308 @@
+"""Pictures of the 2D world and of trials: the world at a time, a trial's trajectory coloured by
+time, and a GIF of a trial with its doors and people moving.
+
+matplotlib is imported inside the functions, with the Agg canvas attached to each figure, so
+that importing the package stays cheap and no window or global pyplot state is ever involved.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from cbr_world2d.simulation import TrialResult
+from cbr_world2d.world import World
+from cbrcore.errors import CbrError
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+_WALL = "black"
+_LINEAR = "saddlebrown"
+_POLYGON = "0.55"
+_POINT = "0.35"
+_LANDMARK = "tab:blue"
+_DOOR_SHUT = "tab:red"
+_DOOR_OPEN = "tab:green"
+_MOVER = "tab:orange"
+_PLACE = "tab:purple"
+_ROBOT = "tab:cyan"
+_TARGET = "gold"
+
+_MIN_INCHES, _MAX_INCHES = 4.0, 9.0
+
+
+def _figure(world: World, extra_width: float = 0.0) -> Figure:
+    """A figure with an Agg canvas, sized to the world's aspect."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    xmin, ymin, xmax, ymax = world.bounds
+    width, height = xmax - xmin, ymax - ymin
+    longest = max(width, height)
+    inches = min(max(longest * 0.4, _MIN_INCHES), _MAX_INCHES)
+    figure = Figure(figsize=(inches * width / longest + 1.0 + extra_width,
+                             inches * height / longest + 0.8))
+    FigureCanvasAgg(figure)
+    return figure
+
+
+def _save(figure: Figure, path: Path, **kwargs: Any) -> None:
+    try:
+        figure.savefig(path, **kwargs)
+    except (OSError, ValueError) as exc:
+        raise CbrError(f"{path}: cannot write the picture: {exc}") from exc
+
+
+def _door_rows(world: World, t: float) -> tuple[np.ndarray, np.ndarray]:
+    """The door segments ``(n, 2, 2)`` shut and open at time ``t``."""
+    rows = world.door_segments.reshape(-1, 2, 2)
+    shut = np.array([not door.is_open(t) for door in world.doors], dtype=bool)
+    return rows[shut], rows[~shut]
+
+
+def _mover_centres(world: World, t: float) -> tuple[np.ndarray, np.ndarray]:
+    """The movers' centres ``(m, 2)`` at time ``t`` and whether each is present ``(m,)``."""
+    centres = np.array([mover.position(t) for mover in world.movers], dtype=float).reshape(-1, 2)
+    present = np.array([mover.present(t) for mover in world.movers], dtype=bool)
+    return centres, present
+
+
+def draw_world(ax: Axes, world: World, t: float = 0.0, *, labels: bool = True) -> None:
+    """Draw ``world`` as it is at time ``t`` into ``ax``.
+
+    Walls black, linear obstacles between landmarks brown, polygons and point obstacles grey,
+    landmarks blue with their ids, doors red when shut and dashed green when open, movers
+    (present at ``t``) orange, named places purple. ``labels`` writes landmark ids and place
+    names.
+    """
+    _draw_static(ax, world, labels)
+    _draw_moving(ax, world, t)
+
+
+def _draw_moving(ax: Axes, world: World, t: float) -> None:
+    """The doors and movers of ``world`` at time ``t``."""
+    from matplotlib.collections import LineCollection, PatchCollection
+    from matplotlib.patches import Circle
+
+    if world.doors:
+        shut, opened = _door_rows(world, t)
+        ax.add_collection(LineCollection(list(shut), colors=_DOOR_SHUT, linewidths=3.0,
+                                         label="doors (shut)"))
+        ax.add_collection(LineCollection(list(opened), colors=_DOOR_OPEN, linewidths=1.5,
+                                         linestyles="dashed", label="doors (open)"))
+    if world.movers:
+        centres, present = _mover_centres(world, t)
+        radii = [mover.radius for mover in world.movers]
+        ax.add_collection(PatchCollection(
+            [Circle(c, r) for c, r, p in zip(centres, radii, present, strict=True) if p],
+            facecolor=_MOVER, edgecolor="none", alpha=0.8))
+
+
+def _draw_static(ax: Axes, world: World, labels: bool) -> None:
+    """Everything of ``world`` that does not change with time, and the axes' frame."""
+    from matplotlib.collections import LineCollection, PatchCollection
+    from matplotlib.patches import Circle, Polygon, Rectangle
+
+    xmin, ymin, xmax, ymax = world.bounds
+    ax.add_patch(Rectangle((xmin, ymin), xmax - xmin, ymax - ymin, fill=False,
+                           edgecolor=_WALL, linewidth=2.0))
+    plain = [(w.a, w.b) for w in world.walls if w.between is None]
+    linear = [(w.a, w.b) for w in world.walls if w.between is not None]
+    if plain:
+        ax.add_collection(LineCollection(plain, colors=_WALL, linewidths=1.5, label="walls"))
+    if linear:
+        ax.add_collection(LineCollection(linear, colors=_LINEAR, linewidths=2.5,
+                                         label="linear obstacles"))
+    if world.polygons:
+        ax.add_collection(PatchCollection([Polygon(p, closed=True) for p in world.polygons],
+                                          facecolor=_POLYGON, edgecolor=_WALL, linewidth=0.8))
+    if world.points:
+        ax.add_collection(PatchCollection([Circle((x, y), r) for x, y, r in world.points],
+                                          facecolor=_POINT, edgecolor="none"))
+    if world.landmarks:
+        ax.add_collection(PatchCollection(
+            [Circle((m.x, m.y), m.radius) for m in world.landmarks],
+            facecolor=_LANDMARK, edgecolor="navy", linewidth=0.8, alpha=0.85))
+        if labels:
+            for mark in world.landmarks:
+                ax.annotate(mark.id, (mark.x, mark.y), xytext=(0, 6),
+                            textcoords="offset points", ha="center", va="bottom", fontsize=7,
+                            color="navy")
+    if world.places:
+        names = sorted(world.places)
+        spots = np.array([world.places[n] for n in names], dtype=float)
+        ax.scatter(spots[:, 0], spots[:, 1], marker="+", color=_PLACE, s=30, zorder=3)
+        if labels:
+            for name, (x, y) in zip(names, spots, strict=True):
+                ax.annotate(name, (x, y), xytext=(3, -9), textcoords="offset points",
+                            fontsize=6, color=_PLACE)
+    width, height = xmax - xmin, ymax - ymin
+    margin = 0.02 * max(width, height)
+    ax.set_xlim(xmin - margin, xmax + margin)
+    ax.set_ylim(ymin - margin, ymax + margin)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+
+
+def plot_world(world: World, path: Path, t: float = 0.0) -> None:
+    """Draw ``world`` at time ``t`` into the picture file ``path`` (the format by its
+    extension)."""
+    figure = _figure(world)
+    ax = figure.add_subplot()
+    draw_world(ax, world, t)
+    ax.set_title(world.name or "world", fontsize=10)
+    figure.tight_layout()
+    _save(figure, path, dpi=120)
+
+
+def _title(result: TrialResult) -> str:
+    verdict = "reached" if result.success else result.reason
+    return (f"{verdict} in {result.time:.1f} s, {result.distance:.2f} m, "
+            f"{result.collisions} collision{'s' * (result.collisions != 1)}")
+
+
+def draw_trial(ax: Axes, world: World, result: TrialResult) -> Any:
+    """Draw ``world`` (at the trial's start) and the trial over it into ``ax``; returns the
+    trajectory's collection, whose colours map the time (for a colorbar)."""
+    from matplotlib.collections import LineCollection
+
+    draw_world(ax, world, 0.0)
+    path = result.trajectory
+    points = path[:, 1:3]
+    lines = LineCollection(np.stack([points[:-1], points[1:]], axis=1), cmap="viridis",
+                           linewidths=2.0, zorder=4)
+    lines.set_array(path[1:, 0])
+    if path.shape[0] > 1:
+        lines.set_clim(0.0, max(float(path[-1, 0]), 1e-9))
+    ax.add_collection(lines)
+    start, target = result.trial.start, result.trial.target
+    ax.plot(start.x, start.y, "o", color="tab:green", markersize=8, zorder=5, label="start")
+    reach = 0.6 * max(world.bounds[2] - world.bounds[0], world.bounds[3] - world.bounds[1])
+    ax.annotate("", xy=(start.x + 0.04 * reach * math.cos(start.theta),
+                        start.y + 0.04 * reach * math.sin(start.theta)),
+                xytext=(start.x, start.y), arrowprops={"arrowstyle": "->", "color": "tab:green"},
+                zorder=5)
+    ax.plot(*target, "*", color=_TARGET, markeredgecolor="black", markersize=16, zorder=6,
+            label="target")
+    diverting = np.array(result.diverting, dtype=float).reshape(-1, 2)
+    if diverting.shape[0]:
+        ax.plot(diverting[:, 0], diverting[:, 1], "D", color="tab:pink",
+                markeredgecolor="black", markersize=7, zorder=6, label="diverting targets")
+    hits = np.array([(e.x, e.y) for e in result.events if e.name == "collision"],
+                    dtype=float).reshape(-1, 2)
+    if hits.shape[0]:
+        ax.plot(hits[:, 0], hits[:, 1], "x", color="red", markersize=8, markeredgewidth=2,
+                zorder=7, label="collisions")
+    stuck = np.array([(e.x, e.y) for e in result.stuck], dtype=float).reshape(-1, 2)
+    if stuck.shape[0]:
+        ax.plot(stuck[:, 0], stuck[:, 1], "o", markerfacecolor="none", color="tab:red",
+                markersize=10, zorder=6, label="blocked / oscillating")
+    ax.legend(loc="upper left", fontsize=7, framealpha=0.8)
+    return lines
+
+
+def plot_trial(world: World, result: TrialResult, path: Path) -> None:
+    """Draw ``world`` and the trial ``result`` into the picture file ``path``: the trajectory
+    coloured by time with a colorbar, the start, the final target as a star, the diverting
+    targets, collisions and where the robot got stuck; the title says how it went."""
+    figure = _figure(world, extra_width=1.2)
+    ax = figure.add_subplot()
+    lines = draw_trial(ax, world, result)
+    figure.colorbar(lines, ax=ax, label="time (s)", fraction=0.046, pad=0.04)
+    ax.set_title(f"{world.name + ': ' if world.name else ''}{_title(result)}", fontsize=10)
+    figure.tight_layout()
+    _save(figure, path, dpi=120)
+
+
+def animate_trial(world: World, result: TrialResult, path: Path, fps: int = 10,
+                  max_frames: int = 150, dpi: int = 80) -> int:
+    """Write a GIF of the trial ``result`` to ``path``: the robot's disc and heading driving
+    its trajectory, the trail behind it, doors opening and shutting and people walking.
+
+    At most ``max_frames`` frames, evenly spaced in time over the trial, played at ``fps``
+    frames a second; returns the number of frames drawn (Pillow stores two identical frames
+    in a row as one, which only happens when the robot, the world and the clock shown to a
+    tenth of a second all stand still between them).
+
+    The frames are what :class:`matplotlib.animation.PillowWriter` would write, but blitted:
+    the world, axes and labels are drawn once and each frame redraws only the moving artists
+    over that background, some twenty times faster than redrawing the whole figure per frame.
+    """
+    from matplotlib.collections import LineCollection
+    from matplotlib.patches import Circle
+    from PIL import Image
+
+    if fps < 1 or max_frames < 1:
+        raise ValueError(f"fps and max_frames must be at least 1, not {fps} and {max_frames}")
+    trajectory = result.trajectory
+    count = min(max_frames, trajectory.shape[0])
+    rows = np.unique(np.linspace(0, trajectory.shape[0] - 1, count).round().astype(int))
+    radius = result.spec.radius
+
+    figure = _figure(world)
+    figure.set_dpi(dpi)
+    ax = figure.add_subplot()
+    # doors and movers are drawn with the robot, per frame
+    _draw_static(ax, world, labels=True)
+    ax.plot(*result.trial.target, "*", color=_TARGET, markeredgecolor="black", markersize=16,
+            zorder=6)
+    for point in result.diverting:
+        ax.plot(*point, "D", color="tab:pink", markeredgecolor="black", markersize=7, zorder=6)
+    trail, = ax.plot([], [], color="tab:blue", linewidth=1.5, zorder=4)
+    shut = LineCollection([], colors=_DOOR_SHUT, linewidths=3.0, zorder=3)
+    opened = LineCollection([], colors=_DOOR_OPEN, linewidths=1.5, linestyles="dashed",
+                            zorder=3)
+    ax.add_collection(shut)
+    ax.add_collection(opened)
+    people = [Circle((0.0, 0.0), mover.radius, facecolor=_MOVER, edgecolor="none", alpha=0.8,
+                     zorder=6) for mover in world.movers]
+    for person in people:
+        ax.add_patch(person)
+    body = Circle((trajectory[0, 1], trajectory[0, 2]), radius, facecolor=_ROBOT,
+                  edgecolor="black", zorder=7)
+    ax.add_patch(body)
+    heading, = ax.plot([], [], color="black", linewidth=1.5, zorder=8)
+    title = ax.set_title("t = 0.0 s", fontsize=10)
+    figure.tight_layout()
+    moving = [trail, shut, opened, *people, body, heading, title]
+    for artist in moving:
+        artist.set_animated(True)
+    canvas = figure.canvas
+    canvas.draw()
+    background = canvas.copy_from_bbox(figure.bbox)
+
+    frames = []
+    for i in rows:
+        t, x, y, theta = trajectory[i, :4]
+        trail.set_data(trajectory[:i + 1, 1], trajectory[:i + 1, 2])
+        body.center = (x, y)
+        heading.set_data([x, x + radius * math.cos(theta)], [y, y + radius * math.sin(theta)])
+        if world.doors:
+            now_shut, now_open = _door_rows(world, float(t))
+            shut.set_segments(list(now_shut))
+            opened.set_segments(list(now_open))
+        if people:
+            centres, present = _mover_centres(world, float(t))
+            for person, centre, here in zip(people, centres, present, strict=True):
+                person.center = (centre[0], centre[1])
+                person.set_visible(bool(here))
+        title.set_text(f"t = {t:.1f} s")
+        canvas.restore_region(background)
+        for artist in moving:
+            ax.draw_artist(artist)
+        # a GIF holds palette images; the fast octree palette is five times quicker than
+        # Pillow's default median cut, which would take most of the time otherwise
+        frame = Image.fromarray(np.asarray(canvas.buffer_rgba())).convert("RGB")
+        frames.append(frame.quantize(256, method=Image.Quantize.FASTOCTREE))
+    try:
+        frames[0].save(path, format="GIF", save_all=True, append_images=frames[1:],
+                       duration=round(1000 / fps), loop=0)
+    except (OSError, ValueError) as exc:
+        raise CbrError(f"{path}: cannot write the animation: {exc}") from exc
+    return len(frames)

@@ -1,0 +1,262 @@
+"""The ``trials`` workload: robots driving trials in the 2D world, consulting the engine as they go.
+
+Each trial runs one :class:`~cbr_world2d.simulation.Simulation` from its start to its target
+until the robot reaches it or the timeout. While it runs, a trigger (the progress monitor
+reporting the robot blocked, the set of landmarks in view changing, a period passing) consults
+the engine with a :class:`Situation`; the proposal's solution is an
+:class:`~cbr_world2d.actions.Action` the simulation carries out. The decision is learned when the
+action ends, or when the trial ends first; no consultation is made while an action is under
+way, so the agent does not ask again for the situation it is already handling (002 section 3.3).
+
+Besides the run's ``results.csv`` (one row per decision), the workload writes ``trials.csv`` in
+the run folder: one row per trial with its success, time, distance, collisions and
+consultations.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Mapping
+from typing import Any, Literal
+
+import attrs
+import numpy as np
+
+from cbr_world2d.actions import TRIAL_ENDED, Action, ActionReport
+from cbr_world2d.navigator import Navigator, NavigatorOptions
+from cbr_world2d.pilots.base import PILOT, Pilot
+from cbr_world2d.robot import PRESETS, Pose
+from cbr_world2d.sensors import Observation, Sensors, Sighting
+from cbr_world2d.simulation import STUCK, Simulation, Trial, random_trials
+from cbr_world2d.world import Point, World, world_of
+from cbrcore.context import Context
+from cbrcore.errors import PluginError
+from cbrcore.model import Outcome
+from cbrcore.options import option
+from cbrcore.workload import Decision, Session
+
+Trigger = Literal["blocked", "landmarks", "period"]
+
+_POSITIVE = attrs.validators.gt(0.0)
+_COUNT = attrs.validators.and_(attrs.validators.instance_of(int), attrs.validators.ge(0))
+
+
+@attrs.frozen
+class TrialEntry:
+    start: str = option(doc="Where the robot starts: a place of the world or 'X,Y' in metres.")
+    target: str = option(doc="The target: a place of the world or 'X,Y' in metres.")
+    heading: float | None = option(
+        None, "The start heading in degrees counter-clockwise from +x; none faces the target.")
+
+
+@attrs.frozen
+class TrialsOptions:
+    trials: list[TrialEntry] = option(
+        doc="The trials, each a start and a target, run in order.", factory=list)
+    random: int = option(
+        0, "More trials between random free points of the world, drawn from the run's seed.",
+        validator=_COUNT)
+    repeat: int = option(1, "How many times the whole list of trials runs.", validator=_COUNT)
+    timeout: float = option(600.0, "Seconds after which a trial has failed.",
+                            validator=_POSITIVE)
+    dt: float = option(0.1, "The simulation step in seconds.", validator=_POSITIVE)
+    tolerance: float = option(
+        0.3, "How close, in metres, the robot's centre must come to the target.",
+        validator=_POSITIVE)
+    robot: Literal["pioneer2dx", "ros2005"] = option(
+        "pioneer2dx", "The robot: a Pioneer 2 DX (004) or the slow robot of 002 (5 cm/s).")
+    navigation: NavigatorOptions = option(
+        doc="The navigation system around the pilot: progress monitor, Rescuer, and whether "
+        "the Rescuer diverts on its own.", factory=NavigatorOptions)
+    consult_on: list[Trigger] = option(
+        doc="What consults the agent: 'blocked' (the progress monitor reports the robot "
+        "blocked or oscillating), 'landmarks' (a landmark came into view), 'period' (every "
+        "'period' seconds).", factory=lambda: ["blocked", "landmarks"])
+    period: float = option(10.0, "Seconds between consultations of the 'period' trigger.",
+                           validator=_POSITIVE)
+
+
+def _array(values: np.ndarray) -> list[float]:
+    return [round(float(v), 4) for v in values]
+
+
+@attrs.frozen
+class Situation:
+    """A consultation's problem: the robot's situation when a trigger fired.
+
+    ``pose`` is the odometry estimate (what the robot believes), ``target`` the trial's final
+    target, ``sightings`` what the camera sees (fuzzy distance and bearing per landmark),
+    ``sonar`` the ring's ranges in metres (``sonar_angles`` relative to the heading).
+    """
+
+    trial: int
+    t: float
+    trigger: str
+    pose: Pose
+    target: Point
+    sightings: tuple[Sighting, ...]
+    sonar: np.ndarray = attrs.field(eq=False)
+    sonar_angles: np.ndarray = attrs.field(eq=False)
+    bumped: bool
+    confidence: float
+
+    def to_json(self) -> dict[str, Any]:
+        """Plain data of the situation, as a retainer stores it in a case."""
+        return {
+            "trial": self.trial, "t": round(self.t, 4), "trigger": self.trigger,
+            "pose": [self.pose.x, self.pose.y, self.pose.theta],
+            "target": list(self.target),
+            "sightings": [{"id": s.id, "distance": list(attrs.astuple(s.distance)),
+                           "bearing": list(attrs.astuple(s.bearing))} for s in self.sightings],
+            "sonar": _array(self.sonar), "sonar_angles": _array(self.sonar_angles),
+            "bumped": self.bumped, "confidence": self.confidence,
+        }
+
+
+def situation(trial: int, trigger: str, obs: Observation, target: Point) -> Situation:
+    return Situation(trial, obs.t, trigger, obs.pose, target, obs.sightings, obs.sonar,
+                     obs.sonar_angles, obs.bumped, obs.confidence)
+
+
+@attrs.frozen
+class TrialRow:
+    """One row of ``trials.csv``."""
+
+    trial: int
+    start_x: float
+    start_y: float
+    target_x: float
+    target_y: float
+    success: bool
+    reason: str
+    time: float
+    distance: float
+    collisions: int
+    consultations: int
+
+
+@attrs.define
+class _Open:
+    decision: Decision
+    action: Action | None
+    started: float
+    distance: float
+    collisions: int
+
+
+class Trials:
+    """Run the configured trials, consulting the engine through a session."""
+
+    def __init__(self, options: TrialsOptions, ctx: Context) -> None:
+        self.options = options
+        self.world: World = world_of(ctx, "workload 'trials'")
+        self.pilot: Pilot = ctx.stash[PILOT]
+        self.spec = PRESETS[options.robot]
+        self.ctx = ctx
+        self.rng = ctx.spawn_rng()
+        self.plan = self._plan()
+
+    def _plan(self) -> list[Trial]:
+        o = self.options
+        timing = {"timeout": o.timeout, "tolerance": o.tolerance, "dt": o.dt}
+        fixed = []
+        for k, entry in enumerate(o.trials):
+            where = f"workload.trials.{k}"
+            start = self.world.point(entry.start, f"{where}.start")
+            target = self.world.point(entry.target, f"{where}.target")
+            trial = Trial.facing(start, target, **timing)
+            if entry.heading is not None:
+                trial = attrs.evolve(trial, start=Pose(*start, math.radians(entry.heading)))
+            trial.check(self.world, self.spec, f"{where}.start", f"{where}.target")
+            fixed.append(trial)
+        drawn = random_trials(self.world, o.random, self.spec, self.rng, **timing)
+        return (fixed + drawn) * o.repeat
+
+    def __len__(self) -> int:
+        return len(self.plan)
+
+    def describe(self, problem: Situation) -> Mapping[str, Any]:
+        return {"trial": problem.trial, "t": round(problem.t, 3), "trigger": problem.trigger,
+                "x": round(problem.pose.x, 3), "y": round(problem.pose.y, 3)}
+
+    def run(self, session: Session) -> None:
+        rows = [self._trial(session, k, trial) for k, trial in enumerate(self.plan)]
+        if self.ctx.out_dir is not None:
+            self._write(rows)
+
+    def _trial(self, session: Session, index: int, trial: Trial) -> TrialRow:
+        options = self.options
+        sim = Simulation(self.world, self.spec, Sensors().fitted(self.spec.radius),
+                         Navigator(self.pilot, options.navigation), trial.start, trial.target,
+                         dt=trial.dt, rng=self.rng.spawn(1)[0], tolerance=trial.tolerance)
+        opened: _Open | None = None
+        consultations = 0
+        seen: frozenset[str] = frozenset()
+        next_period = options.period
+        obs = sim.observe()
+        last = math.ceil(trial.timeout / trial.dt - 1e-9)
+        while not sim.reached and sim.steps < last:
+            in_view = frozenset(s.id for s in obs.sightings)
+            if opened is None:
+                trigger = self._trigger(sim, in_view - seen, next_period)
+                if trigger is not None:
+                    opened = self._consult(session, sim, index, trigger, obs, trial.target)
+                    consultations += 1
+            seen = in_view
+            if sim.t >= next_period:
+                next_period += options.period
+            obs = sim.step()
+            if opened is not None and opened.action is not None:
+                reason = opened.action.ended(sim)
+                if reason is not None:
+                    self._learn(session, sim, opened, reason, None)
+                    opened = None
+        if opened is not None:
+            self._learn(session, sim, opened, TRIAL_ENDED, sim.reached)
+        return TrialRow(index, trial.start.x, trial.start.y, *trial.target, sim.reached,
+                        "reached" if sim.reached else "timeout", round(sim.t, 4),
+                        round(sim.distance, 4), sim.collisions, consultations)
+
+    def _trigger(self, sim: Simulation, new: frozenset[str], next_period: float) -> str | None:
+        triggers = self.options.consult_on
+        if "blocked" in triggers and any(e.name in STUCK for e in sim.events):
+            return "blocked"
+        if "landmarks" in triggers and new:
+            return "landmarks"
+        if "period" in triggers and sim.t >= next_period:
+            return "period"
+        return None
+    def _consult(self, session: Session, sim: Simulation, index: int, trigger: str,
+                 obs: Observation, target: Point) -> _Open | None:
+        decision = session.consult(situation(index, trigger, obs, target))
+        solution = decision.proposal.solution
+        action = None if solution is None else solution.value
+        if action is not None and not isinstance(action, Action):
+            raise PluginError(f"workload 'trials': the proposal for query {decision.index} is "
+                              f"a {type(action).__name__}, expected an action of the 2D world "
+                              "(cbr_world2d.actions: Divert, or a class with start and ended)")
+        opened = _Open(decision, action, sim.t, sim.distance, sim.collisions)
+        if action is None:
+            # nothing to carry out: what follows is the navigation system's own doing
+            self._learn(session, sim, opened, "no_action", None)
+            return None
+        action.start(sim)
+        return opened
+
+    @staticmethod
+    def _learn(session: Session, sim: Simulation, opened: _Open, reason: str,
+               trial_success: bool | None) -> None:
+        report = ActionReport(reason, round(opened.started, 4), round(sim.t, 4),
+                              round(sim.distance - opened.distance, 4),
+                              sim.collisions - opened.collisions, trial_success)
+        success = reason == "reached"
+        session.learn(opened.decision,
+                      Outcome(success, cost=round(sim.t - opened.started, 4), report=report))
+
+    def _write(self, rows: list[TrialRow]) -> None:
+        assert self.ctx.out_dir is not None
+        with open(self.ctx.out_dir / "trials.csv", "w", newline="") as handle:
+            writer = csv.writer(handle)
+            writer.writerow([f.name for f in attrs.fields(TrialRow)])
+            writer.writerows(attrs.astuple(row) for row in rows)
