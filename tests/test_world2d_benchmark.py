@@ -108,30 +108,48 @@ def test_segment_distances_against_brute_force(bench: ModuleType) -> None:
         assert got[k] == pytest.approx(brute, abs=0.03)
 
 
-def test_tour_waypoints_are_free(bench: ModuleType, run: Any) -> None:
-    segments = run.world.static_segments
-    for x, y in [(run.start.x, run.start.y), *run.waypoints]:
+def test_tour_legs_start_and_end_in_free_space_and_chain(bench: ModuleType, run: Any) -> None:
+    segments, discs = run.world.static_segments, run.world.static_discs
+    points = [(start.x, start.y) for start, _ in run.legs] + [run.legs[-1][1]]
+    for x, y in points:
         near = min(_point_to_segment(x, y, seg, 401) for seg in segments)
-        rims = np.hypot(run.world.static_discs[:, 0] - x,
-                        run.world.static_discs[:, 1] - y) - run.world.static_discs[:, 2]
+        rims = np.hypot(discs[:, 0] - x, discs[:, 1] - y) - discs[:, 2]
         assert min(near, float(rims.min())) >= bench.CLEARANCE - 0.05
+    for (start, target), (following, _) in zip(run.legs, run.legs[1:], strict=False):
+        assert (following.x, following.y) == target
+        assert bench.LEG[0] <= math.hypot(target[0] - start.x, target[1] - start.y) <= bench.LEG[1]
+        # each leg starts facing its target
+        assert math.atan2(target[1] - start.y, target[0] - start.x) == pytest.approx(start.theta)
+
+
+def _drive(run: Any, start: Any, velocities: list[tuple[float, float]]) -> Any:
+    state = RobotState(start.x, start.y, start.theta)
+    for command in velocities:
+        state, _ = robot.step(state, command, run.spec, 0.1, run.world.static_segments,
+                              run.world.static_discs)
+    return state
 
 
 def test_our_simulator_drives_a_few_steps_of_the_tour(bench: ModuleType, run: Any) -> None:
     record = bench.Record()
     bench._legs(run, 40, 0, record)
     assert len(record.states) == len(record.velocities) == 40
+    assert record.starts == [0] and record.legs == 1
     spec = run.spec
     xmin, ymin, xmax, ymax = run.world.bounds
     for state, (v, w) in zip(record.states, record.velocities, strict=True):
         assert xmin < state.x < xmax and ymin < state.y < ymax
         assert -spec.max_reverse - 1e-9 <= v <= spec.max_speed + 1e-9
         assert abs(w) <= spec.max_turn_rate + 1e-9
-    # it moved: the pilot drives toward the first waypoint
-    first, last = record.states[0], record.states[-1]
-    target = run.waypoints[0]
+    # it moved toward the first leg's target
+    start, target = run.leg(0)
+    last = record.ends[0]
     assert math.hypot(last.x - target[0], last.y - target[1]) < math.hypot(
-        first.x - target[0], first.y - target[1])
+        start.x - target[0], start.y - target[1])
+    # the replay cut of the recorded steps
+    legs = bench.replay_legs(run, record, 25)
+    assert len(legs) == 1 and legs[0][0] == start and len(legs[0][1]) == 25
+    assert legs[0][2] == record.states[25]
     # the bare loop and the part replays run on the same world
     assert bench.direct_steps(run, 20, 0) > 0
     parts = bench.part_costs(run, record, 0)
@@ -139,22 +157,24 @@ def test_our_simulator_drives_a_few_steps_of_the_tour(bench: ModuleType, run: An
 
 
 @pytest.mark.skipif(not HAS_IRSIM, reason="ir-sim (the bench extra) is not installed")
-def test_irsim_scenario_holds_the_same_world(bench: ModuleType, run: Any,
-                                             tmp_path: Path) -> None:
+def test_irsim_scenario_holds_the_same_world_and_robot(bench: ModuleType, run: Any,
+                                                       tmp_path: Path) -> None:
+    # two legs from two starts: ir-sim's robot is put back at each leg's start and, driven at
+    # the same velocities, ends where ours does (straight ahead, its acceleration limit
+    # holding it back as ours is, nothing within reach)
     velocities = [(0.2, 0.0)] * 5
-    seconds, built, end = bench.irsim_steps(run, velocities, 16, 5.0, tmp_path)
+    legs = [(start, velocities, _drive(run, start, velocities))
+            for start, _ in run.legs[:2]]
+    # the speed ramps up by max_accel * dt a step toward 0.2 m/s
+    ramp = sum(min(0.2, k * run.spec.max_accel * 0.1) * 0.1 for k in range(1, 6))
+    for start, _, end in legs:
+        assert math.hypot(end.x - start.x, end.y - start.y) == pytest.approx(ramp)
+    seconds, built, how = bench.irsim_steps(run, legs, 16, 5.0, tmp_path)
     assert seconds > 0 and built > 0
-    assert end["objects"] == 1 + 200 + 30
-    assert end["beams"] == 16
-    # the same robot: its acceleration limit holds it back the way ours does (straight ahead,
-    # nothing within reach of the start)
-    state = RobotState(run.start.x, run.start.y, run.start.theta)
-    for command in velocities:
-        state, _ = robot.step(state, command, run.spec, bench.DT, run.world.static_segments,
-                              run.world.static_discs)
-    assert 0.0 < math.hypot(state.x - run.start.x, state.y - run.start.y) < 0.1
-    assert end["x"] == pytest.approx(state.x, abs=1e-9)
-    assert end["y"] == pytest.approx(state.y, abs=1e-9)
+    assert how["objects"] == 1 + 200 + 30
+    assert how["beams"] == 16
+    assert how["steps_in_collision"] == 0
+    assert how["largest_apart_from_ours_m"] < 1e-9
 
 
 def test_quick_run_writes_outputs(bench: ModuleType, tmp_path: Path) -> None:

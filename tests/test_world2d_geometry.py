@@ -19,6 +19,7 @@ from cbr_world2d.geometry import (
     landmark_view,
     nearest_point,
     ring_ranges,
+    ring_ranges_into,
     sweep,
     visible,
     wrap,
@@ -174,6 +175,9 @@ def test_ring_ranges_are_measured_from_the_rim_and_read_the_nearest_ray_of_a_con
     assert got == pytest.approx([3.0 - radius, 3.0 / math.cos(math.radians(5.0)) - radius, 5.0])
     turned = ring_ranges(0.0, 0.0, math.pi, directions, offsets, 5.0, radius, wall, NO_DISCS)
     assert turned[2] == pytest.approx(3.0 - radius)
+    into = np.empty(3)
+    ring_ranges_into(0.0, 0.0, 0.0, directions, offsets, 5.0, radius, wall, NO_DISCS, into)
+    assert into.tolist() == got.tolist()
 
 
 def test_a_beam_touching_a_wall_reads_zero() -> None:

@@ -189,6 +189,24 @@ def test_in_contact_an_arc_that_would_dip_in_is_blocked_and_one_that_leaves_is_n
     assert state.y > y
 
 
+def test_in_contact_a_robot_can_back_away_but_not_back_in() -> None:
+    wall = np.array([[-5.0, 0.0, 5.0, 0.0]])
+    y = OPEN.radius + GAP
+    facing_in = RobotState(0.0, y, -math.radians(80.0), -0.5, 0.0)
+    state, bumped = step(facing_in, (-0.5, 0.0), OPEN, 0.1, wall, NO_DISCS)
+    assert not bumped
+    assert state.y > y
+    # Backing along the wall while turning: the tail swings into the wall at first.
+    state, bumped = step(RobotState(0.0, y, math.radians(5.0), -0.5, -2.0), (-0.5, -2.0), OPEN,
+                         0.1, wall, NO_DISCS)
+    assert bumped
+    # Backing into it.
+    state, bumped = step(RobotState(0.0, y, math.radians(80.0), -0.5, 0.0), (-0.5, 0.0), OPEN,
+                         0.1, wall, NO_DISCS)
+    assert bumped
+    assert (state.x, state.y) == (0.0, y)
+
+
 def _world(seed: int) -> tuple[np.ndarray, np.ndarray]:
     rng = np.random.default_rng(seed)
     box = [(0.0, 0.0, 6.0, 0.0), (6.0, 0.0, 6.0, 6.0), (6.0, 6.0, 0.0, 6.0),
@@ -285,6 +303,12 @@ def test_random_driving_does_collide_so_the_property_tests_bite() -> None:
                     for _ in range(6)]
         blocked += _check_trajectory(PIONEER_2DX, 0.1, seed, commands)
     assert blocked > 0
+
+
+@pytest.mark.parametrize("dt", [0.0, -0.1, math.nan])
+def test_a_step_needs_a_positive_time(dt: float) -> None:
+    with pytest.raises(ValueError, match="time step"):
+        step(RobotState(0.0, 0.0, 0.0), (0.1, 0.0), OPEN, dt, NO_SEGMENTS, NO_DISCS)
 
 
 def test_pose_and_state() -> None:

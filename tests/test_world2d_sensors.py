@@ -17,6 +17,7 @@ from cbr_world2d.fuzzy import (
     angle_overlap,
     overlap,
     overlap_arrays,
+    unchecked,
     wrap_angle,
 )
 from cbr_world2d.geometry import wrap
@@ -45,6 +46,7 @@ def test_triangle_membership_and_support() -> None:
     assert Triangle(3.0, 3.0, 3.0).membership(3.0) == 1.0
     assert Triangle.around(2.0, 0.5) == Triangle(1.5, 2.0, 2.5)
     assert t.spread == 3.0
+    assert unchecked(1.0, 2.0, 4.0) == t
 
 
 @pytest.mark.parametrize("corners", [(2.0, 1.0, 3.0), (0.0, 3.0, 2.0), (math.nan, 1.0, 2.0),
@@ -358,6 +360,19 @@ def test_an_observation_carries_every_sense() -> None:
     bumped = next(o for o in observations if o.bumped)
     assert -math.pi / 2 < bumped.bump_bearing < math.pi / 2
     assert observations[-1].confidence < 1.0
+
+
+def test_fitting_a_suite_mounts_its_sonar_and_restarts_its_odometry() -> None:
+    sensors = Sensors(odometry=Odometry(noise_v=0.1))
+    sensors.observe(RobotState(1.0, 1.0, 0.0), _world(), 0.0, False, np.random.default_rng(0))
+    fitted = sensors.fitted(0.4)
+    assert fitted.sonar is not None
+    assert fitted.sonar.mount_radius == 0.4
+    assert fitted.odometry.noise_v == 0.1
+    assert fitted.odometry is not sensors.odometry
+    observation = fitted.observe(RobotState(2.0, 2.0, 1.0), _world(), 5.0, False,
+                                 np.random.default_rng(0))
+    assert observation.pose == Pose(2.0, 2.0, 1.0)
 
 
 def test_a_suite_without_sonar_or_camera_still_observes() -> None:

@@ -62,8 +62,9 @@ ToleranceOption = Annotated[float, typer.Option(
 RobotOption = Annotated[RobotName, typer.Option(
     "--robot", help="The robot: a Pioneer 2 DX (004) or the 5 cm/s robot of 002.")]
 RescueOption = Annotated[Rescue, typer.Option(
-    "--rescue", help="When the Rescuer diverts on its own: off (002's baseline), when the "
-    "robot is blocked, or when it is stuck (blocked or oscillating).")]
+    "--rescue", help="When the Rescuer diverts on its own: never (the pilot alone), when the "
+    "robot is blocked (002's navigation system without CBR), or when it is stuck (blocked or "
+    "oscillating).")]
 JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON objects.")]
 
 
@@ -186,7 +187,7 @@ def run(
     seed: Annotated[int, typer.Option("--seed", min=0, help="The seed of the sensor noise.")]
     = 0,
     robot: RobotOption = RobotName.pioneer2dx,
-    rescue: RescueOption = Rescue.off,
+    rescue: RescueOption = Rescue.blocked,
     plot: PlotOption = None,
     gif: Annotated[Path | None, typer.Option(
         "--gif", show_default=False, help="Animate the trial into this GIF file.")] = None,
@@ -259,7 +260,7 @@ def batch(
     dt: DtOption = 0.1,
     tolerance: ToleranceOption = 0.3,
     robot: RobotOption = RobotName.pioneer2dx,
-    rescue: RescueOption = Rescue.off,
+    rescue: RescueOption = Rescue.blocked,
     as_json: JsonOption = False,
 ) -> None:
     """Run trials between random free points of a world; print a table and the success rate,

@@ -8,10 +8,12 @@ limits. Motion follows the exact arc of constant ``v`` and ``w``; the swept disc
 continuously against every segment and disc (:func:`cbr_world2d.geometry.advance`), so the
 robot never passes through anything.
 
-A blocked step stops the robot at the contact point with ``v = w = 0`` (the Pioneer's
-firmware stalls the drive on a bump the same way) but still applies the step's turn: a disc
+A blocked step stops the robot at the contact point with ``v = w = 0`` (as P2OS does with its
+``BUMP_STALL`` option: stop and register a stall when the bump ring is touched, Pioneer 2
+manual, command 44) but still applies the step's turn: a disc
 turning on the spot cannot hit anything, and letting the turn through is what lets a pilot turn
-away from the wall it touches instead of freezing against it.
+away from the wall it touches instead of freezing against it. From contact the robot may drive
+on only along a path that leaves the obstacle (or runs along it), forward or in reverse.
 """
 
 from __future__ import annotations
@@ -144,6 +146,8 @@ def step(state: RobotState, command: tuple[float, float], spec: RobotSpec, dt: f
     with the step's turn applied. The flag is True on every step that pushes into an
     obstacle, so a caller counting contacts counts the steps where it turns True.
     """
+    if not dt > 0.0:
+        raise ValueError(f"a time step must be > 0 seconds, not {dt!r}")
     v_cmd, w_cmd = command
     v = limit(state.v, float(v_cmd), spec.max_accel, spec.max_speed, -spec.max_reverse, dt)
     w = limit(state.w, float(w_cmd), spec.max_turn_accel, spec.max_turn_rate,

@@ -23,7 +23,7 @@ import numba
 import numpy as np
 
 from cbr_world2d.fuzzy import Triangle, unchecked, wrap_angle
-from cbr_world2d.geometry import landmark_view, nearest_point, ring_ranges
+from cbr_world2d.geometry import landmarks_seen, nearest_point, ring_ranges_into
 from cbr_world2d.robot import PIONEER_2DX, Pose, RobotState
 from cbr_world2d.world import World
 
@@ -35,6 +35,7 @@ PIONEER_SONAR_DEGREES: tuple[float, ...] = (
 order: ``SonarUnit 0..7`` the front ring at 90, 50, 30, 10, -10, -30, -50, -90 degrees and
 ``SonarUnit 8..15`` the rear ring at -90, -130, -150, -170, 170, 150, 130, 90 degrees (ARIA
 ``params/p2dx.p``, section "Sonar parameters")."""
+
 
 def _positive(instance: object, attribute: attrs.Attribute, value: float) -> None:
     if not (math.isfinite(value) and value > 0.0):
@@ -58,15 +59,15 @@ def _add_noise(ranges: np.ndarray, normal: np.ndarray, sigma: float, top: float)
 
 
 @numba.njit(cache=True)
-def _measure(distance: np.ndarray, bearing: np.ndarray, uniform: np.ndarray, d_base: float,
-             d_per_metre: float, b_base: float, b_per_metre: float, noise: float) -> np.ndarray:
-    """Rows ``d_low, d_peak, d_high, b_low, b_peak, b_high`` of the camera's fuzzy measures;
-    ``uniform`` ``(n, 2)`` in [0, 1) becomes triangular errors on [-1, 1] (inverse CDF)."""
-    n = distance.shape[0]
-    out = np.empty((n, 6))
-    for i in range(n):
-        d_half = d_base + d_per_metre * distance[i]
-        b_half = b_base + b_per_metre * distance[i]
+def _measure(seen: np.ndarray, uniform: np.ndarray, d_base: float, d_per_metre: float,
+             b_base: float, b_per_metre: float, noise: float, out: np.ndarray) -> None:
+    """Rows ``d_low, d_peak, d_high, b_low, b_peak, b_high`` of the camera's fuzzy measures
+    of the landmarks ``seen`` (rows ``index, distance, bearing``) into ``out``; ``uniform``
+    ``(n, 2)`` in [0, 1) becomes triangular errors on [-1, 1] (inverse CDF)."""
+    for i in range(out.shape[0]):
+        distance = seen[i, 1]
+        d_half = d_base + d_per_metre * distance
+        b_half = b_base + b_per_metre * distance
         errors = np.empty(2)
         for k in range(2):
             u = uniform[i, k]
@@ -74,15 +75,14 @@ def _measure(distance: np.ndarray, bearing: np.ndarray, uniform: np.ndarray, d_b
                 errors[k] = math.sqrt(2.0 * u) - 1.0
             else:
                 errors[k] = 1.0 - math.sqrt(2.0 * (1.0 - u))
-        d_peak = max(distance[i] + noise * errors[0] * d_half, 0.0)
-        b_peak = bearing[i] + noise * errors[1] * b_half
+        d_peak = max(distance + noise * errors[0] * d_half, 0.0)
+        b_peak = seen[i, 2] + noise * errors[1] * b_half
         out[i, 0] = max(d_peak - d_half, 0.0)
         out[i, 1] = d_peak
         out[i, 2] = d_peak + d_half
         out[i, 3] = b_peak - b_half
         out[i, 4] = b_peak
         out[i, 5] = b_peak + b_half
-    return out
 
 
 def _radians(degrees: tuple[float, ...]) -> tuple[float, ...]:
@@ -148,8 +148,10 @@ class SonarRing:
     def read(self, pose: Pose | RobotState, segments: np.ndarray, discs: np.ndarray,
              rng: np.random.Generator) -> np.ndarray:
         """The ranges ``(R,)`` of every beam seen from ``pose``."""
-        ranges = ring_ranges(float(pose.x), float(pose.y), float(pose.theta), self._directions,
-                             self._offsets, self.max_range, self.mount_radius, segments, discs)
+        ranges = np.empty(self._directions.shape[0])
+        ring_ranges_into(float(pose.x), float(pose.y), float(pose.theta), self._directions,
+                         self._offsets, self.max_range, self.mount_radius, segments, discs,
+                         ranges)
         if self.noise > 0.0:
             _add_noise(ranges, rng.standard_normal(ranges.shape[0]), self.noise, self.max_range)
         return ranges
@@ -195,33 +197,29 @@ class Camera:
     noise: float = attrs.field(default=0.5, converter=float, validator=_fraction)
 
     def view(self, pose: Pose | RobotState, landmarks: np.ndarray,
-             segments: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(index, distance, bearing)`` of the landmarks seen, true values, ``(s,)`` each."""
-        seen, distance, bearing = landmark_view(float(pose.x), float(pose.y),
-                                                float(pose.theta), landmarks, self.fov,
-                                                self.max_range, segments)
-        index = np.flatnonzero(seen)
-        return index, distance[index], bearing[index]
+             segments: np.ndarray) -> np.ndarray:
+        """The landmarks seen, true values: rows ``index, distance, bearing`` ``(s, 3)``."""
+        seen = np.empty((landmarks.shape[0], 3))
+        n = landmarks_seen(float(pose.x), float(pose.y), float(pose.theta), landmarks, self.fov,
+                           self.max_range, segments, seen)
+        return seen[:n]
 
     def see(self, pose: Pose | RobotState, landmarks: np.ndarray, ids: tuple[str, ...] | list[str],
             segments: np.ndarray, rng: np.random.Generator) -> tuple[Sighting, ...]:
         """The sightings, in the order of ``landmarks`` (rows ``x, y, radius``; ``ids`` names
         them)."""
-        if landmarks.shape[0] == 0:
+        seen = self.view(pose, landmarks, segments)
+        n = seen.shape[0]
+        if n == 0:
             return ()
-        index, distance, bearing = self.view(pose, landmarks, segments)
-        if index.shape[0] == 0:
-            return ()
-        if self.noise > 0.0:
-            uniform = rng.random((index.shape[0], 2))
-        else:
-            uniform = np.full((index.shape[0], 2), 0.5)
-        rows = _measure(distance, bearing, uniform, self.distance_spread,
-                        self.distance_spread_per_metre, self.bearing_spread,
-                        self.bearing_spread_per_metre, self.noise).tolist()
+        uniform = rng.random((n, 2)) if self.noise > 0.0 else np.full((n, 2), 0.5)
+        rows = np.empty((n, 6))
+        _measure(seen, uniform, self.distance_spread, self.distance_spread_per_metre,
+                 self.bearing_spread, self.bearing_spread_per_metre, self.noise, rows)
         return tuple(
-            Sighting(ids[i], unchecked(row[0], row[1], row[2]), unchecked(row[3], row[4], row[5]))
-            for i, row in zip(index.tolist(), rows, strict=True))
+            Sighting(ids[int(i)], unchecked(row[0], row[1], row[2]),
+                     unchecked(row[3], row[4], row[5]))
+            for i, row in zip(seen[:, 0].tolist(), rows.tolist(), strict=True))
 
 
 @attrs.frozen
@@ -239,7 +237,7 @@ class Bumper:
         return True, wrap_angle(math.atan2(qy - pose.y, qx - pose.x) - pose.theta)
 
 
-@attrs.define
+@attrs.define(on_setattr=attrs.setters.NO_OP)
 class Odometry:
     """Dead reckoning from the wheels, with optional noise and a location confidence.
 
@@ -359,7 +357,7 @@ class Observation:
     bump_bearing: float = math.nan
 
 
-@attrs.define
+@attrs.define(on_setattr=attrs.setters.NO_OP)
 class Sensors:
     """The robot's sensor suite; ``sonar`` or ``camera`` None leaves that sense out.
 
