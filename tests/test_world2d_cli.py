@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import json
 import math
+import subprocess
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
@@ -79,6 +81,23 @@ def gif_frames(path: Path) -> int:
     assert path.read_bytes().startswith(GIF_SIGNATURE)
     with Image.open(path) as image:
         return int(image.n_frames)
+
+
+# --- loading the plugin ------------------------------------------------------------------
+
+LOADED = "print('numba' in sys.modules, 'matplotlib' in sys.modules)"
+
+
+@pytest.mark.parametrize("code", [
+    "import cbr_world2d",
+    "from cbrcore.cli import main; main(['--help'])",
+], ids=["import", "cbr --help"])
+def test_loading_the_plugin_imports_neither_numba_nor_matplotlib(code: str) -> None:
+    """The plugin loads at every start of cbr: its compiled kernels and its pictures are
+    imported where a simulation runs or a picture is drawn, not then."""
+    result = subprocess.run([sys.executable, "-c", f"import sys; {code}; {LOADED}"],
+                            capture_output=True, text=True, timeout=120, check=True)
+    assert result.stdout.splitlines()[-1] == "False False"
 
 
 # --- show ----------------------------------------------------------------------------------

@@ -9,13 +9,11 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from matplotlib.path import Path as MplPath
 
 from cbr_world2d.geometry import (
     GAP,
     cast_rays,
     clearance,
-    inside_polygon,
     landmark_view,
     nearest_point,
     ring_ranges,
@@ -281,32 +279,6 @@ def test_clearance_matches_an_independent_distance(seed: int) -> None:
         expected = min([ref_point_segment(x, y, s) for s in segments]
                        + [math.hypot(x - cx, y - cy) - r for cx, cy, r in discs])
         assert clearance(x, y, segments, discs) == pytest.approx(expected, abs=1e-12)
-
-
-def test_inside_polygon_on_a_square_and_a_concave_shape() -> None:
-    square = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]])
-    assert inside_polygon(1.0, 1.0, square)
-    assert not inside_polygon(3.0, 1.0, square)
-    u_shape = np.array([[0, 0], [3, 0], [3, 3], [2, 3], [2, 1], [1, 1], [1, 3], [0, 3]],
-                       dtype=float)
-    assert inside_polygon(0.5, 2.0, u_shape)
-    assert not inside_polygon(1.5, 2.0, u_shape)
-    assert inside_polygon(1.5, 0.5, u_shape)
-
-
-@settings(max_examples=40, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), corners=st.integers(3, 12))
-def test_inside_polygon_agrees_with_matplotlib(seed: int, corners: int) -> None:
-    rng = np.random.default_rng(seed)
-    angles = np.sort(rng.uniform(0.0, 2 * math.pi, corners))
-    radii = rng.uniform(0.5, 3.0, corners)
-    polygon = np.column_stack([radii * np.cos(angles), radii * np.sin(angles)])
-    path = MplPath(polygon)
-    edges = np.column_stack([polygon, np.roll(polygon, -1, axis=0)])
-    for x, y in rng.uniform(-3.5, 3.5, (60, 2)):
-        if clearance(x, y, edges, NO_DISCS) < 1e-6:
-            continue
-        assert inside_polygon(x, y, polygon) == bool(path.contains_point((x, y)))
 
 
 def test_visible_through_gaps_and_blocked_by_walls() -> None:

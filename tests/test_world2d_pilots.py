@@ -53,8 +53,8 @@ from cbr_world2d.pilots.behaviors import (
     GoToPos,
     MoveForward,
     Stop,
-    sector,
 )
+from cbr_world2d.pilots.kernels import sector
 from cbr_world2d.robot import PIONEER_2DX, ROS_2005, Pose, RobotSpec, RobotState, step
 from cbr_world2d.sensors import PIONEER_SONAR_DEGREES, Observation, Sensors
 from cbr_world2d.world import Wall, World
@@ -693,6 +693,11 @@ def test_named_levels() -> None:
         assert SPEEDS[name] == pytest.approx(speeds[name])
         assert TURN_RATES[name] == pytest.approx(math.radians(degrees[name]))
     assert PRIORITIES == {"low": 0.2, "med-low": 0.4, "med": 0.6, "med-high": 0.8, "high": 1.0}
+
+
+def test_fast_is_the_pioneer_turn_limit_and_the_cruising_speed_under_its_top_speed() -> None:
+    assert TURN_RATES["fast"] == PIONEER_2DX.max_turn_rate
+    assert SPEEDS["fast"] == PotentialFieldOptions().max_speed < PIONEER_2DX.max_speed
 
 
 @pytest.mark.parametrize(("data", "message"), [

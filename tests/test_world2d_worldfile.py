@@ -13,16 +13,19 @@ import pytest
 import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from matplotlib.path import Path as MplPath
 from scipy.sparse.csgraph import dijkstra
 
 from cbr_world2d.world import Landmark, Mover, Wall, World
 from cbr_world2d.worldfile import (
     dump_world,
     free_point,
+    inside_polygon,
     load_world,
     polygon_problem,
     save_world,
     schema_reference,
+    segment_distances,
     segments_meet,
     world_from_data,
     world_yaml,
@@ -486,6 +489,32 @@ def meet_exactly(p: tuple[int, ...], q: tuple[int, ...]) -> bool:
     if fx == 0 and fy == 0:
         return (cx - ax) * ey == (cy - ay) * ex and p0 <= q0 <= p1
     return max(p0, q0) <= min(p1, q1)
+
+
+def test_inside_polygon_on_a_square_and_a_concave_shape() -> None:
+    square = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]])
+    assert inside_polygon(1.0, 1.0, square)
+    assert not inside_polygon(3.0, 1.0, square)
+    u_shape = np.array([[0, 0], [3, 0], [3, 3], [2, 3], [2, 1], [1, 1], [1, 3], [0, 3]],
+                       dtype=float)
+    assert inside_polygon(0.5, 2.0, u_shape)
+    assert not inside_polygon(1.5, 2.0, u_shape)
+    assert inside_polygon(1.5, 0.5, u_shape)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), corners=st.integers(3, 12))
+def test_inside_polygon_agrees_with_matplotlib(seed: int, corners: int) -> None:
+    rng = np.random.default_rng(seed)
+    angles = np.sort(rng.uniform(0.0, 2 * math.pi, corners))
+    radii = rng.uniform(0.5, 3.0, corners)
+    polygon = np.column_stack([radii * np.cos(angles), radii * np.sin(angles)])
+    path = MplPath(polygon)
+    edges = np.column_stack([polygon, np.roll(polygon, -1, axis=0)])
+    for x, y in rng.uniform(-3.5, 3.5, (60, 2)):
+        if segment_distances(x, y, edges).min() < 1e-6:
+            continue
+        assert inside_polygon(x, y, polygon) == bool(path.contains_point((x, y)))
 
 
 small = st.integers(-3, 3)

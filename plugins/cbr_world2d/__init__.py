@@ -17,7 +17,6 @@ import attrs
 import typer
 
 from cbr_world2d.cli import add_commands
-from cbr_world2d.generate import office, semi_structured
 from cbr_world2d.pilots import (
     PILOT,
     BehaviorPilotOptions,
@@ -57,6 +56,10 @@ class GeneratedWorldOptions:
 
 def generated_world(options: GeneratedWorldOptions, ctx: Context) -> World:
     """A 2D world generated from a seed: the same seed always gives the same world."""
+    # the layouts are placed with numba kernels, loaded when a world is generated rather than
+    # with the registration at every start of cbr
+    from cbr_world2d.generate import office, semi_structured
+
     seed = ctx.seed if options.seed is None else options.seed
     return (semi_structured if options.kind == "semi_structured" else office)(seed)
 

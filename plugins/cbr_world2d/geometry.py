@@ -432,23 +432,6 @@ def clearance(x: float, y: float, segments: np.ndarray, discs: np.ndarray) -> fl
     return best
 
 
-@numba.njit(cache=True)
-def inside_polygon(x: float, y: float, polygon: np.ndarray) -> bool:
-    """Whether ``(x, y)`` lies inside the polygon of vertices ``(k, 2)`` (even-odd rule)."""
-    inside = False
-    k = polygon.shape[0]
-    j = k - 1
-    for i in range(k):
-        xi = polygon[i, 0]
-        yi = polygon[i, 1]
-        xj = polygon[j, 0]
-        yj = polygon[j, 1]
-        if (yi > y) != (yj > y) and x < xi + (y - yi) * (xj - xi) / (yj - yi):
-            inside = not inside
-        j = i
-    return inside
-
-
 @numba.njit(cache=True, inline="always")
 def _blocks(x0: float, y0: float, dx: float, dy: float, ax: float, ay: float, bx: float,
             by: float) -> bool:

@@ -25,6 +25,7 @@ import numpy as np
 
 from cbr_world2d.navigator import Navigator, NavigatorOptions
 from cbr_world2d.pilots.base import Pilot
+from cbr_world2d.pilots.monitor import STUCK
 from cbr_world2d.robot import PIONEER_2DX, Pose, RobotSpec, RobotState
 from cbr_world2d.robot import step as robot_step
 from cbr_world2d.sensors import Observation, Sensors
@@ -39,9 +40,6 @@ REACHED = "reached"
 """A trial's reason when the robot came within the tolerance of its final target."""
 TIMEOUT = "timeout"
 """A trial's reason when the timeout passed first."""
-
-STUCK = ("blocked", "oscillating")
-"""The events of the progress monitor that say where a robot got stuck."""
 
 _COLUMNS = 6
 """Trajectory columns: t, x, y, theta, v, w."""

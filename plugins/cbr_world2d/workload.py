@@ -18,7 +18,7 @@ from __future__ import annotations
 import csv
 import math
 from collections.abc import Mapping
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import attrs
 import numpy as np
@@ -26,15 +26,18 @@ import numpy as np
 from cbr_world2d.actions import TRIAL_ENDED, Action, ActionReport
 from cbr_world2d.navigator import Navigator, NavigatorOptions
 from cbr_world2d.pilots.base import PILOT, Pilot
-from cbr_world2d.robot import PRESETS, Pose
-from cbr_world2d.sensors import Observation, Sensors, Sighting
-from cbr_world2d.simulation import STUCK, Simulation, Trial, random_trials
+from cbr_world2d.pilots.monitor import STUCK
 from cbr_world2d.world import Point, World, world_of
 from cbrcore.context import Context
 from cbrcore.errors import PluginError
 from cbrcore.model import Outcome
 from cbrcore.options import option
 from cbrcore.workload import Decision, Session
+
+if TYPE_CHECKING:
+    from cbr_world2d.robot import Pose
+    from cbr_world2d.sensors import Observation, Sighting
+    from cbr_world2d.simulation import Simulation, Trial
 
 Trigger = Literal["blocked", "landmarks", "period"]
 
@@ -149,6 +152,10 @@ class Trials:
     """Run the configured trials, consulting the engine through a session."""
 
     def __init__(self, options: TrialsOptions, ctx: Context) -> None:
+        # the simulator's modules load numba: imported by the workload that runs trials, not
+        # with the registration at every start of cbr
+        from cbr_world2d.robot import PRESETS
+
         self.options = options
         self.world: World = world_of(ctx, "workload 'trials'")
         self.pilot: Pilot = ctx.stash[PILOT]
@@ -158,6 +165,9 @@ class Trials:
         self.plan = self._plan()
 
     def _plan(self) -> list[Trial]:
+        from cbr_world2d.robot import Pose
+        from cbr_world2d.simulation import Trial, random_trials
+
         o = self.options
         timing = {"timeout": o.timeout, "tolerance": o.tolerance, "dt": o.dt}
         fixed = []
@@ -186,6 +196,9 @@ class Trials:
             self._write(rows)
 
     def _trial(self, session: Session, index: int, trial: Trial) -> TrialRow:
+        from cbr_world2d.sensors import Sensors
+        from cbr_world2d.simulation import Simulation
+
         options = self.options
         sim = Simulation(self.world, self.spec, Sensors().fitted(self.spec.radius),
                          Navigator(self.pilot, options.navigation), trial.start, trial.target,

@@ -46,7 +46,6 @@ import attrs
 import numpy as np
 import yaml
 
-from cbr_world2d.geometry import inside_polygon
 from cbr_world2d.world import Door, Landmark, Mover, Point, Wall, World
 from cbrcore.config import read_yaml
 from cbrcore.errors import ConfigError
@@ -708,6 +707,18 @@ def segment_distances(x: float, y: float, segments: np.ndarray) -> np.ndarray:
     length2 = (d * d).sum(axis=1)
     u = np.clip(((p - a) * d).sum(axis=1) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
     return np.hypot(*(a + u[:, None] * d - p).T)
+
+
+def inside_polygon(x: float, y: float, polygon: np.ndarray) -> bool:
+    """Whether ``(x, y)`` lies inside the polygon of vertices ``(k, 2)`` (even-odd rule: a ray
+    from the point toward +x crosses its edges an odd number of times)."""
+    xi, yi = polygon[:, 0], polygon[:, 1]
+    xj, yj = np.roll(xi, 1), np.roll(yi, 1)
+    spans = (yi > y) != (yj > y)
+    # a horizontal edge spans nothing, so its division by zero is never counted
+    with np.errstate(divide="ignore", invalid="ignore"):
+        crossing = xi + (y - yi) * (xj - xi) / (yj - yi)
+    return bool(np.count_nonzero(spans & (x < crossing)) % 2)
 
 
 def _rows(items: Sequence[Sequence[float]], width: int) -> np.ndarray:

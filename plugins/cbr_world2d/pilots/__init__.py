@@ -3,8 +3,9 @@
 :mod:`.base` holds the :class:`Pilot` protocol, :mod:`.potential_field` the potential-field
 pilot of 002, :mod:`.behaviors` the behavior-merging controller of 004, :mod:`.monitor` the
 progress monitor and :mod:`.rescuer` the Rescuer that :class:`cbr_world2d.navigator.Navigator`
-combines with a pilot. The two factories below build the registered pilots
-(``potential_field`` and ``behaviors``) from their options.
+combines with a pilot; :mod:`.kernels` holds the numba kernels of the potential field and the
+behaviors, imported when a pilot is built, not here. The two factories below build the
+registered pilots (``potential_field`` and ``behaviors``) from their options.
 """
 
 from __future__ import annotations

@@ -15,8 +15,10 @@ When no behavior specifies one (or every weight is 0, at most :data:`NEGLIGIBLE`
 with nothing asking to move, the robot stands still and keeps its heading.
 
 Named levels (004 Figure 4 gives the names, not the numbers; these are our choice, each a
-fraction of the Pioneer 2 DX's default limits of :data:`cbr_world2d.robot.PIONEER_2DX`, 0.4 m/s
-and 100 deg/s, so that ``fast`` is the robot's default top speed):
+fraction of :data:`TOP_SPEED` and :data:`TOP_TURN_RATE`). ``fast`` turns at 100 deg/s, the turn
+rate limit of the Pioneer 2 DX preset :data:`cbr_world2d.robot.PIONEER_2DX`, but drives at
+0.4 m/s, an indoor cruising speed (the ``potential_field`` pilot's default too), not at the
+preset's top speed of 0.75 m/s, so that the robot's speed limit never cuts a named speed:
 
 =============  =========  ===========  ============
 name           fraction   speed (m/s)  turn (deg/s)
@@ -57,7 +59,6 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, Literal, Protocol
 
 import attrs
-import numba
 import numpy as np
 
 from cbr_world2d.pilots.base import Command, Point, bearing_error, wrap_angle
@@ -67,9 +68,11 @@ if TYPE_CHECKING:
     from cbr_world2d.sensors import Observation
 
 TOP_SPEED = 0.4
-"""m/s: P2OS's default ``TRANSVELMAX`` of the Pioneer 2 DX, the speed named ``fast``."""
+"""m/s: the speed named ``fast``, an indoor cruising speed for a Pioneer 2 DX, about half the
+top speed of :data:`cbr_world2d.robot.PIONEER_2DX` (0.75 m/s)."""
 TOP_TURN_RATE = math.radians(100.0)
-"""rad/s: P2OS's default ``ROTVELMAX`` of the Pioneer 2 DX, the turn rate named ``fast``."""
+"""rad/s: the turn rate named ``fast``, the turn rate limit of
+:data:`cbr_world2d.robot.PIONEER_2DX` (100 deg/s)."""
 
 LEVELS: dict[str, float] = {"very-slow": 0.125, "slow": 0.25, "moderate": 0.5,
                             "mod-fast": 0.75, "fast": 1.0}
@@ -137,31 +140,21 @@ def _clip(value: float, low: float, high: float) -> float:
     return min(max(value, low), high)
 
 
-@numba.njit(cache=True)
-def sector(ranges: np.ndarray, angles: np.ndarray, arc: float,
-           distance: float) -> tuple[float, float]:
-    """``(nearest, side)`` over the beams within ``arc`` of the heading (``angles`` relative to
-    it): the shortest reading (inf when no beam is in the arc) and the side to turn to, away
-    from the readings closer than ``distance``: each such reading weighs
-    ``(distance - d) * sin(angle)``, positive on the left; -1 (turn right) when the sum is
-    positive, else +1 (turn left, counter-clockwise: a wall straight ahead, or nothing close,
-    turns left)."""
-    nearest = math.inf
-    weight = 0.0
-    for i in range(ranges.shape[0]):
-        a = (angles[i] + math.pi) % (2.0 * math.pi) - math.pi
-        if abs(a) > arc + 1e-9:
-            continue
-        d = ranges[i]
-        nearest = min(nearest, d)
-        if d < distance:
-            weight += (distance - d) * math.sin(a)
-    return nearest, (-1.0 if weight > 0.0 else 1.0)
+SectorKernel = Callable[[np.ndarray, np.ndarray, float, float], tuple[float, float]]
+""":func:`cbr_world2d.pilots.kernels.sector`: ``(nearest, side)`` of the sonar beams within an
+arc of the heading."""
 
 
-def _sector(obs: Observation, arc: float, distance: float) -> tuple[float, float]:
-    return sector(np.asarray(obs.sonar, dtype=np.float64),
-                  np.asarray(obs.sonar_angles, dtype=np.float64), arc, distance)
+def _sector_kernel() -> SectorKernel:
+    # numba loads when a behavior that reads the sonar is built, not with the registration at
+    # every start of cbr; the behavior keeps the kernel so that a step looks up no module
+    from cbr_world2d.pilots.kernels import sector
+
+    return sector
+
+
+def _floats(values: np.ndarray) -> np.ndarray:
+    return np.asarray(values, dtype=np.float64)
 
 
 @attrs.define
@@ -237,16 +230,19 @@ class GoToPos:
 class AvoidObstacle:
     """``(avoidObstacle distance speed)``: with something within ``distance`` metres in the
     front half, slow to ``speed`` and turn away at ``turn_rate`` (the side with the closer
-    readings, see :func:`sector`). Its fit grows from 0 at ``distance`` to 1 at contact:
-    ``1 - nearest / distance``. ``turn_rate`` is none of Table 1's arguments: plain data leaves
-    it at ``moderate``."""
+    readings, see :func:`cbr_world2d.pilots.kernels.sector`). Its fit grows from 0 at
+    ``distance`` to 1 at contact: ``1 - nearest / distance``. ``turn_rate`` is none of Table 1's
+    arguments: plain data leaves it at ``moderate``."""
 
     distance: float
     speed: float
     turn_rate: float = TURN_RATES["moderate"]
+    _sector: SectorKernel = attrs.field(init=False, factory=_sector_kernel, eq=False,
+                                        repr=False)
 
     def propose(self, obs: Observation, target: Point) -> Proposal:
-        nearest, side = _sector(obs, OBSTACLE_ARC, self.distance)
+        nearest, side = self._sector(_floats(obs.sonar), _floats(obs.sonar_angles),
+                                     OBSTACLE_ARC, self.distance)
         fit = _clip(1.0 - nearest / self.distance, 0.0, 1.0)
         if fit == 0.0:
             return Proposal(None, None, 0.0)
@@ -265,10 +261,13 @@ class AvoidCollision:
 
     distance: float
     turn_rate: float
+    _sector: SectorKernel = attrs.field(init=False, factory=_sector_kernel, eq=False,
+                                        repr=False)
 
     def propose(self, obs: Observation, target: Point) -> Proposal:
         reach = COLLISION_FADE * self.distance
-        nearest, side = _sector(obs, COLLISION_ARC, reach)
+        nearest, side = self._sector(_floats(obs.sonar), _floats(obs.sonar_angles),
+                                     COLLISION_ARC, reach)
         fit = _clip((reach - nearest) / (reach - self.distance), 0.0, 1.0)
         if fit == 0.0:
             return Proposal(None, None, 0.0)

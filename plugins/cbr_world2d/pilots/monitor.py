@@ -31,6 +31,9 @@ from cbrcore.options import option
 
 Status = Literal["moving", "blocked", "oscillating"]
 
+STUCK: tuple[Status, ...] = ("blocked", "oscillating")
+"""The statuses that say the robot got stuck, and the names of the events reporting them."""
+
 _POSITIVE = attrs.validators.gt(0.0)
 
 

@@ -26,11 +26,9 @@ scenario 2). Getting out is the Rescuer's and the CBR agent's job, not the pilot
 
 from __future__ import annotations
 
-import math
 from typing import TYPE_CHECKING
 
 import attrs
-import numba
 import numpy as np
 
 from cbr_world2d.pilots.base import Command, Point
@@ -76,68 +74,28 @@ class PotentialFieldOptions:
         validator=_POSITIVE)
 
 
-@numba.njit(cache=True)
-def field_force(x: float, y: float, theta: float, tx: float, ty: float, ranges: np.ndarray,
-                angles: np.ndarray, attraction: float, repulsion: float, influence: float,
-                min_range: float) -> tuple[float, float]:
-    """The total force ``(fx, fy)`` in the world frame on a robot at ``(x, y, theta)`` heading
-    for ``(tx, ty)`` with sonar ``ranges`` along ``angles`` (relative to the heading)."""
-    dx, dy = tx - x, ty - y
-    norm = math.hypot(dx, dy)
-    fx = fy = 0.0
-    if norm > 0.0:
-        fx, fy = attraction * dx / norm, attraction * dy / norm
-    for i in range(ranges.shape[0]):
-        d = ranges[i]
-        if d >= influence:
-            continue
-        d = max(d, min_range)
-        push = repulsion * (1.0 / d - 1.0 / influence) / (d * d)
-        phi = theta + angles[i]
-        fx -= push * math.cos(phi)
-        fy -= push * math.sin(phi)
-    return fx, fy
-
-
-@numba.njit(cache=True)
-def field_command(x: float, y: float, theta: float, tx: float, ty: float, ranges: np.ndarray,
-                  angles: np.ndarray, attraction: float, repulsion: float, influence: float,
-                  min_range: float, turn_gain: float, max_turn_rate: float, max_speed: float,
-                  slow_distance: float, approach: float) -> tuple[float, float]:
-    """The command ``(v, w)`` of the potential field (see the module docstring)."""
-    fx, fy = field_force(x, y, theta, tx, ty, ranges, angles, attraction, repulsion,
-                         influence, min_range)
-    if fx == 0.0 and fy == 0.0:
-        return 0.0, 0.0
-    error = math.atan2(fy, fx) - theta
-    error = (error + math.pi) % (2.0 * math.pi) - math.pi
-    w = min(max(turn_gain * error, -max_turn_rate), max_turn_rate)
-    front = slow_distance
-    for i in range(ranges.shape[0]):
-        a = (angles[i] + math.pi) % (2.0 * math.pi) - math.pi
-        if abs(a) < 0.5 * math.pi and ranges[i] < front:
-            front = max(ranges[i], 0.0)
-    v = max_speed * max(math.cos(error), 0.0) * (front / slow_distance)
-    v *= min(1.0, math.hypot(tx - x, ty - y) / approach)
-    return v, w
-
-
 class PotentialField:
     """The potential-field pilot (see the module docstring); it keeps no state between steps."""
 
     def __init__(self, options: PotentialFieldOptions | None = None) -> None:
+        # numba loads with a pilot built to drive, not with the registration at every start
+        # of cbr; bound here so that a step looks up no module
+        from cbr_world2d.pilots.kernels import field_command, field_force
+
         self.options = options if options is not None else PotentialFieldOptions()
+        self._force = field_force
+        self._command = field_command
 
     def force(self, obs: Observation, target: Point) -> tuple[float, float]:
         """The total force ``(fx, fy)`` in the world frame for this observation."""
         o, pose = self.options, obs.pose
-        return field_force(pose.x, pose.y, pose.theta, float(target[0]), float(target[1]),
+        return self._force(pose.x, pose.y, pose.theta, float(target[0]), float(target[1]),
                            _floats(obs.sonar), _floats(obs.sonar_angles), o.attraction,
                            o.repulsion, o.influence, o.min_range)
 
     def command(self, obs: Observation, target: Point) -> Command:
         o, pose = self.options, obs.pose
-        return field_command(pose.x, pose.y, pose.theta, float(target[0]), float(target[1]),
+        return self._command(pose.x, pose.y, pose.theta, float(target[0]), float(target[1]),
                              _floats(obs.sonar), _floats(obs.sonar_angles), o.attraction,
                              o.repulsion, o.influence, o.min_range, o.turn_gain,
                              o.max_turn_rate, o.max_speed, o.slow_distance, o.approach)
