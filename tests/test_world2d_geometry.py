@@ -163,17 +163,19 @@ def test_ray_casting_matches_an_independent_solver(seed: int, max_range: float) 
         assert value == pytest.approx(expected, abs=1e-9)
 
 
-def test_ring_ranges_are_measured_from_the_rim_and_read_the_nearest_ray_of_a_cone() -> None:
+def test_ring_ranges_are_measured_from_the_rim_and_read_the_nearest_point_of_a_cone() -> None:
     wall = _segments((3.0, -10.0, 3.0, 10.0))
     radius = 0.25
-    directions = np.array([0.0, math.radians(10.0), math.pi])
+    directions = np.array([0.0, math.radians(10.0), math.pi, math.radians(30.0)])
     offsets = np.radians([-15.0, 0.0, 15.0])
     got = ring_ranges(0.0, 0.0, 0.0, directions, offsets, 5.0, radius, wall, NO_DISCS)
-    # Beam at 10 degrees: its rays at -5, 10 and 25 degrees; -5 is the shortest to the wall.
-    assert got == pytest.approx([3.0 - radius, 3.0 / math.cos(math.radians(5.0)) - radius, 5.0])
+    # the beam at 10 degrees spans -5 to 25 and holds the wall's foot straight ahead; the beam
+    # at 30 degrees spans 15 to 45, nearest the wall along its 15 degree edge
+    assert got == pytest.approx([3.0 - radius, 3.0 - radius, 5.0,
+                                 3.0 / math.cos(math.radians(15.0)) - radius])
     turned = ring_ranges(0.0, 0.0, math.pi, directions, offsets, 5.0, radius, wall, NO_DISCS)
     assert turned[2] == pytest.approx(3.0 - radius)
-    into = np.empty(3)
+    into = np.empty(4)
     ring_ranges_into(0.0, 0.0, 0.0, directions, offsets, 5.0, radius, wall, NO_DISCS, into)
     assert into.tolist() == got.tolist()
 

@@ -157,11 +157,64 @@ def test_a_cone_reads_its_nearest_ray_and_a_rotated_robot_rotates_the_ring() -> 
     r = ring.mount_radius
     facing = ring.read(Pose(0.0, 0.0, 0.0), wall, NO_DISCS, np.random.default_rng(0))
     index = PIONEER_SONAR_DEGREES.index(10.0)
-    # Rays at -5, 10 and 25 degrees: the -5 degree ray is the shortest.
-    assert facing[index] == pytest.approx(2.0 / math.cos(math.radians(5.0)) - r)
+    # the cone spans -5 to 25 degrees: the wall's nearest point, straight ahead, is inside it
+    assert facing[index] == pytest.approx(2.0 - r)
     away = ring.read(Pose(0.0, 0.0, math.pi), wall, NO_DISCS, np.random.default_rng(0))
-    assert away[PIONEER_SONAR_DEGREES.index(170.0)] == pytest.approx(
-        2.0 / math.cos(math.radians(5.0)) - r)
+    assert away[PIONEER_SONAR_DEGREES.index(170.0)] == pytest.approx(2.0 - r)
+    # the 50 degree beam spans 35 to 65 degrees: its nearest point is on its 35 degree edge
+    assert facing[PIONEER_SONAR_DEGREES.index(50.0)] == pytest.approx(
+        2.0 / math.cos(math.radians(35.0)) - r)
+
+
+def test_a_thin_obstacle_between_the_rays_of_a_cone_is_seen() -> None:
+    ring = SonarRing(noise=0.0)
+    r = ring.mount_radius
+    # a wall's end points straight at the robot: no ray of the +-10 degree beams meets it
+    end_on = np.array([[1.0, 0.0, 3.0, 0.0]])
+    got = ring.read(Pose(0.0, 0.0, 0.0), end_on, NO_DISCS, np.random.default_rng(0))
+    for degrees in (10.0, -10.0):
+        assert got[PIONEER_SONAR_DEGREES.index(degrees)] == pytest.approx(1.0 - r)
+    post = np.array([[1.5, 0.0, 0.02]])
+    got = ring.read(Pose(0.0, 0.0, 0.0), np.empty((0, 4)), post, np.random.default_rng(0))
+    assert got[PIONEER_SONAR_DEGREES.index(10.0)] == pytest.approx(1.5 - 0.02 - r)
+
+
+def _cone_brute_force(ring: SonarRing, pose: Pose, segments: np.ndarray,
+                      discs: np.ndarray) -> np.ndarray:
+    """Each beam's reading from points sampled densely along every surface, kept when inside
+    the beam's cone: distance from the centre less the mount radius, capped at the range."""
+    t = np.linspace(0.0, 1.0, 4001)[:, None]
+    points = [segments[:, :2] + t[..., None] * (segments[:, 2:] - segments[:, :2])]
+    angle = np.linspace(0.0, 2.0 * math.pi, 4001)[:, None]
+    points.append(discs[:, :2] + discs[:, 2][None, :, None]
+                  * np.stack([np.cos(angle), np.sin(angle)], -1))
+    cloud = np.concatenate([p.reshape(-1, 2) for p in points]) - (pose.x, pose.y)
+    reach = np.hypot(cloud[:, 0], cloud[:, 1])
+    bearing = np.arctan2(cloud[:, 1], cloud[:, 0])
+    half = ring.beam_width / 2.0
+    readings = []
+    for direction in ring.directions:
+        off = np.abs((bearing - pose.theta - direction + math.pi) % (2.0 * math.pi) - math.pi)
+        inside = reach[off <= half + 1e-12]
+        nearest = inside.min() if inside.size else math.inf
+        readings.append(min(max(nearest - ring.mount_radius, 0.0), ring.max_range))
+    return np.array(readings)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_a_beam_reads_the_nearest_surface_inside_its_cone(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    segments = rng.uniform(-4.0, 4.0, (6, 4))
+    discs = np.column_stack([rng.uniform(-4.0, 4.0, (4, 2)), rng.uniform(0.02, 0.4, 4)])
+    pose = Pose(0.0, 0.0, float(rng.uniform(-math.pi, math.pi)))
+    keep = np.hypot(discs[:, 0], discs[:, 1]) > discs[:, 2] + 0.3
+    ring = SonarRing(noise=0.0, mount_radius=0.25)
+    got = ring.read(pose, segments, discs[keep], np.random.default_rng(0))
+    expected = _cone_brute_force(ring, pose, segments, discs[keep])
+    # the sampled surfaces lie at most a few millimetres from the exact nearest point
+    assert np.all(got <= expected + 1e-9)
+    assert np.allclose(got, expected, atol=5e-3)
 
 
 def test_sonar_noise_stays_within_range_and_follows_the_seed() -> None:

@@ -9,7 +9,10 @@ Each step the pilot sums two kinds of force on the robot, in the world frame:
 * **repulsion**: for every sonar reading ``d`` (measured from the robot's rim) closer than the
   influence distance ``d0``, Khatib's term ``repulsion * (1/d - 1/d0) / d**2`` along the beam,
   pointing away from the echo. Readings below ``min_range`` count as ``min_range`` so that the
-  force stays finite when the robot touches something.
+  force stays finite when the robot touches something. A bump counts as one more reading of
+  ``min_range`` at the contact's bearing: a thin obstacle that falls between the sonar's rays
+  (a wall's end pointing straight at the robot) still pushes once the robot touches it, as
+  002's robot learns of obstacles by bumping into them.
 
 The resulting force's direction is the heading the pilot wants; the heading error ``e`` sets the
 turn rate ``w = clip(turn_gain * e, +-max_turn_rate)`` and the speed is
@@ -26,6 +29,7 @@ scenario 2). Getting out is the Rescuer's and the CBR agent's job, not the pilot
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import attrs
@@ -89,16 +93,25 @@ class PotentialField:
     def force(self, obs: Observation, target: Point) -> tuple[float, float]:
         """The total force ``(fx, fy)`` in the world frame for this observation."""
         o, pose = self.options, obs.pose
+        ranges, angles = self._readings(obs)
         return self._force(pose.x, pose.y, pose.theta, float(target[0]), float(target[1]),
-                           _floats(obs.sonar), _floats(obs.sonar_angles), o.attraction,
-                           o.repulsion, o.influence, o.min_range)
+                           ranges, angles, o.attraction, o.repulsion, o.influence, o.min_range)
 
     def command(self, obs: Observation, target: Point) -> Command:
         o, pose = self.options, obs.pose
+        ranges, angles = self._readings(obs)
         return self._command(pose.x, pose.y, pose.theta, float(target[0]), float(target[1]),
-                             _floats(obs.sonar), _floats(obs.sonar_angles), o.attraction,
+                             ranges, angles, o.attraction,
                              o.repulsion, o.influence, o.min_range, o.turn_gain,
                              o.max_turn_rate, o.max_speed, o.slow_distance, o.approach)
+
+    def _readings(self, obs: Observation) -> tuple[np.ndarray, np.ndarray]:
+        """The sonar's ranges and bearings, with a bump as one more reading at contact."""
+        ranges, angles = _floats(obs.sonar), _floats(obs.sonar_angles)
+        if obs.bumped and math.isfinite(obs.bump_bearing):
+            ranges = np.append(ranges, self.options.min_range)
+            angles = np.append(angles, obs.bump_bearing)
+        return ranges, angles
 
     def reset(self) -> None:
         """Nothing to forget: the field depends on the current observation alone."""
