@@ -23,17 +23,8 @@ import math
 import attrs
 import numpy as np
 
+from cbr_world2d.checks import non_negative, positive
 from cbr_world2d.geometry import advance
-
-
-def _positive(instance: object, attribute: attrs.Attribute, value: float) -> None:
-    if not (math.isfinite(value) and value > 0.0):
-        raise ValueError(f"{attribute.name} must be a finite number > 0, not {value!r}")
-
-
-def _non_negative(instance: object, attribute: attrs.Attribute, value: float) -> None:
-    if not (math.isfinite(value) and value >= 0.0):
-        raise ValueError(f"{attribute.name} must be a finite number >= 0, not {value!r}")
 
 
 @attrs.frozen
@@ -45,12 +36,12 @@ class RobotSpec:
     fast either changes (the same for speeding up and braking).
     """
 
-    radius: float = attrs.field(converter=float, validator=_positive)
-    max_speed: float = attrs.field(converter=float, validator=_positive)
-    max_reverse: float = attrs.field(converter=float, validator=_non_negative)
-    max_turn_rate: float = attrs.field(converter=float, validator=_positive)
-    max_accel: float = attrs.field(converter=float, validator=_positive)
-    max_turn_accel: float = attrs.field(converter=float, validator=_positive)
+    radius: float = attrs.field(converter=float, validator=positive)
+    max_speed: float = attrs.field(converter=float, validator=positive)
+    max_reverse: float = attrs.field(converter=float, validator=non_negative)
+    max_turn_rate: float = attrs.field(converter=float, validator=positive)
+    max_accel: float = attrs.field(converter=float, validator=positive)
+    max_turn_accel: float = attrs.field(converter=float, validator=positive)
     name: str = ""
 
 

@@ -22,6 +22,7 @@ import attrs
 import numba
 import numpy as np
 
+from cbr_world2d.checks import fraction, non_negative, positive
 from cbr_world2d.fuzzy import Triangle, unchecked, wrap_angle
 from cbr_world2d.geometry import landmarks_seen, nearest_point, ring_ranges_into
 from cbr_world2d.robot import PIONEER_2DX, Pose, RobotState
@@ -35,21 +36,6 @@ PIONEER_SONAR_DEGREES: tuple[float, ...] = (
 order: ``SonarUnit 0..7`` the front ring at 90, 50, 30, 10, -10, -30, -50, -90 degrees and
 ``SonarUnit 8..15`` the rear ring at -90, -130, -150, -170, 170, 150, 130, 90 degrees (ARIA
 ``params/p2dx.p``, section "Sonar parameters")."""
-
-
-def _positive(instance: object, attribute: attrs.Attribute, value: float) -> None:
-    if not (math.isfinite(value) and value > 0.0):
-        raise ValueError(f"{attribute.name} must be a finite number > 0, not {value!r}")
-
-
-def _non_negative(instance: object, attribute: attrs.Attribute, value: float) -> None:
-    if not (math.isfinite(value) and value >= 0.0):
-        raise ValueError(f"{attribute.name} must be a finite number >= 0, not {value!r}")
-
-
-def _fraction(instance: object, attribute: attrs.Attribute, value: float) -> None:
-    if not (0.0 <= value < 1.0):
-        raise ValueError(f"{attribute.name} must lie in [0, 1), not {value!r}")
 
 
 @numba.njit(cache=True)
@@ -110,13 +96,13 @@ class SonarRing:
 
     angles: tuple[float, ...] = attrs.field(
         default=_radians(PIONEER_SONAR_DEGREES), converter=lambda a: tuple(float(x) for x in a))
-    max_range: float = attrs.field(default=5.0, converter=float, validator=_positive)
+    max_range: float = attrs.field(default=5.0, converter=float, validator=positive)
     beam_width: float = attrs.field(default=math.radians(30.0), converter=float,
-                                    validator=_non_negative)
+                                    validator=non_negative)
     rays_per_beam: int = attrs.field(default=3, converter=int)
-    noise: float = attrs.field(default=0.01, converter=float, validator=_non_negative)
+    noise: float = attrs.field(default=0.01, converter=float, validator=non_negative)
     mount_radius: float = attrs.field(default=PIONEER_2DX.radius, converter=float,
-                                      validator=_non_negative)
+                                      validator=non_negative)
     _directions: np.ndarray = attrs.field(init=False, repr=False, eq=False)
     _offsets: np.ndarray = attrs.field(init=False, repr=False, eq=False)
 
@@ -184,17 +170,17 @@ class Camera:
     within 5 cm + 5 % and bearings within 2 degrees + 0.5 degree per metre; ``noise`` 0.5.
     """
 
-    fov: float = attrs.field(default=math.radians(60.0), converter=float, validator=_positive)
-    max_range: float = attrs.field(default=6.0, converter=float, validator=_positive)
+    fov: float = attrs.field(default=math.radians(60.0), converter=float, validator=positive)
+    max_range: float = attrs.field(default=6.0, converter=float, validator=positive)
     distance_spread: float = attrs.field(default=0.05, converter=float,
-                                         validator=_non_negative)
+                                         validator=non_negative)
     distance_spread_per_metre: float = attrs.field(default=0.05, converter=float,
-                                                   validator=_non_negative)
+                                                   validator=non_negative)
     bearing_spread: float = attrs.field(default=math.radians(2.0), converter=float,
-                                        validator=_non_negative)
+                                        validator=non_negative)
     bearing_spread_per_metre: float = attrs.field(default=math.radians(0.5), converter=float,
-                                                  validator=_non_negative)
-    noise: float = attrs.field(default=0.5, converter=float, validator=_fraction)
+                                                  validator=non_negative)
+    noise: float = attrs.field(default=0.5, converter=float, validator=fraction)
 
     def view(self, pose: Pose | RobotState, landmarks: np.ndarray,
              segments: np.ndarray) -> np.ndarray:
@@ -255,9 +241,9 @@ class Odometry:
     error, a reasonable ``noise_v`` / ``noise_w`` for experiments that want drift.
     """
 
-    noise_v: float = attrs.field(default=0.0, converter=float, validator=_non_negative)
-    noise_w: float = attrs.field(default=0.0, converter=float, validator=_non_negative)
-    confidence_scale: float = attrs.field(default=0.5, converter=float, validator=_positive)
+    noise_v: float = attrs.field(default=0.0, converter=float, validator=non_negative)
+    noise_w: float = attrs.field(default=0.0, converter=float, validator=non_negative)
+    confidence_scale: float = attrs.field(default=0.5, converter=float, validator=positive)
     _x: float = attrs.field(default=0.0, init=False)
     _y: float = attrs.field(default=0.0, init=False)
     _theta: float = attrs.field(default=0.0, init=False)

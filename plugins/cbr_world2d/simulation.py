@@ -23,6 +23,7 @@ from typing import Any
 import attrs
 import numpy as np
 
+from cbr_world2d.checks import positive
 from cbr_world2d.navigator import Navigator, NavigatorOptions
 from cbr_world2d.pilots.base import Pilot
 from cbr_world2d.pilots.monitor import STUCK
@@ -65,11 +66,6 @@ class Event:
     point: Point | None = None
 
 
-def _positive(instance: object, attribute: attrs.Attribute, value: float) -> None:
-    if not (math.isfinite(value) and value > 0.0):
-        raise ValueError(f"{attribute.name} must be a finite number > 0, not {value!r}")
-
-
 @attrs.frozen
 class Trial:
     """One trial: drive from ``start`` to ``target`` within ``timeout`` seconds, steps of
@@ -77,9 +73,9 @@ class Trial:
 
     start: Pose
     target: Point = attrs.field(converter=lambda p: (float(p[0]), float(p[1])))
-    timeout: float = attrs.field(default=600.0, converter=float, validator=_positive)
-    tolerance: float = attrs.field(default=0.3, converter=float, validator=_positive)
-    dt: float = attrs.field(default=0.1, converter=float, validator=_positive)
+    timeout: float = attrs.field(default=600.0, converter=float, validator=positive)
+    tolerance: float = attrs.field(default=0.3, converter=float, validator=positive)
+    dt: float = attrs.field(default=0.1, converter=float, validator=positive)
 
     @classmethod
     def facing(cls, start: Point, target: Point, **kwargs: float) -> Trial:

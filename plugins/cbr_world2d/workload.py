@@ -191,9 +191,17 @@ class Trials:
                 "x": round(problem.pose.x, 3), "y": round(problem.pose.y, 3)}
 
     def run(self, session: Session) -> None:
-        rows = [self._trial(session, k, trial) for k, trial in enumerate(self.plan)]
-        if self.ctx.out_dir is not None:
-            self._write(rows)
+        if self.ctx.out_dir is None:
+            for k, trial in enumerate(self.plan):
+                self._trial(session, k, trial)
+            return
+        # written as the trials end, like results.csv, so a run cut short keeps what it did
+        with open(self.ctx.out_dir / "trials.csv", "w", newline="", encoding="utf-8") as handle:
+            writer = csv.writer(handle)
+            writer.writerow([f.name for f in attrs.fields(TrialRow)])
+            for k, trial in enumerate(self.plan):
+                writer.writerow(attrs.astuple(self._trial(session, k, trial)))
+                handle.flush()
 
     def _trial(self, session: Session, index: int, trial: Trial) -> TrialRow:
         from cbr_world2d.sensors import Sensors
@@ -266,10 +274,3 @@ class Trials:
         success = reason == "reached"
         session.learn(opened.decision,
                       Outcome(success, cost=round(sim.t - opened.started, 4), report=report))
-
-    def _write(self, rows: list[TrialRow]) -> None:
-        assert self.ctx.out_dir is not None
-        with open(self.ctx.out_dir / "trials.csv", "w", newline="") as handle:
-            writer = csv.writer(handle)
-            writer.writerow([f.name for f in attrs.fields(TrialRow)])
-            writer.writerows(attrs.astuple(row) for row in rows)
