@@ -189,29 +189,32 @@ def ring_ranges_into(x: float, y: float, theta: float, directions: np.ndarray,
     for k in range(nk):
         half = max(half, abs(offsets[k]))
     if half > 0.0:
-        _cone_nearest(x, y, theta, directions, half, segments, discs, out)
+        _cone_nearest(x, y, theta, directions, half, max_range + radius, segments, discs, out)
     for b in range(nb):
         out[b] = min(max(out[b] - radius, 0.0), max_range)
 
 
 @numba.njit(cache=True)
 def _cone_nearest(x: float, y: float, theta: float, directions: np.ndarray, half: float,
-                  segments: np.ndarray, discs: np.ndarray, out: np.ndarray) -> None:
+                  limit: float, segments: np.ndarray, discs: np.ndarray,
+                  out: np.ndarray) -> None:
     """Lower each beam's distance in ``out`` to the exact nearest obstacle inside its cone.
 
     The edge rays already found whatever crosses a cone's sides; what lies wholly between the
     rays (a wall's end pointing at the robot, a small disc) is nearest at a segment's end, at
     the foot of the perpendicular from the centre, or, for a disc, along the line to its centre,
     whenever that point lies inside the cone. Without this, a thin obstacle between two rays
-    stays unseen however close it comes.
+    stays unseen however close it comes. Only candidates nearer than ``limit`` can matter.
     """
     n = segments.shape[0]
     m = discs.shape[0]
-    # the candidate points relative to the centre, and their distances: computed once, then
-    # tested against every beam by a dot product
+    # the candidates within reach, relative to the centre: gathered once, then tested against
+    # every beam by a dot product
     px = np.empty(3 * n + m)
     py = np.empty(3 * n + m)
+    norm = np.empty(3 * n + m)
     reach = np.empty(3 * n + m)
+    count = 0
     for i in range(n):
         x0 = segments[i, 0] - x
         y0 = segments[i, 1] - y
@@ -219,24 +222,37 @@ def _cone_nearest(x: float, y: float, theta: float, directions: np.ndarray, half
         dy = segments[i, 3] - segments[i, 1]
         length2 = dx * dx + dy * dy
         t = 0.0 if length2 == 0.0 else min(max(-(x0 * dx + y0 * dy) / length2, 0.0), 1.0)
-        px[3 * i], py[3 * i] = x0, y0
-        px[3 * i + 1], py[3 * i + 1] = x0 + dx, y0 + dy
-        px[3 * i + 2], py[3 * i + 2] = x0 + t * dx, y0 + t * dy
-    for k in range(3 * n):
-        reach[k] = math.hypot(px[k], py[k])
+        fx = x0 + t * dx
+        fy = y0 + t * dy
+        if fx * fx + fy * fy >= limit * limit:
+            continue  # the foot is the segment's nearest point: all of it is out of reach
+        for qx, qy in ((x0, y0), (x0 + dx, y0 + dy), (fx, fy)):
+            d = math.sqrt(qx * qx + qy * qy)
+            if d < limit:
+                px[count] = qx
+                py[count] = qy
+                norm[count] = d
+                reach[count] = d
+                count += 1
     for j in range(m):
-        k = 3 * n + j
-        px[k] = discs[j, 0] - x
-        py[k] = discs[j, 1] - y
-        reach[k] = math.hypot(px[k], py[k]) - discs[j, 2]
+        qx = discs[j, 0] - x
+        qy = discs[j, 1] - y
+        d = math.sqrt(qx * qx + qy * qy)
+        if d - discs[j, 2] < limit:
+            px[count] = qx
+            py[count] = qy
+            norm[count] = d
+            reach[count] = d - discs[j, 2]
+            count += 1
     cos_half = math.cos(half)
+    for k in range(count):
+        norm[k] *= cos_half
     for b in range(directions.shape[0]):
         ux = math.cos(theta + directions[b])
         uy = math.sin(theta + directions[b])
         best = out[b]
-        for k in range(3 * n + m):
-            along = px[k] * ux + py[k] * uy
-            if along >= math.hypot(px[k], py[k]) * cos_half and reach[k] < best:
+        for k in range(count):
+            if reach[k] < best and px[k] * ux + py[k] * uy >= norm[k]:
                 best = reach[k]
         out[b] = best
 

@@ -80,17 +80,18 @@ class SonarRing:
     """A ring of sonar beams mounted on the robot's rim.
 
     ``angles`` are the beams' headings relative to the robot's (radians; default the Pioneer 2
-    DX's 16, :data:`PIONEER_SONAR_DEGREES`). Each beam is a cone ``beam_width`` wide sampled by
-    ``rays_per_beam`` rays spread evenly across it, and reads the nearest of them: the distance
-    from the rim (``mount_radius`` from the centre) to the first obstacle, capped at
-    ``max_range``, plus Gaussian noise of standard deviation ``noise`` metres, kept in
-    ``[0, max_range]``.
+    DX's 16, :data:`PIONEER_SONAR_DEGREES`). Each beam is a cone ``beam_width`` wide whose
+    edges and axis are cast as ``rays_per_beam`` rays spread evenly across it; with two rays or
+    more it reads the nearest obstacle anywhere inside the cone, also one lying between the
+    rays (:func:`cbr_world2d.geometry.ring_ranges`), with one ray the axis alone. A reading is
+    the distance from the rim (``mount_radius`` from the centre), capped at ``max_range``,
+    plus Gaussian noise of standard deviation ``noise`` metres, kept in ``[0, max_range]``.
 
     Defaults: ``max_range`` 5 m and ``beam_width`` 30 degrees, the Pioneer sonar of
     MobileRobots' simulator (MobileSim / AMRISim ``PioneerRobotModels.world.inc``,
     ``pioneerSonar``: ``sview [0.1 5.0 30]``, min and max range in metres, field of view in
     degrees; its 10 cm blind zone is not modelled, so 0 still means touching);
-    ``rays_per_beam`` 3 (the cone's edges and axis); ``mount_radius`` the
+    ``rays_per_beam`` 3; ``mount_radius`` the
     :data:`~cbr_world2d.robot.PIONEER_2DX` radius; ``noise`` 1 cm.
     """
 
