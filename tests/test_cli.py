@@ -446,8 +446,8 @@ def cbr_script() -> str:
 def test_console_script_exits_2_without_traceback(cbr_script: str, tmp_path: Path) -> None:
     config = write(tmp_path / "bad.yaml", "seed: 1\nretreive: nearest\n")
     expected = (f"error: {config}: 1 problem:\n  - retreive (line 2, column 11): unknown key; "
-                "expected one of: casebase, forget, kinematics, metrics, observers, retain, "
-                "retrieve, reuse, revise, seed, solver, workload, world\n")
+                "expected one of: casebase, forget, kinematics, metrics, observers, pilot, "
+                "retain, retrieve, reuse, revise, seed, solver, workload, world\n")
 
     done = subprocess.run([cbr_script, "validate", str(config)], capture_output=True, text=True,
                           env=_console_env(), cwd=tmp_path, check=False)

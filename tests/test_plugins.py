@@ -485,7 +485,7 @@ def test_cbr_plugins_names_modules_and_makes_them_current(
     assert current() is plugins
     again = cbr_plugins(toy_domain, entry_points=True)
     assert current() is again
-    assert _names(again) == sorted([*installed_plugins(), "toy_domain"])
+    assert _names(again) == [*sorted(installed_plugins()), "toy_domain"]
 
 
 def test_cbr_plugins_needs_a_name_for_objects_without_one(

@@ -131,7 +131,7 @@ def test_disabling_it_removes_its_components(site: Path, tmp_path: Path) -> None
 
     assert done.returncode == 2
     assert ("workload.use (line 2, column 17): unknown workload 'corridor_trips'; registered: "
-            "trips (plugin grid)" in done.stderr)
+            "trials (plugin world2d), trips (plugin grid)" in done.stderr)
 
 
 def test_run_goes_through_its_hooks(site: Path, tmp_path: Path) -> None:

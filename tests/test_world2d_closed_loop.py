@@ -144,6 +144,7 @@ CONFIG = f"""\
 seed: 3
 casebase: memory
 world: {{use: world2d_file, path: {WORLDS / 'scenario2.yaml'}}}
+pilot: potential_field
 workload:
   use: trials
   trials: [{{start: start, target: target}}]
@@ -235,6 +236,13 @@ def test_a_solution_that_is_not_an_action_is_refused(plugins: Plugins, tmp_path:
     with (engine_for(plugins, tmp_path, {"solver": "wrong"}) as engine,
           pytest.raises(PluginError, match="a tuple, expected an action of the 2D world")):
         run_workload(engine, tmp_path)
+
+
+def test_trials_need_a_pilot(plugins: Plugins) -> None:
+    data = yaml.safe_load(CONFIG)
+    del data["pilot"]
+    with pytest.raises(CbrError, match="name one in the configuration's 'pilot' slot"):
+        Engine(parse_config(data, plugins.registry), plugins=plugins)
 
 
 def test_a_start_inside_an_obstacle_is_named(plugins: Plugins) -> None:

@@ -3,7 +3,7 @@ sonar ring, a camera, a bumper and odometry; pilots; trials; and the ``trials`` 
 consults the engine from inside a running simulation.
 
 Registers the ``world2d_file`` and ``world2d_generated`` worlds, the ``pilot`` kind (the
-top-level ``pilot:`` slot, ``potential_field`` by default) with the ``potential_field`` and
+top-level ``pilot:`` slot, which the ``trials`` workload needs) with the ``potential_field`` and
 ``behaviors`` pilots, the ``trials`` workload, the ``rescuer`` solver, and the ``cbr sim``
 commands. See docs/world2d.md.
 """
@@ -68,7 +68,7 @@ def generated_world(options: GeneratedWorldOptions, ctx: Context) -> World:
 def cbr_register(registry: Registry) -> None:
     registry.add_kind("pilot", "the 2D robot's local controller: turns observations and a "
                                "target into speed and turn rate commands",
-                      slot="pilot", default="potential_field", key=PILOT)
+                      slot="pilot", key=PILOT)
     registry.add("pilot", "potential_field", potential_field_pilot,
                  options=PotentialFieldOptions)
     registry.add("pilot", "behaviors", behavior_pilot, options=BehaviorPilotOptions)

@@ -29,7 +29,7 @@ from cbr_world2d.pilots.base import PILOT, Pilot
 from cbr_world2d.pilots.monitor import STUCK
 from cbr_world2d.world import Point, World, world_of
 from cbrcore.context import Context
-from cbrcore.errors import PluginError
+from cbrcore.errors import CbrError, PluginError
 from cbrcore.model import Outcome
 from cbrcore.options import option
 from cbrcore.workload import Decision, Session
@@ -158,7 +158,13 @@ class Trials:
 
         self.options = options
         self.world: World = world_of(ctx, "workload 'trials'")
-        self.pilot: Pilot = ctx.stash[PILOT]
+        pilot = ctx.stash.get(PILOT, None)
+        if pilot is None:
+            # a grid configuration has no use for a pilot, so the slot has no default
+            raise CbrError("workload 'trials' drives the robot with a pilot: name one in the "
+                           "configuration's 'pilot' slot (potential_field, behaviors, or "
+                           "another component of kind 'pilot')")
+        self.pilot: Pilot = pilot
         self.spec = PRESETS[options.robot]
         self.ctx = ctx
         self.rng = ctx.spawn_rng()
