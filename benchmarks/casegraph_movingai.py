@@ -38,7 +38,7 @@ from cbr_grid.costs import path_length
 from cbr_grid.movingai import Scenario, load_map, load_scen
 from cbr_solvers.search import astar
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "movingai"
+DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "movingai"
 
 PAIRS = (
     ("maps/dao/arena.map", "scenarios/dao/arena.map.scen"),

@@ -49,7 +49,7 @@ from cbr_kinematics.models import Forward, ForwardBackward, Holonomic, Kinematic
 from cbr_solvers import kinematic_search
 from cbr_solvers.search import astar
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "movingai"
+DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "movingai"
 
 # (map, scenario file) under the data folder's maps/ and scenarios/, smallest first
 MAPS = (

@@ -44,7 +44,7 @@ from cbr_grid.movingai import load_map, load_scen
 from cbr_solvers.genetic import genetic
 from cbr_solvers.search import astar, dijkstra
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "movingai"
+DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "movingai"
 SQRT2 = math.sqrt(2.0)
 # tcod's graph costs are integers: a unit step costs ORTHO, a diagonal one DIAG (sqrt(2) rounded
 # to five decimals), so its distances are exact for the movement rules up to that rounding.

@@ -28,7 +28,7 @@ from cbrcore.context import Context
 from cbrcore.registry import NoOptions, Registry
 from test_solvers import check_path, grid_problems
 
-MOVINGAI = Path(__file__).resolve().parents[2] / "shared" / "data" / "movingai"
+MOVINGAI = Path(__file__).resolve().parent / "data" / "movingai"
 ARENA_SCENARIOS = 12
 
 
@@ -112,7 +112,6 @@ def test_random_grids_match_dijkstra(problem: tuple, risk_free: bool) -> None:
     assert 0.0 <= error <= bound + 1e-12
 
 
-@pytest.mark.skipif(not MOVINGAI.is_dir(), reason=f"no Moving AI data at {MOVINGAI}")
 def test_movingai_arena_optimal() -> None:
     grid = load_map(MOVINGAI / "maps" / "dao" / "arena.map")
     scenarios = load_scen(MOVINGAI / "scenarios" / "dao" / "arena.map.scen")

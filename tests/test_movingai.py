@@ -1,4 +1,4 @@
-"""Moving AI maps and scenarios: every shared benchmark file, hand-checked lines, bad inputs."""
+"""Moving AI maps and scenarios: every shipped benchmark file, hand-checked lines, bad inputs."""
 
 from __future__ import annotations
 
@@ -17,9 +17,7 @@ from cbrcore.errors import CbrError, ConfigError
 from cbrcore.options import paths_relative_to, structure_options
 from cbrcore.registry import Registry
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "movingai"
-needs_data = pytest.mark.skipif(not DATA.is_dir(),
-                                reason=f"the shared Moving AI benchmarks are not at {DATA}")
+DATA = Path(__file__).resolve().parent / "data" / "movingai"
 
 # map, scenario file, width, height, scenarios (non-blank lines after the version line)
 PAIRS = [
@@ -41,18 +39,16 @@ PAIRS = [
 ]
 
 
-@needs_data
-def test_every_shared_map_and_scenario_file_is_listed() -> None:
+def test_every_shipped_map_and_scenario_file_is_listed() -> None:
     assert sorted(str(p.relative_to(DATA / "maps")) for p in DATA.glob("maps/*/*.map")) == sorted(
         m for m, *_ in PAIRS)
     assert sorted(str(p.relative_to(DATA / "scenarios"))
                   for p in DATA.glob("scenarios/*/*.scen")) == sorted(s for _, s, *_ in PAIRS)
 
 
-@needs_data
 @pytest.mark.parametrize(("map_file", "scen_file", "width", "height", "count"), PAIRS,
                          ids=[m for m, *_ in PAIRS])
-def test_shared_pair_loads(map_file: str, scen_file: str, width: int, height: int,
+def test_shipped_pair_loads(map_file: str, scen_file: str, width: int, height: int,
                            count: int) -> None:
     path = DATA / "maps" / map_file
     grid = load_map(path)
@@ -74,7 +70,6 @@ def test_shared_pair_loads(map_file: str, scen_file: str, width: int, height: in
     assert (octile(starts, goals) <= optimal + 2 * precision + 1e-9 * optimal).all()
 
 
-@needs_data
 def test_optimal_lengths_on_the_empty_map_agree_with_octile() -> None:
     # without obstacles the optimal length is the octile distance; the file truncates it
     scenarios = load_scen(DATA / "scenarios" / "mapf" / "empty-32-32-random-1.scen")
@@ -89,7 +84,6 @@ def test_agrees_allows_one_unit_in_the_last_digit() -> None:
     assert not scenario.agrees(1.4201) and not scenario.agrees(1.3999)
 
 
-@needs_data
 @pytest.mark.parametrize(("scen_file", "index", "expected"), [
     # line 2 of arena: "0 maps/dao/arena.map 49 49 1 11 1 12 1", an integer length
     ("dao/arena.map.scen", 0,
@@ -111,8 +105,7 @@ def test_scenario_lines_by_hand(scen_file: str, index: int, expected: Scenario) 
     assert load_scen(DATA / "scenarios" / scen_file)[index] == expected
 
 
-@needs_data
-def test_shared_map_cells_by_hand() -> None:
+def test_shipped_map_cells_by_hand() -> None:
     # arena.map: row 0 is all trees, row 1 starts "TTT" then ground
     grid = load_map(DATA / "maps" / "dao" / "arena.map")
     assert not grid.passable[0].any()

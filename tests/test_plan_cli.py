@@ -16,7 +16,7 @@ from cbrcore.testing import CliResult
 
 Cli = Callable[..., CliResult]
 
-MOVINGAI = Path(__file__).resolve().parents[2] / "shared" / "data" / "movingai"
+MOVINGAI = Path(__file__).resolve().parent / "data" / "movingai"
 ARENA = MOVINGAI / "maps" / "dao" / "arena.map"
 ARENA_SCEN = MOVINGAI / "scenarios" / "dao" / "arena.map.scen"
 KEYS = {"solver", "length", "cost", "turns", "time_ms", "expanded", "path"}
@@ -31,10 +31,6 @@ map
 ..@..
 ..@..
 """
-
-pytestmark = pytest.mark.skipif(not ARENA_SCEN.is_file(),
-                                reason=f"no Moving AI data at {MOVINGAI}")
-
 
 @pytest.fixture(autouse=True)
 def installed(cbr_plugins: Callable[..., Plugins]) -> Plugins:

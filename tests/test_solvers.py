@@ -27,7 +27,7 @@ from cbrcore.errors import CbrError
 from cbrcore.plugins import Plugins
 from cbrcore.registry import NoOptions, Registry
 
-MOVINGAI = Path(__file__).resolve().parents[2] / "shared" / "data" / "movingai"
+MOVINGAI = Path(__file__).resolve().parent / "data" / "movingai"
 SEARCHES = {"dijkstra": dijkstra, "astar": astar}
 SAMPLES_PER_FILE = 10
 EIGHT = [(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if (dx, dy) != (0, 0)]
@@ -35,7 +35,7 @@ EIGHT = [(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if (dx, dy) != (0, 0
 Search = Callable[..., SearchResult | None]
 
 
-SCENARIO_FILES = sorted(MOVINGAI.glob("scenarios/*/*.scen")) if MOVINGAI.is_dir() else []
+SCENARIO_FILES = sorted(MOVINGAI.glob("scenarios/*/*.scen"))
 
 
 def sample_scenarios(path: Path) -> list[Scenario]:
@@ -51,7 +51,6 @@ def scenario_grid(scen: Path, scenarios: list[Scenario]) -> Grid:
     return load_map(MOVINGAI / "maps" / scen.parent.name / Path(scenarios[0].map_name).name)
 
 
-@pytest.mark.skipif(not MOVINGAI.is_dir(), reason=f"no Moving AI data at {MOVINGAI}")
 @pytest.mark.parametrize("scen", SCENARIO_FILES, ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_movingai_optimal_lengths(scen: Path) -> None:
     # Scenario.agrees allows one unit in the last printed digit and 1e-9 relative: the files
@@ -276,7 +275,6 @@ def solver_plugins(cbr_plugins: Callable[..., Plugins]) -> Plugins:
     return cbr_plugins(entry_points=True, environ={"CBR_PLUGINS": "core,grid,solvers"})
 
 
-@pytest.mark.skipif(not MOVINGAI.is_dir(), reason=f"no Moving AI data at {MOVINGAI}")
 @pytest.mark.parametrize("name", SEARCHES)
 def test_solver_components_answer_through_the_engine(
         name: str, solver_plugins: Plugins, cbr_engine: Callable[..., Engine]) -> None:
