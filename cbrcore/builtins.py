@@ -2,14 +2,37 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import TypeVar
+
 import attrs
 
 from cbrcore.casebase import MemoryStore, SQLiteStore
+from cbrcore.casebase.exchange import read_document
+from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.errors import ConfigError
 from cbrcore.hookspecs import hookimpl
 from cbrcore.options import OutputPath, in_run_folder, option
-from cbrcore.registry import NoOptions, Registry
+from cbrcore.registry import Registry
+
+S = TypeVar("S", bound=CaseStore)
+
+_INITIAL_DOC = ("Hand-made cases to start from: an exported case base (YAML or JSON, the format "
+                "of 'cbr casebase export'; relative to the configuration file) loaded into the "
+                "case base when it is new, never into one that has held cases.")
+
+
+def _started(store: S, initial: Path | None) -> S:
+    """``store``, holding the cases of ``initial`` if it is new."""
+    if initial is None:
+        return store
+    document = read_document(initial)
+    # checked under the write lock: two processes creating one case base load it once
+    with store.transaction():
+        if store.revision == 0 and len(store) == 0:
+            store.restore(document.cases, document.meta, document.revision)
+    return store
 
 
 @attrs.frozen
@@ -30,15 +53,24 @@ class SQLiteOptions:
                                 "missing file instead.")
     read_only: bool = option(False, "Open an existing case base for reading alone, also in a "
                                     "folder that may not be written; a write is an error.")
+    initial: Path | None = option(None, _INITIAL_DOC)
 
 
-def memory_store(options: NoOptions, ctx: Context) -> MemoryStore:
+@attrs.frozen
+class MemoryOptions:
+    """Options of the ``memory`` store."""
+
+    initial: Path | None = option(None, _INITIAL_DOC)
+
+
+def memory_store(options: MemoryOptions, ctx: Context) -> MemoryStore:
     """An in-memory case base: fast, and gone when the run ends.
 
     Behaves like the sqlite store (transactions, revisions, JSON-only contents) without a file,
-    so it suits tests, benchmarks and runs that start from an empty case base every time.
+    so it suits tests, benchmarks and runs that start from an empty case base every time (or
+    from the same hand-made cases: ``initial``).
     """
-    return MemoryStore()
+    return _started(MemoryStore(), options.initial)
 
 
 def sqlite_store(options: SQLiteOptions, ctx: Context) -> SQLiteStore:
@@ -56,11 +88,12 @@ def sqlite_store(options: SQLiteOptions, ctx: Context) -> SQLiteStore:
                               ["casebase.path: required when the run has no output folder to "
                                "keep the case base in"])
         path = ctx.out_dir / "casebase.sqlite"
-    return SQLiteStore(path, busy_timeout=options.busy_timeout, create=options.create,
-                       read_only=options.read_only)
+    store = SQLiteStore(path, busy_timeout=options.busy_timeout, create=options.create,
+                        read_only=options.read_only)
+    return store if options.read_only else _started(store, options.initial)
 
 
 @hookimpl
 def cbr_register(registry: Registry) -> None:
-    registry.add("store", "memory", memory_store)
+    registry.add("store", "memory", memory_store, options=MemoryOptions)
     registry.add("store", "sqlite", sqlite_store, options=SQLiteOptions)

@@ -6,11 +6,13 @@ reporting the robot blocked, the set of landmarks in view changing, a period pas
 the engine with a :class:`Situation`; the proposal's solution is an
 :class:`~cbr_world2d.actions.Action` the simulation carries out. The decision is learned when the
 action ends, or when the trial ends first; no consultation is made while an action is under
-way, so the agent does not ask again for the situation it is already handling (002 section 3.3).
+way or a diverting target is set, so the agent does not ask again for the situation the robot
+is already avoiding (002 section 3.3).
 
 Besides the run's ``results.csv`` (one row per decision), the workload writes ``trials.csv`` in
 the run folder: one row per trial with its success, time, distance, collisions and
-consultations.
+consultations; and, when asked (``trajectories``), ``trajectories.npz``: each trial's true
+path as an array ``trial_<k>`` of rows ``t, x, y, theta``.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from cbr_world2d.navigator import Navigator, NavigatorOptions
 from cbr_world2d.pilots.base import PILOT, Pilot
 from cbr_world2d.pilots.monitor import STUCK
 from cbr_world2d.world import Point, World, world_of
+from cbrcore import files
 from cbrcore.context import Context
 from cbrcore.errors import CbrError, PluginError
 from cbrcore.model import Outcome
@@ -51,6 +54,14 @@ class TrialEntry:
     target: str = option(doc="The target: a place of the world or 'X,Y' in metres.")
     heading: float | None = option(
         None, "The start heading in degrees counter-clockwise from +x; none faces the target.")
+
+
+@attrs.frozen
+class CameraOptions:
+    fov: float = option(60.0, "The field of view in degrees, centred on the heading.",
+                        validator=attrs.validators.and_(_POSITIVE, attrs.validators.le(360.0)))
+    range: float = option(6.0, "How far, in metres, a landmark can be seen.",
+                          validator=_POSITIVE)
 
 
 @attrs.frozen
@@ -78,6 +89,10 @@ class TrialsOptions:
         "'period' seconds).", factory=lambda: ["blocked", "landmarks"])
     period: float = option(10.0, "Seconds between consultations of the 'period' trigger.",
                            validator=_POSITIVE)
+    camera: CameraOptions = option(
+        doc="The camera that sees the landmarks.", factory=lambda: CameraOptions())
+    trajectories: bool = option(
+        False, "Also write each trial's true path into trajectories.npz in the run folder.")
 
 
 def _array(values: np.ndarray) -> list[float]:
@@ -90,6 +105,7 @@ class Situation:
 
     ``pose`` is the odometry estimate (what the robot believes), ``target`` the trial's final
     target, ``sightings`` what the camera sees (fuzzy distance and bearing per landmark),
+    ``obstacles`` the linear obstacles it sees between two of those landmarks (pairs of ids),
     ``sonar`` the ring's ranges in metres (``sonar_angles`` relative to the heading).
     """
 
@@ -99,6 +115,7 @@ class Situation:
     pose: Pose
     target: Point
     sightings: tuple[Sighting, ...]
+    obstacles: tuple[tuple[str, str], ...]
     sonar: np.ndarray = attrs.field(eq=False)
     sonar_angles: np.ndarray = attrs.field(eq=False)
     bumped: bool
@@ -112,14 +129,19 @@ class Situation:
             "target": list(self.target),
             "sightings": [{"id": s.id, "distance": list(attrs.astuple(s.distance)),
                            "bearing": list(attrs.astuple(s.bearing))} for s in self.sightings],
+            "obstacles": [list(pair) for pair in self.obstacles],
             "sonar": _array(self.sonar), "sonar_angles": _array(self.sonar_angles),
             "bumped": self.bumped, "confidence": self.confidence,
         }
 
 
-def situation(trial: int, trigger: str, obs: Observation, target: Point) -> Situation:
-    return Situation(trial, obs.t, trigger, obs.pose, target, obs.sightings, obs.sonar,
-                     obs.sonar_angles, obs.bumped, obs.confidence)
+def situation(world: World, trial: int, trigger: str, obs: Observation,
+              target: Point) -> Situation:
+    """The situation the robot observes: its obstacles are the linear obstacles of ``world``
+    between two landmarks in view (the camera sees the obstacle joining two landmarks it sees)."""
+    obstacles = world.obstacles_between([s.id for s in obs.sightings])
+    return Situation(trial, obs.t, trigger, obs.pose, target, obs.sightings, obstacles,
+                     obs.sonar, obs.sonar_angles, obs.bumped, obs.confidence)
 
 
 @attrs.frozen
@@ -169,6 +191,7 @@ class Trials:
         self.ctx = ctx
         self.rng = ctx.spawn_rng()
         self.plan = self._plan()
+        self.paths: dict[str, np.ndarray] = {}
 
     def _plan(self) -> list[Trial]:
         from cbr_world2d.robot import Pose
@@ -208,13 +231,17 @@ class Trials:
             for k, trial in enumerate(self.plan):
                 writer.writerow(attrs.astuple(self._trial(session, k, trial)))
                 handle.flush()
+        if self.options.trajectories:
+            with files.replacing(self.ctx.out_dir / "trajectories.npz", "wb") as out:
+                np.savez_compressed(out, **self.paths)
 
     def _trial(self, session: Session, index: int, trial: Trial) -> TrialRow:
-        from cbr_world2d.sensors import Sensors
+        from cbr_world2d.sensors import Camera, Sensors
         from cbr_world2d.simulation import Simulation
 
         options = self.options
-        sim = Simulation(self.world, self.spec, Sensors().fitted(self.spec.radius),
+        camera = Camera(fov=math.radians(options.camera.fov), max_range=options.camera.range)
+        sim = Simulation(self.world, self.spec, Sensors(camera=camera).fitted(self.spec.radius),
                          Navigator(self.pilot, options.navigation), trial.start, trial.target,
                          dt=trial.dt, rng=self.rng.spawn(1)[0], tolerance=trial.tolerance)
         opened: _Open | None = None
@@ -225,7 +252,9 @@ class Trials:
         last = math.ceil(trial.timeout / trial.dt - 1e-9)
         while not sim.reached and sim.steps < last:
             in_view = frozenset(s.id for s in obs.sightings)
-            if opened is None:
+            # no consultation while a diverting target is set: the robot is avoiding a situation
+            # already, and asking again would only repeat the message (002 section 3.3)
+            if opened is None and not sim.navigator.diverting:
                 trigger = self._trigger(sim, in_view - seen, next_period)
                 if trigger is not None:
                     opened = self._consult(session, sim, index, trigger, obs, trial.target)
@@ -241,6 +270,8 @@ class Trials:
                     opened = None
         if opened is not None:
             self._learn(session, sim, opened, TRIAL_ENDED, sim.reached)
+        if options.trajectories:
+            self.paths[f"trial_{index}"] = sim.trajectory[:, :4].copy()
         return TrialRow(index, trial.start.x, trial.start.y, *trial.target, sim.reached,
                         "reached" if sim.reached else "timeout", round(sim.t, 4),
                         round(sim.distance, 4), sim.collisions, consultations)
@@ -256,7 +287,7 @@ class Trials:
         return None
     def _consult(self, session: Session, sim: Simulation, index: int, trigger: str,
                  obs: Observation, target: Point) -> _Open | None:
-        decision = session.consult(situation(index, trigger, obs, target))
+        decision = session.consult(situation(self.world, index, trigger, obs, target))
         solution = decision.proposal.solution
         action = None if solution is None else solution.value
         if action is not None and not isinstance(action, Action):

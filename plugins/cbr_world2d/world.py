@@ -12,7 +12,7 @@ collision run on arrays, never on objects.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 
 import attrs
 import numpy as np
@@ -173,6 +173,14 @@ class World:
             return self.static_discs
         moving = [(*m.position(t), m.radius) for m in self.movers if m.present(t)]
         return np.concatenate([self.static_discs, _discs(moving)])
+
+    def obstacles_between(self, ids: Collection[str]) -> tuple[tuple[str, str], ...]:
+        """The linear obstacles joining two of the landmarks ``ids``, as pairs of ids in the
+        order of :attr:`walls` (002: a linear obstacle lies between two landmarks)."""
+        wanted = set(ids)
+        return tuple(w.between for w in self.walls
+                     if w.between is not None and w.between[0] in wanted
+                     and w.between[1] in wanted)
 
     def landmark(self, id: str) -> Landmark:
         for mark in self.landmarks:

@@ -1,0 +1,273 @@
+"""Retrieve, reuse, retain and forget landmark situations (002 sections 3.2-3.3 and 5).
+
+- :class:`LandmarkRetriever`: the stored cases whose similarity to the problem case (the
+  landmarks in the region in front of the robot) reaches ``threshold`` (002's ``simThr``), best
+  first, each with the landmark matching that scored it.
+- :class:`LandmarkReuser`: the best case's action carried onto the current landmarks through
+  the matching: a :class:`~cbr_world2d.actions.Divert` the Rescuer heads for (002 section 3.3);
+  a positive case asks for nothing.
+- :class:`TroubleRetainer`: learning (002's future work). A situation in which the robot got
+  into trouble (the progress monitor found it blocked or oscillating) and was got out by a
+  diverting target becomes a negative case whose action is that target; a reused case is
+  credited when its target was reached and blamed when it was not, or when trouble came within
+  ``window`` seconds after; optionally a situation that needed nothing becomes a positive case.
+- :class:`UnhelpfulSituations`: forgets the cases that were reused and did not help.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+import attrs
+
+from cbr_landmarks.action import DivertAction
+from cbr_landmarks.base import SituationBase, base_of
+from cbr_landmarks.case import LandmarkCase
+from cbr_landmarks.graph import LandmarkGraph
+from cbr_landmarks.problem import RegionOptions, View, problem_view, sub_view
+from cbr_landmarks.similarity import Matching, SimilarityOptions
+from cbr_world2d.actions import GIVEN_UP, REACHED, TRIAL_ENDED, ActionReport, Divert
+from cbr_world2d.workload import Situation
+from cbrcore.context import Context
+from cbrcore.hookspecs import hookimpl
+from cbrcore.model import Match, Outcome, Retrieval, Solution
+from cbrcore.options import option
+from cbrcore.registry import NoOptions
+
+_UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
+
+
+@attrs.frozen(eq=False)
+class Found:
+    """The retriever's payload: the problem case as seen and the matching of each match, in
+    the order of the matches."""
+
+    view: View
+    matchings: tuple[Matching, ...]
+
+
+@attrs.frozen
+class RetrieveOptions:
+    threshold: float = option(
+        0.75, "simThr: the least similarity (0-1) of a case that may be reused.",
+        validator=_UNIT)
+    region: RegionOptions = option(factory=RegionOptions,
+                                   doc="The region in front of the robot (002 Figure 5).")
+    similarity: SimilarityOptions = option(factory=SimilarityOptions,
+                                           doc="How two landmark graphs are compared.")
+    candidates: int = option(3, "How many matches, best first, the reuser may try.",
+                             validator=attrs.validators.ge(1))
+
+
+class LandmarkRetriever:
+    """002 section 3.3: the cases over ``threshold``, most similar first."""
+
+    def __init__(self, options: RetrieveOptions, ctx: Context) -> None:
+        self.options = options
+
+    @hookimpl
+    def cbr_retrieve(self, problem: Situation, ctx: Context) -> Retrieval:
+        o = self.options
+        view = problem_view(problem, o.region)
+        if view is None:
+            return Retrieval((), reason="fewer than two landmarks in the region in front")
+        base = base_of(ctx)
+        if not len(base):
+            return Retrieval((), reason="no landmark situation stored")
+        found = base.index.search(view.graph, o.threshold, o.similarity, limit=o.candidates)
+        if not found:
+            return Retrieval((), reason=f"no situation with similarity >= {o.threshold}")
+        matches = []
+        for hit in found:
+            case = base.cases[hit.row]
+            m = hit.matching
+            matches.append(Match(case.to_case(), m.similarity, {
+                "similarity": m.similarity, "landmarks": float(case.graph.n),
+                "matched": float(sum(j >= 0 for j in m.mapping)), "nodes": float(m.nodes),
+                "negative": float(case.sign == "negative")}))
+        return Retrieval(tuple(matches),
+                         payload=Found(view, tuple(h.matching for h in found)))
+
+
+def carried_over(case: LandmarkCase, matching: Matching, found: Found
+                 ) -> tuple[float, float] | None:
+    """The world point of ``case``'s action laid out on the current landmarks it was matched
+    with, or None when its anchor or base has no match."""
+    if case.action is None:
+        return None
+    world = found.view.world_points()
+    places = {case.graph.ids[j]: world[i] for i, j in enumerate(matching.mapping) if j >= 0}
+    return case.action.point(places)
+
+
+class LandmarkReuser:
+    """002 section 3.3: the most similar case's action, through the landmark matching."""
+
+    def __init__(self, options: NoOptions, ctx: Context) -> None:
+        pass
+
+    @hookimpl
+    def cbr_reuse(self, retrieval: Retrieval) -> Solution | None:
+        found: Found = retrieval.payload
+        for match, matching in zip(retrieval.matches, found.matchings, strict=True):
+            case = LandmarkCase.from_case(match.case)
+            detail: dict[str, Any] = {"case": case.id, "similarity": match.similarity}
+            if case.sign == "positive":
+                return Solution(None, cases=(case.id or 0,), detail=detail)
+            point = carried_over(case, matching, found)
+            if point is not None:
+                assert case.action is not None
+                current = {case.graph.ids[j]: found.view.graph.ids[i]
+                           for i, j in enumerate(matching.mapping) if j >= 0}
+                detail["anchor"] = current[case.action.anchor]
+                return Solution(Divert(*point), cases=(case.id or 0,), detail=detail)
+        return None
+
+
+@attrs.frozen
+class RetainOptions:
+    region: RegionOptions = option(
+        factory=RegionOptions, doc="The region in front of the robot whose landmarks make a "
+        "new case (keep it the retriever's).")
+    similarity: SimilarityOptions = option(factory=SimilarityOptions,
+                                           doc="How a new situation is compared with the stored.")
+    duplicate: float = option(
+        0.9, "A new situation at least this similar to a stored case of the same sign is not "
+        "stored again.", validator=_UNIT)
+    window: float = option(
+        30.0, "Seconds after a reused case's diverting target was reached within which trouble "
+        "blames that case; and how long a situation that needed nothing must stay trouble-free "
+        "to become a positive case.", validator=attrs.validators.gt(0.0))
+    positive: bool = option(False, "Also learn positive cases: situations in view when the "
+                                   "robot consulted, did nothing and met no trouble.")
+    course: bool = option(
+        True, "Take a new case in the frame of the robot's course (x toward its target) "
+        "rather than of its heading when it got into trouble.")
+    keep: Literal["obstacles", "all"] = option(
+        "obstacles", "Which landmarks of the region make a new case: those a linear obstacle "
+        "reaches (the layout that trapped the robot; all of them when fewer than two are), or "
+        "all.")
+
+
+def linked(graph: LandmarkGraph) -> dict[str, list[str]]:
+    """Each landmark's neighbours through an obstacle."""
+    out: dict[str, list[str]] = {i: [] for i in graph.ids}
+    for a, b in graph.obstacles:
+        out[graph.ids[a]].append(graph.ids[b])
+        out[graph.ids[b]].append(graph.ids[a])
+    return out
+
+
+@attrs.define
+class _Reused:
+    trial: int
+    ended: float
+    cases: tuple[int, ...]
+
+
+@attrs.define
+class _Calm:
+    trial: int
+    t: float
+    graph: LandmarkGraph
+
+
+class TroubleRetainer:
+    """Learn negative situations from trouble, and how reused cases fared."""
+
+    def __init__(self, options: RetainOptions, ctx: Context) -> None:
+        self.options = options
+        self._reused: _Reused | None = None
+        self._calm: _Calm | None = None
+
+    def _known(self, base: SituationBase, graph: LandmarkGraph, sign: str) -> bool:
+        o = self.options
+        return any(base.cases[hit.row].sign == sign
+                   for hit in base.index.search(graph, o.duplicate, o.similarity))
+
+    def _count(self, base: SituationBase, ids: tuple[int, ...], helped: bool) -> None:
+        for case_id in ids:
+            case = base.get(case_id)
+            if case is not None:  # forgotten meanwhile (by another process, say)
+                base.replace(attrs.evolve(case, helped=case.helped + helped,
+                                          failed=case.failed + (not helped)))
+
+    @hookimpl
+    def cbr_retain(self, problem: Situation, solution: Solution, outcome: Outcome,
+                   ctx: Context) -> None:
+        base = base_of(ctx)
+        o = self.options
+        report = outcome.report if isinstance(outcome.report, ActionReport) else None
+        trouble = problem.trigger == "blocked"
+        reused, self._reused = self._reused, None
+        if reused is not None and reused.trial == problem.trial:
+            if trouble and problem.t - reused.ended <= o.window:
+                self._count(base, reused.cases, helped=False)
+            elif not trouble:
+                self._reused = reused
+        calm, self._calm = self._calm, None
+        if calm is not None and calm.trial == problem.trial and not trouble:
+            if problem.t - calm.t > o.window:
+                if not self._known(base, calm.graph, "positive"):
+                    base.add(LandmarkCase(calm.graph, None, "positive"))
+            else:
+                self._calm = calm
+        if solution.cases:
+            self._credit(base, solution, report, problem)
+            return
+        view = problem_view(problem, o.region, course=o.course)
+        if view is None:
+            return
+        if trouble and isinstance(solution.value, Divert) and outcome.success:
+            self._learn(base, view, solution.value)
+        elif o.positive and not trouble and solution.value is None:
+            self._calm = _Calm(problem.trial, problem.t, view.graph)
+
+    def _credit(self, base: SituationBase, solution: Solution, report: ActionReport | None,
+                problem: Situation) -> None:
+        """Credit or blame the reused cases for how their diverting target went."""
+        if report is None or not isinstance(solution.value, Divert):
+            return
+        if report.reason == REACHED and report.trial_success is None:
+            self._count(base, solution.cases, helped=True)
+            # the trial goes on: trouble soon after still blames the case
+            self._reused = _Reused(problem.trial, report.ended, solution.cases)
+        elif report.reason in (REACHED, TRIAL_ENDED):
+            self._count(base, solution.cases, helped=bool(report.trial_success))
+        elif report.reason == GIVEN_UP:
+            self._count(base, solution.cases, helped=False)
+
+    def _learn(self, base: SituationBase, view: View, divert: Divert) -> None:
+        if self.options.keep == "obstacles":
+            reached = sorted({k for pair in view.graph.obstacles for k in pair})
+            if len(reached) >= 2:
+                view = sub_view(view, reached)
+        graph = view.graph
+        if self._known(base, graph, "negative"):
+            return
+        world = view.world_points()
+        places = {landmark: world[i] for i, landmark in enumerate(graph.ids)}
+        action = DivertAction.toward((divert.x, divert.y), places, linked(graph))
+        base.add(LandmarkCase(graph, action, "negative"))
+
+
+@attrs.frozen
+class ForgetOptions:
+    failures: int = option(
+        2, "Forget a case once it has failed this many times and more often than it helped.",
+        validator=attrs.validators.ge(1))
+
+
+class UnhelpfulSituations:
+    """Forget the cases that were reused and did not help."""
+
+    def __init__(self, options: ForgetOptions, ctx: Context) -> None:
+        self.options = options
+
+    @hookimpl
+    def cbr_forget(self, ctx: Context) -> None:
+        base = base_of(ctx)
+        n = self.options.failures
+        base.remove([c.id for c in base.cases
+                     if c.id is not None and c.failed >= n and c.failed > c.helped])
+

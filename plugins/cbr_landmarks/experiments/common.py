@@ -1,0 +1,126 @@
+"""What the landmark experiments share: the robots compared, their configurations, and running
+one robot's trials through the engine.
+
+Every robot is 002's navigation system, the potential-field pilot (with :data:`PILOT`'s
+parameters), the progress monitor and a Rescuer, with 002's robot and a camera that sees the
+half-plane in front. They differ in who diverts a blocked robot and in what the engine knows
+(:data:`ROBOTS`):
+
+``no-cbr``
+    002's navigation system without CBR: its own Rescuer diverts the robot when it is blocked
+    (``navigation.rescue: blocked``); the engine is never consulted.
+``cbr-handmade``
+    The same navigation system with 002's CBR agent added: consulted when landmarks come into
+    view, it retrieves from the hand-made cases (:mod:`cbr_landmarks.handmade`) and asks the
+    Rescuer for a diverting target when a case matches (002 section 3.3).
+``detour``
+    The engine diverts a blocked (or oscillating) robot with the ``landmark_detour`` solver
+    alone, the Rescuer told about the linear obstacles in view; no case base. It separates what
+    learning adds from what the better solver does.
+``cbr-learning``
+    The CBR agent learning from an empty case base: consulted when landmarks come into view
+    and when the robot is blocked or oscillating; the ``landmark_detour`` solver answers when
+    no case matches, the ``landmark_trouble`` retainer keeps the situations it got the robot
+    out of, and the ``unhelpful_situations`` forgetter drops cases that did not help.
+"""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import attrs
+import numpy as np
+
+from cbr_landmarks.handmade import CAMERA_FOV, shipped_path
+from cbrcore.config import parse_config
+from cbrcore.engine import Engine
+from cbrcore.plugins import current
+from cbrcore.run import run_workload
+
+Progress = Callable[[int, int], None]
+
+PILOT: dict[str, Any] = {"use": "potential_field", "influence": 0.5, "repulsion": 0.02}
+"""The pilot of the experiments. 002 gives no parameters of its potential field; with an
+influence distance of 0.5 m and a gain of 0.02 (the ``potential_field`` defaults are 1.0 m and
+0.05, set for a Pioneer 2 DX at 0.4 m/s) the navigation system without CBR takes 002's time in
+scenario 1 (about 162 s; 002: 162.36 s), and it is still trapped in scenario 2."""
+
+TIMEOUT = 400.0
+"""Seconds after which a trial has failed: 002 gives none ("a given time"); 400 s is 2.3 times
+the optimal time of scenario 2, 4 times that of scenario 1."""
+
+ROBOTS = ("no-cbr", "cbr-handmade", "detour", "cbr-learning")
+
+
+def robot_config(robot: str, world: Mapping[str, Any], workload: Mapping[str, Any], seed: int,
+                 casebase: Path | None = None) -> dict[str, Any]:
+    """The configuration of ``robot`` (one of :data:`ROBOTS`) driving the trials ``workload``
+    (the ``trials`` workload's options besides those every robot shares) in ``world``;
+    ``casebase`` is the learning robot's SQLite file (default: memory, empty)."""
+    trials = {"use": "trials", "robot": "ros2005", "timeout": TIMEOUT,
+              "camera": {"fov": CAMERA_FOV}, **workload}
+    rescuing = {**trials, "navigation": {"rescue": "blocked"}}
+    config: dict[str, Any] = {"seed": seed, "world": dict(world), "pilot": dict(PILOT),
+                              "casebase": "memory"}
+    if robot == "no-cbr":
+        return {**config, "workload": {**rescuing, "consult_on": []}}
+    if robot == "cbr-handmade":
+        return {**config, "workload": {**rescuing, "consult_on": ["landmarks"]},
+                "casebase": {"use": "memory", "initial": str(shipped_path())},
+                "retrieve": "landmarks", "reuse": "landmarks"}
+    if robot == "detour":
+        return {**config, "workload": {**trials, "consult_on": ["blocked"]},
+                "solver": "landmark_detour"}
+    if robot == "cbr-learning":
+        store: Any = ("memory" if casebase is None
+                      else {"use": "sqlite", "path": str(casebase.resolve())})
+        return {**config, "workload": {**trials, "consult_on": ["landmarks", "blocked"]},
+                "casebase": store, "retrieve": "landmarks", "reuse": "landmarks",
+                "solver": "landmark_detour", "retain": ["landmark_trouble"],
+                "forget": ["unhelpful_situations"]}
+    raise ValueError(f"unknown robot {robot!r}; expected one of {', '.join(ROBOTS)}")
+
+
+@attrs.frozen(eq=False)
+class Driven:
+    """One robot's trials: a row per trial (``success``, ``time`` in s, ``distance`` in m,
+    ``collisions``, ``consultations``), the true paths when asked, and the landmark cases
+    stored at the end."""
+
+    rows: list[dict[str, Any]]
+    paths: Mapping[str, np.ndarray]
+    cases: int
+
+
+def drive(config: Mapping[str, Any], out_dir: Path) -> Driven:
+    """Run ``config``'s trials with the engine, its files in ``out_dir``."""
+    plugins = current()
+    with Engine(parse_config(dict(config), plugins.registry), plugins=plugins,
+                out_dir=out_dir) as engine:
+        run_workload(engine, out_dir)
+        cases = engine.casebase.count("landmark_situation") if engine.casebase else 0
+    with (out_dir / "trials.csv").open(encoding="utf-8") as handle:
+        rows = [{"success": row["success"] == "True", "time": float(row["time"]),
+                 "distance": float(row["distance"]), "collisions": int(row["collisions"]),
+                 "consultations": int(row["consultations"])}
+                for row in csv.DictReader(handle)]
+    paths: dict[str, np.ndarray] = {}
+    if (out_dir / "trajectories.npz").exists():
+        with np.load(out_dir / "trajectories.npz") as saved:
+            paths = {name: saved[name] for name in saved.files}
+    return Driven(rows, paths, cases)
+
+
+def spread(values: Sequence[float]) -> dict[str, float]:
+    """Mean, standard deviation (n - 1; 0 for fewer than two), minimum and maximum; NaN for
+    none."""
+    if not len(values):
+        return {"mean": float("nan"), "std": float("nan"), "min": float("nan"),
+                "max": float("nan")}
+    array = np.asarray(values, dtype=float)
+    return {"mean": float(array.mean()),
+            "std": float(array.std(ddof=1)) if len(array) > 1 else 0.0,
+            "min": float(array.min()), "max": float(array.max())}

@@ -1,0 +1,202 @@
+"""``landmark-learning``: learning situations across environments (002 sections 1 and 5).
+
+002's stated goal is to "learn the different situations a robot encounters as it navigates
+through *several* environments" and reuse them in unknown ones. For each seed, the robots of
+:data:`~cbr_landmarks.experiments.common.ROBOTS` drive the same random trials through a sequence
+of seeded semi-structured worlds (002 Figure 1, :func:`cbr_world2d.generate.semi_structured`):
+first the *training* worlds, then *unseen* test worlds. The learning robot keeps one case base
+across the whole sequence (and goes on learning in the test worlds, as a robot would); the
+hand-made robot has 002's two cases; the others have none. The learning curves are success
+rate, time and distance against trials; the table compares the robots on the unseen worlds,
+with the difference between the learning robot and the robot without CBR over seeds.
+
+The worlds are 18 x 14 m with a landmark every 2 m, so the experiment uses the Pioneer 2 DX at
+its own speed (0.4 m/s; 002's robot at 5 cm/s would need many minutes per trial) with the
+potential field's default parameters, a camera that sees all round (002's Vision agent pans to
+keep landmarks in view), and a region of :data:`DEPTH` metres: the problem case holds the
+landmarks within it in front of the robot, a learned case those all round the place where the
+robot got into trouble, taken in the frame of its course. Cases are compared normalised by the
+problem's landmarks (``normalise: problem``): a case matches when it explains what the robot
+sees, whatever else it holds.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+from cbr_landmarks.experiments.common import (
+    ROBOTS,
+    Progress,
+    drive,
+    robot_config,
+    spread,
+)
+from cbrcore.context import Context
+from cbrcore.experiment import ExperimentResult, Size
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+DEPTH = 3.0
+"""How far, in metres, the region in front of the robot reaches in these worlds."""
+
+SIMILARITY = {"normalise": "case", "constraint": "both"}
+"""How the learning experiment compares situations (see the module docstring)."""
+
+TIMEOUT = 120.0
+"""Seconds after which a trial has failed (the longest trip of the worlds, 22 m, takes about a
+minute at the Pioneer's speed)."""
+
+
+def learning_config(robot: str, world_seed: int, trials: int, seed: int,
+                    casebase: Path | None) -> dict[str, Any]:
+    """The configuration of ``robot`` for ``trials`` random trials in the semi-structured world
+    of ``world_seed``."""
+    world = {"use": "world2d_generated", "kind": "semi_structured", "seed": world_seed}
+    workload = {"random": trials, "robot": "pioneer2dx", "timeout": TIMEOUT,
+                "camera": {"fov": 360.0}}
+    config = robot_config(robot, world, workload, seed, casebase)
+    config["pilot"] = "potential_field"
+    front = {"depth": DEPTH}
+    around = {"depth": DEPTH, "angle": 360.0}
+    if "retrieve" in config:
+        config["retrieve"] = {"use": "landmarks", "region": front, "similarity": SIMILARITY}
+    if config.get("solver") == "landmark_detour":
+        config["solver"] = {"use": "landmark_detour", "region": around}
+    if "retain" in config:
+        config["retain"] = [{"use": "landmark_trouble", "region": around,
+                             "similarity": SIMILARITY}]
+    return config
+
+
+class Learning:
+    """Success, time and distance of the four robots as they drive through worlds."""
+
+    SCALE: ClassVar[dict[str, tuple[int, int, int, int]]] = {"ci": (1, 2, 1, 4),
+                                                             "full": (3, 6, 3, 10)}
+    """Seeds, training worlds, unseen worlds and trials per world."""
+
+    def __init__(self, options: object, ctx: Context) -> None:
+        self.seed = ctx.seed
+
+    def run(self, size: Size, out_dir: Path, progress: Progress) -> ExperimentResult:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        seeds, train, test, trials = self.SCALE[size]
+        total = seeds * len(ROBOTS) * (train + test)
+        done = 0
+        runs: dict[str, list[dict[str, Any]]] = {robot: [] for robot in ROBOTS}
+        for k in range(seeds):
+            seed = self.seed + k
+            worlds = [1000 * seed + w for w in range(train + test)]
+            for robot in ROBOTS:
+                casebase = out_dir / f"seed{seed}" / f"{robot}.sqlite"
+                casebase.parent.mkdir(parents=True, exist_ok=True)
+                record: dict[str, Any] = {"seed": seed, "success": [], "time": [],
+                                          "distance": [], "cases": []}
+                for w, world_seed in enumerate(worlds):
+                    config = learning_config(robot, world_seed, trials, seed + w, casebase)
+                    run = drive(config, out_dir / f"seed{seed}" / robot / f"world{world_seed}")
+                    for row in run.rows:
+                        record["success"].append(row["success"])
+                        record["time"].append(row["time"])
+                        record["distance"].append(row["distance"])
+                        record["cases"].append(run.cases)
+                    done += 1
+                    progress(done, total)
+                runs[robot].append(record)
+        unseen = train * trials
+        summary = {robot: self._summary(runs[robot], unseen) for robot in ROBOTS}
+        gain = self._gain(runs, unseen)
+        results = {"seeds": [self.seed + k for k in range(seeds)], "training_worlds": train,
+                   "unseen_worlds": test, "trials_per_world": trials, "timeout": TIMEOUT,
+                   "region_depth": DEPTH, "summary": summary, "learning_over_no_cbr": gain,
+                   "configs": {robot: learning_config(robot, 0, trials, self.seed,
+                                                      Path("casebase.sqlite"))
+                               for robot in ROBOTS},
+                   "curves": runs}
+        return ExperimentResult(
+            results=results, table=self._table(summary, gain, seeds, train, test, trials),
+            figures={"learning_curves": self._curves(runs, unseen)})
+
+    @staticmethod
+    def _phase(record: dict[str, Any], start: int) -> dict[str, float]:
+        success = np.asarray(record["success"][start:], dtype=bool)
+        time = np.asarray(record["time"][start:], dtype=float)
+        distance = np.asarray(record["distance"][start:], dtype=float)
+        return {"success": float(success.mean()),
+                "time": float(time[success].mean()) if success.any() else float("nan"),
+                "distance": float(distance[success].mean()) if success.any() else float("nan"),
+                "time_all": float(time.mean())}
+
+    def _summary(self, records: list[dict[str, Any]], unseen: int) -> dict[str, Any]:
+        phases = [self._phase(r, unseen) for r in records]
+        training = [self._phase({k: v[:unseen] if isinstance(v, list) else v
+                                 for k, v in r.items()}, 0) for r in records]
+        return {
+            "unseen": {key: spread([p[key] for p in phases])
+                       for key in ("success", "time", "distance", "time_all")},
+            "training": {key: spread([p[key] for p in training])
+                         for key in ("success", "time", "distance", "time_all")},
+            "cases_at_end": spread([float(r["cases"][-1]) for r in records]),
+        }
+
+    def _gain(self, runs: dict[str, list[dict[str, Any]]], unseen: int) -> dict[str, Any]:
+        pairs = list(zip(runs["cbr-learning"], runs["no-cbr"], strict=True))
+        learned = [self._phase(a, unseen) for a, _ in pairs]
+        base = [self._phase(b, unseen) for _, b in pairs]
+        return {"success": spread([a["success"] - b["success"]
+                                   for a, b in zip(learned, base, strict=True)]),
+                "time_all": spread([a["time_all"] - b["time_all"]
+                                    for a, b in zip(learned, base, strict=True)])}
+
+    @staticmethod
+    def _table(summary: dict[str, Any], gain: dict[str, Any], seeds: int, train: int,
+               test: int, trials: int) -> str:
+        def cell(stats: dict[str, float], scale: float = 1.0, digits: int = 1) -> str:
+            mean, std = stats["mean"] * scale, stats["std"] * scale
+            return "-" if np.isnan(mean) else f"{mean:.{digits}f} ± {std:.{digits}f}"
+
+        lines = [f"{seeds} seeds; each robot drives {trials} random trials in each of {train} "
+                 f"training worlds, then in {test} unseen worlds (timeout {TIMEOUT:.0f} s). "
+                 "Unseen worlds: mean ± standard deviation over seeds; time and distance of "
+                 "the trials that reached their target, 'time, all' counting a failed trial "
+                 "at the timeout.", "",
+                 "| robot | success (%) | time (s) | distance (m) | time, all (s) | "
+                 "cases at the end |", "|---|---|---|---|---|---|"]
+        for robot, s in summary.items():
+            u = s["unseen"]
+            lines.append(f"| {robot} | {cell(u['success'], 100.0)} | {cell(u['time'])} | "
+                         f"{cell(u['distance'], digits=2)} | {cell(u['time_all'])} | "
+                         f"{cell(s['cases_at_end'], digits=0)} |")
+        lines += ["", "Learning from an empty case base against no CBR, on the unseen worlds: "
+                  f"success {cell(gain['success'], 100.0)} points, time (all trials) "
+                  f"{cell(gain['time_all'])} s (mean ± standard deviation over seeds)."]
+        return "\n".join(lines)
+
+    @staticmethod
+    def _curves(runs: dict[str, list[dict[str, Any]]], unseen: int) -> Figure:
+        from matplotlib.figure import Figure
+
+        figure = Figure(figsize=(13, 4.2))
+        axes = [figure.add_subplot(1, 3, k + 1) for k in range(3)]
+        window = 5
+        for robot, records in runs.items():
+            n = min(len(r["success"]) for r in records)
+            for ax, key in zip(axes, ("success", "time", "distance"), strict=True):
+                values = np.mean([np.asarray(r[key][:n], dtype=float) for r in records],
+                                 axis=0)
+                kernel = np.ones(min(window, n)) / min(window, n)
+                smooth = np.convolve(values, kernel, mode="valid")
+                ax.plot(np.arange(len(smooth)) + len(kernel), smooth, label=robot)
+        for ax, label in zip(axes, ("success rate", "time (s)", "distance (m)"), strict=True):
+            ax.axvline(unseen + 0.5, color="0.5", linestyle=":")
+            ax.set_xlabel("trial")
+            ax.set_ylabel(f"{label}, mean of the last {window} trials")
+        axes[0].legend(fontsize=8)
+        figure.suptitle("Learning across worlds: training worlds, then unseen ones (dotted)")
+        return figure
