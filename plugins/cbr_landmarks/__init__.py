@@ -21,6 +21,7 @@ from cbr_landmarks.components import (
     LandmarkReuser,
     RetainOptions,
     RetrieveOptions,
+    ReuseOptions,
     TroubleRetainer,
     UnhelpfulSituations,
 )
@@ -46,7 +47,7 @@ def _learning(options: object, ctx: Context) -> object:
 @hookimpl
 def cbr_register(registry: Registry) -> None:
     registry.add("retriever", "landmarks", LandmarkRetriever, options=RetrieveOptions)
-    registry.add("reuser", "landmarks", LandmarkReuser)
+    registry.add("reuser", "landmarks", LandmarkReuser, options=ReuseOptions)
     registry.add("retainer", "landmark_trouble", TroubleRetainer, options=RetainOptions)
     registry.add("forgetter", "unhelpful_situations", UnhelpfulSituations,
                  options=ForgetOptions)

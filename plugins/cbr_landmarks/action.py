@@ -69,9 +69,12 @@ class DivertAction:
         base = min(pool, key=lambda i: (math.hypot(places[i][0] - ax, places[i][1] - ay), i))
         bx, by = places[base]
         length = math.hypot(ax - bx, ay - by)
+        if length == 0.0:
+            raise ValueError(f"landmarks {anchor!r} and {base!r} stand at the same place")
         ux, uy = (ax - bx) / length, (ay - by) / length
-        dx, dy = px - ax, py - ay
-        return cls(anchor, base, round(dx * ux + dy * uy, 4), round(-dx * uy + dy * ux, 4))
+        dx, dy = float(px - ax), float(py - ay)
+        return cls(anchor, base, round(float(dx * ux + dy * uy), 4),
+                   round(float(-dx * uy + dy * ux), 4))
 
     def to_data(self) -> dict[str, Any]:
         return {"anchor": self.anchor, "base": self.base, "along": self.along,

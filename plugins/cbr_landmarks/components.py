@@ -16,6 +16,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any, Literal
 
 import attrs
@@ -32,7 +33,6 @@ from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Match, Outcome, Retrieval, Solution
 from cbrcore.options import option
-from cbrcore.registry import NoOptions
 
 _UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
 
@@ -57,6 +57,10 @@ class RetrieveOptions:
                                            doc="How two landmark graphs are compared.")
     candidates: int = option(3, "How many matches, best first, the reuser may try.",
                              validator=attrs.validators.ge(1))
+    course: bool = option(
+        False, "Measure the angles against the robot's course (x toward its target) rather "
+        "than its heading (002's reference axis): a situation then matches only where the "
+        "target lies the same way.")
 
 
 class LandmarkRetriever:
@@ -68,7 +72,7 @@ class LandmarkRetriever:
     @hookimpl
     def cbr_retrieve(self, problem: Situation, ctx: Context) -> Retrieval:
         o = self.options
-        view = problem_view(problem, o.region)
+        view = problem_view(problem, o.region, course=o.course)
         if view is None:
             return Retrieval((), reason="fewer than two landmarks in the region in front")
         base = base_of(ctx)
@@ -100,27 +104,48 @@ def carried_over(case: LandmarkCase, matching: Matching, found: Found
     return case.action.point(places)
 
 
-class LandmarkReuser:
-    """002 section 3.3: the most similar case's action, through the landmark matching."""
+@attrs.frozen
+class ReuseOptions:
+    min_detour: float = option(
+        1.0, "A carried-over diverting target nearer the robot than this, in metres, is no "
+        "detour: the next match is tried instead.", validator=attrs.validators.ge(0.0))
 
-    def __init__(self, options: NoOptions, ctx: Context) -> None:
-        pass
+
+class LandmarkReuser:
+    """002 section 3.3: the most similar case's action, through the landmark matching.
+
+    A case whose diverting target was set once in a trial is not reused again in that trial:
+    the robot has avoided that situation, and sending it back to the same target would keep it
+    going to and fro.
+    """
+
+    def __init__(self, options: ReuseOptions, ctx: Context) -> None:
+        self.options = options
+        self._trial = -1
+        self._used: set[int] = set()
 
     @hookimpl
-    def cbr_reuse(self, retrieval: Retrieval) -> Solution | None:
+    def cbr_reuse(self, problem: Situation, retrieval: Retrieval) -> Solution | None:
+        if problem.trial != self._trial:
+            self._trial, self._used = problem.trial, set()
         found: Found = retrieval.payload
         for match, matching in zip(retrieval.matches, found.matchings, strict=True):
             case = LandmarkCase.from_case(match.case)
-            detail: dict[str, Any] = {"case": case.id, "similarity": match.similarity}
+            case_id = case.id or 0
+            detail: dict[str, Any] = {"case": case_id, "similarity": match.similarity}
             if case.sign == "positive":
-                return Solution(None, cases=(case.id or 0,), detail=detail)
+                return Solution(None, cases=(case_id,), detail=detail)
             point = carried_over(case, matching, found)
-            if point is not None:
-                assert case.action is not None
-                current = {case.graph.ids[j]: found.view.graph.ids[i]
-                           for i, j in enumerate(matching.mapping) if j >= 0}
-                detail["anchor"] = current[case.action.anchor]
-                return Solution(Divert(*point), cases=(case.id or 0,), detail=detail)
+            if point is None or case_id in self._used or math.hypot(
+                    point[0] - problem.pose.x, point[1] - problem.pose.y) < \
+                    self.options.min_detour:
+                continue
+            assert case.action is not None
+            current = {case.graph.ids[j]: found.view.graph.ids[i]
+                       for i, j in enumerate(matching.mapping) if j >= 0}
+            detail["anchor"] = current[case.action.anchor]
+            self._used.add(case_id)
+            return Solution(Divert(*point), cases=(case_id,), detail=detail)
         return None
 
 

@@ -3,15 +3,18 @@
 002's Rescuer computes a diverting target when the robot is blocked; ours (the ``rescuer``
 solver of the 2D world) knows only the sonar, which gets a robot past one linear obstacle but
 leads it back into a dead end. This solver looks at the obstacles the robot sees between the
-landmarks in the region in front of it: the ends of a chain of linear obstacles are the
-landmarks that only one obstacle reaches, and a way round the chain passes beside an end. It
-proposes a point beside an end: ``clearance`` metres past it along the obstacle that reaches it,
-and ``aside`` metres across, on the side of that obstacle's line where the target lies, so that
-the straight way on from the point to the target passes clear of the end. It takes the end whose
-detour is the shortest (robot to point to target, straight), or one drawn at random (``choice:
-random``, to explore). With no obstacle in view it falls back on the sonar Rescuer.
-Like the Rescuer, it acts only when the robot is blocked (the situation's trigger is
-``blocked``) and proposes nothing otherwise.
+landmarks in the region around it and takes the chain of linear obstacles that blocks it (the
+chain, obstacles joined end to end, with an obstacle nearest the robot, if that one is within
+``reach``): the ends of the chain are the landmarks that only one of its obstacles reaches, and
+a way round the chain passes beside an end. It proposes a point beside an end: ``clearance``
+metres past it along the obstacle that reaches it, and ``aside`` metres across, on the outside
+of the chain (away from the middle of the landmarks it joins: outside a V or a U, whose inside
+is the trap), or, for a straight chain, on the side where the target lies; so that the way on
+from the point passes round the end, not back in. It takes the end whose detour is the
+shortest (robot to point to target, straight), or one drawn at random (``choice: random``, to
+explore). With no chain blocking the robot it falls back on the sonar Rescuer. Like the
+Rescuer, it acts only when the robot is blocked (the situation's trigger is ``blocked``) and
+proposes nothing otherwise.
 
 It is the model-based answer the learning of :mod:`cbr_landmarks.components` starts from: a
 situation where its diverting target got the robot out of trouble becomes a case, reused the
@@ -24,6 +27,7 @@ import math
 from typing import Literal
 
 import attrs
+import networkx
 import numpy as np
 
 from cbr_landmarks.problem import RegionOptions, problem_view
@@ -43,12 +47,16 @@ class DetourOptions:
         "robot's radius and the landmark's, and room to spare).",
         validator=attrs.validators.gt(0.0))
     aside: float = option(
-        0.3, "How far across the obstacle's line, toward the target's side, the diverting "
+        0.3, "How far across the obstacle's line, on the outside of the chain, the diverting "
         "target lies, in metres.", validator=attrs.validators.ge(0.0))
     choice: Literal["shortest", "random"] = option(
         "shortest", "Which end: the shortest detour to the target, or one at random.")
     region: RegionOptions = option(factory=RegionOptions,
                                    doc="The region in front of the robot it looks at.")
+    reach: float = option(
+        1.5, "A chain of linear obstacles blocks the robot when one of its obstacles is this "
+        "close, in metres; farther ones are left to the sonar Rescuer.",
+        validator=attrs.validators.gt(0.0))
     rescuer: RescuerOptions = option(
         factory=RescuerOptions, doc="The sonar Rescuer it falls back on with no obstacle in "
         "view.")
@@ -66,6 +74,25 @@ def chain_ends(n: int, obstacles: frozenset[tuple[int, int]]) -> list[tuple[int,
     return ends or [(i, near[0]) for i, near in enumerate(neighbours) if near]
 
 
+def blocking_chain(obstacles: frozenset[tuple[int, int]], places: np.ndarray, robot: np.ndarray,
+                   reach: float) -> frozenset[tuple[int, int]]:
+    """The obstacles of the chain (obstacles joined end to end) that holds the obstacle nearest
+    ``robot``, when that one is within ``reach``; none otherwise. ``places`` ``(n, 2)`` are the
+    landmarks' places."""
+    pairs = sorted(obstacles)
+    a, b = places[[i for i, _ in pairs]], places[[j for _, j in pairs]]
+    edge = b - a
+    t = np.clip(np.einsum("ij,ij->i", robot - a, edge)
+                / np.maximum(np.einsum("ij,ij->i", edge, edge), 1e-12), 0.0, 1.0)
+    gap = np.hypot(*(a + t[:, None] * edge - robot).T)
+    nearest = int(np.argmin(gap))
+    if gap[nearest] > reach:
+        return frozenset()
+    graph = networkx.Graph(pairs)
+    chain = networkx.node_connected_component(graph, pairs[nearest][0])
+    return frozenset(p for p in pairs if p[0] in chain)
+
+
 class LandmarkDetour:
     """Divert past an end of the chain of linear obstacles in view."""
 
@@ -79,21 +106,31 @@ class LandmarkDetour:
             return None
         o = self.options
         view = problem_view(problem, o.region)
-        ends = [] if view is None else chain_ends(view.graph.n, view.graph.obstacles)
-        if view is None or not ends:
-            point = Rescuer(o.rescuer, problem.target).escape(problem)
-            return None if point is None else Solution(Divert(*point))
+        if view is None or not view.graph.obstacles:
+            return self._escape(problem)
         pose = (problem.pose.x, problem.pose.y)
         world = view.world_points()
+        chain = blocking_chain(view.graph.obstacles, world, np.array(pose), o.reach)
+        ends = chain_ends(view.graph.n, chain)
+        if not ends:
+            return self._escape(problem)
         target = np.asarray(problem.target, dtype=float)
-        points = []
+        joined = sorted({k for pair in chain for k in pair})
+        middle = world[joined].mean(axis=0)
+        points, names = [], []
         for end, neighbour in ends:
             away = world[end] - world[neighbour]
             away = away / max(float(np.hypot(*away)), 1e-9)
             across = np.array([-away[1], away[0]])
-            if float(np.dot(across, target - world[end])) < 0.0:
+            inward = float(np.dot(across, middle - world[end]))
+            if abs(inward) > 1e-6 * o.clearance:
+                side = -inward
+            else:
+                side = float(np.dot(across, target - world[end]))
+            if side < 0.0:
                 across = -across
             points.append(world[end] + o.clearance * away + o.aside * across)
+            names.append(view.graph.ids[end])
         if o.choice == "random":
             k = int(self.rng.integers(len(points)))
         else:
@@ -101,4 +138,8 @@ class LandmarkDetour:
             k = int(np.argmin([math.hypot(p[0] - pose[0], p[1] - pose[1])
                                + math.hypot(tx - p[0], ty - p[1]) for p in points]))
         return Solution(Divert(float(points[k][0]), float(points[k][1])),
-                        detail={"end": view.graph.ids[ends[k][0]]})
+                        detail={"end": names[k]})
+
+    def _escape(self, problem: Situation) -> Solution | None:
+        point = Rescuer(self.options.rescuer, problem.target).escape(problem)
+        return None if point is None else Solution(Divert(*point))

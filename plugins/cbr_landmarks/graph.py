@@ -35,8 +35,11 @@ class GraphError(CbrError):
 
 def _wrapped(alpha: np.ndarray) -> np.ndarray:
     """``alpha`` with each triangle shifted by whole turns so that its peak lies in (-pi, pi]."""
-    shift = TWO_PI * np.ceil((alpha[..., 1] - math.pi) / TWO_PI)
-    return alpha - shift[..., None]
+    peak = math.pi - np.remainder(math.pi - alpha[..., 1], TWO_PI)
+    shifted = alpha - (alpha[..., 1] - peak)[..., None]
+    # the peak itself exactly, so that no rounding puts it a hair past pi
+    shifted[..., 1] = peak
+    return shifted
 
 
 def _check_triangles(values: np.ndarray, n: int, field: str, where: str) -> None:

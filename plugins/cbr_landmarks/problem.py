@@ -2,9 +2,9 @@
 section 3.3, Figure 5), as a :class:`~cbr_landmarks.graph.LandmarkGraph`.
 
 Each sighting gives a landmark's fuzzy distance and bearing from the robot; its place in the
-robot's frame (x ahead, y to the left) is taken at the peaks, and it is known within the
-half-width of the distance triangle plus the arc the half-width of the bearing triangle spans at
-that distance. :meth:`LandmarkGraph.from_points` turns places and uncertainties into the fuzzy
+robot's frame (x ahead, y to the left) is taken at the peaks, and it is known within the wider
+side of the distance triangle plus the arc the wider side of the bearing triangle spans at that
+distance. :meth:`LandmarkGraph.from_points` turns places and uncertainties into the fuzzy
 distances and angles of every pair, angles measured against the robot's x axis as 002 defines
 them. The obstacles are the linear obstacles the robot sees between two landmarks of the region.
 
@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Literal
 import attrs
 import numpy as np
 
-from cbr_landmarks.graph import MAX_LANDMARKS, LandmarkGraph
+from cbr_landmarks.graph import MAX_LANDMARKS, GraphError, LandmarkGraph
 from cbrcore.options import option
 
 if TYPE_CHECKING:
@@ -74,8 +74,9 @@ def places(sightings: Sequence[Sighting]) -> tuple[np.ndarray, np.ndarray]:
     d = np.array([s.distance.as_tuple() for s in sightings], dtype=float).reshape(-1, 3)
     b = np.array([s.bearing.as_tuple() for s in sightings], dtype=float).reshape(-1, 3)
     points = d[:, 1:2] * np.column_stack((np.cos(b[:, 1]), np.sin(b[:, 1])))
-    half_bearing = np.minimum(0.5 * (b[:, 2] - b[:, 0]), 0.5 * math.pi)
-    uncertainty = 0.5 * (d[:, 2] - d[:, 0]) + d[:, 1] * np.sin(half_bearing)
+    # the arc the wider side of the bearing triangle spans bounds the chord to the true place
+    off_bearing = np.minimum(np.maximum(b[:, 1] - b[:, 0], b[:, 2] - b[:, 1]), math.pi)
+    uncertainty = np.maximum(d[:, 1] - d[:, 0], d[:, 2] - d[:, 1]) + d[:, 1] * off_bearing
     return points, uncertainty
 
 
@@ -97,6 +98,13 @@ def problem_view(situation: Situation, region: RegionOptions, course: bool = Fal
         return None
     pose = situation.pose
     points, uncertainty = places(situation.sightings)
+    bad = ~(np.isfinite(points).all(axis=1) & np.isfinite(uncertainty))
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        sighting = situation.sightings[k]
+        raise GraphError(f"the situation at t={situation.t:.1f} s: sightings[{k}] "
+                         f"({sighting.id}): distance {list(sighting.distance.as_tuple())} and "
+                         f"bearing {list(sighting.bearing.as_tuple())} must be finite numbers")
     theta = pose.theta
     if course:
         theta = math.atan2(situation.target[1] - pose.y, situation.target[0] - pose.x)

@@ -105,8 +105,9 @@ def landmark_similarities(a: LandmarkGraph, b: LandmarkGraph, ra: int, rb: int) 
 # the exhaustive reference
 
 
-def _allowed(mapping: dict[int, int], a: LandmarkGraph, b: LandmarkGraph,
-             constraint: str) -> bool:
+def allowed(a: LandmarkGraph, b: LandmarkGraph, mapping: dict[int, int], constraint: str) -> bool:
+    """Whether ``mapping`` (landmarks of ``a`` to landmarks of ``b``, the reference pair
+    included) keeps the obstacle ``constraint`` (:class:`SimilarityOptions`)."""
     if constraint == "none":
         return True
     for u, v in a.obstacles:
@@ -126,13 +127,14 @@ def _allowed(mapping: dict[int, int], a: LandmarkGraph, b: LandmarkGraph,
 
 def exhaustive_similarity(a: LandmarkGraph, b: LandmarkGraph,
                           options: SimilarityOptions = SimilarityOptions()) -> Matching:
-    """The similarity of case ``b`` to the situation ``a`` by enumerating every reference pair
-    and every partial injective matching (the reference :func:`case_similarity` is tested
-    against; the number of matchings grows factorially with the landmarks). Ties keep the
-    first found: reference pairs in row order, then fewer matched landmarks, then itertools'
-    order."""
+    """The similarity of case ``b`` to the situation ``a`` found by enumerating every
+    reference pair and every partial injective matching: the reference :func:`case_similarity`
+    is tested against (the matchings grow factorially with the landmarks). ``nodes`` counts the
+    matchings enumerated. Ties keep the first found: reference pairs in row order, then fewer
+    matched landmarks, then itertools' order."""
     n = normaliser(a.n, b.n, options.normalise)
-    best: tuple[float, tuple[int, int], dict[int, int]] | None = None
+    best = -1.0
+    found: tuple[tuple[int, int], dict[int, int]] = ((0, 0), {})
     enumerated = 0
     for ra, rb in itertools.product(range(a.n), range(b.n)):
         similar = landmark_similarities(a, b, ra, rb).tolist()
@@ -142,16 +144,16 @@ def exhaustive_similarity(a: LandmarkGraph, b: LandmarkGraph,
             for chosen in itertools.combinations(others_a, k):
                 for images in itertools.permutations(others_b, k):
                     enumerated += 1
+                    score = sum(similar[i][j] for i, j in zip(chosen, images, strict=True)) / n
+                    # the constraint only matters for a matching that would be the best
+                    if score <= best:
+                        continue
                     mapping = dict(zip(chosen, images, strict=True))
                     mapping[ra] = rb
-                    if not _allowed(mapping, a, b, options.constraint):
-                        continue
-                    score = sum(similar[i][j] for i, j in zip(chosen, images, strict=True)) / n
-                    if best is None or score > best[0]:
-                        best = (score, (ra, rb), mapping)
-    assert best is not None  # the empty matching of the first pair always qualifies
-    score, reference, mapping = best
-    return Matching(score, reference, tuple(mapping.get(i, -1) for i in range(a.n)), enumerated)
+                    if allowed(a, b, mapping, options.constraint):
+                        best, found = score, ((ra, rb), mapping)
+    reference, mapping = found
+    return Matching(best, reference, tuple(mapping.get(i, -1) for i in range(a.n)), enumerated)
 
 
 # --------------------------------------------------------------------------------------------
@@ -159,15 +161,21 @@ def exhaustive_similarity(a: LandmarkGraph, b: LandmarkGraph,
 
 
 @numba.njit(cache=True, inline="always")
-def _height(a1: float, a2: float, a3: float, b1: float, b2: float, b3: float) -> float:
-    """:func:`cbr_world2d.fuzzy.overlap` of two triangles given by their corners."""
-    if a2 > b2:
-        a1, a2, a3, b1, b2, b3 = b1, b2, b3, a1, a2, a3
-    if a2 == b2:
-        return 1.0
-    if a3 <= b1:
-        return 0.0
-    return min(1.0, (a3 - b1) / ((a3 - a2) + (b2 - b1)))
+def height(a1: float, a2: float, a3: float, b1: float, b2: float, b3: float) -> float:
+    """:func:`cbr_world2d.fuzzy.overlap` of two triangles given by their corners, the same
+    arithmetic written with selects instead of branches so that loops over many pairs run on
+    SIMD lanes."""
+    swap = a2 > b2
+    l2 = b2 if swap else a2
+    l3 = b3 if swap else a3
+    r1 = a1 if swap else b1
+    r2 = a2 if swap else b2
+    reach = l3 - r1
+    # the peaks differ and reach > 0 make the denominator positive; otherwise it is not used
+    denominator = (l3 - l2) + (r2 - r1)
+    h = min(1.0, reach / (denominator if denominator > 0.0 else 1.0))
+    h = h if reach > 0.0 else 0.0
+    return 1.0 if a2 == b2 else h
 
 
 @numba.njit(cache=True, inline="always")
@@ -178,8 +186,8 @@ def pair_similarity(d1: float, d2: float, d3: float, a1: float, a2: float, a3: f
     :func:`cbr_world2d.fuzzy.angle_overlap` does (numba's ``round`` halves to even, as
     Python's)."""
     shift = TWO_PI * round((a2 - b2) / TWO_PI)
-    return 0.5 * (_height(d1, d2, d3, e1, e2, e3)
-                  + _height(a1, a2, a3, b1 + shift, b2 + shift, b3 + shift))
+    return 0.5 * (height(d1, d2, d3, e1, e2, e3)
+                  + height(a1, a2, a3, b1 + shift, b2 + shift, b3 + shift))
 
 
 @numba.njit(cache=True, inline="always")
@@ -227,13 +235,6 @@ def _rest(depth: int, m: int, order: np.ndarray, cands: np.ndarray, ncand: np.nd
     return total
 
 
-def scratch(na: int, nb: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The scratch arrays :func:`match_case` needs for graphs of up to ``na`` and ``nb``
-    landmarks: ``sims``, ``fwork`` and ``iwork``."""
-    return (np.empty((na * nb, na, nb)), np.empty(na * nb + 3 * na),
-            np.empty((8 + na, max(na, nb)), dtype=np.int64))
-
-
 @numba.njit(cache=True)
 def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: np.ndarray,
                ab: np.ndarray, adj_b: np.ndarray, pair_b: int, base_b: int, nb: int,
@@ -247,8 +248,9 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
     ``B``'s triangles start at row ``pair_b`` of ``db, ab`` and its adjacency at ``base_b`` of
     ``adj_b``. ``normalise`` and ``constraint`` index :data:`NORMALISE` and
     :data:`CONSTRAINT`. Only the reference pairs ``(ra, rb)`` with ``references[ra, rb]``
-    set are tried (the retrieval index rules the others out). ``sims``, ``fwork``, ``iwork``
-    come from :func:`scratch`.
+    set are tried (the retrieval index rules the others out). ``sims`` ``(na * nb, na, nb)``,
+    ``fwork`` ``(na * nb + 3 na,)`` and ``iwork`` ``(8 + na, max(na, nb))`` (int) are
+    scratch, at least that large.
 
     Returns ``(similarity, ra, rb, nodes)`` and writes the matching into ``mapping[:na]``;
     the similarity is -1 (and ``mapping`` untouched) when no matching reaches ``threshold``.
@@ -427,6 +429,32 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
     return best / n, best_ra, best_rb, nodes
 
 
+@numba.njit(cache=True)
+def match_rows(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, rows: np.ndarray,
+               references: np.ndarray, counts: np.ndarray, pair_starts: np.ndarray,
+               key_start: np.ndarray, db: np.ndarray, ab: np.ndarray, adj_b: np.ndarray,
+               normalise: int, constraint: int, threshold: float, similarity: np.ndarray,
+               reference: np.ndarray, mapping: np.ndarray, nodes: np.ndarray) -> None:
+    """:func:`match_case` between ``A`` and each graph ``rows[k]`` of a list of graphs
+    flattened together (graph ``r`` has ``counts[r]`` landmarks, its pairs start at row
+    ``pair_starts[r]`` of ``db, ab``, its landmarks at ``key_start[r]`` of ``adj_b``), trying the
+    reference pairs ``references[k]``; the results go to row ``k`` of the outputs."""
+    width = max(na, counts.max())
+    sims = np.empty((na * width, na, width))
+    fwork = np.empty(na * width + 3 * na)
+    iwork = np.empty((8 + na, width), dtype=np.int64)
+    for k in range(rows.shape[0]):
+        r = rows[k]
+        s, ra, rb, expanded = match_case(da, aa, adj_a, na, db, ab, adj_b, pair_starts[r],
+                                         key_start[r], counts[r], normalise, constraint,
+                                         threshold, references[k], sims, fwork, iwork,
+                                         mapping[k])
+        similarity[k] = s
+        reference[k, 0] = ra
+        reference[k, 1] = rb
+        nodes[k] = expanded
+
+
 def flattened(graph: LandmarkGraph) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A graph as the kernels read it: ``delta`` and ``alpha`` ``(n * n, 3)`` and the
     adjacency as int64 bitmasks."""
@@ -436,7 +464,8 @@ def flattened(graph: LandmarkGraph) -> tuple[np.ndarray, np.ndarray, np.ndarray]
             graph.adjacency().astype(np.int64))
 
 
-def _check_threshold(threshold: float) -> float:
+def check_threshold(threshold: float) -> float:
+    """``threshold`` as a float; ValueError unless it is a finite number >= 0."""
     threshold = float(threshold)
     if not (math.isfinite(threshold) and threshold >= 0.0):
         raise ValueError(f"a similarity threshold is a number >= 0, got {threshold!r}")
@@ -448,14 +477,19 @@ def case_similarity(a: LandmarkGraph, b: LandmarkGraph,
                     threshold: float = 0.0) -> Matching | None:
     """The similarity of case ``b`` to the situation ``a`` and the best matching, by 002's
     branch and bound; None when no matching reaches ``threshold``."""
-    threshold = _check_threshold(threshold)
+    threshold = check_threshold(threshold)
     da, aa, adj_a = flattened(a)
     db, ab, adj_b = flattened(b)
-    mapping = np.full(a.n, -1, dtype=np.int64)
-    similarity, ra, rb, nodes = match_case(
-        da, aa, adj_a, a.n, db, ab, adj_b, 0, 0, b.n, NORMALISE.index(options.normalise),
-        CONSTRAINT.index(options.constraint), threshold, np.ones((a.n, b.n), dtype=np.bool_),
-        *scratch(a.n, b.n), mapping)
-    if similarity < 0.0:
+    one = np.zeros(1, dtype=np.int64)
+    similarity = np.empty(1)
+    reference = np.empty((1, 2), dtype=np.int64)
+    mapping = np.full((1, a.n), -1, dtype=np.int64)
+    nodes = np.empty(1, dtype=np.int64)
+    match_rows(da, aa, adj_a, a.n, one, np.ones((1, a.n, b.n), dtype=np.bool_),
+               np.array([b.n]), one, one, db, ab, adj_b, NORMALISE.index(options.normalise),
+               CONSTRAINT.index(options.constraint), threshold, similarity, reference, mapping,
+               nodes)
+    if similarity[0] < 0.0:
         return None
-    return Matching(similarity, (ra, rb), tuple(mapping.tolist()), nodes)
+    return Matching(float(similarity[0]), (int(reference[0, 0]), int(reference[0, 1])),
+                    tuple(mapping[0].tolist()), int(nodes[0]))

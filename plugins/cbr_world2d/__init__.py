@@ -47,9 +47,10 @@ def world_file(options: WorldFileOptions, ctx: Context) -> World:
 
 @attrs.frozen
 class GeneratedWorldOptions:
-    kind: Literal["semi_structured", "office"] = option(
+    kind: Literal["semi_structured", "scenario", "office"] = option(
         doc="The layout: landmarks joined by linear obstacles into walls, corners, U-shapes and "
-        "dead ends (002 Figure 1), or an office floor of hallways, rooms, doors and people "
+        "dead ends (002 Figure 1); one V, U or wall across the way from start to target, like "
+        "002's scenarios (Figure 7); or an office floor of hallways, rooms, doors and people "
         "(004).")
     seed: int | None = option(None, "The layout's seed; none uses the run's seed.")
 
@@ -58,10 +59,11 @@ def generated_world(options: GeneratedWorldOptions, ctx: Context) -> World:
     """A 2D world generated from a seed: the same seed always gives the same world."""
     # the layouts are placed with numba kernels, loaded when a world is generated rather than
     # with the registration at every start of cbr
-    from cbr_world2d.generate import office, semi_structured
+    from cbr_world2d.generate import office, scenario, semi_structured
 
     seed = ctx.seed if options.seed is None else options.seed
-    return (semi_structured if options.kind == "semi_structured" else office)(seed)
+    return {"semi_structured": semi_structured, "scenario": scenario,
+            "office": office}[options.kind](seed)
 
 
 @hookimpl

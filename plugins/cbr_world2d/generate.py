@@ -1,5 +1,5 @@
-"""Seeded world generators: semi-structured landmark worlds (002, Figure 1) and office floors
-(004's building).
+"""Seeded world generators: semi-structured landmark worlds (002, Figure 1), worlds like 002's
+scenarios (Figure 7) and office floors (004's building).
 
 Each generator draws every choice from ``numpy.random.default_rng(seed)``, so one seed always
 gives the same world, writes the world as world file data and reads it back with
@@ -102,6 +102,61 @@ def _free_spot(rng: np.random.Generator, low: Sequence[float], high: Sequence[fl
         if all(math.hypot(x - ax, y - ay) >= far for ax, ay, far in avoid):
             return x, y
     return None
+
+
+SCENES = ("v", "u", "wall")
+"""The obstacles :func:`scenario` puts across the way, by seed: a V open towards the start (002's
+scenario 2), a U open towards the start, a straight wall (002's scenario 1)."""
+
+
+def scenario(seed: Seed, *, width: float = 12.0, height: float = 9.0, free: int = 4) -> World:
+    """A world like 002's scenarios (Figure 7): between a ``start`` on the left and a ``target``
+    on the right, one shape of linear obstacles between landmarks stands across the way, a V or a
+    U open towards the start (a dead end) or a straight wall, in turn by seed; its size, place
+    and turn (within 20 degrees) are drawn from the seed. ``free`` landmarks with no obstacle
+    stand elsewhere, at least 0.9 m from everything and 1.5 m from each other and the places.
+
+    It is the family of worlds 002 means to learn across: the same kinds of situation, never
+    twice the same layout.
+    """
+    rng = np.random.default_rng(seed)
+    index = int(seed) if isinstance(seed, int) else int(rng.integers(len(SCENES)))
+    kind = SCENES[index % len(SCENES)]
+    start_y = height / 2 + rng.uniform(-1.0, 1.0)
+    target_y = height / 2 + rng.uniform(-1.0, 1.0)
+    start, target = (1.0, _mm(start_y)), (width - 1.0, _mm(target_y))
+    cx = width / 2 + rng.uniform(-0.8, 0.8)
+    cy = (start_y + target_y) / 2 + rng.uniform(-0.4, 0.4)
+    turn = math.radians(rng.uniform(-20.0, 20.0))
+    size = rng.uniform(2.2, 3.0)
+    if kind == "v":
+        spread = math.radians(rng.uniform(35.0, 50.0))
+        shape = [(-size * math.cos(spread), size * math.sin(spread)), (0.0, 0.0),
+                 (-size * math.cos(spread), -size * math.sin(spread))]
+    elif kind == "u":
+        half = rng.uniform(1.0, 1.5)
+        shape = [(-size, half), (0.0, half), (0.0, -half), (-size, -half)]
+    else:
+        shape = [(0.0, size / 2 + 0.5), (0.0, -size / 2 - 0.5)]
+    c, s = math.cos(turn), math.sin(turn)
+    marks = [(_mm(cx + c * x - s * y), _mm(cy + s * x + c * y)) for x, y in shape]
+    data: dict[str, Any] = {
+        "name": _name("scenario", seed), "bounds": [0.0, 0.0, width, height],
+        "landmarks": [{"id": f"l{k + 1}", "at": list(m), "radius": 0.15}
+                      for k, m in enumerate(marks)],
+        "walls": [{"between": [f"l{k + 1}", f"l{k + 2}"]} for k in range(len(marks) - 1)],
+        "places": {"start": list(start), "target": list(target)},
+    }
+    world = world_from_data(data, data["name"])
+    avoid = [(*start, 1.5), (*target, 1.5)]
+    for k in range(free):
+        spot = _free_spot(rng, (1.0, 1.0), (width - 1.0, height - 1.0), 0.15, 0.9,
+                          world.static_segments, world.static_discs, avoid)
+        if spot is not None:
+            data["landmarks"].append({"id": f"l{len(marks) + k + 1}", "at": list(spot),
+                                      "radius": 0.15})
+            avoid.append((*spot, 1.5))
+    return world_from_data(data, data["name"])
 
 
 def semi_structured(seed: Seed, *, width: float = 18.0, height: float = 14.0,

@@ -62,7 +62,7 @@ def robot_config(robot: str, world: Mapping[str, Any], workload: Mapping[str, An
     ``casebase`` is the learning robot's SQLite file (default: memory, empty)."""
     trials = {"use": "trials", "robot": "ros2005", "timeout": TIMEOUT,
               "camera": {"fov": CAMERA_FOV}, **workload}
-    rescuing = {**trials, "navigation": {"rescue": "blocked"}}
+    rescuing = {**trials, "navigation": {**trials.get("navigation", {}), "rescue": "blocked"}}
     config: dict[str, Any] = {"seed": seed, "world": dict(world), "pilot": dict(PILOT),
                               "casebase": "memory"}
     if robot == "no-cbr":
@@ -114,12 +114,11 @@ def drive(config: Mapping[str, Any], out_dir: Path) -> Driven:
     return Driven(rows, paths, cases)
 
 
-def spread(values: Sequence[float]) -> dict[str, float]:
-    """Mean, standard deviation (n - 1; 0 for fewer than two), minimum and maximum; NaN for
-    none."""
+def spread(values: Sequence[float]) -> dict[str, float | None]:
+    """Mean, standard deviation (n - 1; 0 for fewer than two), minimum and maximum; None for
+    none (results.json stays strict JSON)."""
     if not len(values):
-        return {"mean": float("nan"), "std": float("nan"), "min": float("nan"),
-                "max": float("nan")}
+        return {"mean": None, "std": None, "min": None, "max": None}
     array = np.asarray(values, dtype=float)
     return {"mean": float(array.mean()),
             "std": float(array.std(ddof=1)) if len(array) > 1 else 0.0,

@@ -2,22 +2,24 @@
 
 002's stated goal is to "learn the different situations a robot encounters as it navigates
 through *several* environments" and reuse them in unknown ones. For each seed, the robots of
-:data:`~cbr_landmarks.experiments.common.ROBOTS` drive the same random trials through a sequence
-of seeded semi-structured worlds (002 Figure 1, :func:`cbr_world2d.generate.semi_structured`):
-first the *training* worlds, then *unseen* test worlds. The learning robot keeps one case base
-across the whole sequence (and goes on learning in the test worlds, as a robot would); the
-hand-made robot has 002's two cases; the others have none. The learning curves are success
-rate, time and distance against trials; the table compares the robots on the unseen worlds,
-with the difference between the learning robot and the robot without CBR over seeds.
+:data:`~cbr_landmarks.experiments.common.ROBOTS` drive from start to target through a sequence
+of seeded worlds like 002's scenarios (:func:`cbr_world2d.generate.scenario`: a V or a U open
+towards the start, or a wall, across the way, of drawn size, place and turn, with free landmarks
+around): first the *training* worlds, then *unseen* ones. The learning robot keeps one case base
+across the whole sequence (and goes on learning in the unseen worlds, as a robot would); the
+hand-made robot has 002's two cases; the others have none. The learning curves are success,
+time and distance against trials; the table compares the robots on the unseen worlds, with the
+difference between the learning robot and the robot without CBR over seeds.
 
-The worlds are 18 x 14 m with a landmark every 2 m, so the experiment uses the Pioneer 2 DX at
-its own speed (0.4 m/s; 002's robot at 5 cm/s would need many minutes per trial) with the
-potential field's default parameters, a camera that sees all round (002's Vision agent pans to
-keep landmarks in view), and a region of :data:`DEPTH` metres: the problem case holds the
-landmarks within it in front of the robot, a learned case those all round the place where the
-robot got into trouble, taken in the frame of its course. Cases are compared normalised by the
-problem's landmarks (``normalise: problem``): a case matches when it explains what the robot
-sees, whatever else it holds.
+The robots are those of the scenarios (002's robot, the same pilot), with a camera that sees all
+round (002's Vision agent pans to keep landmarks in view): a robot trapped in a dead end still
+sees the landmarks at its mouth, behind it. The detour solver and the retainer look all round
+(:data:`AROUND`); the retriever looks at the region in front, as 002's agent does, and measures
+angles against the robot's course (x toward the target), as the learned cases are taken, so a
+learned dead end matches where the target lies behind it again. Cases are compared with
+:data:`SIMILARITY`: normalised by the case's landmarks (a case matches when the view holds its
+layout, whatever else is in view) and with obstacles required both ways (a dead end matches
+only where its linear obstacles are seen).
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ import numpy as np
 
 from cbr_landmarks.experiments.common import (
     ROBOTS,
+    TIMEOUT,
     Progress,
     drive,
     robot_config,
@@ -40,43 +43,35 @@ from cbrcore.experiment import ExperimentResult, Size
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-DEPTH = 3.0
-"""How far, in metres, the region in front of the robot reaches in these worlds."""
-
 SIMILARITY = {"normalise": "case", "constraint": "both"}
 """How the learning experiment compares situations (see the module docstring)."""
 
-TIMEOUT = 120.0
-"""Seconds after which a trial has failed (the longest trip of the worlds, 22 m, takes about a
-minute at the Pioneer's speed)."""
+AROUND = {"angle": 360.0}
+"""The region of the detour solver and the retainer: all round the robot."""
 
 
 def learning_config(robot: str, world_seed: int, trials: int, seed: int,
                     casebase: Path | None) -> dict[str, Any]:
-    """The configuration of ``robot`` for ``trials`` random trials in the semi-structured world
-    of ``world_seed``."""
-    world = {"use": "world2d_generated", "kind": "semi_structured", "seed": world_seed}
-    workload = {"random": trials, "robot": "pioneer2dx", "timeout": TIMEOUT,
+    """The configuration of ``robot`` driving ``trials`` times from start to target in the
+    scenario world of ``world_seed``."""
+    world = {"use": "world2d_generated", "kind": "scenario", "seed": world_seed}
+    workload = {"trials": [{"start": "start", "target": "target"}], "repeat": trials,
                 "camera": {"fov": 360.0}}
     config = robot_config(robot, world, workload, seed, casebase)
-    config["pilot"] = "potential_field"
-    front = {"depth": DEPTH}
-    around = {"depth": DEPTH, "angle": 360.0}
-    if "retrieve" in config:
-        config["retrieve"] = {"use": "landmarks", "region": front, "similarity": SIMILARITY}
-    if config.get("solver") == "landmark_detour":
-        config["solver"] = {"use": "landmark_detour", "region": around}
-    if "retain" in config:
-        config["retain"] = [{"use": "landmark_trouble", "region": around,
+    if robot == "cbr-learning":
+        config["retrieve"] = {"use": "landmarks", "similarity": SIMILARITY, "course": True}
+        config["retain"] = [{"use": "landmark_trouble", "region": AROUND,
                              "similarity": SIMILARITY}]
+    if config.get("solver") == "landmark_detour":
+        config["solver"] = {"use": "landmark_detour", "region": AROUND}
     return config
 
 
 class Learning:
     """Success, time and distance of the four robots as they drive through worlds."""
 
-    SCALE: ClassVar[dict[str, tuple[int, int, int, int]]] = {"ci": (1, 2, 1, 4),
-                                                             "full": (3, 6, 3, 10)}
+    SCALE: ClassVar[dict[str, tuple[int, int, int, int]]] = {"ci": (1, 3, 3, 1),
+                                                             "full": (4, 9, 9, 2)}
     """Seeds, training worlds, unseen worlds and trials per world."""
 
     def __init__(self, options: object, ctx: Context) -> None:
@@ -92,7 +87,7 @@ class Learning:
         runs: dict[str, list[dict[str, Any]]] = {robot: [] for robot in ROBOTS}
         for k in range(seeds):
             seed = self.seed + k
-            worlds = [1000 * seed + w for w in range(train + test)]
+            worlds = [(train + test) * seed + w for w in range(train + test)]
             for robot in ROBOTS:
                 casebase = out_dir / f"seed{seed}" / f"{robot}.sqlite"
                 casebase.parent.mkdir(parents=True, exist_ok=True)
@@ -114,7 +109,7 @@ class Learning:
         gain = self._gain(runs, unseen)
         results = {"seeds": [self.seed + k for k in range(seeds)], "training_worlds": train,
                    "unseen_worlds": test, "trials_per_world": trials, "timeout": TIMEOUT,
-                   "region_depth": DEPTH, "summary": summary, "learning_over_no_cbr": gain,
+                   "summary": summary, "learning_over_no_cbr": gain,
                    "configs": {robot: learning_config(robot, 0, trials, self.seed,
                                                       Path("casebase.sqlite"))
                                for robot in ROBOTS},
@@ -124,24 +119,25 @@ class Learning:
             figures={"learning_curves": self._curves(runs, unseen)})
 
     @staticmethod
-    def _phase(record: dict[str, Any], start: int) -> dict[str, float]:
+    def _phase(record: dict[str, Any], start: int) -> dict[str, float | None]:
+        """Success rate, mean time and distance of the trials that reached the target (None
+        when none did), and mean time of all trials, from trial ``start`` on."""
         success = np.asarray(record["success"][start:], dtype=bool)
         time = np.asarray(record["time"][start:], dtype=float)
         distance = np.asarray(record["distance"][start:], dtype=float)
         return {"success": float(success.mean()),
-                "time": float(time[success].mean()) if success.any() else float("nan"),
-                "distance": float(distance[success].mean()) if success.any() else float("nan"),
+                "time": float(time[success].mean()) if success.any() else None,
+                "distance": float(distance[success].mean()) if success.any() else None,
                 "time_all": float(time.mean())}
 
     def _summary(self, records: list[dict[str, Any]], unseen: int) -> dict[str, Any]:
         phases = [self._phase(r, unseen) for r in records]
         training = [self._phase({k: v[:unseen] if isinstance(v, list) else v
                                  for k, v in r.items()}, 0) for r in records]
+        keys = ("success", "time", "distance", "time_all")
         return {
-            "unseen": {key: spread([p[key] for p in phases])
-                       for key in ("success", "time", "distance", "time_all")},
-            "training": {key: spread([p[key] for p in training])
-                         for key in ("success", "time", "distance", "time_all")},
+            "unseen": {k: spread([p[k] for p in phases if p[k] is not None]) for k in keys},
+            "training": {k: spread([p[k] for p in training if p[k] is not None]) for k in keys},
             "cases_at_end": spread([float(r["cases"][-1]) for r in records]),
         }
 
@@ -157,12 +153,15 @@ class Learning:
     @staticmethod
     def _table(summary: dict[str, Any], gain: dict[str, Any], seeds: int, train: int,
                test: int, trials: int) -> str:
-        def cell(stats: dict[str, float], scale: float = 1.0, digits: int = 1) -> str:
-            mean, std = stats["mean"] * scale, stats["std"] * scale
-            return "-" if np.isnan(mean) else f"{mean:.{digits}f} ± {std:.{digits}f}"
+        def cell(stats: dict[str, float | None], scale: float = 1.0, digits: int = 1) -> str:
+            mean, std = stats["mean"], stats["std"]
+            if mean is None or std is None:
+                return "-"
+            return f"{mean * scale:.{digits}f} ± {std * scale:.{digits}f}"
 
-        lines = [f"{seeds} seeds; each robot drives {trials} random trials in each of {train} "
-                 f"training worlds, then in {test} unseen worlds (timeout {TIMEOUT:.0f} s). "
+        lines = [f"{seeds} seeds; each robot drives {trials} trials from start to target in each "
+                 f"of {train} training worlds, then in {test} unseen worlds (timeout "
+                 f"{TIMEOUT:.0f} s). "
                  "Unseen worlds: mean ± standard deviation over seeds; time and distance of "
                  "the trials that reached their target, 'time, all' counting a failed trial "
                  "at the timeout.", "",
