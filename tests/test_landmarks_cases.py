@@ -13,6 +13,8 @@ from __future__ import annotations
 import copy
 import math
 import re
+import subprocess
+import sys
 from collections.abc import Sequence
 from importlib import resources
 from typing import Any
@@ -571,3 +573,16 @@ def test_each_hand_made_case_has_what_002_names(scenario: str, landmarks: set[st
     (same,) = [c for c in shipped if set(c.graph.ids) == landmarks]
     assert same.action == case.action
     assert pairs(same.graph) == obstacles
+
+
+# --- loading the plugin ----------------------------------------------------------------------
+
+
+def test_loading_the_plugin_imports_neither_numba_nor_matplotlib() -> None:
+    """The plugin loads at every start of cbr; its kernels compile where situations are first
+    matched and its pictures are drawn by the experiments, not then."""
+    code = ("import sys, cbr_landmarks; "
+            "print('numba' in sys.modules, 'matplotlib' in sys.modules)")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            timeout=120, check=True)
+    assert result.stdout.split() == ["False", "False"]

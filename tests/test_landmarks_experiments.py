@@ -2,8 +2,10 @@
 
 ``landmark-scenarios`` rebuilds 002's Figures 6 and 7: in scenario 2 the navigation system
 alone never reaches the target and with the hand-made cases it always does; in scenario 1 the CBR
-agent takes less time and a shorter path. The summary is checked against the per-trial files each
-robot's run wrote, and the paper's figures against 002 itself.
+agent takes less time and a shorter path. ``landmark-learning``: the robot learning from an
+empty case base ends with more successes and less time than the navigation system alone on
+worlds it has not seen. Each summary is checked against the per-trial files each robot's run
+wrote, and the paper's figures against 002 itself.
 """
 
 from __future__ import annotations
@@ -128,5 +130,50 @@ def test_the_table_and_figure_7_are_written(
 
 
 # --- landmark-learning -----------------------------------------------------------------------
-# Tests of the ``landmark-learning`` experiment go here (kept apart from the module fixture
-# above: that experiment is run by a fixture of its own).
+
+
+def strict_json(path: Path) -> Any:
+    def refuse(constant: str) -> None:
+        raise ValueError(f"{path.name} holds {constant}, which JSON does not have")
+
+    return json.loads(path.read_text(encoding="utf-8"), parse_constant=refuse)
+
+
+@pytest.fixture(scope="module")
+def learning(plugins: Plugins, tmp_path_factory: pytest.TempPathFactory
+             ) -> tuple[Path, dict[str, Any]]:
+    out = tmp_path_factory.mktemp("landmark-learning")
+    run_experiment("landmark-learning", plugins, size="ci", out_dir=out, seed=0)
+    return out, strict_json(out / "results.json")
+
+
+def test_learning_from_an_empty_case_base_beats_no_cbr_on_unseen_worlds(
+        learning: tuple[Path, dict[str, Any]]) -> None:
+    _, results = learning
+    unseen = {robot: s["unseen"] for robot, s in results["summary"].items()}
+    assert unseen["cbr-learning"]["success"]["mean"] > unseen["no-cbr"]["success"]["mean"]
+    assert unseen["cbr-learning"]["time_all"]["mean"] < unseen["no-cbr"]["time_all"]["mean"]
+    assert results["summary"]["cbr-learning"]["cases_at_end"]["mean"] >= 1
+    # the robots without a case base learn nothing
+    for robot in ("no-cbr", "detour"):
+        assert results["summary"][robot]["cases_at_end"]["mean"] == 0
+
+
+def test_the_learning_summary_is_what_the_robots_drove(
+        learning: tuple[Path, dict[str, Any]]) -> None:
+    out, results = learning
+    train, test = results["training_worlds"], results["unseen_worlds"]
+    trials = results["trials_per_world"]
+    for robot, curves in results["curves"].items():
+        (curve,) = curves  # one seed at ci size
+        assert len(curve["success"]) == (train + test) * trials
+        rows = [row for world in sorted((out / f"seed{curve['seed']}" / robot).iterdir(),
+                                        key=lambda p: int(p.name.removeprefix("world")))
+                for row in trial_rows(world / "trials.csv")]
+        assert [row["success"] == "True" for row in rows] == curve["success"]
+        unseen = rows[train * trials:]
+        success = mean([row["success"] == "True" for row in unseen])
+        assert results["summary"][robot]["unseen"]["success"]["mean"] == pytest.approx(success)
+        assert results["summary"][robot]["unseen"]["time_all"]["mean"] == pytest.approx(
+            mean([float(row["time"]) for row in unseen]))
+    assert (out / "learning_curves.png").is_file()

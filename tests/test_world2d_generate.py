@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from matplotlib.path import Path as Outline
 from scipy import ndimage
 
-from cbr_world2d.generate import office, semi_structured
+from cbr_world2d.generate import SCENES, office, scenario, semi_structured
 from cbr_world2d.world import World
 from cbr_world2d.worldfile import dump_world, free_point, world_from_data, world_yaml
 from cbrcore.errors import CbrError
@@ -24,6 +24,7 @@ ROBOT = 0.25
 
 GENERATORS: dict[str, Callable[[int], World]] = {
     "semi_structured": semi_structured,
+    "scenario": scenario,
     "office": office,
     "office_two_hallways": lambda seed: office(seed, hallways=2),
 }
@@ -60,6 +61,42 @@ def test_semi_structured_worlds_validate_and_round_trip(seed: int, width: float,
     assert len(world.points) <= points
     for name in ("start", "target"):
         assert free_point(world, *world.places[name], ROBOT) is None
+
+
+def _crosses(p: tuple[float, float], q: tuple[float, float], a: tuple[float, float],
+             b: tuple[float, float]) -> bool:
+    """Whether segments pq and ab cross (their ends on either side of each other's line)."""
+    def side(o: tuple[float, float], u: tuple[float, float], v: tuple[float, float]) -> float:
+        return (u[0] - o[0]) * (v[1] - o[1]) - (u[1] - o[1]) * (v[0] - o[0])
+
+    return side(p, q, a) * side(p, q, b) < 0 and side(a, b, p) * side(a, b, q) < 0
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**31))
+def test_scenario_worlds_put_their_shape_across_the_way(seed: int) -> None:
+    world = scenario(seed)
+    round_trips(world)
+    kind = SCENES[seed % len(SCENES)]
+    assert len(world.walls) == {"v": 2, "u": 3, "wall": 1}[kind]
+    start, target = world.places["start"], world.places["target"]
+    for name in ("start", "target"):
+        assert free_point(world, *world.places[name], ROBOT) is None
+    # the straight way from start to target runs into the shape: through the wall, or into
+    # the dead end, whose far side (the V's arms and apex, the U's bottom) it crosses
+    joined = {i for w in world.walls for i in (w.between or ())}
+    way = np.subtract(target, start)
+    def gap(x: float, y: float) -> float:
+        t = min(max(float(np.dot((x - start[0], y - start[1]), way) / np.dot(way, way)), 0.0),
+                1.0)
+        return math.dist((x, y), (start[0] + t * way[0], start[1] + t * way[1]))
+
+    assert any(_crosses(start, target, w.a, w.b) for w in world.walls) or any(
+        gap(m.x, m.y) <= m.radius for m in world.landmarks if m.id in joined)
+    # the free landmarks stand clear of the places
+    for mark in world.landmarks:
+        if mark.id not in joined:
+            assert all(math.dist((mark.x, mark.y), p) >= 1.5 for p in (start, target))
 
 
 @settings(max_examples=40, deadline=None)

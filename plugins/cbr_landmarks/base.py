@@ -11,14 +11,17 @@ process sharing the case base committed.
 from __future__ import annotations
 
 from collections.abc import Iterable
+from typing import TYPE_CHECKING
 
 import attrs
 
 from cbr_landmarks.case import SITUATION, LandmarkCase
-from cbr_landmarks.index import SituationIndex
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.stash import StashKey
+
+if TYPE_CHECKING:
+    from cbr_landmarks.index import SituationIndex
 
 
 def _source(store: CaseStore) -> str:
@@ -44,6 +47,10 @@ class SituationBase:
 
     @property
     def index(self) -> SituationIndex:
+        """The retrieval index of the cases, built on first use after a change."""
+        # compiled: loaded when a run first matches situations, not with the plugin
+        from cbr_landmarks.index import SituationIndex
+
         if self._index is None:
             self._index = SituationIndex.build([c.graph for c in self.cases])
         return self._index

@@ -41,6 +41,7 @@ import numba
 import numpy as np
 
 from cbr_landmarks.graph import MAX_LANDMARKS, LandmarkGraph
+from cbr_landmarks.kernels import height, match_rows
 from cbr_landmarks.similarity import (
     CONSTRAINT,
     NORMALISE,
@@ -48,8 +49,6 @@ from cbr_landmarks.similarity import (
     SimilarityOptions,
     check_threshold,
     flattened,
-    height,
-    match_rows,
     normaliser,
 )
 from cbr_world2d.fuzzy import TWO_PI
@@ -105,8 +104,9 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
     excess = np.zeros(keys[1] - base)
     # the landmarks the current i met over sigma (repeated when met more than once) and the
     # similarities, and the landmarks the current reference has met
-    met = np.empty(pairs, dtype=np.int64)
-    value = np.empty(pairs)
+    # (a pair may be met at each of the three turns; the gathering writes one past the end)
+    met = np.empty(3 * pairs + 1, dtype=np.int64)
+    value = np.empty(3 * pairs + 1)
     touched = np.empty(keys[1] - base, dtype=np.int64)
     buffer = np.empty(widest)
     found = 0
@@ -211,7 +211,10 @@ def prefilter_level(threshold: float) -> float:
     The lower the level, the more pairs are compared (their cuts are wider) but the tighter
     the bound on a reference pair (a pair not compared adds at most ``(1 + level) / 2``), so
     the fewer reference pairs the branch and bound is left with; the level must stay under
-    ``2 threshold - 1`` for the bound to rule any out. 0.2 under it measured best at 0.8.
+    ``2 threshold - 1`` for the bound to rule any out. 0.2 under it: at 0.8, level 0.4
+    compares about half the pairs level 0 does and leaves about three times the reference
+    pairs, and searched faster on the benchmark's situations (benchmarks/landmarks_retrieval.py),
+    though not by much.
     """
     return max(0.0, 2.0 * threshold - 1.2)
 
@@ -367,7 +370,8 @@ class SituationIndex:
                         float(threshold), similarity, reference, mapping, nodes)
         keep = np.flatnonzero(similarity >= 0.0)
         keep = keep[np.lexsort((rows[keep], -similarity[keep]))][:limit]
-        return [Found(int(rows[k]), Matching(float(similarity[k]), (int(reference[k, 0]),
-                                                                    int(reference[k, 1])),
-                                             tuple(mapping[k].tolist()), int(nodes[k])))
-                for k in keep.tolist()]
+        # whole columns to Python at once: a query may find hundreds of cases
+        return [Found(row, Matching(value, (ra, rb), tuple(matched), expanded))
+                for row, value, (ra, rb), matched, expanded in zip(
+                    rows[keep].tolist(), similarity[keep].tolist(), reference[keep].tolist(),
+                    mapping[keep].tolist(), nodes[keep].tolist(), strict=True)]

@@ -1,7 +1,7 @@
 """``cbr sim``: look at a 2D world, run one trial in it, or run a batch of random trials.
 
 ``WORLD`` is a world file (:func:`cbr_world2d.worldfile.load_world`) or a generated world,
-``generated:semi_structured:SEED`` or ``generated:office:SEED``. The simulator, numba kernels
+``generated:KIND:SEED`` with ``KIND`` one of :data:`GENERATORS`. The simulator, numba kernels
 and matplotlib are imported inside the commands, so that loading the plugin at every start of
 ``cbr`` stays cheap. Bad input (a broken world file, a start in an obstacle, a target outside
 the world, an unknown pilot) is a usage or :class:`~cbrcore.errors.CbrError` error: one message
@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from cbr_world2d.simulation import TrialResult
     from cbr_world2d.world import Point, World
 
-GENERATORS = ("semi_structured", "office")
+GENERATORS = ("semi_structured", "scenario", "office")
 """The world generators of :mod:`cbr_world2d.generate` that ``generated:KIND:SEED`` names."""
 
 _GENERATED = re.compile(r"generated:([a-z_]+):([0-9]{1,19})")
@@ -46,7 +46,8 @@ class Rescue(enum.StrEnum):
 
 WorldArgument = Annotated[str, typer.Argument(
     metavar="WORLD", show_default=False,
-    help="A world file (YAML), or generated:semi_structured:SEED or generated:office:SEED.")]
+    help="A world file (YAML), or generated:KIND:SEED with KIND semi_structured, scenario or "
+    "office.")]
 PlotOption = Annotated[Path | None, typer.Option(
     "--plot", show_default=False,
     help="Draw the picture to this file (PNG, or another format matplotlib knows by the "

@@ -105,7 +105,7 @@ class Learning:
                     progress(done, total)
                 runs[robot].append(record)
         unseen = train * trials
-        summary = {robot: self._summary(runs[robot], unseen) for robot in ROBOTS}
+        summary = {robot: self._summary(runs[robot], unseen, trials) for robot in ROBOTS}
         gain = self._gain(runs, unseen)
         results = {"seeds": [self.seed + k for k in range(seeds)], "training_worlds": train,
                    "unseen_worlds": test, "trials_per_world": trials, "timeout": TIMEOUT,
@@ -130,16 +130,25 @@ class Learning:
                 "distance": float(distance[success].mean()) if success.any() else None,
                 "time_all": float(time.mean())}
 
-    def _summary(self, records: list[dict[str, Any]], unseen: int) -> dict[str, Any]:
-        phases = [self._phase(r, unseen) for r in records]
-        training = [self._phase({k: v[:unseen] if isinstance(v, list) else v
-                                 for k, v in r.items()}, 0) for r in records]
-        keys = ("success", "time", "distance", "time_all")
-        return {
-            "unseen": {k: spread([p[k] for p in phases if p[k] is not None]) for k in keys},
-            "training": {k: spread([p[k] for p in training if p[k] is not None]) for k in keys},
-            "cases_at_end": spread([float(r["cases"][-1]) for r in records]),
+    def _summary(self, records: list[dict[str, Any]], unseen: int, trials: int
+                 ) -> dict[str, Any]:
+        """Per phase, the spread over seeds: the unseen worlds, their first trials alone (what
+        the robot brought from other worlds, before it drove this one) and the training."""
+        def part(record: dict[str, Any], rows: slice) -> dict[str, Any]:
+            return {k: v[rows] if isinstance(v, list) else v for k, v in record.items()}
+
+        phases = {
+            "unseen": [self._phase(r, unseen) for r in records],
+            "unseen_first_trials": [self._phase(part(r, slice(unseen, None, trials)), 0)
+                                    for r in records],
+            "training": [self._phase(part(r, slice(0, unseen)), 0) for r in records],
         }
+        keys = ("success", "time", "distance", "time_all")
+        summary: dict[str, Any] = {
+            name: {k: spread([p[k] for p in phase if p[k] is not None]) for k in keys}
+            for name, phase in phases.items()}
+        summary["cases_at_end"] = spread([float(r["cases"][-1]) for r in records])
+        return summary
 
     def _gain(self, runs: dict[str, list[dict[str, Any]]], unseen: int) -> dict[str, Any]:
         pairs = list(zip(runs["cbr-learning"], runs["no-cbr"], strict=True))
@@ -172,6 +181,12 @@ class Learning:
             lines.append(f"| {robot} | {cell(u['success'], 100.0)} | {cell(u['time'])} | "
                          f"{cell(u['distance'], digits=2)} | {cell(u['time_all'])} | "
                          f"{cell(s['cases_at_end'], digits=0)} |")
+        lines += ["", "The first trial in each unseen world alone (what a robot brings from the "
+                  "worlds it has driven before):", "",
+                  "| robot | success (%) | time, all (s) |", "|---|---|---|"]
+        for robot, s in summary.items():
+            f = s["unseen_first_trials"]
+            lines.append(f"| {robot} | {cell(f['success'], 100.0)} | {cell(f['time_all'])} |")
         lines += ["", "Learning from an empty case base against no CBR, on the unseen worlds: "
                   f"success {cell(gain['success'], 100.0)} points, time (all trials) "
                   f"{cell(gain['time_all'])} s (mean ± standard deviation over seeds)."]
