@@ -68,5 +68,5 @@ def test_a_case_base_opened_for_reading_ignores_initial(tmp_path: Path,
 def test_an_initial_file_that_is_not_a_case_base_is_an_error_naming_it(tmp_path: Path) -> None:
     bad = tmp_path / "bad.yaml"
     bad.write_text("format: something else\n", encoding="utf-8")
-    with pytest.raises(CaseBaseError, match="bad.yaml"):
+    with pytest.raises(CaseBaseError, match=r"bad\.yaml"):
         memory_store(MemoryOptions(initial=bad), ctx(tmp_path))
