@@ -10,7 +10,7 @@
   into trouble (the progress monitor found it blocked or oscillating) and was got out by a
   diverting target becomes a negative case whose action is that target; a reused case is
   credited when its target was reached and blamed when it was not, or when trouble came within
-  ``window`` seconds after; optionally a situation that needed nothing becomes a positive case.
+  ``window`` seconds after.
 - :class:`UnhelpfulSituations`: forgets the cases that were reused and did not help.
 """
 
@@ -38,7 +38,7 @@ _UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0)
 
 
 @attrs.frozen(eq=False)
-class Found:
+class MatchedView:
     """The retriever's payload: the problem case as seen and the matching of each match, in
     the order of the matches."""
 
@@ -90,10 +90,10 @@ class LandmarkRetriever:
                 "matched": float(sum(j >= 0 for j in m.mapping)), "nodes": float(m.nodes),
                 "negative": float(case.sign == "negative")}))
         return Retrieval(tuple(matches),
-                         payload=Found(view, tuple(h.matching for h in found)))
+                         payload=MatchedView(view, tuple(h.matching for h in found)))
 
 
-def carried_over(case: LandmarkCase, matching: Matching, found: Found
+def carried_over(case: LandmarkCase, matching: Matching, found: MatchedView
                  ) -> tuple[float, float] | None:
     """The world point of ``case``'s action laid out on the current landmarks it was matched
     with, or None when its anchor or base has no match."""
@@ -128,7 +128,7 @@ class LandmarkReuser:
     def cbr_reuse(self, problem: Situation, retrieval: Retrieval) -> Solution | None:
         if problem.trial != self._trial:
             self._trial, self._used = problem.trial, set()
-        found: Found = retrieval.payload
+        found: MatchedView = retrieval.payload
         for match, matching in zip(retrieval.matches, found.matchings, strict=True):
             case = LandmarkCase.from_case(match.case)
             case_id = case.id or 0
@@ -157,14 +157,11 @@ class RetainOptions:
     similarity: SimilarityOptions = option(factory=SimilarityOptions,
                                            doc="How a new situation is compared with the stored.")
     duplicate: float = option(
-        0.9, "A new situation at least this similar to a stored case of the same sign is not "
-        "stored again.", validator=_UNIT)
+        0.9, "A new situation at least this similar to a stored negative case is not stored "
+        "again.", validator=_UNIT)
     window: float = option(
         30.0, "Seconds after a reused case's diverting target was reached within which trouble "
-        "blames that case; and how long a situation that needed nothing must stay trouble-free "
-        "to become a positive case.", validator=attrs.validators.gt(0.0))
-    positive: bool = option(False, "Also learn positive cases: situations in view when the "
-                                   "robot consulted, did nothing and met no trouble.")
+        "blames that case.", validator=attrs.validators.gt(0.0))
     course: bool = option(
         True, "Take a new case in the frame of the robot's course (x toward its target) "
         "rather than of its heading when it got into trouble.")
@@ -190,24 +187,17 @@ class _Reused:
     cases: tuple[int, ...]
 
 
-@attrs.define
-class _Calm:
-    trial: int
-    t: float
-    graph: LandmarkGraph
-
-
 class TroubleRetainer:
     """Learn negative situations from trouble, and how reused cases fared."""
 
     def __init__(self, options: RetainOptions, ctx: Context) -> None:
         self.options = options
         self._reused: _Reused | None = None
-        self._calm: _Calm | None = None
 
-    def _known(self, base: SituationBase, graph: LandmarkGraph, sign: str) -> bool:
+    def _known(self, base: SituationBase, graph: LandmarkGraph) -> bool:
+        """Whether a negative case at least ``duplicate`` similar to ``graph`` is stored."""
         o = self.options
-        return any(base.cases[hit.row].sign == sign
+        return any(base.cases[hit.row].sign == "negative"
                    for hit in base.index.search(graph, o.duplicate, o.similarity))
 
     def _count(self, base: SituationBase, ids: tuple[int, ...], helped: bool) -> None:
@@ -230,23 +220,14 @@ class TroubleRetainer:
                 self._count(base, reused.cases, helped=False)
             elif not trouble:
                 self._reused = reused
-        calm, self._calm = self._calm, None
-        if calm is not None and calm.trial == problem.trial and not trouble:
-            if problem.t - calm.t > o.window:
-                if not self._known(base, calm.graph, "positive"):
-                    base.add(LandmarkCase(calm.graph, None, "positive"))
-            else:
-                self._calm = calm
         if solution.cases:
             self._credit(base, solution, report, problem)
             return
-        view = problem_view(problem, o.region, course=o.course)
-        if view is None:
+        if not (trouble and isinstance(solution.value, Divert) and outcome.success):
             return
-        if trouble and isinstance(solution.value, Divert) and outcome.success:
+        view = problem_view(problem, o.region, course=o.course)
+        if view is not None:
             self._learn(base, view, solution.value)
-        elif o.positive and not trouble and solution.value is None:
-            self._calm = _Calm(problem.trial, problem.t, view.graph)
 
     def _credit(self, base: SituationBase, solution: Solution, report: ActionReport | None,
                 problem: Situation) -> None:
@@ -268,7 +249,7 @@ class TroubleRetainer:
             if len(reached) >= 2:
                 view = sub_view(view, reached)
         graph = view.graph
-        if self._known(base, graph, "negative"):
+        if self._known(base, graph):
             return
         world = view.world_points()
         places = {landmark: world[i] for i, landmark in enumerate(graph.ids)}
