@@ -41,7 +41,7 @@ import numba
 import numpy as np
 
 from cbr_landmarks.graph import MAX_LANDMARKS, LandmarkGraph
-from cbr_landmarks.kernels import height, match_rows
+from cbr_landmarks.kernels import coded_normaliser, height, match_rows
 from cbr_landmarks.similarity import (
     CONSTRAINT,
     NORMALISE,
@@ -173,15 +173,9 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
         for u in range(ntouched):
             k = touched[u]
             nb = counts[key_row[base + k]]
-            if normalise == 1:
-                n = nb - 1
-            elif normalise == 2:
-                n = na - 1
-            else:
-                n = max(na, nb) - 1
             bound = sigma * (min(na, nb) - 1) + excess[k]
             excess[k] = 0.0
-            if bound < threshold * n - SLACK:
+            if bound < threshold * coded_normaliser(na, nb, normalise) - SLACK:
                 continue
             if found == out.shape[0]:
                 grown = np.empty((2 * found, 3), dtype=np.int64)

@@ -21,6 +21,17 @@ may differ from it in the last bits, and must not prune the optimum for that."""
 
 
 @numba.njit(cache=True, inline="always")
+def coded_normaliser(na: int, nb: int, normalise: int) -> int:
+    """:func:`cbr_landmarks.similarity.normaliser` with ``normalise`` an index into
+    :data:`~cbr_landmarks.similarity.NORMALISE`."""
+    if normalise == 1:
+        return nb - 1
+    if normalise == 2:
+        return na - 1
+    return max(na, nb) - 1
+
+
+@numba.njit(cache=True, inline="always")
 def height(a1: float, a2: float, a3: float, b1: float, b2: float, b3: float) -> float:
     """:func:`cbr_world2d.fuzzy.overlap` of two triangles given by their corners, the same
     arithmetic written with selects instead of branches so that loops over many pairs run on
@@ -114,12 +125,7 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
     Returns ``(similarity, ra, rb, nodes)`` and writes the matching into ``mapping[:na]``;
     the similarity is -1 (and ``mapping`` untouched) when no matching reaches ``threshold``.
     """
-    if normalise == 1:
-        n = nb - 1
-    elif normalise == 2:
-        n = na - 1
-    else:
-        n = max(na, nb) - 1
+    n = coded_normaliser(na, nb, normalise)
     target = threshold * n
     # every matched landmark scores at most 1 and at most min(na, nb) - 1 are matched
     if min(na, nb) - 1 < target - EPSILON:
