@@ -8,11 +8,12 @@ file appears whole or not at all (:mod:`cbrcore.files`).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal, Protocol, runtime_checkable
 
 import attrs
+import numpy as np
 
 from cbrcore import files
 from cbrcore.context import Context
@@ -42,6 +43,18 @@ class Experiment(Protocol):
         """Run at ``size`` (``ci``: minutes at most, for the test suite; ``full``: the paper's
         scale), calling ``progress(done, total)`` as work completes."""
         ...
+
+
+def spread(values: Sequence[float]) -> dict[str, float | None]:
+    """Mean, standard deviation (n - 1; 0 for one value), minimum and maximum of ``values``,
+    as an experiment reports a figure over seeds; None for no values (results.json stays
+    strict JSON)."""
+    if not len(values):
+        return {"mean": None, "std": None, "min": None, "max": None}
+    array = np.asarray(values, dtype=float)
+    return {"mean": float(array.mean()),
+            "std": float(array.std(ddof=1)) if len(array) > 1 else 0.0,
+            "min": float(array.min()), "max": float(array.max())}
 
 
 def run_experiment(name: str, plugins: Plugins, *, size: Size, out_dir: Path, seed: int = 0,

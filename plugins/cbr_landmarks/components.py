@@ -39,10 +39,11 @@ _UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0)
 
 @attrs.frozen(eq=False)
 class MatchedView:
-    """The retriever's payload: the problem case as seen and the matching of each match, in
-    the order of the matches."""
+    """The retriever's payload: the problem case as seen, and the stored case and its matching
+    of each match, in the order of the matches."""
 
     view: View
+    cases: tuple[LandmarkCase, ...]
     matchings: tuple[Matching, ...]
 
 
@@ -81,16 +82,18 @@ class LandmarkRetriever:
         found = base.index.search(view.graph, o.threshold, o.similarity, limit=o.candidates)
         if not found:
             return Retrieval((), reason=f"no situation with similarity >= {o.threshold}")
-        matches = []
+        matches, cases = [], []
         for hit in found:
             case = base.cases[hit.row]
+            cases.append(case)
             m = hit.matching
             matches.append(Match(case.to_case(), m.similarity, {
                 "similarity": m.similarity, "landmarks": float(case.graph.n),
                 "matched": float(sum(j >= 0 for j in m.mapping)), "nodes": float(m.nodes),
                 "negative": float(case.sign == "negative")}))
         return Retrieval(tuple(matches),
-                         payload=MatchedView(view, tuple(h.matching for h in found)))
+                         payload=MatchedView(view, tuple(cases),
+                                             tuple(h.matching for h in found)))
 
 
 def carried_over(case: LandmarkCase, matching: Matching, found: MatchedView
@@ -129,8 +132,8 @@ class LandmarkReuser:
         if problem.trial != self._trial:
             self._trial, self._used = problem.trial, set()
         found: MatchedView = retrieval.payload
-        for match, matching in zip(retrieval.matches, found.matchings, strict=True):
-            case = LandmarkCase.from_case(match.case)
+        for match, case, matching in zip(retrieval.matches, found.cases, found.matchings,
+                                         strict=True):
             case_id = case.id or 0
             detail: dict[str, Any] = {"case": case_id, "similarity": match.similarity}
             if case.sign == "positive":

@@ -51,7 +51,7 @@ from cbr_pathcases.forgetting import CAPACITY_STRATEGIES
 from cbrcore.config import parse_config
 from cbrcore.context import Context
 from cbrcore.engine import Engine
-from cbrcore.experiment import ExperimentResult, Size
+from cbrcore.experiment import ExperimentResult, Size, spread
 from cbrcore.plugins import current
 
 if TYPE_CHECKING:
@@ -152,14 +152,6 @@ def pair(start: tuple[int, int], goal: tuple[int, int]) -> str:
     """The names of the places a trip joins, in alphabetical order: ``"AC"`` both ways."""
     names = {cell: name for name, cell in PLACES.items()}
     return "".join(sorted(names[start] + names[goal]))
-
-
-def spread(values: list[float]) -> dict[str, float]:
-    """Mean, standard deviation (n - 1; 0 for one value), minimum and maximum."""
-    array = np.asarray(values, dtype=float)
-    return {"mean": float(array.mean()),
-            "std": float(array.std(ddof=1)) if len(array) > 1 else 0.0,
-            "min": float(array.min()), "max": float(array.max())}
 
 
 def moving_mean(values: np.ndarray, window: int) -> np.ndarray:

@@ -27,7 +27,7 @@ half-plane in front. They differ in who diverts a blocked robot and in what the 
 from __future__ import annotations
 
 import csv
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -113,14 +113,3 @@ def drive(config: Mapping[str, Any], out_dir: Path) -> Driven:
         with np.load(out_dir / "trajectories.npz") as saved:
             paths = {name: saved[name] for name in saved.files}
     return Driven(rows, paths, cases)
-
-
-def spread(values: Sequence[float]) -> dict[str, float | None]:
-    """Mean, standard deviation (n - 1; 0 for fewer than two), minimum and maximum; None for
-    none (results.json stays strict JSON)."""
-    if not len(values):
-        return {"mean": None, "std": None, "min": None, "max": None}
-    array = np.asarray(values, dtype=float)
-    return {"mean": float(array.mean()),
-            "std": float(array.std(ddof=1)) if len(array) > 1 else 0.0,
-            "min": float(array.min()), "max": float(array.max())}

@@ -35,10 +35,9 @@ from cbr_landmarks.experiments.common import (
     Progress,
     drive,
     robot_config,
-    spread,
 )
 from cbrcore.context import Context
-from cbrcore.experiment import ExperimentResult, Size
+from cbrcore.experiment import ExperimentResult, Size, spread
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
