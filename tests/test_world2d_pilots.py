@@ -705,9 +705,9 @@ def test_fast_is_the_pioneer_turn_limit_and_the_cruising_speed_under_its_top_spe
 @pytest.mark.parametrize(("data", "message"), [
     ("stop", "expected a list of behaviors"),
     ([["stop", "high"]], "item 0: expected \\[\\[name, arg, ...\\], priority\\]"),
-    ([[["stop"], "high"], [["followWall", "curr-head"], "med"]],
-     "item 1: unknown behavior 'followWall'; known: avoidCollision, avoidObstacle, "
-     "goStraight, goToPos, moveForward, stop"),
+    ([[["stop"], "high"], [["fly", "curr-head"], "med"]],
+     "item 1: unknown behavior 'fly'; known: avoidCollision, avoidObstacle, enterDoorway, "
+     "followWall, goStraight, goToPos, localize, moveForward, slowAvoid, stop, turnTo"),
     ([[["goToPos", "curr-goal", "slow"], "high"]],
      "item 0: goToPos takes 3 argument\\(s\\) \\(goToPos position speed accuracy\\), got 2"),
     ([[["moveForward", "warp"], "high"]], "item 0: moveForward velocity: unknown speed 'warp'"),

@@ -22,7 +22,8 @@ system without CBR: the Rescuer recovers the robot from blocked situations, whic
 single linear obstacle, 002's scenario 1, but not out of a dead end, scenario 2) or ``"stuck"``
 (blocked or oscillating). It acts when the monitor reports, and never while a diverting target
 is already set. The monitor starts afresh whenever the target changes, since its progress is
-measured toward the target.
+measured toward the target; :meth:`Navigator.retarget` changes the original target mid-run,
+leaving the pilot as it is.
 """
 
 from __future__ import annotations
@@ -124,6 +125,14 @@ class Navigator:
         self._pending.clear()
         self._repeat_at = 0.0
         self._last = (0.0, 0.0, 0.0)
+
+    def retarget(self, target: Point) -> None:
+        """Send the robot to a new original ``target`` mid-run (a delivery robot's goal
+        changes): any diverting target is dropped and the monitor starts afresh, since its
+        progress is measured toward the target, but the pilot keeps what it has latched (a
+        heading, a wall it follows), unlike :meth:`start`."""
+        self.rescuer.set_target(target)
+        self.monitor.reset()
 
     def divert(self, point: Point, t: float | None = None) -> None:
         """Head for ``point`` until it is reached or given up (002: the CBR agent asks the

@@ -185,7 +185,8 @@ class Simulation:
     :attr:`observation` holds what the robot senses at its start; each :meth:`step` moves the
     robot and returns the new observation. :attr:`events` are the events of the last step;
     :attr:`reached` says whether the robot is within ``tolerance`` of the final ``target``
-    (whatever diverting target the navigator is heading for).
+    (whatever diverting target the navigator is heading for); :meth:`retarget` changes that
+    target mid-run.
     """
 
     def __init__(self, world: World, spec: RobotSpec, sensors: Sensors, navigator: Navigator,
@@ -231,6 +232,15 @@ class Simulation:
         view = self._buffer[:self._rows]
         view.flags.writeable = False
         return view
+
+    def retarget(self, point: Point) -> None:
+        """Make ``point`` the final target from now on (a delivery robot's goal changes): the
+        navigator drops any diverting target and restarts its progress monitor but not the
+        pilot (:meth:`Navigator.retarget`), and :attr:`reached` is judged afresh against
+        ``point``."""
+        self.target = (float(point[0]), float(point[1]))
+        self.navigator.retarget(self.target)
+        self.reached = self._within()
 
     def _within(self) -> bool:
         return math.hypot(self.state.x - self.target[0],

@@ -1,43 +1,51 @@
 """Pilots: what turns observations and a target into motion commands.
 
 :mod:`.base` holds the :class:`Pilot` protocol, :mod:`.potential_field` the potential-field
-pilot of 002, :mod:`.behaviors` the behavior-merging controller of 004, :mod:`.monitor` the
-progress monitor and :mod:`.rescuer` the Rescuer that :class:`cbr_world2d.navigator.Navigator`
-combines with a pilot; :mod:`.kernels` holds the numba kernels of the potential field and the
-behaviors, imported when a pilot is built, not here. The two factories below build the
-registered pilots (``potential_field`` and ``behaviors``) from their options.
+pilot of 002; the behavior-merging controller of 004 is :mod:`.behaviors` (the behaviors known
+by name, behavior sets, the merge and the pilot) over :mod:`.primitives` (the twelve primitive
+behaviors of 004 Table 1) and :mod:`.arguments` (their arguments as plain data, the named
+levels); :mod:`.monitor` holds the progress monitor and :mod:`.rescuer` the Rescuer that
+:class:`cbr_world2d.navigator.Navigator` combines with a pilot; :mod:`.kernels` holds the numba
+kernels of the potential field and the behaviors, imported when a pilot is built, not here.
+The two factories below build the registered pilots (``potential_field`` and ``behaviors``)
+from their options.
 """
 
 from __future__ import annotations
 
+from cbr_world2d.pilots.arguments import (
+    PRIORITIES,
+    SPEEDS,
+    TOP_SPEED,
+    TOP_TURN_RATE,
+    TURN_RATES,
+    register_argument,
+)
 from cbr_world2d.pilots.base import PILOT, Command, Pilot, Point, bearing_error, wrap_angle
 from cbr_world2d.pilots.behaviors import (
     BEHAVIORS,
-    PRIORITIES,
-    SPEEDS,
-    TURN_RATES,
     ActiveBehavior,
-    Behavior,
     BehaviorPilot,
     BehaviorPilotOptions,
-    Proposal,
+    BehaviorType,
+    lookup_behavior,
     merge,
     parse_behavior_set,
-    register_argument,
     register_behavior,
 )
 from cbr_world2d.pilots.monitor import MonitorOptions, ProgressMonitor, Status
 from cbr_world2d.pilots.potential_field import PotentialField, PotentialFieldOptions
+from cbr_world2d.pilots.primitives import Behavior, Proposal
 from cbr_world2d.pilots.rescuer import Rescuer, RescuerOptions, Restored
 from cbrcore.context import Context
 
 __all__ = [
-    "BEHAVIORS", "PILOT", "PRIORITIES", "SPEEDS", "TURN_RATES", "ActiveBehavior", "Behavior",
-    "BehaviorPilot", "BehaviorPilotOptions", "Command", "MonitorOptions", "Pilot", "Point",
-    "PotentialField", "PotentialFieldOptions", "ProgressMonitor", "Proposal", "Rescuer",
-    "RescuerOptions", "Restored", "Status", "bearing_error", "behavior_pilot", "merge",
-    "parse_behavior_set", "potential_field_pilot", "register_argument", "register_behavior",
-    "wrap_angle",
+    "BEHAVIORS", "PILOT", "PRIORITIES", "SPEEDS", "TOP_SPEED", "TOP_TURN_RATE", "TURN_RATES",
+    "ActiveBehavior", "Behavior", "BehaviorPilot", "BehaviorPilotOptions", "BehaviorType",
+    "Command", "MonitorOptions", "Pilot", "Point", "PotentialField", "PotentialFieldOptions",
+    "ProgressMonitor", "Proposal", "Rescuer", "RescuerOptions", "Restored", "Status",
+    "bearing_error", "behavior_pilot", "lookup_behavior", "merge", "parse_behavior_set",
+    "potential_field_pilot", "register_argument", "register_behavior", "wrap_angle",
 ]
 
 

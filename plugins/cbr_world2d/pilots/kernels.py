@@ -1,5 +1,5 @@
-"""The pilots' numba kernels: the potential field of :mod:`.potential_field` and the sonar sector
-the avoiding behaviors of :mod:`.behaviors` read.
+"""The pilots' numba kernels: the potential field of :mod:`.potential_field`, and the sonar
+sector ahead and the readings beside the robot that the behaviors of :mod:`.primitives` read.
 
 They live apart from the pilots' options, which the plugin registers at every start of ``cbr``:
 this module loads numba, and only a pilot that is built to drive imports it.
@@ -80,3 +80,19 @@ def sector(ranges: np.ndarray, angles: np.ndarray, arc: float,
         if d < distance:
             weight += (distance - d) * math.sin(a)
     return nearest, (-1.0 if weight > 0.0 else 1.0)
+
+
+@numba.njit(cache=True)
+def sides(ranges: np.ndarray, angles: np.ndarray, arc: float) -> tuple[float, float]:
+    """``(left, right)``: the shortest reading among the beams within ``arc`` of straight left
+    (+90 degrees from the heading, ``angles`` relative to it) and of straight right (-90); inf
+    on a side with no beam in its arc."""
+    left = right = math.inf
+    half = 0.5 * math.pi
+    for i in range(ranges.shape[0]):
+        a = (angles[i] + math.pi) % (2.0 * math.pi) - math.pi
+        if abs(a - half) <= arc + 1e-9:
+            left = min(left, ranges[i])
+        elif abs(a + half) <= arc + 1e-9:
+            right = min(right, ranges[i])
+    return left, right

@@ -1,0 +1,1083 @@
+"""RUPART's cases (004): behavior cases, plan cases, meta-plans and adaptation strategies, in one
+case memory, written in 004's s-expression form or in YAML.
+
+The kinds (``Case.kind`` in the case base): :data:`BEHAVIOR`, :data:`PLAN`, :data:`META` (a
+meta-plan: a generic behavior case retrieved when nothing matches well) and :data:`STRATEGY`.
+A behavior case, plan case or meta-plan stores its index (:class:`~cbr_behaviors.index.Index`,
+Figure 5) as ``problem`` and its content as ``solution``; ``meta`` holds ``name`` and
+``origin`` (``hand-made``, ``adapted``, ...) beside the quality counters the learn steps keep
+(:mod:`cbr_behaviors.quality`). A strategy stores what it is indexed by (the kind of case it
+adapts and the per-feature distances it answers) as ``problem``, its changes as ``solution``.
+
+A case file is a sequence of forms. In the s-expression form (``.sexp``)::
+
+    ; 004 Figure 4 (a): an open area with few obstacles
+    (behavior-case open-area
+      (plan-index (sonar 3.0) (behaviors goToPos avoidCollision))
+      (((goStraight mod-fast curr-head) med)
+       ((avoidObstacle 150 moderate) med)
+       ((goToPos curr-goal mod-fast 100) high)
+       ((avoidCollision 50 mod-fast) high)))
+
+    (meta-plan move-away (plan-index (behav-conf 0.1)) (((moveForward slow) high)))
+
+    (plan-case west-to-east
+      (plan-index (location 0.75 5.0) (task-loc 15.25 5.0))
+      (route hall_west hall_east)
+      (localize))
+
+    (alter-strategy slow-when-closer
+      (adapts behavior) (feature sonar) (sense closer) (min 0.05)
+      (change (moveForward goStraight goToPos) speed -1.0))
+
+    (merge-strategy merge-mismatch (adapts behavior) (high 0.6) (low 0.2))
+
+``(plan-index ...)`` holds one ``(FEATURE VALUE ...)`` clause per specified feature (Figure 5's
+names; a sonar of one number stands for all 16 beams); the behavior list holds Figure 4's
+items ``((NAME ARG ...) PRIORITY)`` (centimetres, symbolic values as
+:mod:`cbr_world2d.pilots.behaviors` names them; a position ``(x y)``). Every form may end with
+``(origin NAME)``; ``(localize)`` marks a plan that localizes first; a change is
+``(change BEHAVIORS TARGET SCALE)`` with BEHAVIORS a list of behavior names or ``*`` (all).
+
+In YAML (``.yaml``) the same cases are a list of mappings, the form's name as the first key::
+
+    - behavior-case: open-area
+      index: {sonar: 3.0, behaviors: [goToPos, avoidCollision]}
+      behaviors:
+      - [[goStraight, mod-fast, curr-head], med]
+      - [[avoidObstacle, 150, moderate], med]
+    - plan-case: west-to-east
+      index: {location: [0.75, 5.0], task-loc: [15.25, 5.0]}
+      route: [hall_west, hall_east]
+      localize: true
+    - alter-strategy: slow-when-closer
+      adapts: behavior
+      feature: sonar
+      sense: closer
+      min: 0.05
+      changes:
+      - {behaviors: [moveForward, goStraight, goToPos], target: speed, scale: -1.0}
+    - merge-strategy: merge-mismatch
+      high: 0.6
+      low: 0.2
+
+(``adapts`` defaults to ``behavior``, ``sense`` to ``any``, ``min`` to 0, ``origin`` to
+``hand-made``, the index to none.) A file is validated whole before anything is returned:
+:class:`CaseFormatError` lists every problem with its line (and in YAML its path) and the item
+it is about. An exported case base (:mod:`cbrcore.casebase.exchange`) reads as a case file too.
+
+The shipped initial memory is ``cases/rupart.sexp``; ``cases/rupart.yaml`` is the same as an
+exported case base for a store's ``initial`` option, written by :func:`export`
+(``python -c "from cbr_behaviors.cases import export; export()"``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from importlib import resources
+from pathlib import Path
+from typing import Any, Literal
+
+import attrs
+import yaml
+
+from cbr_behaviors import sexpr
+from cbr_behaviors.index import FEATURES, FRACTIONS, Index, IndexDataError
+from cbr_world2d.pilots.behaviors import BEHAVIORS, LENGTH_UNITS, parse_behavior
+from cbrcore import files
+from cbrcore.casebase.exchange import Document, document_from_data, dump_document
+from cbrcore.documents import DocumentError, compose_yaml, construct_yaml, read_text
+from cbrcore.errors import CbrError
+from cbrcore.model import Case
+
+BEHAVIOR = "behavior_case"
+"""The case kind of a behavior case."""
+PLAN = "plan_case"
+"""The case kind of a plan case."""
+META = "meta_plan"
+"""The case kind of a meta-plan (a behavior case of generic, fall-back behaviors)."""
+STRATEGY = "adaptation_strategy"
+"""The case kind of an adaptation strategy."""
+KINDS = (BEHAVIOR, PLAN, META, STRATEGY)
+
+HAND_MADE = "hand-made"
+"""The origin of an authored case."""
+
+TARGETS = ("speed", "distance", "turn_rate", "priority")
+"""What a :class:`Change` alters: the arguments of a kind (as
+:data:`cbr_world2d.pilots.behaviors.ARGUMENTS` names them) or the priority."""
+SENSES = ("closer", "farther", "any")
+"""When an alter strategy holds: the query's objects closer than the case's, farther, or
+either way."""
+SENSED = ("sonar", "map")
+"""The features whose closeness a sense other than ``any`` compares."""
+ALL = "*"
+"""A change's behaviors meaning every behavior of the set."""
+
+Item = tuple[tuple[Any, ...], Any]
+"""One behavior of a set, 004 Figure 4's ``((name arg ...) priority)`` as tuples."""
+
+
+class CaseFormatError(CbrError):
+    """Case data that cannot be used; ``problems`` holds one line per problem, each naming
+    where it is (line, path) and the item."""
+
+    def __init__(self, source: str, problems: Sequence[str]) -> None:
+        self.source = source
+        self.problems = list(problems)
+        if len(self.problems) == 1:
+            message = f"{source}, {self.problems[0]}"
+        else:
+            lines = "\n".join(f"  - {p}" for p in self.problems)
+            message = f"{source}: {len(self.problems)} problems:\n{lines}"
+        super().__init__(message)
+
+
+# --- checks shared by the classes and the file readers -----------------------------------------
+# each raises ValueError saying what was expected; the readers add where
+
+
+def _freeze(value: Any) -> Any:
+    if isinstance(value, list | tuple):
+        return tuple(_freeze(v) for v in value)
+    return value
+
+
+def _thaw(value: Any) -> Any:
+    if isinstance(value, tuple | list):
+        return [_thaw(v) for v in value]
+    return value
+
+
+def _name(value: Any) -> str:
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"expected a name (a non-empty string), got {value!r}")
+    return value
+
+
+def _number(value: Any, expected: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise ValueError(f"expected {expected}, got {value!r}")
+    return float(value)
+
+
+def _fraction(value: Any) -> float:
+    number = _number(value, "a number in [0, 1]")
+    if not 0.0 <= number <= 1.0:
+        raise ValueError(f"expected a number in [0, 1], got {value!r}")
+    return number
+
+
+def _choice(value: Any, choices: Sequence[str]) -> str:
+    if value not in choices:
+        raise ValueError(f"expected one of {', '.join(choices)}, got {value!r}")
+    return value
+
+
+def _item(item: Any) -> Item:
+    """One behavior item, checked by parsing it as the ``behaviors`` pilot does."""
+    parse_behavior(item, LENGTH_UNITS["cm"])
+    return _freeze(item)
+
+
+def _behaviors(items: Any) -> tuple[Item, ...]:
+    if isinstance(items, str) or not isinstance(items, Sequence) or not items:
+        raise ValueError(f"expected a list of one or more behaviors, got {items!r}")
+    checked = []
+    for k, item in enumerate(items):
+        try:
+            checked.append(_item(item))
+        except ValueError as exc:
+            raise ValueError(f"item {k}: {exc}") from None
+    return tuple(checked)
+
+
+def _route(value: Any) -> tuple[str, ...]:
+    if isinstance(value, str) or not isinstance(value, Sequence) or not value:
+        raise ValueError(f"expected a list of one or more place names, got {value!r}")
+    return tuple(_name(v) for v in value)
+
+
+def _flag(value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise ValueError(f"expected true or false, got {value!r}")
+    return value
+
+
+def params_of(name: str, arity: int) -> tuple[tuple[str, str], ...] | None:
+    """The arguments ``(keyword, kind)`` of the behavior ``name`` taking ``arity`` arguments,
+    None when there is no such behavior."""
+    signature = BEHAVIORS.get(name, {}).get(arity)
+    return None if signature is None else signature.params
+
+
+def _kinds_of(name: str) -> set[str]:
+    """The argument kinds of the behavior ``name``, over all its signatures."""
+    return {kind for signature in BEHAVIORS.get(name, {}).values()
+            for _, kind in signature.params}
+
+
+# --- the cases ---------------------------------------------------------------------------------
+
+
+def _validated(check: Callable[[Any], Any]) -> Callable[[Any, attrs.Attribute, Any], None]:
+    def validate(instance: Any, attribute: attrs.Attribute, value: Any) -> None:
+        try:
+            check(value)
+        except ValueError as exc:
+            raise CaseFormatError(f"{type(instance).__name__} {instance.name!r}",
+                                  [f"{attribute.name}: {exc}"]) from None
+    return validate
+
+
+@attrs.frozen
+class BehaviorCase:
+    """A behavior case (004 Figure 4): which behaviors to activate, with their parameters
+    (centimetres, symbolic values allowed) and priorities, in the situation ``index``
+    describes. A meta-plan is a behavior case with ``meta_plan`` set."""
+
+    name: str = attrs.field(validator=_validated(_name))
+    index: Index
+    behaviors: tuple[Item, ...] = attrs.field(converter=_freeze,
+                                              validator=_validated(_behaviors))
+    meta_plan: bool = attrs.field(default=False, validator=_validated(_flag))
+    origin: str = attrs.field(default=HAND_MADE, validator=_validated(_name))
+
+    @property
+    def kind(self) -> str:
+        return META if self.meta_plan else BEHAVIOR
+
+    def items(self) -> list[Any]:
+        """The behavior set as plain data (lists), as the ``behaviors`` pilot reads it."""
+        return _thaw(self.behaviors)
+
+    def to_case(self) -> Case:
+        return Case(index_data(self.index), {"behaviors": self.items()}, kind=self.kind,
+                    meta={"name": self.name, "origin": self.origin})
+
+
+@attrs.frozen
+class PlanCase:
+    """A plan case: a route through places of the world (waypoints, by name, checked against
+    a world only when used), localizing first when ``localize``."""
+
+    name: str = attrs.field(validator=_validated(_name))
+    index: Index
+    route: tuple[str, ...] = attrs.field(converter=_freeze, validator=_validated(_route))
+    localize: bool = attrs.field(default=False, validator=_validated(_flag))
+    origin: str = attrs.field(default=HAND_MADE, validator=_validated(_name))
+
+    kind = PLAN
+
+    def to_case(self) -> Case:
+        return Case(index_data(self.index), {"route": list(self.route),
+                                             "localize": self.localize},
+                    kind=PLAN, meta={"name": self.name, "origin": self.origin})
+
+
+def _change_behaviors(value: Any) -> tuple[str, ...] | Literal["*"]:
+    if value == ALL:
+        return ALL
+    names = (value,) if isinstance(value, str) else value
+    if not isinstance(names, Sequence) or not names:
+        raise ValueError(f"expected {ALL!r}, a behavior name or a list of them, got {value!r}")
+    for name in names:
+        if name not in BEHAVIORS:
+            raise ValueError(f"unknown behavior {name!r}; known: {', '.join(sorted(BEHAVIORS))}")
+    return tuple(names)
+
+
+def _change(behaviors: Any, target: Any, scale: Any
+            ) -> tuple[tuple[str, ...] | Literal["*"], str, float]:
+    """The fields of a :class:`Change`, checked; ValueError saying what is wrong."""
+    names = _change_behaviors(behaviors)
+    try:
+        _choice(target, TARGETS)
+    except ValueError as exc:
+        raise ValueError(f"target: {exc}") from None
+    number = _number(scale, "a finite number as the scale")
+    if names != ALL and target != "priority":
+        for name in names:
+            if target not in _kinds_of(name):
+                raise ValueError(f"{name} has no {target} argument")
+    return names, target, number
+
+
+@attrs.frozen
+class Change:
+    """What an alter strategy does to a behavior set: the arguments of kind ``target`` (or the
+    priority) of ``behaviors`` (names, or ``"*"`` for all) become ``old * (1 + scale * D_f)``
+    (:mod:`cbr_behaviors.adaptation`)."""
+
+    behaviors: tuple[str, ...] | Literal["*"] = attrs.field(converter=_freeze)
+    target: str
+    scale: float
+
+    def __attrs_post_init__(self) -> None:
+        try:
+            _change(self.behaviors, self.target, self.scale)
+        except ValueError as exc:
+            raise CaseFormatError("Change", [str(exc)]) from None
+
+    def applies_to(self, name: str) -> bool:
+        return self.behaviors == ALL or name in self.behaviors
+
+    def to_data(self) -> dict[str, Any]:
+        return {"behaviors": ALL if self.behaviors == ALL else list(self.behaviors),
+                "target": self.target, "scale": self.scale}
+
+    @classmethod
+    def from_data(cls, data: Any) -> Change:
+        """A change from ``{behaviors, target, scale}``; ValueError saying what is wrong."""
+        keys = ("behaviors", "target", "scale")
+        if not isinstance(data, Mapping) or sorted(data) != sorted(keys):
+            raise ValueError(f"expected a mapping with the keys {', '.join(keys)}, got {data!r}")
+        return cls(*_change(data["behaviors"], data["target"], data["scale"]))
+
+
+@attrs.frozen
+class Strategy:
+    """An adaptation strategy (004), kept in the case memory and indexed by the kind of case
+    it adapts (``adapts``) and the per-feature distances it answers.
+
+    An ``alter`` strategy holds when the distance ``D_f`` on ``feature`` is at least ``min``
+    and its ``sense`` holds (for sonar and map: the query's objects are ``closer`` to the
+    robot than the case's, or ``farther``; ``any``: either way); it applies its ``changes``.
+    A ``merge`` strategy holds when some feature matches very badly (``D_f >= high``) and the
+    others, on average, well (mean ``D_f <= low``); the case is then merged with a second case
+    retrieved for the badly matching features (:mod:`cbr_behaviors.adaptation`).
+    """
+
+    name: str = attrs.field(validator=_validated(_name))
+    adapts: Literal["behavior", "plan"]
+    kind: Literal["alter", "merge"]
+    feature: str | None = None
+    sense: str = "any"
+    min: float = 0.0
+    changes: tuple[Change, ...] = attrs.field(default=(), converter=tuple)
+    high: float = 1.0
+    low: float = 0.0
+    origin: str = attrs.field(default=HAND_MADE, validator=_validated(_name))
+
+    def __attrs_post_init__(self) -> None:
+        fields = {"adapts": self.adapts, "kind": self.kind, "feature": self.feature,
+                  "sense": self.sense, "min": self.min, "high": self.high, "low": self.low}
+        problems = _strategy_problems(fields)
+        if self.kind == "alter" and not self.changes:
+            problems.append(("changes", "an alter strategy needs at least one change"))
+        if problems:
+            key, problem = problems[0]
+            raise CaseFormatError(f"Strategy {self.name!r}", [f"{key}: {problem}"])
+
+    def to_case(self) -> Case:
+        problem: dict[str, Any] = {"adapts": self.adapts, "kind": self.kind}
+        if self.kind == "alter":
+            problem.update(feature=self.feature, sense=self.sense, min=self.min)
+            solution: Any = {"changes": [c.to_data() for c in self.changes]}
+        else:
+            problem.update(high=self.high, low=self.low)
+            solution = None
+        return Case(problem, solution, kind=STRATEGY,
+                    meta={"name": self.name, "origin": self.origin})
+
+    @classmethod
+    def from_case(cls, case: Case, source: str = "case base") -> Strategy:
+        """The strategy stored in ``case``; :class:`CaseFormatError` naming the case and what
+        is wrong when it is malformed."""
+        decoded = from_case(case, source)
+        if not isinstance(decoded, Strategy):
+            raise CaseFormatError(_where(case, source), [f"expected a {STRATEGY} case"])
+        return decoded
+
+
+def _strategy_problems(fields: Mapping[str, Any]) -> list[tuple[str, str]]:
+    """``(key, problem)`` for each problem of a strategy's fields other than its name, origin
+    and changes (defaults for those left out)."""
+    checks: list[tuple[str, Any, Callable[[Any], Any]]] = [
+        ("adapts", fields.get("adapts", "behavior"), lambda v: _choice(v, ("behavior", "plan"))),
+        ("kind", fields.get("kind"), lambda v: _choice(v, ("alter", "merge")))]
+    if fields.get("kind") == "alter":
+        checks += [("feature", fields.get("feature"), lambda v: _choice(v, FEATURES)),
+                   ("sense", fields.get("sense", "any"), lambda v: _choice(v, SENSES)),
+                   ("min", fields.get("min", 0.0), _fraction)]
+    else:
+        checks += [("high", fields.get("high"), _fraction), ("low", fields.get("low"), _fraction)]
+    problems = []
+    for key, value, check in checks:
+        try:
+            check(value)
+        except ValueError as exc:
+            problems.append((key, str(exc)))
+    if problems:
+        return problems
+    if fields["kind"] == "alter":
+        sense, feature = fields.get("sense", "any"), fields["feature"]
+        if sense != "any" and feature not in SENSED:
+            problems.append(("sense", f"{sense!r} compares the closeness of objects, which only "
+                                      f"{' and '.join(SENSED)} tell; use 'any' for {feature}"))
+    elif not fields["low"] < fields["high"]:
+        problems.append(("low", f"expected low < high, got low {fields['low']!r} and high "
+                                f"{fields['high']!r}"))
+    return problems
+
+
+AnyCase = BehaviorCase | PlanCase | Strategy
+"""Any case a case file holds."""
+
+
+def index_data(index: Index) -> dict[str, Any]:
+    """``index`` as plain data, a sonar with every beam alike written as one number (the
+    shorthand :meth:`Index.from_data` reads back)."""
+    data = index.to_data()
+    sonar = data.get("sonar")
+    if sonar is not None and len(set(sonar)) == 1:
+        data["sonar"] = sonar[0]
+    return data
+
+
+# --- from and to the case base ------------------------------------------------------------------
+
+
+def _where(case: Case, source: str) -> str:
+    return f"{source}, {case.kind} case {case.id}"
+
+
+def from_case(case: Case, source: str = "case base") -> AnyCase:
+    """The RUPART case stored in ``case`` (any of :data:`KINDS`); :class:`CaseFormatError`
+    naming the case and what is wrong when it is malformed."""
+    if case.kind not in KINDS:
+        raise CaseFormatError(_where(case, source),
+                              [f"not a RUPART case; expected a kind of {', '.join(KINDS)}"])
+    meta = case.meta if isinstance(case.meta, Mapping) else {}
+    fields: dict[str, Any] = {"origin": meta.get("origin", HAND_MADE)}
+    if case.kind == STRATEGY:
+        fields.update(case.problem if isinstance(case.problem, Mapping) else {})
+        fields.update(case.solution if isinstance(case.solution, Mapping) else {})
+        form = "alter-strategy" if fields.get("kind") == "alter" else "merge-strategy"
+        fields.pop("kind", None)
+    else:
+        form = {BEHAVIOR: "behavior-case", META: "meta-plan", PLAN: "plan-case"}[case.kind]
+        fields["index"] = case.problem
+        fields.update(case.solution if isinstance(case.solution, Mapping) else {})
+    fields = {form: meta.get("name"), **fields}
+    try:
+        return _direct(form, fields)
+    except (CbrError, ValueError, KeyError, TypeError):
+        # read again the way a file is, for a message that names the field and the item
+        problems: list[str] = []
+        if _build(_unlocated(fields, f"{case.kind} case {case.id}"), problems) is not None:
+            raise
+        raise CaseFormatError(source, problems) from None
+
+
+def _unlocated(value: Any, where: str) -> _Located:
+    """Plain data as :func:`_build` reads it, every part at ``where``."""
+    if isinstance(value, Mapping):
+        return _Located(value, where, {k: _unlocated(v, where) for k, v in value.items()})
+    if isinstance(value, list | tuple):
+        return _Located(value, where, {k: _unlocated(v, where) for k, v in enumerate(value)})
+    return _Located(value, where)
+
+
+def _direct(form: str, fields: Mapping[str, Any]) -> AnyCase:
+    """The case of a case base's fields, built without locating problems (a case base holds
+    many cases, nearly always sound ones); raises on the first problem."""
+    unknown = set(fields) - {form, *_KEYS[form]}
+    if unknown:
+        raise ValueError(f"unknown keys {sorted(unknown)}")
+    name, origin = fields[form], fields.get("origin", HAND_MADE)
+    if form == "merge-strategy":
+        return Strategy(name, fields.get("adapts", "behavior"), "merge", high=fields["high"],
+                        low=fields["low"], origin=origin)
+    if form == "alter-strategy":
+        return Strategy(name, fields.get("adapts", "behavior"), "alter", fields["feature"],
+                        fields.get("sense", "any"), fields.get("min", 0.0),
+                        [Change.from_data(c) for c in fields["changes"]], origin=origin)
+    index = Index.from_data(fields.get("index", {}), "index")
+    if form == "plan-case":
+        return PlanCase(name, index, fields["route"], fields.get("localize", False), origin)
+    return BehaviorCase(name, index, fields["behaviors"], form == "meta-plan", origin)
+
+
+def case_of(case: Case, source: str = "case base") -> BehaviorCase | PlanCase:
+    """The behavior case, meta-plan or plan case stored in ``case``."""
+    decoded = from_case(case, source)
+    if isinstance(decoded, Strategy):
+        raise CaseFormatError(_where(case, source),
+                              ["expected a behavior case, meta-plan or plan case"])
+    return decoded
+
+
+def document(cases: Iterable[AnyCase]) -> Document:
+    """``cases`` as an exported case base (ids from 1, all created at revision 1)."""
+    stored = tuple(attrs.evolve(c.to_case(), id=k, created=1)
+                   for k, c in enumerate(cases, start=1))
+    return Document(revision=1, cases=stored)
+
+
+# --- reading files -------------------------------------------------------------------------------
+
+
+@attrs.frozen
+class _Located:
+    """A value read from a file with where it was: ``where`` (``line N``, with the YAML path)
+    and ``text`` (the value as the file wrote it); ``parts`` the located elements of a list
+    (by position) or mapping (by key)."""
+
+    value: Any
+    where: str
+    parts: Mapping[Any, _Located] = attrs.field(factory=dict)
+    text: str = ""
+
+    def part(self, key: Any) -> _Located:
+        return self.parts.get(key, self)
+
+    @property
+    def shown(self) -> str:
+        return self.text or _flow(self.value)
+
+
+def _flow(value: Any) -> str:
+    text = yaml.safe_dump(value, default_flow_style=True, width=math.inf, sort_keys=False)
+    return text.removesuffix("...\n").strip()
+
+
+FORMS = ("behavior-case", "meta-plan", "plan-case", "alter-strategy", "merge-strategy")
+"""The forms of a case file."""
+_KEYS: dict[str, tuple[str, ...]] = {
+    "behavior-case": ("index", "behaviors", "origin"),
+    "meta-plan": ("index", "behaviors", "origin"),
+    "plan-case": ("index", "route", "localize", "origin"),
+    "alter-strategy": ("adapts", "feature", "sense", "min", "changes", "origin"),
+    "merge-strategy": ("adapts", "high", "low", "origin"),
+}
+_REQUIRED: dict[str, tuple[str, ...]] = {
+    "behavior-case": ("behaviors",), "meta-plan": ("behaviors",), "plan-case": ("route",),
+    "alter-strategy": ("feature", "changes"), "merge-strategy": ("high", "low"),
+}
+
+
+class _Problems:
+    """Collects the problems of one case, each with where it is and what it is about."""
+
+    def __init__(self, out: list[str], subject: str) -> None:
+        self.out = out
+        self.subject = subject
+        self.count = 0
+
+    def add(self, at: _Located, problem: str, about: str = "") -> None:
+        self.out.append(f"{at.where}: {self.subject}{about}: {problem}")
+        self.count += 1
+
+    def check(self, at: _Located, check: Callable[[Any], Any], about: str = "") -> Any:
+        try:
+            return check(at.value)
+        except ValueError as exc:
+            self.add(at, str(exc), about)
+            return None
+
+
+def _build(tree: _Located, out: list[str]) -> AnyCase | None:
+    """The case a located mapping describes, or None with its problems added to ``out``."""
+    fields = tree.value
+    if not isinstance(fields, Mapping):
+        out.append(f"{tree.where}: expected a case (a mapping whose first key is one of "
+                   f"{', '.join(FORMS)}), got {tree.shown}")
+        return None
+    forms = [k for k in fields if k in FORMS]
+    if len(forms) != 1:
+        got = ", ".join(map(str, fields)) or "nothing"
+        out.append(f"{tree.where}: expected exactly one of {', '.join(FORMS)} naming the case, "
+                   f"got {got}")
+        return None
+    form = forms[0]
+    name = fields[form]
+    problems = _Problems(out, f"{form} {name}")
+    if not isinstance(name, str) or not name:
+        problems.subject = form
+        problems.add(tree.part(form), f"expected a name (a non-empty string), got {name!r}")
+    for key in fields:
+        if key != form and key not in _KEYS[form]:
+            problems.add(tree.part(key), f"unknown key {key!r}; expected {', '.join(_KEYS[form])}")
+    for key in _REQUIRED[form]:
+        if key not in fields:
+            problems.add(tree, f"{key} is missing")
+    if problems.count:
+        return None
+    origin = problems.check(tree.part("origin"), _name, ", origin") if "origin" in fields \
+        else HAND_MADE
+    if form in ("alter-strategy", "merge-strategy"):
+        return _strategy(form, name, origin, tree, problems)
+    index = _index(tree.part("index"), fields.get("index", {}), problems)
+    if form == "plan-case":
+        route = problems.check(tree.part("route"), _route, ", route")
+        localize = (problems.check(tree.part("localize"), _flag, ", localize")
+                    if "localize" in fields else False)
+        if problems.count:
+            return None
+        return PlanCase(name, index, route, bool(localize), origin)
+    behaviors = _items(tree.part("behaviors"), problems)
+    if problems.count:
+        return None
+    return BehaviorCase(name, index, behaviors, form == "meta-plan", origin)
+
+
+def _index(at: _Located, data: Any, problems: _Problems) -> Index:
+    if not isinstance(data, Mapping):
+        problems.add(at, f"expected a mapping of feature -> value, got {at.shown}", ", index")
+        return Index()
+    for feature, value in data.items():
+        try:
+            Index.from_data({feature: value}, "index")
+        except IndexDataError as exc:
+            problems.add(at.part(feature), exc.problem, f", index feature {feature}")
+    if problems.count:
+        return Index()
+    return Index.from_data(data, "index")
+
+
+def _items(at: _Located, problems: _Problems) -> tuple[Item, ...]:
+    items = at.value
+    if isinstance(items, str) or not isinstance(items, Sequence) or not items:
+        problems.add(at, f"expected a list of one or more behaviors, got {at.shown}",
+                     ", behaviors")
+        return ()
+    checked = []
+    for k, item in enumerate(items):
+        where = at.part(k)
+        try:
+            checked.append(_item(item))
+        except ValueError as exc:
+            problems.add(where, str(exc), f", item {k} {where.shown}")
+    return tuple(checked)
+
+
+def _strategy(form: str, name: str, origin: str, tree: _Located,
+              problems: _Problems) -> Strategy | None:
+    kind = form.removesuffix("-strategy")
+    fields = {**tree.value, "kind": kind}
+    for key, problem in _strategy_problems(fields):
+        problems.add(tree.part(key), problem, f", {key}")
+    changes: list[Change] = []
+    if kind == "alter":
+        at = tree.part("changes")
+        if isinstance(at.value, str) or not isinstance(at.value, Sequence) or not at.value:
+            problems.add(at, f"expected a list of one or more changes, got {at.shown}",
+                         ", changes")
+        else:
+            for k, data in enumerate(at.value):
+                where = at.part(k)
+                try:
+                    changes.append(Change.from_data(data))
+                except ValueError as exc:
+                    problems.add(where, str(exc), f", change {k} {where.shown}")
+    if problems.count:
+        return None
+    adapts = fields.get("adapts", "behavior")
+    if kind == "merge":
+        return Strategy(name, adapts, "merge", high=fields["high"], low=fields["low"],
+                        origin=origin)
+    return Strategy(name, adapts, "alter", fields["feature"], fields.get("sense", "any"),
+                    fields.get("min", 0.0), changes, origin=origin)
+
+
+def _parse_cases(trees: Sequence[_Located], source: str) -> tuple[AnyCase, ...]:
+    problems: list[str] = []
+    cases: list[AnyCase] = []
+    named: dict[str, str] = {}
+    for tree in trees:
+        case = _build(tree, problems)
+        if case is None:
+            continue
+        if case.name in named:
+            problems.append(f"{tree.where}: a second case named {case.name!r} (the first is at "
+                            f"{named[case.name]})")
+        named.setdefault(case.name, tree.where)
+        cases.append(case)
+    if problems:
+        raise CaseFormatError(source, problems)
+    return tuple(cases)
+
+
+# s-expressions
+
+_CLAUSES: dict[str, tuple[str, ...]] = {
+    "behavior-case": ("plan-index", "origin"),
+    "meta-plan": ("plan-index", "origin"),
+    "plan-case": ("plan-index", "route", "localize", "origin"),
+    "alter-strategy": ("adapts", "feature", "sense", "min", "change", "origin"),
+    "merge-strategy": ("adapts", "high", "low", "origin"),
+}
+
+
+def _line(node: sexpr.Node) -> str:
+    return f"line {node.line}"
+
+
+class _SexpForm:
+    """Turns one form of a ``.sexp`` file into the located mapping :func:`_build` reads, or
+    records why it cannot."""
+
+    def __init__(self, node: sexpr.Node, problems: list[str]) -> None:
+        self.node = node
+        self.problems = problems
+
+    def problem(self, at: sexpr.Node, message: str) -> None:
+        self.problems.append(f"{_line(at)}: {message}")
+
+    def tree(self) -> _Located | None:
+        node = self.node
+        head = node.items[0].symbol if node.items else None
+        if head not in FORMS:
+            what = node.text() if node.is_list else repr(node.text())
+            self.problem(node, f"expected a case form, one of ({' ...), ('.join(FORMS)} ...), "
+                               f"got {what}")
+            return None
+        if len(node.items) < 2 or node.items[1].is_list:
+            self.problem(node, f"{head}: expected a name after {head}")
+            return None
+        name = node.items[1]
+        subject = f"{head} {name.plain()}"
+        fields: dict[str, Any] = {head: name.plain()}
+        parts: dict[str, _Located] = {head: _Located(name.plain(), _line(name))}
+        seen: dict[str, sexpr.Node] = {}
+        changes: list[_Located] = []
+        for clause in node.items[2:]:
+            items = clause.items
+            listed = head in ("behavior-case", "meta-plan")
+            if listed and clause.is_list and (not items or items[0].is_list):
+                key, located = "behaviors", self._behaviors(clause)
+            elif clause.is_list and items and items[0].symbol in _CLAUSES[head]:
+                key = items[0].symbol or ""
+                located = self._clause(key, clause, subject)
+                if located is None:
+                    continue
+            else:
+                known = ", ".join(f"({c} ...)" for c in _CLAUSES[head])
+                extra = " or the behavior list" if listed else ""
+                self.problem(clause, f"{subject}: unexpected {clause.text()}; expected {known}"
+                                     f"{extra}")
+                continue
+            if key == "change":
+                changes.append(located)
+                continue
+            key = "index" if key == "plan-index" else key
+            if key in seen:
+                what = "behavior list" if key == "behaviors" else f"({items[0].text()} ...) clause"
+                self.problem(clause, f"{subject}: a second {what} (the first at line "
+                                     f"{seen[key].line})")
+                continue
+            seen[key] = clause
+            fields[key] = located.value
+            parts[key] = located
+        if changes:
+            fields["changes"] = [c.value for c in changes]
+            parts["changes"] = _Located(fields["changes"], changes[0].where,
+                                        dict(enumerate(changes)))
+        return _Located(fields, _line(node), parts, node.text())
+
+    def _behaviors(self, clause: sexpr.Node) -> _Located:
+        parts = {k: _Located(item.plain(), _line(item), text=item.text())
+                 for k, item in enumerate(clause.items)}
+        return _Located(clause.plain(), _line(clause), parts, clause.text())
+
+    def _clause(self, key: str, clause: sexpr.Node, subject: str) -> _Located | None:
+        args = clause.items[1:]
+        where = _line(clause)
+        if key == "plan-index":
+            return self._index(clause, subject)
+        if key == "localize":
+            if args:
+                self.problem(clause, f"{subject}: (localize) takes nothing, got {clause.text()}")
+                return None
+            return _Located(True, where, text=clause.text())
+        if key == "route":
+            return _Located([a.plain() for a in args], where, text=clause.text())
+        if key == "change":
+            if len(args) != 3:
+                self.problem(clause, f"{subject}: expected (change BEHAVIORS TARGET SCALE), got "
+                                     f"{clause.text()}")
+                return None
+            behaviors, target, scale = (a.plain() for a in args)
+            return _Located({"behaviors": behaviors, "target": target, "scale": scale}, where,
+                            text=clause.text())
+        if len(args) != 1 or args[0].is_list:
+            self.problem(clause, f"{subject}: expected ({key} VALUE), got {clause.text()}")
+            return None
+        return _Located(args[0].plain(), where, text=clause.text())
+
+    def _index(self, clause: sexpr.Node, subject: str) -> _Located | None:
+        data: dict[str, Any] = {}
+        parts: dict[str, _Located] = {}
+        for entry in clause.items[1:]:
+            feature = entry.items[0].symbol if entry.items else None
+            if feature is None:
+                self.problem(entry, f"{subject}: index: expected (FEATURE VALUE ...), got "
+                                    f"{entry.text()}")
+                continue
+            if feature in data:
+                self.problem(entry, f"{subject}: index: a second {feature} clause (the first "
+                                    f"at {parts[feature].where})")
+                continue
+            values = [v.plain() for v in entry.items[1:]]
+            # a fraction is one number, and so is the sonar shorthand; the rest are lists
+            one = feature in FRACTIONS or (feature == "sonar" and len(values) == 1)
+            data[feature] = values[0] if one and len(values) == 1 else values
+            parts[feature] = _Located(data[feature], _line(entry), text=entry.text())
+        return _Located(data, _line(clause), parts, clause.text())
+
+
+def parse_sexp(text: str, source: str = "<text>") -> tuple[AnyCase, ...]:
+    """The cases of a ``.sexp`` file's text; :class:`CaseFormatError` naming ``source``, the
+    line and the item of every problem."""
+    try:
+        nodes = sexpr.read(text, source)
+    except sexpr.SexprError as exc:
+        raise CaseFormatError(source, [f"line {exc.line}: {exc.problem}"]) from None
+    problems: list[str] = []
+    trees = [t for t in (_SexpForm(n, problems).tree() for n in nodes) if t is not None]
+    try:
+        cases = _parse_cases(trees, source)
+    except CaseFormatError as exc:
+        problems += exc.problems
+    if problems:
+        raise CaseFormatError(source, sorted(problems, key=_line_number))
+    return cases
+
+
+def _line_number(problem: str) -> int:
+    return int(problem.split(":", 1)[0].split()[1])
+
+
+# YAML
+
+
+def _path(path: str, key: Any) -> str:
+    return f"{path}[{key}]" if isinstance(key, int) else f"{path}.{key}" if path else str(key)
+
+
+def _yaml_tree(node: yaml.Node, path: str, source: str, problems: list[str]) -> _Located:
+    where = f"line {node.start_mark.line + 1} ({path or 'the document'})"
+    if isinstance(node, yaml.SequenceNode):
+        parts = {k: _yaml_tree(n, _path(path, k), source, problems)
+                 for k, n in enumerate(node.value)}
+        return _Located([p.value for p in parts.values()], where, parts)
+    if isinstance(node, yaml.MappingNode):
+        parts: dict[Any, _Located] = {}
+        for key_node, value_node in node.value:
+            key = construct_yaml(key_node, source)
+            if not isinstance(key, str):
+                problems.append(f"line {key_node.start_mark.line + 1} ({path}): expected a "
+                                f"name as the key, got {_flow(key)}")
+                continue
+            if key in parts:
+                problems.append(f"line {key_node.start_mark.line + 1} ({_path(path, key)}): "
+                                f"the key {key!r} is given twice")
+                continue
+            parts[key] = _yaml_tree(value_node, _path(path, key), source, problems)
+        return _Located({k: p.value for k, p in parts.items()}, where, parts)
+    return _Located(construct_yaml(node, source), where)
+
+
+def parse_yaml(text: str, source: str = "<text>") -> tuple[AnyCase, ...]:
+    """The cases of a YAML case file's text (a list of cases, or an exported case base);
+    :class:`CaseFormatError` naming ``source``, the line, the path and the item of every
+    problem."""
+    try:
+        root = compose_yaml(text, source)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = f"line {mark.line + 1}" if mark is not None else "line 1"
+        raise CaseFormatError(source, [f"{line}: not valid YAML: "
+                                       f"{getattr(exc, 'problem', None) or exc}"]) from None
+    except DocumentError as exc:
+        raise CaseFormatError(source, [exc.problem]) from None
+    if isinstance(root, yaml.MappingNode):
+        data = construct_yaml(root, source)
+        if isinstance(data, Mapping) and "format" in data:
+            return _exported(data, source)
+    problems: list[str] = []
+    if root is None:
+        return ()
+    tree = _yaml_tree(root, "", source, problems)
+    if problems:
+        raise CaseFormatError(source, problems)
+    if not isinstance(tree.value, list):
+        raise CaseFormatError(source, [f"{tree.where}: expected a list of cases (or an "
+                                       "exported case base)"])
+    return _parse_cases([tree.part(k) for k in range(len(tree.value))], source)
+
+
+def _exported(data: Mapping[str, Any], source: str) -> tuple[AnyCase, ...]:
+    exported = document_from_data(data, source)
+    problems: list[str] = []
+    cases: list[AnyCase] = []
+    for k, case in enumerate(exported.cases):
+        if case.kind not in KINDS:
+            continue
+        try:
+            cases.append(from_case(case, f"cases[{k}]"))
+        except CaseFormatError as exc:
+            problems += [f"{exc.source}: {p}" for p in exc.problems]
+    if problems:
+        raise CaseFormatError(source, problems)
+    return tuple(cases)
+
+
+Format = Literal["sexp", "yaml"]
+_SUFFIXES: dict[str, Format] = {".sexp": "sexp", ".yaml": "yaml", ".yml": "yaml"}
+
+
+def format_of(path: str | os.PathLike[str]) -> Format:
+    """The case file format its extension calls for."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in _SUFFIXES:
+        raise CaseFormatError(str(path), [f"cannot tell the format from the extension "
+                                          f"{suffix!r}; name the file .sexp, .yaml or .yml"])
+    return _SUFFIXES[suffix]
+
+
+def read_cases(path: str | os.PathLike[str], format: Format | None = None
+               ) -> tuple[AnyCase, ...]:
+    """The cases of the file at ``path`` (format from the extension unless given), all
+    validated before any is returned."""
+    fmt = format or format_of(path)
+    try:
+        text = read_text(path)
+    except DocumentError as exc:
+        raise CaseFormatError(str(path), [exc.problem]) from None
+    except FileNotFoundError:
+        raise CaseFormatError(str(path), ["no such file"]) from None
+    except UnicodeDecodeError as exc:
+        raise CaseFormatError(str(path), [f"not UTF-8 text ({exc.reason} at byte "
+                                          f"{exc.start})"]) from None
+    except OSError as exc:
+        raise CaseFormatError(str(path), [f"cannot read it: {exc.strerror}"]) from None
+    return parse_sexp(text, str(path)) if fmt == "sexp" else parse_yaml(text, str(path))
+
+
+# --- writing files -------------------------------------------------------------------------------
+
+
+def _sexp_value(feature: str, value: Any) -> list[Any]:
+    return [feature, *value] if isinstance(value, list) else [feature, value]
+
+
+def _sexp_form(case: AnyCase) -> list[Any]:
+    if isinstance(case, Strategy):
+        form: list[Any] = [f"{case.kind}-strategy", case.name, ["adapts", case.adapts]]
+        if case.kind == "alter":
+            form += [["feature", case.feature], ["sense", case.sense], ["min", case.min]]
+            form += [["change", c.to_data()["behaviors"], c.target, c.scale]
+                     for c in case.changes]
+        else:
+            form += [["high", case.high], ["low", case.low]]
+    else:
+        head = ("plan-case" if isinstance(case, PlanCase)
+                else "meta-plan" if case.meta_plan else "behavior-case")
+        form = [head, case.name]
+        data = index_data(case.index)
+        if data:
+            form.append(["plan-index", *(_sexp_value(f, v) for f, v in data.items())])
+        if isinstance(case, PlanCase):
+            form.append(["route", *case.route])
+            if case.localize:
+                form.append(["localize"])
+        else:
+            form.append(case.items())
+    if case.origin != HAND_MADE:
+        form.append(["origin", case.origin])
+    return form
+
+
+def to_sexp(cases: Iterable[AnyCase]) -> str:
+    """``cases`` as the text of a ``.sexp`` file, forms one blank line apart."""
+    return "\n\n".join(sexpr.write(_sexp_form(c)) for c in cases) + "\n"
+
+
+class _Flow(list):
+    """A list written in YAML's flow style."""
+
+
+class _FlowMap(dict):
+    """A mapping written in YAML's flow style."""
+
+
+class _Dumper(yaml.SafeDumper):
+    def ignore_aliases(self, data: Any) -> bool:
+        return True
+
+
+_Dumper.add_representer(_Flow, lambda d, v: d.represent_sequence(
+    "tag:yaml.org,2002:seq", v, flow_style=True))
+_Dumper.add_representer(_FlowMap, lambda d, v: d.represent_mapping(
+    "tag:yaml.org,2002:map", v, flow_style=True))
+
+
+def _yaml_entry(case: AnyCase) -> dict[str, Any]:
+    if isinstance(case, Strategy):
+        entry: dict[str, Any] = {f"{case.kind}-strategy": case.name, "adapts": case.adapts}
+        if case.kind == "alter":
+            entry.update(feature=case.feature, sense=case.sense, min=case.min,
+                         changes=[_FlowMap({**c.to_data(), "behaviors": (
+                             ALL if c.behaviors == ALL else _Flow(c.behaviors))})
+                             for c in case.changes])
+        else:
+            entry.update(high=case.high, low=case.low)
+    else:
+        head = ("plan-case" if isinstance(case, PlanCase)
+                else "meta-plan" if case.meta_plan else "behavior-case")
+        entry = {head: case.name}
+        data = index_data(case.index)
+        if data:
+            entry["index"] = {f: _Flow(v) if isinstance(v, list) else v
+                              for f, v in data.items()}
+        if isinstance(case, PlanCase):
+            entry["route"] = _Flow(case.route)
+            if case.localize:
+                entry["localize"] = True
+        else:
+            entry["behaviors"] = [_Flow(item) for item in case.items()]
+    if case.origin != HAND_MADE:
+        entry["origin"] = case.origin
+    return entry
+
+
+def to_yaml(cases: Iterable[AnyCase]) -> str:
+    """``cases`` as the text of a YAML case file."""
+    return yaml.dump([_yaml_entry(c) for c in cases], Dumper=_Dumper, sort_keys=False,
+                     allow_unicode=True, width=100)
+
+
+def write_cases(cases: Iterable[AnyCase], path: str | os.PathLike[str],
+                format: Format | None = None) -> None:
+    """Write ``cases`` to ``path`` as a case file (format from the extension unless given)."""
+    fmt = format or format_of(path)
+    text = to_sexp(cases) if fmt == "sexp" else to_yaml(cases)
+    try:
+        files.write_text(Path(path), text)
+    except OSError as exc:
+        raise CaseFormatError(str(path), [f"cannot write it: {exc.strerror or exc}"]) from exc
+
+
+# --- the shipped memory --------------------------------------------------------------------------
+
+
+def shipped_path(format: Format = "sexp") -> Path:
+    """The shipped initial memory: the authored ``rupart.sexp`` or its export ``rupart.yaml``."""
+    return Path(str(resources.files("cbr_behaviors") / "cases" / f"rupart.{format}"))
+
+
+def shipped_cases() -> tuple[AnyCase, ...]:
+    """The cases of the shipped initial memory."""
+    return read_cases(shipped_path("sexp"))
+
+
+def export(target: str | os.PathLike[str] | None = None) -> Path:
+    """Write the shipped memory as an exported case base (default: ``cases/rupart.yaml``, what
+    a store's ``initial`` option loads); return where."""
+    path = Path(target) if target is not None else shipped_path("yaml")
+    files.write_text(path, dump_document(document(shipped_cases()), "yaml"))
+    return path

@@ -1,0 +1,280 @@
+"""Retrieve, reuse, retain and forget RUPART's cases (004 sections "Behavior Case Retrieval"
+and "Adaptation and Learning of Behavior Cases").
+
+- :class:`RupartRetriever`: one retrieval over the one case memory. The nearest behavior and
+  plan cases under the weighted index distance, each with its per-feature distances in
+  ``Match.features``; when even the best is farther than ``meta_threshold`` (nothing matches
+  well), the nearest meta-plans instead (004: "'fall-back' cases that are retrieved when no
+  case matches the current situation well").
+- :class:`RupartReuser`: the best case made into an action. A plan case becomes an
+  :class:`~cbr_behaviors.moment.InstallPlan`; a behavior case or meta-plan farther than
+  ``threshold`` is adapted by the strategies the memory holds for it (alter its parameters,
+  or merge it with a second case that matches its worst features) and becomes an
+  :class:`~cbr_behaviors.moment.InstallBehaviors`.
+- :class:`CaseLearner` (retainer ``rupart_cases``): the quality counters of the cases
+  retrieved and used, and the adapted cases whose spell went well, stored under the index of
+  the situation they started in.
+- :class:`WeightLearner` (retainer ``rupart_weights``): the index weights learned from
+  outcomes (:mod:`cbr_behaviors.weights`).
+- :class:`QualityForgetter` (forgetter ``rupart_quality``): keeps at most ``capacity``
+  learned cases, dropping the lowest quality first, and drops a learned case whose spells
+  mostly went badly.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import attrs
+import numpy as np
+
+from cbr_behaviors.cases import BEHAVIOR, META, PLAN, BehaviorCase, PlanCase
+from cbr_behaviors.index import FEATURES, Scales, weight_vector
+from cbr_behaviors.memory import Found, memory_of
+from cbr_behaviors.moment import InstallBehaviors, InstallPlan, Moment, SpellReport
+from cbr_behaviors.quality import Quality
+from cbr_behaviors.weights import store_weights, stored_weights, updated
+from cbrcore.casebase.store import CaseStore
+from cbrcore.context import Context
+from cbrcore.hookspecs import hookimpl
+from cbrcore.model import Match, Outcome, Retrieval, Solution
+from cbrcore.options import option
+
+_UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
+_POSITIVE = attrs.validators.gt(0.0)
+
+
+def _weights(instance: Any, attribute: attrs.Attribute, value: dict[str, float]) -> None:
+    weight_vector(value, f"'{attribute.name}'")
+
+
+@attrs.frozen
+class RetrieveOptions:
+    weights: dict[str, float] = option(
+        doc="w_f per feature of the index (004 Figure 5 names: sonar, motors, map, location, "
+        "behaviors, task-loc, task-urgency, plan, goal, goal-urgency, pending-goals, loc-conf, "
+        "plan-conf, behav-conf); a feature left out weighs 1.", factory=dict,
+        validator=_weights)
+    learned_weights: bool = option(
+        False, "Use the weights learned into the case base (retainer rupart_weights) once "
+        "there are some, instead of 'weights'.")
+    meta_threshold: float = option(
+        0.35, "The overall distance beyond which no behavior or plan case matches well and the "
+        "nearest meta-plans are retrieved instead.", validator=_UNIT)
+    candidates: int = option(3, "How many matches, best first, a retrieval returns.",
+                             validator=attrs.validators.ge(1))
+    location_scale: float = option(
+        10.0, "Metres at which the location and task-loc distances reach 1.",
+        validator=_POSITIVE)
+
+    @property
+    def scales(self) -> Scales:
+        return Scales(location=self.location_scale)
+
+
+def _match(found: Found) -> Match:
+    return Match(found.case, 1.0 - found.distance, found.features)
+
+
+@attrs.frozen(eq=False)
+class Retrieved:
+    """The retriever's payload: the found cases in the order of the matches, and the weights
+    and scales they were found with (the reuser's second retrieval uses the same)."""
+
+    found: tuple[Found, ...]
+    weights: np.ndarray
+    scales: Scales
+
+
+def weights_of(options: RetrieveOptions, ctx: Context) -> np.ndarray:
+    """The weights a retrieval uses now: the learned ones when asked for and present."""
+    if options.learned_weights:
+        learned = stored_weights(ctx.mirror.store)
+        if learned is not None:
+            return learned
+    return weight_vector(options.weights, "retrieve.weights")
+
+
+class RupartRetriever:
+    """004: the nearest cases under D = sum of w_f D_f; meta-plans when none is near."""
+
+    def __init__(self, options: RetrieveOptions, ctx: Context) -> None:
+        self.options = options
+
+    @hookimpl
+    def cbr_retrieve(self, problem: Moment, ctx: Context) -> Retrieval:
+        o = self.options
+        memory = memory_of(ctx)
+        weights = weights_of(o, ctx)
+        scales = o.scales
+        found = memory.nearest(problem.index, weights, (BEHAVIOR, PLAN), o.candidates, scales)
+        if not found or found[0].distance > o.meta_threshold:
+            fallback = memory.nearest(problem.index, weights, (META,), o.candidates, scales)
+            if fallback:
+                found = fallback
+        if not found:
+            return Retrieval((), reason="no RUPART case stored")
+        return Retrieval(tuple(_match(f) for f in found),
+                         payload=Retrieved(tuple(found), weights, scales))
+
+
+@attrs.frozen
+class ReuseOptions:
+    adapt: bool = option(True, "Adapt a retrieved behavior case farther than 'threshold' with "
+                               "the adaptation strategies of the case memory.")
+    threshold: float = option(
+        0.15, "The overall distance beyond which a behavior case is adapted rather than used "
+        "as it is (004).", validator=_UNIT)
+
+
+class RupartReuser:
+    """004: install the best case: a plan deliberatively, behaviors at once, adapted when the
+    case is not near enough."""
+
+    def __init__(self, options: ReuseOptions, ctx: Context) -> None:
+        self.options = options
+
+    @hookimpl
+    def cbr_reuse(self, problem: Moment, retrieval: Retrieval, ctx: Context) -> Solution:
+        found: Retrieved = retrieval.payload
+        best = found.found[0]
+        stored = best.stored
+        ids = (best.case.id,) if best.case.id is not None else ()
+        # the learn step sees the solution, not the retrieval: what it needs travels here
+        facts = {"kind": best.case.kind, "distance": best.distance,
+                 "retrieved": [f.case.id for f in found.found], "features": best.features}
+        if isinstance(stored, PlanCase):
+            return Solution(InstallPlan(stored.route, stored.name, stored.localize), cases=ids,
+                            detail=facts)
+        if not self.options.adapt or best.distance <= self.options.threshold:
+            return Solution(InstallBehaviors(tuple(stored.behaviors), stored.name), cases=ids,
+                            detail=facts)
+        from cbr_behaviors.adaptation import adapt_case
+
+        adapted, changes, second = adapt_case(stored, best.features, problem.index,
+                                              memory_of(ctx), found.weights, found.scales,
+                                              exclude=ids)
+        if adapted is None:
+            return Solution(InstallBehaviors(tuple(stored.behaviors), stored.name), cases=ids,
+                            detail=facts)
+        used = ids + ((second.case.id,) if second is not None and second.case.id else ())
+        return Solution(InstallBehaviors(tuple(adapted.behaviors), adapted.name, adapted),
+                        cases=used, detail={**facts, "adapted": changes})
+
+
+@attrs.frozen
+class RetainOptions:
+    retain_adapted: bool = option(
+        True, "Store an adapted behavior case when its spell went well (004: adapted cases are "
+        "retained).")
+    duplicate: float = option(
+        0.02, "An adapted case this near (overall distance) an existing behavior case with the "
+        "same behaviors is not stored again.", validator=_UNIT)
+
+
+def _spell(outcome: Outcome) -> SpellReport | None:
+    return outcome.report if isinstance(outcome.report, SpellReport) else None
+
+
+class CaseLearner:
+    """004: quality counters of the retrieved and used cases; adapted cases retained."""
+
+    def __init__(self, options: RetainOptions, ctx: Context) -> None:
+        self.options = options
+
+    @hookimpl
+    def cbr_retain(self, problem: Moment, solution: Solution, outcome: Outcome,
+                   casebase: CaseStore, ctx: Context) -> None:
+        report = _spell(outcome)
+        if report is None:
+            return
+        memory = memory_of(ctx)
+        matched = tuple(solution.detail.get("retrieved", ()))
+        used = set(solution.cases)
+        for case_id in dict.fromkeys((*matched, *solution.cases)):
+            case = None if case_id is None else memory.get(case_id)
+            if case is None:
+                continue  # forgotten meanwhile, here or by another process
+            q = Quality.of(case.meta)
+            q = attrs.evolve(q, retrieved=q.retrieved + (case_id in matched))
+            if case_id in used:
+                q = attrs.evolve(q, used=q.used + 1, good=q.good + report.good,
+                                 active=q.active + report.active)
+            memory.update_meta(case_id, q.to_meta())
+        value = solution.value
+        if (self.options.retain_adapted and report.good and isinstance(value, InstallBehaviors)
+                and value.adapted is not None):
+            self._retain(memory, value.adapted, problem, ctx)
+
+    def _retain(self, memory: Any, adapted: BehaviorCase, problem: Moment, ctx: Context) -> None:
+        near = memory.nearest(problem.index, np.ones(len(FEATURES)), (BEHAVIOR,), 1,
+                              Scales())
+        if (near and near[0].distance <= self.options.duplicate
+                and near[0].stored.behaviors == adapted.behaviors):
+            return
+        stored = attrs.evolve(adapted, index=problem.index, origin="adapted")
+        memory.add(stored.to_case())
+
+
+@attrs.frozen
+class WeightOptions:
+    rate: float = option(0.5, "The learning rate of the weights (see docs/rupart.md).",
+                         validator=_POSITIVE)
+
+
+class WeightLearner:
+    """The introspective step: weights moved by which retrieved cases led to good spells."""
+
+    def __init__(self, options: WeightOptions, ctx: Context) -> None:
+        self.options = options
+
+    @hookimpl
+    def cbr_retain(self, problem: Moment, solution: Solution, outcome: Outcome,
+                   casebase: CaseStore, ctx: Context) -> None:
+        report = _spell(outcome)
+        if report is None or solution.detail.get("kind") != BEHAVIOR:
+            return
+        current = stored_weights(casebase)
+        start = current if current is not None else np.ones(len(FEATURES))
+        store_weights(casebase, updated(start, solution.detail.get("features", {}),
+                                        report.good, self.options.rate))
+
+
+@attrs.frozen
+class ForgetOptions:
+    capacity: int = option(60, "The most learned (adapted) behavior cases kept; hand-made "
+                               "cases are never forgotten.", validator=attrs.validators.ge(0))
+    failing: int = option(3, "A learned case used this often whose spells went badly more "
+                             "often than well is forgotten.", validator=attrs.validators.ge(1))
+
+
+class QualityForgetter:
+    """Forget learned behavior cases by quality (:mod:`cbr_behaviors.quality`)."""
+
+    def __init__(self, options: ForgetOptions, ctx: Context) -> None:
+        self.options = options
+
+    @hookimpl
+    def cbr_forget(self, casebase: CaseStore, ctx: Context) -> None:
+        memory = memory_of(ctx)
+        learned = [(c, d) for c, d in zip(memory.cases, memory.decoded, strict=True)
+                   if c.kind == BEHAVIOR and getattr(d, "origin", "") != "hand-made"]
+        drop = []
+        for case, _ in learned:
+            q = Quality.of(case.meta)
+            if q.used >= self.options.failing and q.good * 2 < q.used:
+                drop.append(case.id)
+        kept = [(c, d) for c, d in learned if c.id not in drop]
+        excess = len(kept) - self.options.capacity
+        if excess > 0:
+            ranked = sorted(kept, key=lambda cd: (_score(memory, cd[1]), cd[0].id))
+            drop += [c.id for c, _ in ranked[:excess]]
+        if drop:
+            memory.remove([i for i in drop if i is not None])
+
+
+def _score(memory: Any, decoded: BehaviorCase) -> float:
+    case = next(c for c, d in zip(memory.cases, memory.decoded, strict=True) if d is decoded)
+    near = memory.nearest(decoded.index, np.ones(len(FEATURES)), (BEHAVIOR,), 1, Scales(),
+                          exclude=(case.id,))
+    return Quality.of(case.meta).score(near[0].distance if near else 1.0)

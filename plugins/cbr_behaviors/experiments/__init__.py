@@ -1,0 +1,1 @@
+"""The RUPART experiment: ``rupart-delivery`` (:mod:`.delivery`)."""

@@ -1,0 +1,77 @@
+"""What a consultation asks and what the agent answers in the delivery world.
+
+A :class:`Moment` is the problem: the robot's situation when re-planning was triggered, as the
+index of 004 Figure 5 (:class:`~cbr_behaviors.index.Index`, every feature filled in from the
+simulation) with what the robot is doing. The proposal's ``solution.value`` is one of two
+actions: :class:`InstallBehaviors` (a behavior case or meta-plan: install its behaviors at
+once) or :class:`InstallPlan` (a plan case: route through its places, planned deliberatively
+on the global map). The kind of case retrieved decides which (004: "the kind of case retrieved
+determines whether to plan deliberatively").
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import attrs
+
+from cbr_behaviors.index import Index
+
+Point = tuple[float, float]
+
+
+@attrs.frozen(eq=False)
+class Moment:
+    """One re-planning retrieval's problem.
+
+    ``triggers`` are the re-planning triggers that fired (:mod:`cbr_behaviors.triggers`),
+    ``index`` the situation, ``target`` the point the behaviors are steering for now (None when
+    idle) and ``goal`` the current message goal's point; ``behaviors`` the behavior set in
+    force (plain data items).
+    """
+
+    t: float
+    triggers: tuple[str, ...]
+    index: Index
+    target: Point | None
+    goal: Point | None
+    behaviors: tuple[Any, ...]
+
+
+@attrs.frozen
+class InstallBehaviors:
+    """Install ``behaviors`` (004 Figure 4 items, centimetres) on the robot now. ``adapted``
+    holds the case the reuser adapted them into (retained when the spell goes well), None
+    when the retrieved case is installed as it is."""
+
+    behaviors: tuple[Any, ...]
+    name: str
+    adapted: Any = None
+
+
+@attrs.frozen
+class InstallPlan:
+    """Route to the current goal through the places ``route`` (a plan case), planned on the
+    global map; ``localize`` first when the plan says so."""
+
+    route: tuple[str, ...]
+    name: str
+    localize: bool = False
+
+
+@attrs.frozen
+class SpellReport:
+    """How the installed case fared until the next retrieval (or the day's end): seconds it
+    stayed active, metres gained toward the target, collisions and impasses meanwhile, and
+    messages delivered."""
+
+    active: float
+    progress: float
+    collisions: int
+    impasses: int
+    delivered: int
+
+    @property
+    def good(self) -> bool:
+        """A spell went well when it had no collision and no impasse and did not lose ground."""
+        return self.collisions == 0 and self.impasses == 0 and self.progress >= 0.0

@@ -1,0 +1,205 @@
+"""When RUPART re-plans: the triggers of action selection (004 Figure 3, "Selecting Actions").
+
+004: "Any number of occurrences trigger re-planning, including: a sudden change to the raw sonar
+readings, objects added or removed to the global map, a new, critical message goal,
+installation of a new high-level plan, an impasse, or a drop in its confidence in its location.
+The passage of time or distance with no other detected changes also triggers re-planning.
+Because the robot continues its current behaviors while re-planning occurs, RUPART errs on the
+side of retrieving too often, rather than too seldom."
+
+:class:`ReplanMonitor` is shown a :class:`Snapshot` of the robot's situation every step
+(:meth:`ReplanMonitor.check`) and told when a retrieval happened
+(:meth:`ReplanMonitor.retrieved`, with the snapshot the retrieval used). Every trigger compares
+the situation with the one at the last retrieval, so a trigger that fired keeps firing until
+the next retrieval. The triggers, in the order :meth:`~ReplanMonitor.check` lists them:
+
+- ``sonar``: the RMS difference between the sonar ranges now and at the last retrieval
+  exceeds ``sonar`` metres;
+- ``map``: a snapshot since the last retrieval reported object cells added to or removed from
+  the global map;
+- ``message``: a snapshot since the last retrieval reported a new critical message;
+- ``plan``: a snapshot since the last retrieval reported a newly installed high-level plan;
+- ``impasse``: the distance to the current target has not shrunk by ``progress`` metres over
+  the last ``window`` seconds (measured from the last retrieval or target change on, at the
+  snapshots checked), or the progress monitor's status turned blocked or oscillating since the
+  last retrieval;
+- ``location``: the location confidence fell below ``confidence`` since the last retrieval,
+  or by ``confidence_drop`` or more;
+- ``period``: ``period`` seconds passed or ``distance`` metres were driven since the last
+  retrieval, and no other trigger fired. Before the first retrieval the period has always
+  passed.
+
+The events (``map``, ``message``, ``plan``) come as what happened since the previous snapshot;
+the monitor remembers them until a retrieval. A retrieval's own snapshot sets the baselines
+(time, sonar, confidence, distance, status, target) and clears the remembered events; its event
+fields are ignored, so an event the caller reports after consulting (a plan the retrieval
+installed) reaches the next check.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from typing import TYPE_CHECKING
+
+import attrs
+import numpy as np
+
+from cbr_world2d.pilots.monitor import STUCK
+from cbrcore.options import option
+
+if TYPE_CHECKING:
+    from cbr_world2d.robot import Pose
+    from cbr_world2d.world import Point
+
+TRIGGERS: tuple[str, ...] = ("sonar", "map", "message", "plan", "impasse", "location",
+                             "period")
+"""The trigger names, in the order a check lists those that fired."""
+
+_POSITIVE = attrs.validators.gt(0.0)
+_UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
+
+
+@attrs.frozen
+class TriggerOptions:
+    """The thresholds of the re-planning triggers (metres and seconds)."""
+
+    sonar: float = option(
+        0.5, "Metres: an RMS change of the sonar ranges since the last retrieval above this "
+        "fires 'sonar'. A tenth of the sonar's 5 m range: one beam going from nothing in range "
+        "to an obstacle at 1 m changes the RMS of 16 beams by 1 m, driving half a metre along "
+        "a hallway much less.", validator=_POSITIVE)
+    window: float = option(
+        10.0, "Seconds without progress toward the target that fire 'impasse' (the progress "
+        "monitor's window).", validator=_POSITIVE)
+    progress: float = option(
+        0.2, "Metres the distance to the target must shrink within the window to count as "
+        "progress (the progress monitor's min_progress).", validator=_POSITIVE)
+    confidence: float = option(
+        0.5, "'location' fires when the location confidence falls below this since the last "
+        "retrieval (0.5: the odometry's error has grown to its confidence scale).",
+        validator=_UNIT)
+    confidence_drop: float = option(
+        0.2, "... or when it fell by this much or more since the last retrieval.",
+        validator=_POSITIVE)
+    map_cells: int = option(
+        4, "'map' fires once this many evidence cells of the global map were added or removed "
+        "since the last retrieval (4: one cart or person a half metre across).",
+        validator=attrs.validators.ge(1))
+    pause: float = option(
+        1.0, "Seconds after a retrieval during which only 'message' and 'plan' may fire: the "
+        "installed behaviors get a second to act before the situation is judged again.",
+        validator=attrs.validators.ge(0.0))
+    period: float = option(
+        10.0, "Seconds since the last retrieval after which 'period' fires when nothing else "
+        "does (004 errs on retrieving too often).", validator=_POSITIVE)
+    distance: float = option(
+        3.0, "Metres driven since the last retrieval after which 'period' fires when nothing "
+        "else does (ten seconds at 0.3 m/s).", validator=_POSITIVE)
+
+
+def _ranges(value: object) -> np.ndarray:
+    ranges = np.array(value, dtype=np.float64).reshape(-1)
+    ranges.flags.writeable = False
+    return ranges
+
+
+@attrs.frozen(eq=False)
+class Snapshot:
+    """The robot's situation at one step, as the triggers see it.
+
+    ``t`` seconds; ``pose`` the pose the robot believes it has; ``sonar`` its ranges (metres);
+    ``confidence`` its location confidence; ``added`` and ``removed`` the object cells the
+    global map gained and lost since the previous snapshot; ``critical`` the critical messages
+    that arrived since then; ``plan_installed`` whether a high-level plan was installed since
+    then; ``distance`` the distance driven so far (an odometer, metres); ``target`` the point
+    the robot heads for (None: none); ``status`` the progress monitor's status.
+    """
+
+    t: float
+    pose: Pose
+    sonar: np.ndarray = attrs.field(converter=_ranges)
+    confidence: float = 1.0
+    added: int = 0
+    removed: int = 0
+    critical: int = 0
+    plan_installed: bool = False
+    distance: float = 0.0
+    target: Point | None = None
+    status: str = "moving"
+
+
+class ReplanMonitor:
+    """Decides when to re-plan (see the module docstring)."""
+
+    def __init__(self, options: TriggerOptions | None = None) -> None:
+        self.options = options if options is not None else TriggerOptions()
+        self._base: Snapshot | None = None
+        self._events: set[str] = set()
+        self._changed = 0
+        self._target: Point | None = None
+        # (t, distance to the target) since the last retrieval or target change
+        self._progress: deque[tuple[float, float]] = deque()
+
+    def _no_progress(self, snapshot: Snapshot) -> bool:
+        """Record the distance to the target; whether it shrank by less than ``progress`` over
+        a whole window ending now."""
+        target = snapshot.target
+        if target != self._target:
+            self._progress.clear()
+            self._target = target
+        if target is None:
+            return False
+        progress = self._progress
+        distance = math.hypot(target[0] - snapshot.pose.x, target[1] - snapshot.pose.y)
+        progress.append((snapshot.t, distance))
+        start = snapshot.t - self.options.window
+        # the oldest sample kept is the latest one at least a window old
+        while len(progress) >= 2 and progress[1][0] <= start:
+            progress.popleft()
+        t0, d0 = progress[0]
+        return t0 <= start and d0 - distance < self.options.progress
+
+    def check(self, snapshot: Snapshot) -> list[str]:
+        """The triggers that fire at ``snapshot``, in the order of :data:`TRIGGERS`."""
+        o = self.options
+        self._changed += snapshot.added + snapshot.removed
+        if self._changed >= o.map_cells:
+            self._events.add("map")
+        if snapshot.critical:
+            self._events.add("message")
+        if snapshot.plan_installed:
+            self._events.add("plan")
+        fired = set(self._events)
+        if self._no_progress(snapshot):
+            fired.add("impasse")
+        base = self._base
+        if base is not None:
+            if snapshot.sonar.shape != base.sonar.shape:
+                raise ValueError(f"the sonar has {snapshot.sonar.shape[0]} ranges now and had "
+                                 f"{base.sonar.shape[0]} at the last retrieval")
+            if snapshot.sonar.size and math.sqrt(
+                    float(np.mean((snapshot.sonar - base.sonar) ** 2))) > o.sonar:
+                fired.add("sonar")
+            if snapshot.status in STUCK and base.status not in STUCK:
+                fired.add("impasse")
+            if (snapshot.confidence < o.confidence <= base.confidence
+                    or base.confidence - snapshot.confidence >= o.confidence_drop):
+                fired.add("location")
+        if base is not None and snapshot.t - base.t < o.pause:
+            fired &= {"message", "plan"}
+            return [name for name in TRIGGERS if name in fired]
+        if not fired and (base is None or snapshot.t - base.t >= o.period
+                          or snapshot.distance - base.distance >= o.distance):
+            fired.add("period")
+        return [name for name in TRIGGERS if name in fired]
+
+    def retrieved(self, snapshot: Snapshot) -> None:
+        """A retrieval happened at ``snapshot``: it becomes the baseline, the events remembered
+        are cleared and the impasse window starts again."""
+        self._base = snapshot
+        self._events.clear()
+        self._changed = 0
+        self._target = None
+        self._progress.clear()
+        self._no_progress(snapshot)
