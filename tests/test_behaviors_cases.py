@@ -1,4 +1,5 @@
-"""RUPART's case files (``cbr_behaviors.sexpr``, ``cbr_behaviors.cases``, ``cbr rupart``).
+"""RUPART's case files (``cbr_behaviors.sexpr``, ``cbr_behaviors.cases``,
+``cbr_behaviors.casefiles``, ``cbr rupart``).
 
 004 Figure 4's two behavior sets are read as printed (with the typos of the text fixed:
 ``curt-head`` is ``curr-head``, ``i00`` is ``100``, and the priorities the extraction lost at
@@ -20,6 +21,17 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cbr_behaviors import sexpr
+from cbr_behaviors.casefiles import (
+    export,
+    parse_sexp,
+    parse_yaml,
+    read_cases,
+    shipped_cases,
+    shipped_path,
+    to_sexp,
+    to_yaml,
+    write_cases,
+)
 from cbr_behaviors.cases import (
     BEHAVIOR,
     META,
@@ -32,16 +44,7 @@ from cbr_behaviors.cases import (
     Strategy,
     case_of,
     document,
-    export,
     from_case,
-    parse_sexp,
-    parse_yaml,
-    read_cases,
-    shipped_cases,
-    shipped_path,
-    to_sexp,
-    to_yaml,
-    write_cases,
 )
 from cbr_behaviors.index import Index
 from cbr_world2d.generate import office
@@ -320,7 +323,7 @@ def test_the_shipped_memory_holds_the_papers_initial_cases() -> None:
 
 
 def test_the_shipped_export_is_current(tmp_path: Path) -> None:
-    # cases/rupart.yaml is written by cbr_behaviors.cases.export
+    # cases/rupart.yaml is written by cbr_behaviors.casefiles.export
     assert export(tmp_path / "x.yaml").read_text() == shipped_path("yaml").read_text()
     exported = read_document(shipped_path("yaml"))
     assert document_to_data(exported) == document_to_data(document(shipped_cases()))

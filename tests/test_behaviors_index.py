@@ -197,8 +197,10 @@ def test_table_equals_reference(cases: list[Index], query: Index, weights: list[
     assert all(h.features == pytest.approx(feature_distances(query, cases[h.row], scales))
                for h in hits)
     subset = np.arange(len(cases))[::-2]
-    found = [h.row for h in table.nearest(query, vector, k, rows=subset)]
-    assert found == sorted(subset.tolist(), key=lambda r: (total[r], r))[:k]
+    found = table.nearest(query, vector, k, rows=subset)
+    assert [h.row for h in found] == sorted(subset.tolist(), key=lambda r: (total[r], r))[:k]
+    assert all(h.distance == total[h.row] and h.features == pytest.approx(
+        feature_distances(query, cases[h.row], scales)) for h in found)
 
 
 def test_nearest_order_and_ties() -> None:

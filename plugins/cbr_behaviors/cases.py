@@ -1,5 +1,5 @@
 """RUPART's cases (004): behavior cases, plan cases, meta-plans and adaptation strategies, in one
-case memory, written in 004's s-expression form or in YAML.
+case memory; :mod:`cbr_behaviors.casefiles` reads and writes them as case files.
 
 The kinds (``Case.kind`` in the case base): :data:`BEHAVIOR`, :data:`PLAN`, :data:`META` (a
 meta-plan: a generic behavior case retrieved when nothing matches well) and :data:`STRATEGY`.
@@ -9,86 +9,23 @@ Figure 5) as ``problem`` and its content as ``solution``; ``meta`` holds ``name`
 (:mod:`cbr_behaviors.quality`). A strategy stores what it is indexed by (the kind of case it
 adapts and the per-feature distances it answers) as ``problem``, its changes as ``solution``.
 
-A case file is a sequence of forms. In the s-expression form (``.sexp``)::
-
-    ; 004 Figure 4 (a): an open area with few obstacles
-    (behavior-case open-area
-      (plan-index (sonar 3.0) (behaviors goToPos avoidCollision))
-      (((goStraight mod-fast curr-head) med)
-       ((avoidObstacle 150 moderate) med)
-       ((goToPos curr-goal mod-fast 100) high)
-       ((avoidCollision 50 mod-fast) high)))
-
-    (meta-plan move-away (plan-index (behav-conf 0.1)) (((moveForward slow) high)))
-
-    (plan-case west-to-east
-      (plan-index (location 0.75 5.0) (task-loc 15.25 5.0))
-      (route hall_west hall_east)
-      (localize))
-
-    (alter-strategy slow-when-closer
-      (adapts behavior) (feature sonar) (sense closer) (min 0.05)
-      (change (moveForward goStraight goToPos) speed -1.0))
-
-    (merge-strategy merge-mismatch (adapts behavior) (high 0.6) (low 0.2))
-
-``(plan-index ...)`` holds one ``(FEATURE VALUE ...)`` clause per specified feature (Figure 5's
-names; a sonar of one number stands for all 16 beams); the behavior list holds Figure 4's
-items ``((NAME ARG ...) PRIORITY)`` (centimetres, symbolic values as
-:mod:`cbr_world2d.pilots.behaviors` names them; a position ``(x y)``). Every form may end with
-``(origin NAME)``; ``(localize)`` marks a plan that localizes first; a change is
-``(change BEHAVIORS TARGET SCALE)`` with BEHAVIORS a list of behavior names or ``*`` (all).
-
-In YAML (``.yaml``) the same cases are a list of mappings, the form's name as the first key::
-
-    - behavior-case: open-area
-      index: {sonar: 3.0, behaviors: [goToPos, avoidCollision]}
-      behaviors:
-      - [[goStraight, mod-fast, curr-head], med]
-      - [[avoidObstacle, 150, moderate], med]
-    - plan-case: west-to-east
-      index: {location: [0.75, 5.0], task-loc: [15.25, 5.0]}
-      route: [hall_west, hall_east]
-      localize: true
-    - alter-strategy: slow-when-closer
-      adapts: behavior
-      feature: sonar
-      sense: closer
-      min: 0.05
-      changes:
-      - {behaviors: [moveForward, goStraight, goToPos], target: speed, scale: -1.0}
-    - merge-strategy: merge-mismatch
-      high: 0.6
-      low: 0.2
-
-(``adapts`` defaults to ``behavior``, ``sense`` to ``any``, ``min`` to 0, ``origin`` to
-``hand-made``, the index to none.) A file is validated whole before anything is returned:
-:class:`CaseFormatError` lists every problem with its line (and in YAML its path) and the item
-it is about. An exported case base (:mod:`cbrcore.casebase.exchange`) reads as a case file too.
-
-The shipped initial memory is ``cases/rupart.sexp``; ``cases/rupart.yaml`` is the same as an
-exported case base for a store's ``initial`` option, written by :func:`export`
-(``python -c "from cbr_behaviors.cases import export; export()"``).
+A case is built from plain data (a mapping of its fields, one key naming its form and the case,
+as a YAML case file writes it) by :func:`build_case`, which reports every problem with where it
+was read (:class:`Located`); a stored case is read back by :func:`from_case`.
 """
 
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from importlib import resources
-from pathlib import Path
 from typing import Any, Literal
 
 import attrs
 import yaml
 
-from cbr_behaviors import sexpr
-from cbr_behaviors.index import FEATURES, FRACTIONS, Index, IndexDataError
+from cbr_behaviors.index import FEATURES, Index, IndexDataError
 from cbr_world2d.pilots.behaviors import BEHAVIORS, LENGTH_UNITS, parse_behavior
-from cbrcore import files
-from cbrcore.casebase.exchange import Document, document_from_data, dump_document
-from cbrcore.documents import DocumentError, compose_yaml, construct_yaml, read_text
+from cbrcore.casebase.exchange import Document
 from cbrcore.errors import CbrError
 from cbrcore.model import Case
 
@@ -467,18 +404,18 @@ def from_case(case: Case, source: str = "case base") -> AnyCase:
     except (CbrError, ValueError, KeyError, TypeError):
         # read again the way a file is, for a message that names the field and the item
         problems: list[str] = []
-        if _build(_unlocated(fields, f"{case.kind} case {case.id}"), problems) is not None:
+        if build_case(_unlocated(fields, f"{case.kind} case {case.id}"), problems) is not None:
             raise
         raise CaseFormatError(source, problems) from None
 
 
-def _unlocated(value: Any, where: str) -> _Located:
+def _unlocated(value: Any, where: str) -> Located:
     """Plain data as :func:`_build` reads it, every part at ``where``."""
     if isinstance(value, Mapping):
-        return _Located(value, where, {k: _unlocated(v, where) for k, v in value.items()})
+        return Located(value, where, {k: _unlocated(v, where) for k, v in value.items()})
     if isinstance(value, list | tuple):
-        return _Located(value, where, {k: _unlocated(v, where) for k, v in enumerate(value)})
-    return _Located(value, where)
+        return Located(value, where, {k: _unlocated(v, where) for k, v in enumerate(value)})
+    return Located(value, where)
 
 
 def _direct(form: str, fields: Mapping[str, Any]) -> AnyCase:
@@ -517,29 +454,30 @@ def document(cases: Iterable[AnyCase]) -> Document:
     return Document(revision=1, cases=stored)
 
 
-# --- reading files -------------------------------------------------------------------------------
+# --- cases from plain data, each part with where it was read -------------------------------------
 
 
 @attrs.frozen
-class _Located:
+class Located:
     """A value read from a file with where it was: ``where`` (``line N``, with the YAML path)
     and ``text`` (the value as the file wrote it); ``parts`` the located elements of a list
     (by position) or mapping (by key)."""
 
     value: Any
     where: str
-    parts: Mapping[Any, _Located] = attrs.field(factory=dict)
+    parts: Mapping[Any, Located] = attrs.field(factory=dict)
     text: str = ""
 
-    def part(self, key: Any) -> _Located:
+    def part(self, key: Any) -> Located:
         return self.parts.get(key, self)
 
     @property
     def shown(self) -> str:
-        return self.text or _flow(self.value)
+        return self.text or flow_text(self.value)
 
 
-def _flow(value: Any) -> str:
+def flow_text(value: Any) -> str:
+    """``value`` as one line of YAML flow style, the way problems show data."""
     text = yaml.safe_dump(value, default_flow_style=True, width=math.inf, sort_keys=False)
     return text.removesuffix("...\n").strip()
 
@@ -567,11 +505,11 @@ class _Problems:
         self.subject = subject
         self.count = 0
 
-    def add(self, at: _Located, problem: str, about: str = "") -> None:
+    def add(self, at: Located, problem: str, about: str = "") -> None:
         self.out.append(f"{at.where}: {self.subject}{about}: {problem}")
         self.count += 1
 
-    def check(self, at: _Located, check: Callable[[Any], Any], about: str = "") -> Any:
+    def check(self, at: Located, check: Callable[[Any], Any], about: str = "") -> Any:
         try:
             return check(at.value)
         except ValueError as exc:
@@ -579,7 +517,7 @@ class _Problems:
             return None
 
 
-def _build(tree: _Located, out: list[str]) -> AnyCase | None:
+def build_case(tree: Located, out: list[str]) -> AnyCase | None:
     """The case a located mapping describes, or None with its problems added to ``out``."""
     fields = tree.value
     if not isinstance(fields, Mapping):
@@ -624,7 +562,7 @@ def _build(tree: _Located, out: list[str]) -> AnyCase | None:
     return BehaviorCase(name, index, behaviors, form == "meta-plan", origin)
 
 
-def _index(at: _Located, data: Any, problems: _Problems) -> Index:
+def _index(at: Located, data: Any, problems: _Problems) -> Index:
     if not isinstance(data, Mapping):
         problems.add(at, f"expected a mapping of feature -> value, got {at.shown}", ", index")
         return Index()
@@ -638,7 +576,7 @@ def _index(at: _Located, data: Any, problems: _Problems) -> Index:
     return Index.from_data(data, "index")
 
 
-def _items(at: _Located, problems: _Problems) -> tuple[Item, ...]:
+def _items(at: Located, problems: _Problems) -> tuple[Item, ...]:
     items = at.value
     if isinstance(items, str) or not isinstance(items, Sequence) or not items:
         problems.add(at, f"expected a list of one or more behaviors, got {at.shown}",
@@ -654,7 +592,7 @@ def _items(at: _Located, problems: _Problems) -> tuple[Item, ...]:
     return tuple(checked)
 
 
-def _strategy(form: str, name: str, origin: str, tree: _Located,
+def _strategy(form: str, name: str, origin: str, tree: Located,
               problems: _Problems) -> Strategy | None:
     kind = form.removesuffix("-strategy")
     fields = {**tree.value, "kind": kind}
@@ -681,403 +619,3 @@ def _strategy(form: str, name: str, origin: str, tree: _Located,
                         origin=origin)
     return Strategy(name, adapts, "alter", fields["feature"], fields.get("sense", "any"),
                     fields.get("min", 0.0), changes, origin=origin)
-
-
-def _parse_cases(trees: Sequence[_Located], source: str) -> tuple[AnyCase, ...]:
-    problems: list[str] = []
-    cases: list[AnyCase] = []
-    named: dict[str, str] = {}
-    for tree in trees:
-        case = _build(tree, problems)
-        if case is None:
-            continue
-        if case.name in named:
-            problems.append(f"{tree.where}: a second case named {case.name!r} (the first is at "
-                            f"{named[case.name]})")
-        named.setdefault(case.name, tree.where)
-        cases.append(case)
-    if problems:
-        raise CaseFormatError(source, problems)
-    return tuple(cases)
-
-
-# s-expressions
-
-_CLAUSES: dict[str, tuple[str, ...]] = {
-    "behavior-case": ("plan-index", "origin"),
-    "meta-plan": ("plan-index", "origin"),
-    "plan-case": ("plan-index", "route", "localize", "origin"),
-    "alter-strategy": ("adapts", "feature", "sense", "min", "change", "origin"),
-    "merge-strategy": ("adapts", "high", "low", "origin"),
-}
-
-
-def _line(node: sexpr.Node) -> str:
-    return f"line {node.line}"
-
-
-class _SexpForm:
-    """Turns one form of a ``.sexp`` file into the located mapping :func:`_build` reads, or
-    records why it cannot."""
-
-    def __init__(self, node: sexpr.Node, problems: list[str]) -> None:
-        self.node = node
-        self.problems = problems
-
-    def problem(self, at: sexpr.Node, message: str) -> None:
-        self.problems.append(f"{_line(at)}: {message}")
-
-    def tree(self) -> _Located | None:
-        node = self.node
-        head = node.items[0].symbol if node.items else None
-        if head not in FORMS:
-            what = node.text() if node.is_list else repr(node.text())
-            self.problem(node, f"expected a case form, one of ({' ...), ('.join(FORMS)} ...), "
-                               f"got {what}")
-            return None
-        if len(node.items) < 2 or node.items[1].is_list:
-            self.problem(node, f"{head}: expected a name after {head}")
-            return None
-        name = node.items[1]
-        subject = f"{head} {name.plain()}"
-        fields: dict[str, Any] = {head: name.plain()}
-        parts: dict[str, _Located] = {head: _Located(name.plain(), _line(name))}
-        seen: dict[str, sexpr.Node] = {}
-        changes: list[_Located] = []
-        for clause in node.items[2:]:
-            items = clause.items
-            listed = head in ("behavior-case", "meta-plan")
-            if listed and clause.is_list and (not items or items[0].is_list):
-                key, located = "behaviors", self._behaviors(clause)
-            elif clause.is_list and items and items[0].symbol in _CLAUSES[head]:
-                key = items[0].symbol or ""
-                located = self._clause(key, clause, subject)
-                if located is None:
-                    continue
-            else:
-                known = ", ".join(f"({c} ...)" for c in _CLAUSES[head])
-                extra = " or the behavior list" if listed else ""
-                self.problem(clause, f"{subject}: unexpected {clause.text()}; expected {known}"
-                                     f"{extra}")
-                continue
-            if key == "change":
-                changes.append(located)
-                continue
-            key = "index" if key == "plan-index" else key
-            if key in seen:
-                what = "behavior list" if key == "behaviors" else f"({items[0].text()} ...) clause"
-                self.problem(clause, f"{subject}: a second {what} (the first at line "
-                                     f"{seen[key].line})")
-                continue
-            seen[key] = clause
-            fields[key] = located.value
-            parts[key] = located
-        if changes:
-            fields["changes"] = [c.value for c in changes]
-            parts["changes"] = _Located(fields["changes"], changes[0].where,
-                                        dict(enumerate(changes)))
-        return _Located(fields, _line(node), parts, node.text())
-
-    def _behaviors(self, clause: sexpr.Node) -> _Located:
-        parts = {k: _Located(item.plain(), _line(item), text=item.text())
-                 for k, item in enumerate(clause.items)}
-        return _Located(clause.plain(), _line(clause), parts, clause.text())
-
-    def _clause(self, key: str, clause: sexpr.Node, subject: str) -> _Located | None:
-        args = clause.items[1:]
-        where = _line(clause)
-        if key == "plan-index":
-            return self._index(clause, subject)
-        if key == "localize":
-            if args:
-                self.problem(clause, f"{subject}: (localize) takes nothing, got {clause.text()}")
-                return None
-            return _Located(True, where, text=clause.text())
-        if key == "route":
-            return _Located([a.plain() for a in args], where, text=clause.text())
-        if key == "change":
-            if len(args) != 3:
-                self.problem(clause, f"{subject}: expected (change BEHAVIORS TARGET SCALE), got "
-                                     f"{clause.text()}")
-                return None
-            behaviors, target, scale = (a.plain() for a in args)
-            return _Located({"behaviors": behaviors, "target": target, "scale": scale}, where,
-                            text=clause.text())
-        if len(args) != 1 or args[0].is_list:
-            self.problem(clause, f"{subject}: expected ({key} VALUE), got {clause.text()}")
-            return None
-        return _Located(args[0].plain(), where, text=clause.text())
-
-    def _index(self, clause: sexpr.Node, subject: str) -> _Located | None:
-        data: dict[str, Any] = {}
-        parts: dict[str, _Located] = {}
-        for entry in clause.items[1:]:
-            feature = entry.items[0].symbol if entry.items else None
-            if feature is None:
-                self.problem(entry, f"{subject}: index: expected (FEATURE VALUE ...), got "
-                                    f"{entry.text()}")
-                continue
-            if feature in data:
-                self.problem(entry, f"{subject}: index: a second {feature} clause (the first "
-                                    f"at {parts[feature].where})")
-                continue
-            values = [v.plain() for v in entry.items[1:]]
-            # a fraction is one number, and so is the sonar shorthand; the rest are lists
-            one = feature in FRACTIONS or (feature == "sonar" and len(values) == 1)
-            data[feature] = values[0] if one and len(values) == 1 else values
-            parts[feature] = _Located(data[feature], _line(entry), text=entry.text())
-        return _Located(data, _line(clause), parts, clause.text())
-
-
-def parse_sexp(text: str, source: str = "<text>") -> tuple[AnyCase, ...]:
-    """The cases of a ``.sexp`` file's text; :class:`CaseFormatError` naming ``source``, the
-    line and the item of every problem."""
-    try:
-        nodes = sexpr.read(text, source)
-    except sexpr.SexprError as exc:
-        raise CaseFormatError(source, [f"line {exc.line}: {exc.problem}"]) from None
-    problems: list[str] = []
-    trees = [t for t in (_SexpForm(n, problems).tree() for n in nodes) if t is not None]
-    try:
-        cases = _parse_cases(trees, source)
-    except CaseFormatError as exc:
-        problems += exc.problems
-    if problems:
-        raise CaseFormatError(source, sorted(problems, key=_line_number))
-    return cases
-
-
-def _line_number(problem: str) -> int:
-    return int(problem.split(":", 1)[0].split()[1])
-
-
-# YAML
-
-
-def _path(path: str, key: Any) -> str:
-    return f"{path}[{key}]" if isinstance(key, int) else f"{path}.{key}" if path else str(key)
-
-
-def _yaml_tree(node: yaml.Node, path: str, source: str, problems: list[str]) -> _Located:
-    where = f"line {node.start_mark.line + 1} ({path or 'the document'})"
-    if isinstance(node, yaml.SequenceNode):
-        parts = {k: _yaml_tree(n, _path(path, k), source, problems)
-                 for k, n in enumerate(node.value)}
-        return _Located([p.value for p in parts.values()], where, parts)
-    if isinstance(node, yaml.MappingNode):
-        parts: dict[Any, _Located] = {}
-        for key_node, value_node in node.value:
-            key = construct_yaml(key_node, source)
-            if not isinstance(key, str):
-                problems.append(f"line {key_node.start_mark.line + 1} ({path}): expected a "
-                                f"name as the key, got {_flow(key)}")
-                continue
-            if key in parts:
-                problems.append(f"line {key_node.start_mark.line + 1} ({_path(path, key)}): "
-                                f"the key {key!r} is given twice")
-                continue
-            parts[key] = _yaml_tree(value_node, _path(path, key), source, problems)
-        return _Located({k: p.value for k, p in parts.items()}, where, parts)
-    return _Located(construct_yaml(node, source), where)
-
-
-def parse_yaml(text: str, source: str = "<text>") -> tuple[AnyCase, ...]:
-    """The cases of a YAML case file's text (a list of cases, or an exported case base);
-    :class:`CaseFormatError` naming ``source``, the line, the path and the item of every
-    problem."""
-    try:
-        root = compose_yaml(text, source)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = f"line {mark.line + 1}" if mark is not None else "line 1"
-        raise CaseFormatError(source, [f"{line}: not valid YAML: "
-                                       f"{getattr(exc, 'problem', None) or exc}"]) from None
-    except DocumentError as exc:
-        raise CaseFormatError(source, [exc.problem]) from None
-    if isinstance(root, yaml.MappingNode):
-        data = construct_yaml(root, source)
-        if isinstance(data, Mapping) and "format" in data:
-            return _exported(data, source)
-    problems: list[str] = []
-    if root is None:
-        return ()
-    tree = _yaml_tree(root, "", source, problems)
-    if problems:
-        raise CaseFormatError(source, problems)
-    if not isinstance(tree.value, list):
-        raise CaseFormatError(source, [f"{tree.where}: expected a list of cases (or an "
-                                       "exported case base)"])
-    return _parse_cases([tree.part(k) for k in range(len(tree.value))], source)
-
-
-def _exported(data: Mapping[str, Any], source: str) -> tuple[AnyCase, ...]:
-    exported = document_from_data(data, source)
-    problems: list[str] = []
-    cases: list[AnyCase] = []
-    for k, case in enumerate(exported.cases):
-        if case.kind not in KINDS:
-            continue
-        try:
-            cases.append(from_case(case, f"cases[{k}]"))
-        except CaseFormatError as exc:
-            problems += [f"{exc.source}: {p}" for p in exc.problems]
-    if problems:
-        raise CaseFormatError(source, problems)
-    return tuple(cases)
-
-
-Format = Literal["sexp", "yaml"]
-_SUFFIXES: dict[str, Format] = {".sexp": "sexp", ".yaml": "yaml", ".yml": "yaml"}
-
-
-def format_of(path: str | os.PathLike[str]) -> Format:
-    """The case file format its extension calls for."""
-    suffix = Path(path).suffix.lower()
-    if suffix not in _SUFFIXES:
-        raise CaseFormatError(str(path), [f"cannot tell the format from the extension "
-                                          f"{suffix!r}; name the file .sexp, .yaml or .yml"])
-    return _SUFFIXES[suffix]
-
-
-def read_cases(path: str | os.PathLike[str], format: Format | None = None
-               ) -> tuple[AnyCase, ...]:
-    """The cases of the file at ``path`` (format from the extension unless given), all
-    validated before any is returned."""
-    fmt = format or format_of(path)
-    try:
-        text = read_text(path)
-    except DocumentError as exc:
-        raise CaseFormatError(str(path), [exc.problem]) from None
-    except FileNotFoundError:
-        raise CaseFormatError(str(path), ["no such file"]) from None
-    except UnicodeDecodeError as exc:
-        raise CaseFormatError(str(path), [f"not UTF-8 text ({exc.reason} at byte "
-                                          f"{exc.start})"]) from None
-    except OSError as exc:
-        raise CaseFormatError(str(path), [f"cannot read it: {exc.strerror}"]) from None
-    return parse_sexp(text, str(path)) if fmt == "sexp" else parse_yaml(text, str(path))
-
-
-# --- writing files -------------------------------------------------------------------------------
-
-
-def _sexp_value(feature: str, value: Any) -> list[Any]:
-    return [feature, *value] if isinstance(value, list) else [feature, value]
-
-
-def _sexp_form(case: AnyCase) -> list[Any]:
-    if isinstance(case, Strategy):
-        form: list[Any] = [f"{case.kind}-strategy", case.name, ["adapts", case.adapts]]
-        if case.kind == "alter":
-            form += [["feature", case.feature], ["sense", case.sense], ["min", case.min]]
-            form += [["change", c.to_data()["behaviors"], c.target, c.scale]
-                     for c in case.changes]
-        else:
-            form += [["high", case.high], ["low", case.low]]
-    else:
-        head = ("plan-case" if isinstance(case, PlanCase)
-                else "meta-plan" if case.meta_plan else "behavior-case")
-        form = [head, case.name]
-        data = index_data(case.index)
-        if data:
-            form.append(["plan-index", *(_sexp_value(f, v) for f, v in data.items())])
-        if isinstance(case, PlanCase):
-            form.append(["route", *case.route])
-            if case.localize:
-                form.append(["localize"])
-        else:
-            form.append(case.items())
-    if case.origin != HAND_MADE:
-        form.append(["origin", case.origin])
-    return form
-
-
-def to_sexp(cases: Iterable[AnyCase]) -> str:
-    """``cases`` as the text of a ``.sexp`` file, forms one blank line apart."""
-    return "\n\n".join(sexpr.write(_sexp_form(c)) for c in cases) + "\n"
-
-
-class _Flow(list):
-    """A list written in YAML's flow style."""
-
-
-class _FlowMap(dict):
-    """A mapping written in YAML's flow style."""
-
-
-class _Dumper(yaml.SafeDumper):
-    def ignore_aliases(self, data: Any) -> bool:
-        return True
-
-
-_Dumper.add_representer(_Flow, lambda d, v: d.represent_sequence(
-    "tag:yaml.org,2002:seq", v, flow_style=True))
-_Dumper.add_representer(_FlowMap, lambda d, v: d.represent_mapping(
-    "tag:yaml.org,2002:map", v, flow_style=True))
-
-
-def _yaml_entry(case: AnyCase) -> dict[str, Any]:
-    if isinstance(case, Strategy):
-        entry: dict[str, Any] = {f"{case.kind}-strategy": case.name, "adapts": case.adapts}
-        if case.kind == "alter":
-            entry.update(feature=case.feature, sense=case.sense, min=case.min,
-                         changes=[_FlowMap({**c.to_data(), "behaviors": (
-                             ALL if c.behaviors == ALL else _Flow(c.behaviors))})
-                             for c in case.changes])
-        else:
-            entry.update(high=case.high, low=case.low)
-    else:
-        head = ("plan-case" if isinstance(case, PlanCase)
-                else "meta-plan" if case.meta_plan else "behavior-case")
-        entry = {head: case.name}
-        data = index_data(case.index)
-        if data:
-            entry["index"] = {f: _Flow(v) if isinstance(v, list) else v
-                              for f, v in data.items()}
-        if isinstance(case, PlanCase):
-            entry["route"] = _Flow(case.route)
-            if case.localize:
-                entry["localize"] = True
-        else:
-            entry["behaviors"] = [_Flow(item) for item in case.items()]
-    if case.origin != HAND_MADE:
-        entry["origin"] = case.origin
-    return entry
-
-
-def to_yaml(cases: Iterable[AnyCase]) -> str:
-    """``cases`` as the text of a YAML case file."""
-    return yaml.dump([_yaml_entry(c) for c in cases], Dumper=_Dumper, sort_keys=False,
-                     allow_unicode=True, width=100)
-
-
-def write_cases(cases: Iterable[AnyCase], path: str | os.PathLike[str],
-                format: Format | None = None) -> None:
-    """Write ``cases`` to ``path`` as a case file (format from the extension unless given)."""
-    fmt = format or format_of(path)
-    text = to_sexp(cases) if fmt == "sexp" else to_yaml(cases)
-    try:
-        files.write_text(Path(path), text)
-    except OSError as exc:
-        raise CaseFormatError(str(path), [f"cannot write it: {exc.strerror or exc}"]) from exc
-
-
-# --- the shipped memory --------------------------------------------------------------------------
-
-
-def shipped_path(format: Format = "sexp") -> Path:
-    """The shipped initial memory: the authored ``rupart.sexp`` or its export ``rupart.yaml``."""
-    return Path(str(resources.files("cbr_behaviors") / "cases" / f"rupart.{format}"))
-
-
-def shipped_cases() -> tuple[AnyCase, ...]:
-    """The cases of the shipped initial memory."""
-    return read_cases(shipped_path("sexp"))
-
-
-def export(target: str | os.PathLike[str] | None = None) -> Path:
-    """Write the shipped memory as an exported case base (default: ``cases/rupart.yaml``, what
-    a store's ``initial`` option loads); return where."""
-    path = Path(target) if target is not None else shipped_path("yaml")
-    files.write_text(path, dump_document(document(shipped_cases()), "yaml"))
-    return path

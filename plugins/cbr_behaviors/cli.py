@@ -1,7 +1,7 @@
 """``cbr rupart``: add case files to a case base and show case files.
 
 ``cbr rupart add FILE... --store STORE`` (or ``--config CONFIG``) reads and validates every
-file first (``.sexp`` or ``.yaml``, :mod:`cbr_behaviors.cases`), then stores all their cases
+file first (``.sexp`` or ``.yaml``, :mod:`cbr_behaviors.casefiles`), then stores all their cases
 in one transaction: a bad file stores nothing and exits with code 2, its message naming the
 file, the line and the item. ``cbr rupart show FILE`` prints a case file's cases in either
 form. The store is named as for ``cbr casebase``; the case modules load when a command runs.
@@ -47,7 +47,8 @@ ConfigOption = Annotated[Path | None, typer.Option(
 def _read_all(paths: list[Path]) -> list[AnyCase]:
     """The cases of every file, all files read before any is used; one error listing the
     problems of every bad file."""
-    from cbr_behaviors.cases import CaseFormatError, read_cases
+    from cbr_behaviors.casefiles import read_cases
+    from cbr_behaviors.cases import CaseFormatError
 
     cases: list[AnyCase] = []
     errors: list[str] = []
@@ -118,7 +119,7 @@ def show(file: Annotated[Path, typer.Argument(metavar="FILE", show_default=False
              "--format", help="Print the cases as s-expressions or as YAML.")
          ] = CaseFormat.sexp) -> None:
     """Print the cases of a case file (or of an exported case base) as s-expressions or YAML."""
-    from cbr_behaviors.cases import read_cases, to_sexp, to_yaml
+    from cbr_behaviors.casefiles import read_cases, to_sexp, to_yaml
 
     cases = read_cases(file)
     typer.echo(to_sexp(cases) if fmt is CaseFormat.sexp else to_yaml(cases), nl=False)

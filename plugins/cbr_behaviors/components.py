@@ -108,6 +108,9 @@ class RupartRetriever:
         weights = weights_of(o, ctx)
         scales = o.scales
         found = memory.nearest(problem.index, weights, (BEHAVIOR, PLAN), o.candidates, scales)
+        if found and all(f.case.kind == PLAN for f in found):
+            # the reuser falls back on the nearest behavior case when the plan is in force
+            found += memory.nearest(problem.index, weights, (BEHAVIOR,), 1, scales)
         if not found or found[0].distance > o.meta_threshold:
             fallback = memory.nearest(problem.index, weights, (META,), o.candidates, scales)
             if fallback:
@@ -125,6 +128,9 @@ class ReuseOptions:
     threshold: float = option(
         0.15, "The overall distance beyond which a behavior case is adapted rather than used "
         "as it is (004).", validator=_UNIT)
+    plan_trust: float = option(
+        0.5, "While a plan case is in force and the plan confidence is at least this, a "
+        "retrieved plan case is passed over for the nearest behavior case.", validator=_UNIT)
 
 
 class RupartReuser:
@@ -137,7 +143,12 @@ class RupartReuser:
     @hookimpl
     def cbr_reuse(self, problem: Moment, retrieval: Retrieval, ctx: Context) -> Solution:
         found: Retrieved = retrieval.payload
-        best = found.found[0]
+        # with a plan in force that the robot still trusts, no plan case re-plans: the
+        # nearest behavior case is installed instead
+        trusted = (problem.plan is not None
+                   and (problem.index.plan_conf or 0.0) >= self.options.plan_trust)
+        best = next((f for f in found.found
+                     if not (trusted and isinstance(f.stored, PlanCase))), found.found[0])
         stored = best.stored
         ids = (best.case.id,) if best.case.id is not None else ()
         # the learn step sees the solution, not the retrieval: what it needs travels here

@@ -29,6 +29,7 @@ consultations), and with ``trajectories`` the true path of each day in ``traject
 from __future__ import annotations
 
 import csv
+import itertools
 import math
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
@@ -110,6 +111,7 @@ class DayRow:
     delivered: int
     missed: int
     collisions: int
+    contacts: int
     mean_delivery_time: float
     distance: float
     consultations: int
@@ -244,9 +246,11 @@ class Delivery:
             sim.sensors.odometry.reset(obs.true_pose)
         goal = None if decided.target is None else decided.target.point
         if goal != state.goal:
-            state.goal = goal
+            state.goal, state.plan_case = goal, None
             state.plan((obs.pose.x, obs.pose.y), self.planner, (), self.home)
-            state.plan_installed = True
+        elif any(e.name in STUCK for e in sim.events):
+            # the plan manager routes again round what the global map holds now
+            state.plan((obs.pose.x, obs.pose.y), self.planner, state.steps, self.home)
         state.advance((obs.pose.x, obs.pose.y), o.waypoint)
         target = state.target if state.target is not None else self.home
         if target != sim.target:
@@ -258,11 +262,8 @@ class Delivery:
 
     def _consult(self, session: Session, state: _DayState, obs: Observation,
                  fired: tuple[str, ...], counts: dict[str, int]) -> _Spell:
-        if "impasse" in fired:
-            # the plan manager routes again round what the global map holds now
-            state.plan((obs.pose.x, obs.pose.y), self.planner, state.steps, self.home)
         moment = Moment(obs.t, fired, self._index(state, obs), state.target, state.goal,
-                        tuple(a.data for a in self.pilot.behaviors))
+                        tuple(a.data for a in self.pilot.behaviors), state.plan_case)
         decision = session.consult(moment)
         counts["consultations"] += 1
         solution = decision.proposal.solution
@@ -275,8 +276,8 @@ class Delivery:
             counts["meta_plans"] += solution.detail.get("kind") == "meta_plan"
         elif isinstance(value, InstallPlan):
             counts["plans"] += 1
-            if not state.plan((obs.pose.x, obs.pose.y), self.planner, value.route, self.home):
-                state.plan((obs.pose.x, obs.pose.y), self.planner, (), self.home)
+            state.plan_case = value.name
+            state.plan((obs.pose.x, obs.pose.y), self.planner, value.route, self.home)
             if value.localize:
                 self.pilot.install(parse_behavior_set([[["localize"], "high"],
                                                        *self.default]))
@@ -284,14 +285,14 @@ class Delivery:
             raise PluginError(f"workload 'delivery': the proposal for query {decision.index} "
                               f"is a {type(value).__name__}, expected InstallBehaviors or "
                               "InstallPlan (cbr_behaviors.moment)")
-        return _Spell(decision, obs.t, state.to_target(obs), state.sim.collisions,
+        return _Spell(decision, obs.t, state.to_target(obs), state.collisions,
                       state.impasses, len(state.goals.delivered))
 
     def _learn(self, session: Session, state: _DayState, spell: _Spell) -> None:
         sim = state.sim
         report = SpellReport(round(sim.t - spell.started, 4),
                              round(spell.progress_from - state.to_target(sim.observe()), 4),
-                             sim.collisions - spell.collisions, state.impasses - spell.impasses,
+                             state.collisions - spell.collisions, state.impasses - spell.impasses,
                              len(state.goals.delivered) - spell.delivered)
         session.learn(spell.decision, Outcome(report.good, cost=report.active, report=report))
 
@@ -335,7 +336,7 @@ class Delivery:
         times = [d.time for d in goals.delivered]
         self.records = goals.records()
         return DayRow(day, state.messages, len(goals.delivered), len(goals.missed),
-                      state.sim.collisions,
+                      state.collisions, state.sim.collisions,
                       round(float(np.mean(times)), 3) if times else math.nan,
                       round(state.sim.distance, 3), counts["consultations"], counts["adapted"],
                       counts["plans"], counts["meta_plans"])
@@ -345,6 +346,14 @@ CRUISE = 0.3
 """m/s: the speed the goal manager's time estimates assume (the ``mod-fast`` speed)."""
 ETA_DETOUR = 1.4
 """How much longer than the straight line a route on the floor is taken to be."""
+RAM_SPEED = 0.05
+"""m/s: a contact counts as a collision of the robot's when it came while the robot drove
+forward faster than this into something in its front half. People walk into a robot that
+stands or backs away too (every contact is counted in ``contacts``); only the collisions are
+the robot's doing."""
+PLAN_SLACK = 1.25
+"""A plan case's places are kept when the route through them is at most this many times as
+long as the direct route: a case planned for another errand may still lie on the way."""
 
 
 @attrs.define
@@ -357,34 +366,49 @@ class _DayState:
     goal: Point | None = None
     route: list[Point] = attrs.field(factory=list)
     steps: tuple[str, ...] = ()
+    plan_case: str | None = None
+    passed: Point | None = None
     plan_installed: bool = False
     impasses: int = 0
+    collisions: int = 0
+    """Contacts the robot drove into (see :data:`RAM_SPEED`)."""
+    _bumped: bool = False
+    _speed: float = 0.0
     _history: list[tuple[float, float]] = attrs.field(factory=list)
 
     @property
     def target(self) -> Point | None:
         return self.route[0] if self.route else self.goal
 
-    def plan(self, at: Point, planner: Any, via: tuple[str, ...], home: Point) -> bool:
-        """Route from ``at`` to the goal (home when idle) through the places ``via``; False
-        when a place is unknown or no route exists."""
+    def plan(self, at: Point, planner: Any, via: tuple[str, ...], home: Point) -> str:
+        """Route from ``at`` to the goal (home when idle), through the places ``via`` of a plan
+        case when they are on the way; how it went: ``"via"``, ``"direct"`` (the case's places
+        were dropped) or ``"none"`` (no route: the goal itself becomes the target).
+
+        The adaptation of a plan case (004 leaves its strategies out): its places are kept
+        when the route through them is at most :data:`PLAN_SLACK` times as long as the route
+        planned directly, else dropped; a place the world does not have drops them too."""
         goal = self.goal if self.goal is not None else home
         world = self.sim.world
-        if any(p not in world.places for p in via):
-            return False
-        points = [world.places[p] for p in via]
-        route = self.gmap.route(planner, at, goal, via=points)
-        if route is None:
-            self.route = [goal]
-            return False
-        self.route = list(route)
-        self.steps = via
+        direct = self.gmap.route(planner, at, goal)
+        chosen, how = direct, "direct"
+        if via and all(p in world.places for p in via):
+            through = self.gmap.route(planner, at, goal, via=[world.places[p] for p in via])
+            if through is not None and (direct is None
+                                        or _length(through) <= PLAN_SLACK * _length(direct)):
+                chosen, how = through, "via"
         self.plan_installed = True
-        return True
+        self.passed = at
+        if chosen is None:
+            self.route, self.steps = [goal], ()
+            return "none"
+        self.route = list(chosen)
+        self.steps = via if how == "via" else ()
+        return how
 
     def advance(self, at: Point, within: float) -> None:
         while len(self.route) > 1 and math.dist(at, self.route[0]) <= within:
-            self.route.pop(0)
+            self.passed = self.route.pop(0)
 
     def to_target(self, obs: Observation) -> float:
         target = self.target
@@ -394,6 +418,10 @@ class _DayState:
 
     def track(self, obs: Observation) -> None:
         self.impasses += sum(e.name in STUCK for e in self.sim.events)
+        if (obs.bumped and not self._bumped and self._speed > RAM_SPEED
+                and abs(obs.bump_bearing) <= math.pi / 2):
+            self.collisions += 1
+        self._bumped, self._speed = obs.bumped, obs.v
         self._history.append((obs.t, self.to_target(obs)))
         while self._history and self._history[0][0] < obs.t - PROGRESS_WINDOW:
             self._history.pop(0)
@@ -409,11 +437,11 @@ class _DayState:
         return min(1.0, max(0.0, (d0 - d1) / (CRUISE * (t1 - t0))))
 
     def plan_confidence(self, pose: Any) -> float:
-        """plan-conf: falls off as the robot strays from its route's next leg (1 on it, 1/e
-        a metre off)."""
-        if not self.route:
+        """plan-conf: falls off as the robot strays from the leg of its route it is on, from
+        the waypoint it passed last to the next (1 on it, 1/e a metre off)."""
+        if not self.route or self.passed is None:
             return 1.0
-        return math.exp(-_off_route((pose.x, pose.y), self.route))
+        return math.exp(-_off_leg((pose.x, pose.y), self.passed, self.route[0]))
 
     def snapshot(self, obs: Observation, arrived: Any, change: Any = None) -> Any:
         from cbr_behaviors.triggers import Snapshot
@@ -427,14 +455,15 @@ class _DayState:
                         target=self.target, status=status)
 
 
-def _off_route(at: Point, route: list[Point]) -> float:
-    """Distance from ``at`` to the polyline from the route's first waypoint on, first leg."""
-    if len(route) < 2:
-        return 0.0
-    (ax, ay), (bx, by) = route[0], route[1]
+def _length(route: list[Point]) -> float:
+    return sum(math.dist(a, b) for a, b in itertools.pairwise(route))
+
+
+def _off_leg(at: Point, a: Point, b: Point) -> float:
+    """Distance from ``at`` to the segment from ``a`` to ``b``."""
+    (ax, ay), (bx, by) = a, b
     dx, dy = bx - ax, by - ay
     length = dx * dx + dy * dy
     u = 0.0 if length == 0 else max(0.0, min(1.0, ((at[0] - ax) * dx + (at[1] - ay) * dy)
                                               / length))
     return math.hypot(at[0] - ax - u * dx, at[1] - ay - u * dy)
-

@@ -43,7 +43,9 @@ what is still there, so a route goes round objects when it can and through them 
 raster with a :class:`cbr_grid.planning.GridPlanner` (the caller takes it from the registry
 with :func:`cbr_grid.planning.planner_of`) through given waypoints, and thins the path to
 waypoints at most ``spacing`` metres of path apart, each in straight line of sight of the next
-over cells no costlier than the path's own.
+over cells no costlier than the path's own; a leg that crosses a doorway is replaced by three
+waypoints on the doorway's axis (:data:`DOOR_APPROACH` before its centre, the centre, as far
+after), so that the robot meets the gap square rather than at the slant a thinned path takes.
 """
 
 from __future__ import annotations
@@ -65,6 +67,12 @@ from cbr_world2d.world import Point, World
 
 TRANSIENT_RISK = 0.5
 """The risk of a raster cell near a transient object only (see :meth:`GlobalMap.raster`)."""
+DOOR_NEAR = 1.2
+"""Metres: a doorway this near counts as ``door`` in the index's ``map`` feature, close
+enough that passing it takes a doorway's behaviors."""
+DOOR_APPROACH = 0.6
+"""Metres before and after a doorway at which a route crossing it passes on the doorway's
+axis (see :meth:`GlobalMap.route`): square to the door, the robot passes the jambs."""
 
 
 def _positive(instance: object, attribute: attrs.Attribute, value: float) -> None:
@@ -276,15 +284,20 @@ class GlobalMap:
                                 ymin + (rows + 0.5) * self.cell))
 
     def objects_near(self, point: Point, radius: float | None = None) -> list[str]:
-        """What the map holds within ``radius`` (default ``near``) of ``point``, by kind, as
-        the index's ``map`` feature names it: ``"landmark"`` if a landmark's centre lies within
-        it, then ``"object"`` if an object cell's centre does. Kinds rather than landmark ids,
-        so that a case written for one floor (or learned on it) matches on another."""
+        """What the map holds near ``point``, by kind, as the index's ``map`` feature names it:
+        ``"landmark"`` if a landmark's centre lies within ``radius`` (default ``near``),
+        ``"door"`` if a doorway's centre lies within :data:`DOOR_NEAR` (a doorway is part of
+        the building; whether its door is open is not), then ``"object"`` if an object cell's
+        centre lies within ``radius``. Kinds rather than ids, so that a case written for one
+        floor (or learned on it) matches on another."""
         reach = self.near if radius is None else radius
         px, py = point
         names = []
         if any(math.hypot(m.x - px, m.y - py) <= reach for m in self.world.landmarks):
             names.append("landmark")
+        if any(math.hypot((d.a[0] + d.b[0]) / 2 - px, (d.a[1] + d.b[1]) / 2 - py) <= DOOR_NEAR
+               for d in self.world.doors):
+            names.append("door")
         centres = self.object_points()
         if len(centres) and (np.hypot(centres[:, 0] - px, centres[:, 1] - py) <= reach).any():
             names.append("object")
@@ -387,6 +400,31 @@ class GlobalMap:
         to waypoints at most ``spacing`` of path apart and in sight of each other, the cells
         of ``start``, ``via`` and ``goal`` always among them. None when a point lies outside
         the world or on blocked cells beyond ``snap``, or a leg has no path."""
+        route = self._cells_route(planner, start, goal, via)
+        return None if route is None else self._through_doors(route)
+
+    def _through_doors(self, route: list[Point]) -> list[Point]:
+        """``route`` with each doorway it crosses passed square: the waypoints
+        :data:`DOOR_APPROACH` before the doorway's centre, the centre and as far after it,
+        in place of the leg that crossed it."""
+        out = [route[0]]
+        for a, b in itertools.pairwise(route):
+            for door in self.world.doors:
+                crossing = _door_crossing(a, b, door.a, door.b)
+                if crossing is not None:
+                    # waypoints already at the doorway would lead the robot back and forth
+                    centre = crossing[1]
+                    if len(out) > 1 and math.dist(out[-1], centre) < DOOR_APPROACH:
+                        out.pop()
+                    out += crossing
+                    break
+            if math.dist(out[-1], b) > 1e-9 and (b == route[-1] or math.dist(
+                    b, out[-2] if len(out) > 1 else out[-1]) >= DOOR_APPROACH):
+                out.append(b)
+        return out
+
+    def _cells_route(self, planner: GridPlanner, start: Point, goal: Point,
+                     via: Sequence[Point]) -> list[Point] | None:
         grid = self.raster(self.plan_cell)
         snapped = [self._snapped(grid, p) for p in (start, *via, goal)]
         cells = [c for c in snapped if c is not None]
@@ -413,3 +451,24 @@ class GlobalMap:
         if route is None:
             return math.inf
         return float(sum(math.dist(a, b) for a, b in itertools.pairwise(route)))
+
+
+def _door_crossing(a: Point, b: Point, d0: Point, d1: Point) -> list[Point] | None:
+    """The waypoints that pass the doorway ``d0``-``d1`` square when the leg ``a``-``b``
+    crosses it (before, centre, after, in the leg's direction), else None."""
+    ex, ey = d1[0] - d0[0], d1[1] - d0[1]
+    sx, sy = b[0] - a[0], b[1] - a[1]
+    denominator = sx * ey - sy * ex
+    if denominator == 0.0:
+        return None
+    u = ((d0[0] - a[0]) * ey - (d0[1] - a[1]) * ex) / denominator
+    v = ((d0[0] - a[0]) * sy - (d0[1] - a[1]) * sx) / denominator
+    if not (0.0 <= u <= 1.0 and 0.0 <= v <= 1.0):
+        return None
+    length = math.hypot(ex, ey)
+    nx, ny = -ey / length, ex / length
+    if nx * sx + ny * sy < 0.0:
+        nx, ny = -nx, -ny
+    cx, cy = (d0[0] + d1[0]) / 2, (d0[1] + d1[1]) / 2
+    return [(cx - DOOR_APPROACH * nx, cy - DOOR_APPROACH * ny), (cx, cy),
+            (cx + DOOR_APPROACH * nx, cy + DOOR_APPROACH * ny)]

@@ -27,7 +27,8 @@ class Moment:
     ``triggers`` are the re-planning triggers that fired (:mod:`cbr_behaviors.triggers`),
     ``index`` the situation, ``target`` the point the behaviors are steering for now (None when
     idle) and ``goal`` the current message goal's point; ``behaviors`` the behavior set in
-    force (plain data items).
+    force (plain data items) and ``plan`` the name of the plan case in force for this goal
+    (None: the route was planned directly).
     """
 
     t: float
@@ -36,6 +37,7 @@ class Moment:
     target: Point | None
     goal: Point | None
     behaviors: tuple[Any, ...]
+    plan: str | None = None
 
 
 @attrs.frozen

@@ -8,7 +8,7 @@
 ; 50 degrees off the axis 1.3 m, 30 degrees off 2 m and those along it nothing.
 ; Behavior parameters are centimetres, cm/s and deg/s, or the named levels.
 ;
-; cases/rupart.yaml is this file exported as a case base (cbr_behaviors.cases.export).
+; cases/rupart.yaml is this file exported as a case base (cbr_behaviors.casefiles.export).
 
 ; --- behavior cases ---------------------------------------------------------------------------
 
@@ -26,7 +26,7 @@
 (behavior-case crowded-hallway
   (plan-index
     (sonar 1.0 1.3 1.4 1.2 1.2 1.4 1.3 1.0 1.0 1.3 2.0 5.0 5.0 2.0 1.3 1.0)
-    (map object)
+    (map landmark object)
     (motors 0.1 0.0))
   (((followWall curr-head) med)
    ((moveForward slow) med)
@@ -36,7 +36,8 @@
 
 ; an empty hallway: along it at cruising speed
 (behavior-case empty-hallway
-  (plan-index (sonar 1.0 1.3 2.0 5.0 5.0 2.0 1.3 1.0 1.0 1.3 2.0 5.0 5.0 2.0 1.3 1.0) (map))
+  (plan-index (sonar 1.0 1.3 2.0 5.0 5.0 2.0 1.3 1.0 1.0 1.3 2.0 5.0 5.0 2.0 1.3 1.0)
+              (map landmark))
   (((goToPos curr-goal mod-fast 30) high)
    ((avoidObstacle 100 moderate) med)
    ((avoidCollision 40 mod-fast) high)))
@@ -55,13 +56,15 @@
    ((goToPos curr-goal moderate 30) high)
    ((avoidCollision 40 moderate) high)))
 
-; facing a doorway across the hallway: the jambs close ahead, the room beyond; slow and
-; tolerant of near walls
+; at a doorway (one within reach on the map): the route passes it square, so head for the
+; waypoints slowly and let the jambs come close; avoiding them early would turn the robot
+; away from the gap
 (behavior-case doorway
-  (plan-index (sonar 5.0 1.6 1.2 5.0 5.0 1.2 1.6 5.0 5.0 1.6 1.2 1.0 1.0 1.2 1.6 5.0))
-  (((goToPos curr-goal slow 20) high)
+  (plan-index (sonar 5.0 1.6 1.2 5.0 5.0 1.2 1.6 5.0 5.0 1.6 1.2 1.0 1.0 1.2 1.6 5.0)
+              (map landmark door))
+  (((goToPos curr-goal moderate 10) high)
    ((slowAvoid 40 very-slow) med)
-   ((avoidCollision 25 moderate) high)))
+   ((avoidCollision 15 moderate) med)))
 
 ; a passage barely wider than the robot: straight on, slowly, collisions avoided late
 (behavior-case narrow-passage
@@ -72,10 +75,10 @@
 
 ; a person (a transient object) coming up ahead: slow down toward them, let them pass
 (behavior-case approaching-person
-  (plan-index (sonar 5.0 3.0 1.8 1.5 1.5 1.8 3.0 5.0 5.0 5.0 5.0 5.0 5.0 5.0 5.0 5.0)
-              (map object))
-  (((slowAvoid 150 very-slow) med-high)
-   ((goToPos curr-goal moderate 30) med)
+  (plan-index (sonar 1.0 1.3 1.8 1.5 1.5 1.8 1.3 1.0 1.0 1.3 2.0 5.0 5.0 2.0 1.3 1.0)
+              (map landmark object))
+  (((slowAvoid 100 slow) med)
+   ((goToPos curr-goal moderate 30) high)
    ((avoidCollision 50 moderate) high)))
 
 ; the door ahead is shut (a wall where the way goes on, no progress): creep up to it and

@@ -23,10 +23,11 @@ delivery time per day, mean ± sd over seeds, and the ratios of ``adaptive`` to 
 from __future__ import annotations
 
 import csv
+import math
 from pathlib import Path
 from typing import Any, ClassVar
 
-from cbr_behaviors.cases import shipped_path
+from cbr_behaviors.casefiles import shipped_path
 from cbr_world2d.pilots.behaviors import OPEN_AREA
 from cbrcore.config import parse_config
 from cbrcore.context import Context
@@ -36,7 +37,7 @@ from cbrcore.plugins import current
 from cbrcore.run import run_workload
 
 ARMS = ("fixed", "cbr", "adaptive", "learned-weights")
-MEASURES = ("delivered", "missed", "collisions", "mean_delivery_time")
+MEASURES = ("delivered", "missed", "collisions", "contacts", "mean_delivery_time")
 
 
 def arm_config(arm: str, seed: int, *, days: int, length: float,
@@ -81,8 +82,8 @@ class DeliveryExperiment:
     """The four arms over seeds (see the module docstring)."""
 
     SIZES: ClassVar[dict[str, dict[str, float]]] = {
-        "ci": {"seeds": 2, "days": 1, "length": 300.0},
-        "full": {"seeds": 5, "days": 3, "length": 1800.0},
+        "ci": {"seeds": 2, "days": 1, "length": 150.0},
+        "full": {"seeds": 5, "days": 2, "length": 1800.0},
     }
 
     def __init__(self, options: object, ctx: Context) -> None:
@@ -101,8 +102,9 @@ class DeliveryExperiment:
                 per_seed[arm].append(_per_day(rows))
                 done += 1
                 progress(done, len(seeds) * len(ARMS))
-        summary = {arm: {m: spread([s[m] for s in per_seed[arm]]) for m in MEASURES}
-                   for arm in ARMS}
+        # a seed that delivered nothing has no delivery time: the spread is over the others
+        summary = {arm: {m: spread([s[m] for s in per_seed[arm] if math.isfinite(s[m])])
+                         for m in MEASURES} for arm in ARMS}
         results = {"seeds": seeds, "days": days, "length": length, "summary": summary,
                    "per_seed": per_seed, "configs": {arm: arm_config(arm, seeds[0], days=days,
                                                                      length=length)
@@ -119,6 +121,7 @@ def _per_day(rows: list[dict[str, float]]) -> dict[str, float]:
     timed = sum(r["mean_delivery_time"] * r["delivered"] for r in rows if r["delivered"])
     return {"delivered": delivered / days, "missed": sum(r["missed"] for r in rows) / days,
             "collisions": sum(r["collisions"] for r in rows) / days,
+            "contacts": sum(r["contacts"] for r in rows) / days,
             "mean_delivery_time": timed / delivered if delivered else float("nan")}
 
 
@@ -131,8 +134,8 @@ def _cell(s: dict[str, float | None]) -> str:
 def _table(summary: dict[str, Any], seeds: int, days: int, length: float) -> str:
     lines = [f"RUPART delivery: {seeds} seeds, {days} day(s) of {length:.0f} s each; per day, "
              "mean ± sd over seeds.", "",
-             "| arm | delivered | deadlines missed | collisions | mean delivery time (s) |",
-             "|---|---|---|---|---|"]
+             "| arm | delivered | deadlines missed | collisions | contacts | "
+             "mean delivery time (s) |", "|---|---|---|---|---|---|"]
     for arm in ARMS:
         s = summary[arm]
         lines.append(f"| {arm} | " + " | ".join(_cell(s[m]) for m in MEASURES) + " |")
