@@ -6,7 +6,7 @@ import collections
 import contextlib
 import os
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any
@@ -318,7 +318,7 @@ class Engine:
                                "store in the 'casebase' slot"])
         with self.ctx.mirror.transaction():
             if proposal.from_casebase and proposal.solution is not None:
-                self.casebase.touch(proposal.solution.cases)
+                self.casebase.touch(_still_stored(self.casebase, proposal.solution.cases))
             if solution is not None:
                 self.hooks.retain(problem, solution, outcome, self.casebase, self.ctx, timings)
             self.hooks.forget(self.casebase, self.ctx, timings)
@@ -367,3 +367,16 @@ class Engine:
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
         self.close()
+
+
+def _still_stored(casebase: CaseStore, ids: Iterable[int]) -> list[int]:
+    """The ``ids`` the case base still holds: a process sharing it may have forgotten a case
+    between the proposal that used it and the learn step."""
+    kept = []
+    for case_id in ids:
+        try:
+            casebase.get(case_id)
+        except KeyError:
+            continue
+        kept.append(case_id)
+    return kept

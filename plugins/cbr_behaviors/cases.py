@@ -76,9 +76,11 @@ class CaseFormatError(CbrError):
 # each raises ValueError saying what was expected; the readers add where
 
 
-def _freeze(value: Any) -> Any:
+def freeze(value: Any) -> Any:
+    """``value`` with every list made a tuple, nested ones too: behavior items compare and
+    hash alike however they were written."""
     if isinstance(value, list | tuple):
-        return tuple(_freeze(v) for v in value)
+        return tuple(freeze(v) for v in value)
     return value
 
 
@@ -116,7 +118,7 @@ def _choice(value: Any, choices: Sequence[str]) -> str:
 def _item(item: Any) -> Item:
     """One behavior item, checked by parsing it as the ``behaviors`` pilot does."""
     parse_behavior(item, LENGTH_UNITS["cm"])
-    return _freeze(item)
+    return freeze(item)
 
 
 def _behaviors(items: Any) -> tuple[Item, ...]:
@@ -177,7 +179,7 @@ class BehaviorCase:
 
     name: str = attrs.field(validator=_validated(_name))
     index: Index
-    behaviors: tuple[Item, ...] = attrs.field(converter=_freeze,
+    behaviors: tuple[Item, ...] = attrs.field(converter=freeze,
                                               validator=_validated(_behaviors))
     meta_plan: bool = attrs.field(default=False, validator=_validated(_flag))
     origin: str = attrs.field(default=HAND_MADE, validator=_validated(_name))
@@ -202,7 +204,7 @@ class PlanCase:
 
     name: str = attrs.field(validator=_validated(_name))
     index: Index
-    route: tuple[str, ...] = attrs.field(converter=_freeze, validator=_validated(_route))
+    route: tuple[str, ...] = attrs.field(converter=freeze, validator=_validated(_route))
     localize: bool = attrs.field(default=False, validator=_validated(_flag))
     origin: str = attrs.field(default=HAND_MADE, validator=_validated(_name))
 
@@ -248,7 +250,7 @@ class Change:
     priority) of ``behaviors`` (names, or ``"*"`` for all) become ``old * (1 + scale * D_f)``
     (:mod:`cbr_behaviors.adaptation`)."""
 
-    behaviors: tuple[str, ...] | Literal["*"] = attrs.field(converter=_freeze)
+    behaviors: tuple[str, ...] | Literal["*"] = attrs.field(converter=freeze)
     target: str
     scale: float
 

@@ -29,7 +29,7 @@ import attrs
 import numpy as np
 
 from cbr_behaviors.cases import BEHAVIOR, META, PLAN, BehaviorCase, PlanCase
-from cbr_behaviors.index import FEATURES, Scales, weight_vector
+from cbr_behaviors.index import FEATURES, IndexDataError, Scales, weight_vector
 from cbr_behaviors.memory import Found, memory_of
 from cbr_behaviors.moment import InstallBehaviors, InstallPlan, Moment, SpellReport
 from cbr_behaviors.quality import Quality
@@ -45,7 +45,11 @@ _POSITIVE = attrs.validators.gt(0.0)
 
 
 def _weights(instance: Any, attribute: attrs.Attribute, value: dict[str, float]) -> None:
-    weight_vector(value, f"'{attribute.name}'")
+    try:
+        weight_vector(value, f"'{attribute.name}'")
+    except IndexDataError as exc:
+        # a plain ValueError, as every option's check raises, so the message reads alike
+        raise ValueError(str(exc)) from None
 
 
 @attrs.frozen
@@ -107,12 +111,18 @@ class RupartRetriever:
         memory = memory_of(ctx)
         weights = weights_of(o, ctx)
         scales = o.scales
-        found = memory.nearest(problem.index, weights, (BEHAVIOR, PLAN), o.candidates, scales)
+        # at an impasse the behaviors in force are the ones that failed: not retrieved again
+        failed = (memory.ids_with(problem.behaviors) if "impasse" in problem.triggers
+                  else ())
+        found = memory.nearest(problem.index, weights, (BEHAVIOR, PLAN), o.candidates, scales,
+                               exclude=failed)
         if found and all(f.case.kind == PLAN for f in found):
             # the reuser falls back on the nearest behavior case when the plan is in force
-            found += memory.nearest(problem.index, weights, (BEHAVIOR,), 1, scales)
+            found += memory.nearest(problem.index, weights, (BEHAVIOR,), 1, scales,
+                                    exclude=failed)
         if not found or found[0].distance > o.meta_threshold:
-            fallback = memory.nearest(problem.index, weights, (META,), o.candidates, scales)
+            fallback = memory.nearest(problem.index, weights, (META,), o.candidates, scales,
+                                      exclude=failed)
             if fallback:
                 found = fallback
         if not found:
@@ -219,7 +229,7 @@ class CaseLearner:
 
     def _retain(self, memory: Any, adapted: BehaviorCase, problem: Moment, ctx: Context) -> None:
         near = memory.nearest(problem.index, np.ones(len(FEATURES)), (BEHAVIOR,), 1,
-                              Scales())
+                              memory.scales)
         if (near and near[0].distance <= self.options.duplicate
                 and near[0].stored.behaviors == adapted.behaviors):
             return

@@ -37,10 +37,12 @@ from typing import TYPE_CHECKING, Any
 import attrs
 import numpy as np
 
+from cbr_behaviors.cases import freeze
 from cbr_behaviors.moment import InstallBehaviors, InstallPlan, Moment, SpellReport
 from cbr_behaviors.triggers import TriggerOptions
 from cbr_world2d.pilots import PILOT, BehaviorPilot, parse_behavior_set
 from cbr_world2d.pilots.monitor import STUCK
+from cbr_world2d.pilots.primitives import COLLISION_ARC
 from cbr_world2d.world import Point, World, world_of
 from cbrcore import files
 from cbrcore.context import Context
@@ -269,7 +271,7 @@ class Delivery:
         solution = decision.proposal.solution
         value = None if solution is None else solution.value
         if isinstance(value, InstallBehaviors):
-            if tuple(value.behaviors) != tuple(a.data for a in self.pilot.behaviors):
+            if freeze(value.behaviors) != freeze([a.data for a in self.pilot.behaviors]):
                 # the same set again keeps running: installing restarts what behaviors latch
                 self.pilot.install(parse_behavior_set(list(value.behaviors)))
             counts["adapted"] += value.adapted is not None
@@ -348,9 +350,9 @@ ETA_DETOUR = 1.4
 """How much longer than the straight line a route on the floor is taken to be."""
 RAM_SPEED = 0.05
 """m/s: a contact counts as a collision of the robot's when it came while the robot drove
-forward faster than this into something in its front half. People walk into a robot that
-stands or backs away too (every contact is counted in ``contacts``); only the collisions are
-the robot's doing."""
+forward faster than this into something ahead, within ``COLLISION_ARC`` of its heading (the
+arc avoidCollision watches). People walk into a robot that stands, backs away or is passed
+(every contact is counted in ``contacts``); only the collisions are the robot's doing."""
 PLAN_SLACK = 1.25
 """A plan case's places are kept when the route through them is at most this many times as
 long as the direct route: a case planned for another errand may still lie on the way."""
@@ -419,7 +421,7 @@ class _DayState:
     def track(self, obs: Observation) -> None:
         self.impasses += sum(e.name in STUCK for e in self.sim.events)
         if (obs.bumped and not self._bumped and self._speed > RAM_SPEED
-                and abs(obs.bump_bearing) <= math.pi / 2):
+                and abs(obs.bump_bearing) <= COLLISION_ARC):
             self.collisions += 1
         self._bumped, self._speed = obs.bumped, obs.v
         self._history.append((obs.t, self.to_target(obs)))

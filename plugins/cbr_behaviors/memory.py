@@ -27,6 +27,7 @@ from cbr_behaviors.cases import (
     PlanCase,
     Strategy,
     case_of,
+    freeze,
 )
 from cbr_behaviors.index import Index, Scales
 from cbr_behaviors.quality import TIE, Quality
@@ -94,6 +95,12 @@ class CaseMemory:
             self._scales = scales
         return self._table
 
+    @property
+    def scales(self) -> Scales:
+        """The scales the index table was last built with (the retriever's), else the
+        defaults."""
+        return self._scales if self._scales is not None else Scales()
+
     def rows(self, kinds: Collection[str], exclude: Collection[int] = ()) -> np.ndarray:
         """The row numbers of the cases of ``kinds``, leaving out the case ids ``exclude``."""
         return np.array([k for k, c in enumerate(self.cases)
@@ -108,6 +115,13 @@ class CaseMemory:
             return []
         hits = self.table(scales).nearest(query, weights, k + 2, rows=rows)
         return [self._found(h) for h in _by_quality(hits, self.cases)][:k]
+
+    def ids_with(self, behaviors: Sequence[object]) -> tuple[int, ...]:
+        """The ids of the behavior cases and meta-plans whose behavior set is ``behaviors``."""
+        wanted = freeze(behaviors)
+        return tuple(c.id for c, d in zip(self.cases, self.decoded, strict=True)
+                     if c.id is not None and isinstance(d, BehaviorCase)
+                     and d.behaviors == wanted)
 
     def _found(self, hit: Hit) -> Found:
         return Found(self.cases[hit.row], self.decoded[hit.row], hit.distance,

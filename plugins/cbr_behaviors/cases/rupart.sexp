@@ -26,8 +26,7 @@
 (behavior-case crowded-hallway
   (plan-index
     (sonar 1.0 1.3 1.4 1.2 1.2 1.4 1.3 1.0 1.0 1.3 2.0 5.0 5.0 2.0 1.3 1.0)
-    (map landmark object)
-    (motors 0.1 0.0))
+    (map landmark object))
   (((followWall curr-head) med)
    ((moveForward slow) med)
    ((slowAvoid 50 very-slow) med-high)
@@ -38,8 +37,7 @@
 (behavior-case empty-hallway
   (plan-index (sonar 1.0 1.3 2.0 5.0 5.0 2.0 1.3 1.0 1.0 1.3 2.0 5.0 5.0 2.0 1.3 1.0)
               (map landmark))
-  (((goToPos curr-goal mod-fast 30) high)
-   ((avoidObstacle 100 moderate) med)
+  (((goToPos curr-goal fast 30) high)
    ((avoidCollision 40 mod-fast) high)))
 
 ; urgent, in the open: fast, with room to turn away early
@@ -53,7 +51,7 @@
 (behavior-case along-a-wall
   (plan-index (sonar 0.6 0.8 1.2 3.5 5.0 5.0 5.0 5.0 5.0 5.0 5.0 3.5 3.5 1.2 0.8 0.6))
   (((followWall curr-head) med)
-   ((goToPos curr-goal moderate 30) high)
+   ((goToPos curr-goal mod-fast 30) high)
    ((avoidCollision 40 moderate) high)))
 
 ; at a doorway (one within reach on the map): the route passes it square, so head for the
@@ -63,15 +61,14 @@
   (plan-index (sonar 5.0 1.6 1.2 5.0 5.0 1.2 1.6 5.0 5.0 1.6 1.2 1.0 1.0 1.2 1.6 5.0)
               (map landmark door))
   (((goToPos curr-goal moderate 10) high)
-   ((slowAvoid 40 very-slow) med)
    ((avoidCollision 15 moderate) med)))
 
 ; a passage barely wider than the robot: straight on, slowly, collisions avoided late
 (behavior-case narrow-passage
   (plan-index (sonar 0.5 0.7 1.0 5.0 5.0 1.0 0.7 0.5 0.5 0.7 1.0 5.0 5.0 1.0 0.7 0.5))
-  (((goStraight slow curr-head) med)
-   ((goToPos curr-goal slow 30) high)
-   ((avoidCollision 20 slow) high)))
+  (((goStraight moderate curr-head) med)
+   ((goToPos curr-goal moderate 30) high)
+   ((avoidCollision 15 slow) high)))
 
 ; a person (a transient object) coming up ahead: slow down toward them, let them pass
 (behavior-case approaching-person
@@ -94,23 +91,21 @@
 (behavior-case cluttered-room
   (plan-index (sonar 1.0 0.8 1.5 2.0 0.9 1.2 0.7 1.8 1.5 2.0 1.1 0.9 2.5 1.4 1.0 0.8)
               (map object))
-  (((goToPos curr-goal slow 20) high)
-   ((avoidObstacle 80 slow) med-high)
-   ((avoidCollision 30 moderate) high)))
+  (((goToPos curr-goal moderate 20) high)
+   ((avoidObstacle 60 slow) med)
+   ((avoidCollision 25 moderate) high)))
 
 ; inside an office, walls two metres round: out toward the door at moderate speed
 (behavior-case leave-room
   (plan-index (sonar 2.0) (map))
-  (((goToPos curr-goal moderate 30) high)
-   ((avoidObstacle 70 slow) med)
-   ((avoidCollision 35 moderate) high)))
+  (((goToPos curr-goal mod-fast 20) high)
+   ((avoidCollision 30 moderate) high)))
 
 ; near the goal: slow, precise, close obstacles allowed
 (behavior-case near-the-goal
-  (plan-index (sonar 2.0) (motors 0.1 0.0) (task-urgency 0.9) (behav-conf 1.0))
-  (((goToPos curr-goal slow 10) high)
-   ((avoidObstacle 60 very-slow) med)
-   ((avoidCollision 30 slow) high)))
+  (plan-index (sonar 2.0) (map) (task-urgency 0.9))
+  (((goToPos curr-goal moderate 10) high)
+   ((avoidCollision 25 slow) high)))
 
 ; --- meta-plans: generic fall-backs when no case matches well --------------------------------
 
@@ -163,7 +158,7 @@
 ; closer to the robot than in the retrieved case", by more the larger the difference
 (alter-strategy slow-when-closer
   (adapts behavior) (feature sonar) (sense closer) (min 0.05)
-  (change (moveForward goStraight goToPos avoidObstacle slowAvoid) speed -1.5))
+  (change (moveForward goStraight goToPos avoidObstacle slowAvoid) speed -0.8))
 
 (alter-strategy speed-up-when-farther
   (adapts behavior) (feature sonar) (sense farther) (min 0.05)
