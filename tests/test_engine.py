@@ -490,6 +490,23 @@ def test_learning_counts_the_use_of_the_cases_a_solution_came_from(
     assert (engine.casebase.get(three).uses, engine.casebase.get(three).last_used) == (2, 4)
 
 
+def test_a_case_forgotten_by_another_process_since_the_proposal_is_not_touched(
+        build: Callable[..., Engine], tmp_path: Path) -> None:
+    """Two engines share one SQLite case base: the second forgets case 3 between the first's
+    proposal that reused it and the first's learn step, which then counts no use of it (and
+    does not fail) while its retainer still stores the new case."""
+    config = (FULL_CYCLE.replace("tolerance: 0", "tolerance: 1")
+              + f"casebase: {{use: sqlite, path: {tmp_path / 'cb.sqlite'}}}\n")
+    first = build(config, 3)
+    second = build(config)
+    three = _case_id(first, 3)
+    proposal = first.solve(4)
+    assert proposal.solution is not None and proposal.solution.cases == (three,)
+    second.casebase.remove([three])
+    first.learn(4, proposal, Outcome(success=True))
+    assert [c.problem for c in second.casebase.cases(KIND)] == [4]
+
+
 def test_learning_a_solver_answer_touches_no_case(build: Callable[..., Engine]) -> None:
     """A solution from the solver was built from no case: no use is counted."""
     engine = build(FULL_CYCLE, 3)
