@@ -31,7 +31,7 @@ from __future__ import annotations
 import csv
 import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 import attrs
@@ -205,16 +205,15 @@ class Delivery:
         spec = PIONEER_2DX
         sensors = Sensors(camera=Camera(), odometry=Odometry(o.odometry_noise, o.odometry_noise))
         self.pilot.install(parse_behavior_set(list(self.default)))
-        heading = 0.0
         sim = Simulation(self.world, spec, sensors.fitted(spec.radius), Navigator(self.pilot),
-                         Pose(*self.home, heading), self.home, dt=0.1, rng=rng,
+                         Pose(*self.home, 0.0), self.home, dt=0.1, rng=rng,
                          tolerance=o.waypoint, capacity=int(o.length / 0.1) + 2)
         gmap = GlobalMap(self.world, fade=o.fade, robot_radius=spec.radius, plan_cell=o.cell)
         if self.planner is None:
             self.planner = self._planner(gmap)
         goals = GoalManager(eta, radius=o.deliver_radius)
         goals.receive(messages)
-        state = _DayState(sim, gmap, goals, ReplanMonitor(o.triggers), len(messages))
+        state = _DayState(sim, gmap, goals, ReplanMonitor(o.triggers), len(messages), eta)
         spell: _Spell | None = None
         counts = {"consultations": 0, "adapted": 0, "plans": 0, "meta_plans": 0}
         obs = sim.observe()
@@ -310,8 +309,8 @@ class Delivery:
         if primary is not None:
             goal_term = ("deliver", primary.place, primary.priority)
             left = primary.deadline - obs.t
-            eta = ETA_DETOUR * math.dist((pose.x, pose.y), primary.point) / CRUISE
-            urgency = 1.0 if left <= 0 else min(1.0, eta / left)
+            needed = state.eta((pose.x, pose.y), primary.point)
+            urgency = 1.0 if left <= 0 else min(1.0, needed / left)
         return Index(
             sonar=tuple(float(v) for v in sonar), motors=(obs.v, obs.w),
             map=frozenset(state.gmap.objects_near((pose.x, pose.y))),
@@ -365,6 +364,7 @@ class _DayState:
     goals: GoalManager
     monitor: Any
     messages: int
+    eta: Callable[[Point, Point], float]
     goal: Point | None = None
     route: list[Point] = attrs.field(factory=list)
     steps: tuple[str, ...] = ()

@@ -60,6 +60,7 @@ import numpy as np
 from cbr_grid.costs import CostModel
 from cbr_grid.grid import Grid
 from cbr_grid.planning import GridPlanner
+from cbr_world2d.checks import non_negative, positive
 from cbr_world2d.geometry import ring_ranges
 from cbr_world2d.robot import PIONEER_2DX, Pose
 from cbr_world2d.sensors import SonarRing
@@ -73,16 +74,6 @@ enough that passing it takes a doorway's behaviors."""
 DOOR_APPROACH = 0.6
 """Metres before and after a doorway at which a route crossing it passes on the doorway's
 axis (see :meth:`GlobalMap.route`): square to the door, the robot passes the jambs."""
-
-
-def _positive(instance: object, attribute: attrs.Attribute, value: float) -> None:
-    if not (math.isfinite(value) and value > 0.0):
-        raise ValueError(f"{attribute.name} must be a finite number > 0, not {value!r}")
-
-
-def _non_negative(instance: object, attribute: attrs.Attribute, value: float) -> None:
-    if not (math.isfinite(value) and value >= 0.0):
-        raise ValueError(f"{attribute.name} must be a finite number >= 0, not {value!r}")
 
 
 @attrs.frozen
@@ -179,15 +170,15 @@ class GlobalMap:
     """
 
     world: World
-    cell: float = attrs.field(default=0.25, validator=_positive)
+    cell: float = attrs.field(default=0.25, validator=positive)
     confirm: int = attrs.field(default=2, validator=attrs.validators.ge(1))
-    fade: float = attrs.field(default=30.0, validator=_non_negative)
-    tolerance: float = attrs.field(default=0.3, validator=_non_negative)
-    robot_radius: float = attrs.field(default=PIONEER_2DX.radius, validator=_non_negative)
-    plan_cell: float = attrs.field(default=0.2, validator=_positive)
-    spacing: float = attrs.field(default=1.0, validator=_positive)
-    snap: float = attrs.field(default=0.5, validator=_non_negative)
-    near: float = attrs.field(default=3.0, validator=_non_negative)
+    fade: float = attrs.field(default=30.0, validator=non_negative)
+    tolerance: float = attrs.field(default=0.3, validator=non_negative)
+    robot_radius: float = attrs.field(default=PIONEER_2DX.radius, validator=non_negative)
+    plan_cell: float = attrs.field(default=0.2, validator=positive)
+    spacing: float = attrs.field(default=1.0, validator=positive)
+    snap: float = attrs.field(default=0.5, validator=non_negative)
+    near: float = attrs.field(default=3.0, validator=non_negative)
     transient_cost: float = attrs.field(default=10.0, validator=attrs.validators.ge(1.0))
     clearing: bool = True
     sonar: SonarRing = attrs.field(factory=SonarRing)

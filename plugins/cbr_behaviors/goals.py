@@ -43,6 +43,7 @@ from typing import Any, Literal
 import attrs
 
 from cbr_behaviors.messages import Eta, Message
+from cbr_world2d.checks import non_negative
 from cbr_world2d.world import Point
 
 Why = Literal["expired", "infeasible", "conflict", "unfinished"]
@@ -88,11 +89,6 @@ class GoalDecision:
     missed: tuple[Missed, ...] = ()
 
 
-def _non_negative(instance: object, attribute: attrs.Attribute, value: float) -> None:
-    if not (math.isfinite(value) and value >= 0.0):
-        raise ValueError(f"{attribute.name} must be a finite number >= 0, not {value!r}")
-
-
 def _order(message: Message) -> tuple[int, float, float, str]:
     """The primary order: highest priority, then earliest deadline, arrival, id."""
     return -message.rank, message.deadline, message.arrives, message.id
@@ -110,9 +106,9 @@ class GoalManager:
     """
 
     eta: Eta
-    radius: float = attrs.field(default=0.5, validator=_non_negative)
-    detour: float = attrs.field(default=20.0, validator=_non_negative)
-    near: float = attrs.field(default=3.0, validator=_non_negative)
+    radius: float = attrs.field(default=0.5, validator=non_negative)
+    detour: float = attrs.field(default=20.0, validator=non_negative)
+    near: float = attrs.field(default=3.0, validator=non_negative)
     delivered: list[Delivered] = attrs.field(factory=list, init=False)
     """The deliveries so far, in order."""
     missed: list[Missed] = attrs.field(factory=list, init=False)

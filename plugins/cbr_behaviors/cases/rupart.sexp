@@ -70,22 +70,23 @@
    ((goToPos curr-goal moderate 30) high)
    ((avoidCollision 15 slow) high)))
 
-; a person (a transient object) coming up ahead: slow down toward them, let them pass
+; a person (a transient object) coming up ahead: slow right down toward them, the goal
+; weighing little, and let them pass
 (behavior-case approaching-person
   (plan-index (sonar 1.0 1.3 1.8 1.5 1.5 1.8 1.3 1.0 1.0 1.3 2.0 5.0 5.0 2.0 1.3 1.0)
               (map landmark object))
-  (((slowAvoid 100 slow) med)
-   ((goToPos curr-goal moderate 30) high)
-   ((avoidCollision 50 moderate) high)))
+  (((slowAvoid 150 very-slow) high)
+   ((goToPos curr-goal moderate 30) low)
+   ((avoidCollision 60 moderate) high)))
 
-; the door ahead is shut (a wall where the way goes on, no progress): creep up to it and
-; wait there, doors of this building open again
+; the door ahead is shut (a wall where the way goes on, no progress): stop and wait, doors
+; of this building open again (at an impasse the case is not retrieved again, so the robot
+; does not wait for ever)
 (behavior-case door-shut
   (plan-index (sonar 5.0 0.9 0.6 0.5 0.5 0.6 0.9 5.0 5.0 5.0 5.0 5.0 5.0 5.0 5.0 5.0)
               (map landmark) (behav-conf 0.0))
-  (((slowAvoid 60 very-slow) high)
-   ((goToPos curr-goal slow 20) med)
-   ((avoidCollision 30 moderate) high)))
+  (((stop) high)
+   ((avoidCollision 40 slow) high)))
 
 ; a cluttered room: furniture on all sides
 (behavior-case cluttered-room

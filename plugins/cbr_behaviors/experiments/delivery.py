@@ -22,8 +22,11 @@ delivery time per day, mean ± sd over seeds, and the ratios of ``adaptive`` to 
 
 from __future__ import annotations
 
+import concurrent.futures
 import csv
 import math
+import multiprocessing
+import os
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -33,7 +36,7 @@ from cbrcore.config import parse_config
 from cbrcore.context import Context
 from cbrcore.engine import Engine
 from cbrcore.experiment import ExperimentResult, Size, spread
-from cbrcore.plugins import current
+from cbrcore.plugins import current, load_plugins, use_plugins
 from cbrcore.run import run_workload
 
 ARMS = ("fixed", "cbr", "adaptive", "learned-weights")
@@ -68,6 +71,16 @@ def arm_config(arm: str, seed: int, *, days: int, length: float,
     raise ValueError(f"unknown arm {arm!r}; expected one of {', '.join(ARMS)}")
 
 
+WORKERS = 2
+"""Processes the experiment's runs are spread over (at most the machine's cores)."""
+
+
+def _run_job(config: dict[str, Any], out_dir: Path) -> list[dict[str, float]]:
+    # a new process: the plugins load from their entry points, as for cbr itself
+    with use_plugins(load_plugins()):
+        return run_arm(config, out_dir)
+
+
 def run_arm(config: dict[str, Any], out_dir: Path) -> list[dict[str, float]]:
     """Run ``config`` with the engine, its files in ``out_dir``; the rows of days.csv."""
     plugins = current()
@@ -93,15 +106,20 @@ class DeliveryExperiment:
         plan = self.SIZES[size]
         seeds = [self.seed + k for k in range(int(plan["seeds"]))]
         days, length = int(plan["days"]), float(plan["length"])
-        per_seed: dict[str, list[dict[str, float]]] = {arm: [] for arm in ARMS}
-        done = 0
-        for seed in seeds:
-            for arm in ARMS:
-                rows = run_arm(arm_config(arm, seed, days=days, length=length),
-                               out_dir / arm / f"seed_{seed}")
-                per_seed[arm].append(_per_day(rows))
-                done += 1
-                progress(done, len(seeds) * len(ARMS))
+        jobs = [(arm, seed) for seed in seeds for arm in ARMS]
+        found: dict[tuple[str, int], list[dict[str, float]]] = {}
+        # every arm and seed is a run of its own: spread over processes, the results the same
+        # as one after another (each run's randomness comes from its seed only)
+        workers = min(WORKERS, os.cpu_count() or 1, len(jobs))
+        with concurrent.futures.ProcessPoolExecutor(
+                max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+            running = {pool.submit(_run_job, arm_config(arm, seed, days=days, length=length),
+                                   out_dir / arm / f"seed_{seed}"): (arm, seed)
+                       for arm, seed in jobs}
+            for done, future in enumerate(concurrent.futures.as_completed(running), start=1):
+                found[running[future]] = future.result()
+                progress(done, len(jobs))
+        per_seed = {arm: [_per_day(found[arm, seed]) for seed in seeds] for arm in ARMS}
         # a seed that delivered nothing has no delivery time: the spread is over the others
         summary = {arm: {m: spread([s[m] for s in per_seed[arm] if math.isfinite(s[m])])
                          for m in MEASURES} for arm in ARMS}
