@@ -407,3 +407,14 @@ def test_within_the_pause_only_messages_and_plans_fire() -> None:
     replan.retrieved(snap(t=0.0))
     assert replan.check(snap(t=0.5, added=3, critical=1)) == ["message"]
     assert "map" in replan.check(snap(t=1.0))  # remembered until the pause is over
+
+
+def test_a_retrieval_does_not_restart_the_impasse_window_and_an_impasse_does() -> None:
+    replan = monitor(target=TARGET)
+    replan.check(snap(t=5.0, target=TARGET))
+    replan.retrieved(snap(t=5.0, target=TARGET))  # another trigger's retrieval
+    assert replan.check(snap(t=10.0, x=0.1, target=TARGET)) == ["impasse"]
+    replan.retrieved(snap(t=10.0, x=0.1, target=TARGET))
+    # stuck still: told again only once the next window has passed
+    assert replan.check(snap(t=15.0, x=0.1, target=TARGET)) == []
+    assert replan.check(snap(t=20.0, x=0.1, target=TARGET)) == ["impasse"]

@@ -348,10 +348,14 @@ CRUISE = 0.3
 ETA_DETOUR = 1.4
 """How much longer than the straight line a route on the floor is taken to be."""
 RAM_SPEED = 0.05
-"""m/s: a contact counts as a collision of the robot's when it came while the robot drove
-forward faster than this into something ahead, within ``COLLISION_ARC`` of its heading (the
-arc avoidCollision watches). People walk into a robot that stands, backs away or is passed
-(every contact is counted in ``contacts``); only the collisions are the robot's doing."""
+"""m/s: a contact counts as a collision of the robot's when the robot drove into it: forward
+faster than this, the contact ahead within ``COLLISION_ARC`` of its heading (the arc
+avoidCollision watches), and the robot closing the gap faster than the person or object it
+touched did (:data:`MOVER_REACH`). People walk into a robot that stands, yields or creeps, and
+pass it (every contact is counted in ``contacts``); only the collisions are the robot's
+doing."""
+MOVER_REACH = 0.3
+"""Metres: the person or object the robot touched is the nearest one this near its rim."""
 PLAN_SLACK = 1.25
 """A plan case's places are kept when the route through them is at most this many times as
 long as the direct route: a case planned for another errand may still lie on the way."""
@@ -421,12 +425,29 @@ class _DayState:
     def track(self, obs: Observation) -> None:
         self.impasses += sum(e.name in STUCK for e in self.sim.events)
         if (obs.bumped and not self._bumped and self._speed > RAM_SPEED
-                and abs(obs.bump_bearing) <= COLLISION_ARC):
+                and abs(obs.bump_bearing) <= COLLISION_ARC
+                and self._speed * math.cos(obs.bump_bearing) > self._closing(obs)):
             self.collisions += 1
         self._bumped, self._speed = obs.bumped, obs.v
         self._history.append((obs.t, self.to_target(obs)))
         while self._history and self._history[0][0] < obs.t - PROGRESS_WINDOW:
             self._history.pop(0)
+
+    def _closing(self, obs: Observation) -> float:
+        """How fast the nearest person or object within :data:`MOVER_REACH` of the robot came
+        toward it over the last step, m/s (0 with none: walls and doors stand still)."""
+        world, t, dt = self.sim.world, obs.t, self.sim.dt
+        x, y = obs.true_pose.x, obs.true_pose.y
+        closing, nearest = 0.0, MOVER_REACH
+        for mover in world.movers:
+            if not mover.present(t):
+                continue
+            (x1, y1), (x0, y0) = mover.position(t), mover.position(t - dt)
+            gap = math.hypot(x - x1, y - y1) - mover.radius
+            if gap < nearest:
+                nearest = gap
+                closing = (math.hypot(x - x0, y - y0) - math.hypot(x - x1, y - y1)) / dt
+        return closing
 
     def behavior_confidence(self) -> float:
         """behav-conf: the progress toward the target over the last

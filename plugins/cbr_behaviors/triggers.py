@@ -20,9 +20,11 @@ the next retrieval. The triggers, in the order :meth:`~ReplanMonitor.check` list
 - ``message``: a snapshot since the last retrieval reported a new critical message;
 - ``plan``: a snapshot since the last retrieval reported a newly installed high-level plan;
 - ``impasse``: the distance to the current target has not shrunk by ``progress`` metres over
-  the last ``window`` seconds (measured from the last retrieval or target change on, at the
-  snapshots checked), or the progress monitor's status turned blocked or oscillating since the
-  last retrieval;
+  the last ``window`` seconds (measured from the last target change or the last impasse on, at
+  the snapshots checked; not from the last retrieval, since other triggers may retrieve every
+  second while the robot stays stuck), or the progress monitor's status turned blocked or
+  oscillating since the last retrieval. Once it fired the window starts again, so a robot that
+  stays stuck is told once per window;
 - ``location``: the location confidence fell below ``confidence`` since the last retrieval,
   or by ``confidence_drop`` or more;
 - ``period``: ``period`` seconds passed or ``distance`` metres were driven since the last
@@ -138,27 +140,34 @@ class ReplanMonitor:
         self._events: set[str] = set()
         self._changed = 0
         self._target: Point | None = None
-        # (t, distance to the target) since the last retrieval or target change
+        # (t, distance to the target) since the last target change or impasse
         self._progress: deque[tuple[float, float]] = deque()
 
-    def _no_progress(self, snapshot: Snapshot) -> bool:
-        """Record the distance to the target; whether it shrank by less than ``progress`` over
-        a whole window ending now."""
+    def _record(self, snapshot: Snapshot) -> float | None:
+        """Put the distance to the target into the window (a new target starts a new one);
+        the distance, None without a target."""
         target = snapshot.target
         if target != self._target:
             self._progress.clear()
             self._target = target
         if target is None:
-            return False
-        progress = self._progress
+            return None
         distance = math.hypot(target[0] - snapshot.pose.x, target[1] - snapshot.pose.y)
-        progress.append((snapshot.t, distance))
+        self._progress.append((snapshot.t, distance))
         start = snapshot.t - self.options.window
         # the oldest sample kept is the latest one at least a window old
-        while len(progress) >= 2 and progress[1][0] <= start:
-            progress.popleft()
-        t0, d0 = progress[0]
-        return t0 <= start and d0 - distance < self.options.progress
+        while len(self._progress) >= 2 and self._progress[1][0] <= start:
+            self._progress.popleft()
+        return distance
+
+    def _no_progress(self, snapshot: Snapshot) -> bool:
+        """Record the distance to the target; whether it shrank by less than ``progress`` over
+        a whole window ending now."""
+        distance = self._record(snapshot)
+        if distance is None:
+            return False
+        t0, d0 = self._progress[0]
+        return t0 <= snapshot.t - self.options.window and d0 - distance < self.options.progress
 
     def check(self, snapshot: Snapshot) -> list[str]:
         """The triggers that fire at ``snapshot``, in the order of :data:`TRIGGERS`."""
@@ -170,9 +179,11 @@ class ReplanMonitor:
             self._events.add("message")
         if snapshot.plan_installed:
             self._events.add("plan")
-        fired = set(self._events)
         if self._no_progress(snapshot):
-            fired.add("impasse")
+            self._events.add("impasse")
+            self._progress.clear()
+            self._record(snapshot)
+        fired = set(self._events)
         base = self._base
         if base is not None:
             if snapshot.sonar.shape != base.sonar.shape:
@@ -195,11 +206,9 @@ class ReplanMonitor:
         return [name for name in TRIGGERS if name in fired]
 
     def retrieved(self, snapshot: Snapshot) -> None:
-        """A retrieval happened at ``snapshot``: it becomes the baseline, the events remembered
-        are cleared and the impasse window starts again."""
+        """A retrieval happened at ``snapshot``: it becomes the baseline and the events
+        remembered are cleared (the impasse window goes on, with this snapshot in it)."""
         self._base = snapshot
         self._events.clear()
         self._changed = 0
-        self._target = None
-        self._progress.clear()
-        self._no_progress(snapshot)
+        self._record(snapshot)
