@@ -5,7 +5,8 @@ and "Adaptation and Learning of Behavior Cases").
   plan cases under the weighted index distance, each with its per-feature distances in
   ``Match.features``; when even the best is farther than ``meta_threshold`` (nothing matches
   well), the nearest meta-plans instead (004: "'fall-back' cases that are retrieved when no
-  case matches the current situation well").
+  case matches the current situation well"). At an impasse the cases whose behaviors are in
+  force are left out: they are what got the robot stuck.
 - :class:`RupartReuser`: the best case made into an action. A plan case becomes an
   :class:`~cbr_behaviors.moment.InstallPlan`; a behavior case or meta-plan farther than
   ``threshold`` is adapted by the strategies the memory holds for it (alter its parameters,

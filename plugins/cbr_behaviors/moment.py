@@ -19,6 +19,10 @@ from cbr_behaviors.index import Index
 
 Point = tuple[float, float]
 
+GOOD_PROGRESS = 0.5
+"""Metres nearer its target a spell must get the robot to count as good (with no collision and
+no impasse): a few seconds of driving, more than the sway of a robot standing still."""
+
 
 @attrs.frozen(eq=False)
 class Moment:
@@ -75,5 +79,9 @@ class SpellReport:
 
     @property
     def good(self) -> bool:
-        """A spell went well when it had no collision and no impasse and did not lose ground."""
-        return self.collisions == 0 and self.impasses == 0 and self.progress >= 0.0
+        """A spell went well when it had no collision and no impasse and got the robot on: at
+        least :data:`GOOD_PROGRESS` metres nearer its target, or a message delivered. A spell
+        with nothing to do (the robot waiting at home) is not good: what it installed proved
+        nothing."""
+        return (self.collisions == 0 and self.impasses == 0
+                and (self.progress >= GOOD_PROGRESS or self.delivered > 0))

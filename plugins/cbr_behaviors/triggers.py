@@ -167,7 +167,9 @@ class ReplanMonitor:
         if distance is None:
             return False
         t0, d0 = self._progress[0]
-        return t0 <= snapshot.t - self.options.window and d0 - distance < self.options.progress
+        # a robot at its target has no progress left to make
+        return (t0 <= snapshot.t - self.options.window and distance > self.options.progress
+                and d0 - distance < self.options.progress)
 
     def check(self, snapshot: Snapshot) -> list[str]:
         """The triggers that fire at ``snapshot``, in the order of :data:`TRIGGERS`."""
