@@ -131,7 +131,8 @@ def test_disabling_it_removes_its_components(site: Path, tmp_path: Path) -> None
 
     assert done.returncode == 2
     assert ("workload.use (line 2, column 17): unknown workload 'corridor_trips'; registered: "
-            "trials (plugin world2d), trips (plugin grid)" in done.stderr)
+            "delivery (plugin rupart), trials (plugin world2d), trips (plugin grid)"
+            in done.stderr)
 
 
 def test_run_goes_through_its_hooks(site: Path, tmp_path: Path) -> None:
