@@ -38,7 +38,7 @@ from cbr_behaviors.weights import store_weights, stored_weights, updated
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
-from cbrcore.model import Match, Outcome, Retrieval, Solution
+from cbrcore.model import Case, Match, Outcome, Retrieval, Solution
 from cbrcore.options import option
 
 _UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
@@ -289,14 +289,13 @@ class QualityForgetter:
         kept = [(c, d) for c, d in learned if c.id not in drop]
         excess = len(kept) - self.options.capacity
         if excess > 0:
-            ranked = sorted(kept, key=lambda cd: (_score(memory, cd[1]), cd[0].id))
+            ranked = sorted(kept, key=lambda cd: (_score(memory, *cd), cd[0].id))
             drop += [c.id for c, _ in ranked[:excess]]
         if drop:
             memory.remove([i for i in drop if i is not None])
 
 
-def _score(memory: Any, decoded: BehaviorCase) -> float:
-    case = next(c for c, d in zip(memory.cases, memory.decoded, strict=True) if d is decoded)
+def _score(memory: Any, case: Case, decoded: BehaviorCase) -> float:
     near = memory.nearest(decoded.index, np.ones(len(FEATURES)), (BEHAVIOR,), 1, Scales(),
                           exclude=(case.id,))
     return Quality.of(case.meta).score(near[0].distance if near else 1.0)

@@ -386,10 +386,9 @@ class _DayState:
     def target(self) -> Point | None:
         return self.route[0] if self.route else self.goal
 
-    def plan(self, at: Point, planner: Any, via: tuple[str, ...], home: Point) -> str:
+    def plan(self, at: Point, planner: Any, via: tuple[str, ...], home: Point) -> None:
         """Route from ``at`` to the goal (home when idle), through the places ``via`` of a plan
-        case when they are on the way; how it went: ``"via"``, ``"direct"`` (the case's places
-        were dropped) or ``"none"`` (no route: the goal itself becomes the target).
+        case when they are on the way; with no route the goal itself becomes the target.
 
         The adaptation of a plan case (004 leaves its strategies out): its places are kept
         when the route through them is at most :data:`PLAN_SLACK` times as long as the route
@@ -397,20 +396,16 @@ class _DayState:
         goal = self.goal if self.goal is not None else home
         world = self.sim.world
         direct = self.gmap.route(planner, at, goal)
-        chosen, how = direct, "direct"
+        chosen, steps = direct, ()
         if via and all(p in world.places for p in via):
             through = self.gmap.route(planner, at, goal, via=[world.places[p] for p in via])
             if through is not None and (direct is None
                                         or _length(through) <= PLAN_SLACK * _length(direct)):
-                chosen, how = through, "via"
+                chosen, steps = through, via
         self.plan_installed = True
         self.passed = at
-        if chosen is None:
-            self.route, self.steps = [goal], ()
-            return "none"
-        self.route = list(chosen)
-        self.steps = via if how == "via" else ()
-        return how
+        self.route = [goal] if chosen is None else list(chosen)
+        self.steps = steps if chosen is not None else ()
 
     def advance(self, at: Point, within: float) -> None:
         while len(self.route) > 1 and math.dist(at, self.route[0]) <= within:
