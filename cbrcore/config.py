@@ -21,6 +21,7 @@ and what was expected.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -39,7 +40,14 @@ from cbrcore.options import (
 )
 from cbrcore.registry import CORE_KEYS, LIST_SLOTS, SINGLE_SLOTS, Registry, UnknownComponent
 
+Overrides = Sequence[str] | Mapping[str, Any]
+"""Settings that edit a configuration before it is checked: ``KEY.PATH=VALUE`` strings as
+``cbr run --set`` takes them (values in YAML), or a mapping of ``KEY.PATH`` to Python values."""
+
 DEFAULT_STORE = "memory"
+"""The store of a configuration that names no case base."""
+DEFAULT_STORE_PLUGIN = "core"
+"""The plugin that provides :data:`DEFAULT_STORE` (:mod:`cbrcore.builtins`)."""
 
 
 @attrs.frozen
@@ -100,11 +108,15 @@ class Config:
 
 
 class _Marks:
-    """Line and column of every YAML path in a document, for error messages."""
+    """Where each YAML path of a configuration came from, for error messages: the line and
+    column it was written at in the document, or the ``--set`` option that set it."""
 
     def __init__(self, node: yaml.Node | None) -> None:
         self.marks: dict[str, yaml.Mark] = {}
         self.duplicates: list[str] = []
+        # (path, option) for each override in the order applied: a later one replaces what an
+        # earlier one set beneath its path
+        self.overrides: list[tuple[str, str]] = []
         if node is not None:
             self._walk(node, "")
 
@@ -126,10 +138,39 @@ class _Marks:
         return f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
 
     def where(self, path: str) -> str:
+        """`` (line L, column C)`` of ``path``, or of the nearest enclosing path written in the
+        document (the component whose option is missing); empty for a top-level key the
+        document does not hold, rather than the position of the document itself."""
         probe = path
-        while probe not in self.marks and probe:
+        while probe and probe not in self.marks:
             probe = probe.rpartition(".")[0]
-        return self.at(self.marks.get(probe))
+        return self.at(self.marks.get(probe)) if probe else ""
+
+    def overridden(self, path: str, option: str) -> None:
+        """Record that the ``--set`` ``option`` set the value at ``path``."""
+        self.overrides.append((path, option))
+
+    def option(self, path: str) -> tuple[str, str] | None:
+        """The override (its path and option) that the value at ``path`` came from: one that
+        set ``path`` or a path enclosing it, or one below ``path`` when the document does not
+        hold ``path`` (the override made it)."""
+        for set_path, option in reversed(self.overrides):
+            if path == set_path or path.startswith(f"{set_path}."):
+                return set_path, option
+            if set_path.startswith(f"{path}.") and path not in self.marks:
+                return set_path, option
+        return None
+
+    def describe(self, path: str, message: str) -> str:
+        """One problem line: ``--set KEY=VALUE: ...`` for a value an override set, else the
+        YAML path and where the document holds it."""
+        found = self.option(path)
+        if found is None:
+            return f"{path}{self.where(path)}: {message}"
+        set_path, option = found
+        if path == set_path:
+            return f"--set {option}: {message}"
+        return f"--set {option}: {path}: {message}"
 
 
 def parse_yaml(text: str, label: str) -> tuple[Any, _Marks]:
@@ -165,9 +206,14 @@ def read_yaml(path: Path) -> tuple[Any, _Marks]:
     return parse_yaml(text, str(path))
 
 
-def apply_overrides(data: Any, overrides: Sequence[str], source: str) -> Any:
+def apply_overrides(data: Any, overrides: Sequence[str], source: str,
+                    marks: _Marks | None = None) -> Any:
     """Apply ``key.path=value`` overrides (values parsed as YAML within the document limits) to
-    the raw configuration."""
+    the raw configuration.
+
+    With the ``marks`` of the document, each override is recorded there, so that a problem in
+    a value it set names the ``--set`` option rather than a line of the file.
+    """
     if data is None:
         data = {}
     problems = []
@@ -199,9 +245,82 @@ def apply_overrides(data: Any, overrides: Sequence[str], source: str) -> Any:
                 node[last] = value
             else:
                 problems.append(f"--set {text!r}: {key} cannot be set")
+                continue
+            if marks is not None:
+                marks.overridden(".".join(parts), text)
     if problems:
         raise ConfigError(source, problems)
     return data
+
+
+def overridden(data: Any, overrides: Overrides, source: str,
+               marks: _Marks | None = None) -> Any:
+    """Raw configuration ``data`` with ``overrides`` applied (see :data:`Overrides`); errors
+    name ``source``, and ``--set`` strings are recorded in the document's ``marks``."""
+    if isinstance(overrides, Mapping):
+        return apply_settings(data, overrides, source)
+    if isinstance(overrides, str):  # a lone string would be taken letter by letter
+        overrides = [overrides]
+    return apply_overrides(data, overrides, source, marks)
+
+
+def apply_settings(data: Any, settings: Mapping[str, Any], source: str) -> Any:
+    """Set each ``KEY.PATH`` of ``settings`` to its Python value in raw configuration ``data``.
+
+    A value replaces what the path held, as ``--set`` does: ``{"casebase": {"use": "memory"}}``
+    replaces the whole slot, ``{"retrieve.k": 3}`` one option, and a component written by its
+    name alone gains options on the way (``retrieve: casegraph`` becomes ``{use: casegraph}``).
+    Values are copied, and checked with the rest of the configuration afterwards, so a bad value
+    is reported at its key's path. A key that is not a dotted path, or that leads through a
+    value that is not a mapping, is a :class:`~cbrcore.errors.ConfigError` naming the key.
+    """
+    data = {} if data is None else data
+    problems = []
+    for key, value in settings.items():
+        label = f"overrides[{key!r}]"
+        parts = key.split(".") if isinstance(key, str) else []
+        if not parts or not all(part.strip() for part in parts):
+            problems.append(f"{label}: expected a key of the form KEY.PATH (dots between "
+                            "names), such as 'retrieve.k'")
+            continue
+        node, where = data, []
+        for part in parts[:-1]:
+            where.append(part)
+            node, problem = _setting_child(node, part, ".".join(where))
+            if problem:
+                problems.append(f"{label}: {problem}")
+                break
+        else:
+            last = parts[-1]
+            if isinstance(node, list) and last.isdigit() and int(last) < len(node):
+                node[int(last)] = copy.deepcopy(value)
+            elif isinstance(node, dict):
+                node[last] = copy.deepcopy(value)
+            else:
+                problems.append(f"{label}: {key} cannot be set: {'.'.join(where) or 'the top'} "
+                                f"holds {type(node).__name__}, not a mapping")
+    if problems:
+        raise ConfigError(source, problems)
+    return data
+
+
+def _setting_child(node: Any, part: str, path: str) -> tuple[Any, str | None]:
+    """The value under ``part`` of ``node`` that a setting descends into, made a mapping when
+    it is a component's name or absent; or a problem."""
+    if isinstance(node, list):
+        if part.isdigit() and int(part) < len(node):
+            if isinstance(node[int(part)], str):
+                node[int(part)] = {"use": node[int(part)]}
+            return node[int(part)], None
+        return node, f"{path}: the list has no item {part} (it has {len(node)})"
+    if not isinstance(node, dict):
+        return node, f"{path}: cannot be descended into; it holds {type(node).__name__}"
+    child = node.get(part)
+    if isinstance(child, str):
+        child = node[part] = {"use": child}
+    elif child is None:
+        child = node[part] = {}
+    return child, None
 
 
 def _descend(node: Any, part: str, path: str) -> tuple[Any, str | None]:
@@ -248,6 +367,22 @@ def _component(raw: Any, kind: str, path: str, registry: Registry,
     return ComponentRef(kind, name, value, path) if not found else None
 
 
+def _default_store(registry: Registry, problems: list[tuple[str, str]]) -> ComponentRef | None:
+    """The case base of a configuration that names none: the default store, provided its
+    plugin is loaded."""
+    try:
+        registry.get("store", DEFAULT_STORE)
+    except UnknownComponent:
+        stores = [f"{c.name} (plugin {c.plugin})" for c in registry if c.kind == "store"]
+        problems.append(("casebase", (
+            f"no case base is named, so the default store {DEFAULT_STORE!r} is used, but "
+            f"plugin {DEFAULT_STORE_PLUGIN!r}, which provides it, is not loaded (see "
+            f"CBR_PLUGINS and CBR_DISABLE_PLUGINS); load it or name a store; registered stores: "
+            f"{', '.join(stores) or 'none'}")))
+        return None
+    return _component(DEFAULT_STORE, "store", "casebase", registry, problems)
+
+
 def parse_config(data: Any, registry: Registry, *, source: Path | None = None,
                  marks: _Marks | None = None) -> Config:
     """Check raw configuration data against the registry; raise one error listing every problem."""
@@ -283,7 +418,10 @@ def parse_config(data: Any, registry: Registry, *, source: Path | None = None,
                 slots[slot] = ref
         with slots_configured({slot: ref.name for slot, ref in slots.items()}):
             for slot, kind in SINGLE_SLOTS.items():
-                raw = data.get(slot, DEFAULT_STORE if slot == "casebase" else None)
+                if slot == "casebase" and slot not in data:
+                    values[slot] = _default_store(registry, problems)
+                    continue
+                raw = data.get(slot)
                 if raw is not None:
                     values[slot] = _component(raw, kind, slot, registry, problems)
             for slot, kind in LIST_SLOTS.items():
@@ -293,22 +431,21 @@ def parse_config(data: Any, registry: Registry, *, source: Path | None = None,
                                    registry, problems) for i, item in enumerate(items)]
                 values[slot] = tuple(ref for ref in refs if ref is not None)
     if problems:
-        raise ConfigError(label, [f"{path}{marks.where(path)}: {message}"
-                                  for path, message in problems])
+        raise ConfigError(label, [marks.describe(path, message) for path, message in problems])
     return Config(seed=seed, source=source, slots=slots, **values)
 
 
-def load_config(path: Path | str, registry: Registry, overrides: Sequence[str] = ()) -> Config:
-    """Read, override and check the configuration file at ``path``."""
+def load_config(path: Path | str, registry: Registry, overrides: Overrides = ()) -> Config:
+    """Read, override (see :data:`Overrides`) and check the configuration file at ``path``."""
     path = Path(path).resolve()
     data, marks = read_yaml(path)
-    data = apply_overrides(data, overrides, str(path))
+    data = overridden(data, overrides, str(path), marks)
     return parse_config(data, registry, source=path, marks=marks)
 
 
-def config_from_text(text: str, registry: Registry, overrides: Sequence[str] = ()) -> Config:
+def config_from_text(text: str, registry: Registry, overrides: Overrides = ()) -> Config:
     """Check a configuration given as YAML text; relative paths resolve against the working
     directory."""
     data, marks = parse_yaml(text, "configuration")
-    data = apply_overrides(data, overrides, "configuration")
+    data = overridden(data, overrides, "configuration", marks)
     return parse_config(data, registry, marks=marks)

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import copy
 import os
 import time
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from types import TracebackType
 from typing import Any
@@ -15,7 +16,7 @@ import attrs
 import pluggy
 
 from cbrcore.casebase.store import CaseStore
-from cbrcore.config import ComponentRef, Config, load_config
+from cbrcore.config import ComponentRef, Config, Overrides, load_config, overridden, parse_config
 from cbrcore.context import Context
 from cbrcore.errors import CbrError, ConfigError, PhaseError, PluginError
 from cbrcore.hookimpls import implemented_hooks, unknown_hooks
@@ -24,10 +25,16 @@ from cbrcore.model import CASEBASE, Outcome, Proposal, Retrieval, Revision, Solu
 from cbrcore.plugins import Plugins, current, new_plugin_manager
 from cbrcore.registry import KIND_HOOK
 
+"""Overrides of a configuration's settings: ``KEY.PATH=VALUE`` strings, values in YAML, as
+``cbr run --set`` takes them; or a mapping of ``KEY.PATH`` to Python values."""
+
 _PHASE_OF_HOOK = {hook: phase for phase, hook in PHASE_HOOKS.items()}
 
 MEASURE = "measure"
 """The phase a metric fails in: measuring a carried-out proposal, before its learn step."""
+
+WARM = "warm"
+"""The phase a component fails in while it warms up (``cbr_warm``), when the engine is built."""
 
 
 def output_folder(path: Path) -> None:
@@ -79,6 +86,25 @@ class EngineStats:
         }
 
 
+def culprit(caller: Any, exc: BaseException | None, owners: Mapping[str, str]) -> str:
+    """Who is to blame for ``exc`` raised in a call of the hook ``caller``: the plugin of the
+    innermost frame that is one of the hook's implementations, else the implementation that
+    answers; named by ``owners`` (the label of each registered name), else by its own name."""
+    impls = caller.get_hookimpls()
+    if exc is not None:
+        codes = {impl.function.__code__: impl.plugin_name for impl in impls}
+        raised = None
+        tb = exc.__traceback__
+        while tb is not None:
+            raised = codes.get(tb.tb_frame.f_code, raised)
+            tb = tb.tb_next
+        if raised is not None:
+            return owners.get(raised, raised)
+    answering = [impl for impl in impls if not impl.wrapper and not impl.hookwrapper]
+    name = answering[-1].plugin_name if answering else "<none>"
+    return owners.get(name, name)
+
+
 class Hooks:
     """The one typed facade over the engine's phase hooks.
 
@@ -109,19 +135,7 @@ class Hooks:
         return result
 
     def _culprit(self, caller: Any, exc: BaseException | None) -> str:
-        impls = caller.get_hookimpls()
-        if exc is not None:
-            codes = {impl.function.__code__: impl.plugin_name for impl in impls}
-            raised = None
-            tb = exc.__traceback__
-            while tb is not None:
-                raised = codes.get(tb.tb_frame.f_code, raised)
-                tb = tb.tb_next
-            if raised is not None:
-                return self._owners.get(raised, raised)
-        answering = [impl for impl in impls if not impl.wrapper and not impl.hookwrapper]
-        name = answering[-1].plugin_name if answering else "<none>"
-        return self._owners.get(name, name)
+        return culprit(caller, exc, self._owners)
 
     def retrieve(self, problem: Any, casebase: CaseStore, ctx: Context,
                  timings: dict[str, float]) -> Retrieval | None:
@@ -157,10 +171,23 @@ class Engine:
     retrieval is not usable, reuse fails or revision rejects. ``learn`` runs retain -> forget in one
     case base transaction after the solution has been carried out. ``stats`` counts where answers
     came from. Close the engine (or use it as a context manager) to release the case base.
+
+    Build one from a checked :class:`~cbrcore.config.Config`, a YAML file (:meth:`from_yaml`)
+    or a mapping (:meth:`from_dict`). ``world`` hands the engine a world object instead of the
+    configured ``world`` slot (which the configuration may then leave out): a plugin that knows
+    the object's type makes the world of it (``cbr_world_object``; the grid plugin takes a
+    ``cbr_grid.Grid`` or a 2-D NumPy occupancy or risk array). ``out_dir`` is the output folder
+    for files components write (a SQLite case base by default); None embeds the engine without
+    one. Once every component is built, those implementing ``cbr_warm`` warm up (compile their
+    kernels on a tiny problem), so that no query's timings include compilation.
     """
 
-    def __init__(self, config: Config, *, plugins: Plugins | None = None,
+    def __init__(self, config: Config, *, world: Any = None, plugins: Plugins | None = None,
                  out_dir: Path | None = None) -> None:
+        if not isinstance(config, Config):
+            raise CbrError(f"Engine(config): expected a checked Config, got "
+                           f"{_type_name(config)}; build an engine from a mapping with "
+                           f"Engine.from_dict(...) or from a file with Engine.from_yaml(...)")
         self.config = config
         self.plugins = plugins or current()
         self.stats = EngineStats()
@@ -174,12 +201,15 @@ class Engine:
         """The built components by YAML path (``retrieve``, ``retain.0``, ``kinematics``): the
         plugin slots', the phase components and the observers."""
         self.casebase: CaseStore | None = None
+        self.warm_seconds = 0.0
+        """How long the components' warm-up (``cbr_warm``) took while the engine was built."""
         self._closed = False
         made = out_dir is not None and not out_dir.exists()
         if out_dir is not None:
             output_folder(out_dir)
         try:
-            self.world = self._build(config.world)
+            self.world = (self._build(config.world) if world is None
+                          else self._world_object(world))
             self.ctx.world = self.world
             for slot, ref in config.slots.items():
                 self.ctx.stash[self.plugins.registry.slots[slot].key] = self._component(ref)
@@ -197,6 +227,7 @@ class Engine:
                     self._register(ref, instance)
             self.workload = self._build(config.workload)
             self.metrics = [self._build(ref) for ref in config.metrics]
+            self.warm_seconds = self._warm(configured_world=world is None)
         except BaseException:
             self.close()
             if made:  # an engine that could not be built leaves no empty output folder behind
@@ -206,12 +237,98 @@ class Engine:
         self.hooks = Hooks(self._pm, self._owners)
 
     @classmethod
-    def from_yaml(cls, path: Path | str, *, overrides: Sequence[str] = (),
+    def from_yaml(cls, path: Path | str, *, world: Any = None, overrides: Overrides = (),
                   plugins: Plugins | None = None, out_dir: Path | None = None) -> Engine:
-        """Build an engine from a YAML file, with optional ``key.path=value`` overrides."""
+        """Build an engine from a YAML file.
+
+        ``overrides`` edit the file's settings before they are checked: ``KEY.PATH=VALUE``
+        strings as ``cbr run --set`` takes them (values written in YAML), or a mapping of
+        ``KEY.PATH`` to Python values (``{"retrieve.k": 3, "casebase": "memory"}``). ``world``
+        is a world object that replaces the configured world (see :class:`Engine`).
+        """
         plugins = plugins or current()
         config = load_config(path, plugins.registry, overrides)
-        return cls(config, plugins=plugins, out_dir=out_dir)
+        return cls(config, world=world, plugins=plugins, out_dir=out_dir)
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, world: Any = None, overrides: Overrides = (),
+                  plugins: Plugins | None = None, out_dir: Path | None = None) -> Engine:
+        """Build an engine from a configuration given as a mapping, without a file.
+
+        ``data`` has the shape of a YAML configuration (``{"solver": "astar", "retrieve":
+        {"use": "casegraph", "delta": 8}}``) and is checked the same way; it is copied, never
+        changed. Relative paths in it resolve against the working directory. ``overrides`` and
+        ``world`` are those of :meth:`from_yaml`.
+        """
+        plugins = plugins or current()
+        if not isinstance(data, Mapping):
+            raise ConfigError("configuration", [f"expected a mapping of settings, got "
+                                                f"{type(data).__name__}"])
+        raw = overridden(copy.deepcopy(dict(data)), overrides, "configuration")
+        return cls(parse_config(raw, plugins.registry), world=world, plugins=plugins,
+                   out_dir=out_dir)
+
+    def _world_object(self, obj: Any) -> Any:
+        """The world the loaded plugins make of ``obj`` (``cbr_world_object``)."""
+        caller = self.plugins.pm.hook.cbr_world_object
+        try:
+            world = caller(obj=obj, ctx=self.ctx)
+        except CbrError:
+            raise
+        except Exception as exc:
+            raise PluginError(f"world: plugin {culprit(caller, exc, {})!r} failed to make a "
+                              f"world of a {_type_name(obj)}: {type(exc).__name__}: {exc}"
+                              ) from exc
+        if world is None:
+            takers = sorted({impl.plugin_name for impl in caller.get_hookimpls()})
+            worlds = [f"{c.name} ({c.plugin})" for c in self.plugins.registry if c.kind == "world"]
+            raise CbrError(
+                f"world: no loaded plugin makes a world of a {_type_name(obj)} given as "
+                f"Engine(world=...); plugins that take world objects: "
+                f"{', '.join(takers) or 'none'} (the grid plugin takes a cbr_grid.Grid or a "
+                f"2-D NumPy array); the worlds a configuration can name instead: "
+                f"{', '.join(worlds) or 'none registered'}")
+        return world
+
+    def _warm(self, *, configured_world: bool) -> float:
+        """Call ``cbr_warm`` on every built component that implements it; the seconds taken.
+
+        A world object given to the engine is the caller's, not a component: it is not warmed.
+        """
+        pm = new_plugin_manager()
+        owners: dict[str, str] = {}
+        world = [("world", self.config.world)] if configured_world else []
+        refs = [*world, *((ref.path, ref) for ref in self._refs())]
+        built = {"world": self.world, **self.components, "workload": self.workload,
+                 **{ref.path: metric for ref, metric in zip(self.config.metrics, self.metrics,
+                                                            strict=True)}}
+        for path, ref in refs:
+            part = built.get(path)
+            if part is None or ref is None or "cbr_warm" not in implemented_hooks(part):
+                continue
+            plugin = self.plugins.registry.get(ref.kind, ref.name).plugin
+            try:
+                pm.register(part, name=path)
+            except pluggy.PluginValidationError as exc:
+                raise PluginError(f"{path}: {ref.kind} {ref.name!r} (plugin {plugin!r}): {exc}"
+                                  ) from exc
+            owners[path] = f"{ref.name} ({plugin})"
+        started = time.perf_counter()
+        try:
+            pm.hook.cbr_warm(ctx=self.ctx)
+        except CbrError:
+            raise
+        except Exception as exc:
+            raise PhaseError(WARM, culprit(pm.hook.cbr_warm, exc, owners), exc) from exc
+        return time.perf_counter() - started
+
+    def _refs(self) -> list[ComponentRef]:
+        """Every configured component but the world and the case base, in the order built."""
+        config = self.config
+        single = [getattr(config, slot) for slot in ("retrieve", "reuse", "revise", "solver")]
+        return [*config.slots.values(), *(ref for ref in single if ref is not None),
+                *config.retain, *config.forget, *config.observers,
+                *([config.workload] if config.workload is not None else []), *config.metrics]
 
     def _build(self, ref: ComponentRef | None) -> Any:
         if ref is None:
@@ -367,6 +484,14 @@ class Engine:
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
         self.close()
+
+
+def _type_name(obj: Any) -> str:
+    kind = type(obj)
+    name = kind.__qualname__ if kind.__module__ == "builtins" else (
+        f"{kind.__module__}.{kind.__qualname__}")
+    shape = getattr(obj, "shape", None)
+    return f"{name} of shape {tuple(shape)}" if isinstance(shape, tuple) else name
 
 
 def _still_stored(casebase: CaseStore, ids: Iterable[int]) -> list[int]:

@@ -14,7 +14,7 @@ from typing import Any
 
 from cbrcore import hookspecs
 
-HOOKS = (*hookspecs.PLUGIN_HOOKS, *hookspecs.PHASE_HOOKS.values())
+HOOKS = hookspecs.HOOKS
 """The name of every cbrcore hook."""
 
 

@@ -2,14 +2,17 @@
 
 Two sorts of hook live here.
 
-*Plugin hooks* (``cbr_register``, ``cbr_cli``) are implemented by plugin modules found through the
-``cbr`` entry point group and are called once when plugins load.
+*Plugin hooks* (``cbr_register``, ``cbr_cli``, ``cbr_world_object``) are implemented by plugin
+modules found through the ``cbr`` entry point group and are called on the manager of the loaded
+plugins: ``cbr_register`` once when plugins load, ``cbr_cli`` when the command line starts,
+``cbr_world_object`` when an engine is given a world object instead of a configured world.
 
 *Phase hooks* (``cbr_retrieve`` ... ``cbr_forget``, ``cbr_solve``) are implemented by component
 instances. An :class:`~cbrcore.engine.Engine` has its own plugin manager holding exactly the
 components its configuration names, one per single-answer phase, plus its observers, so a
 ``firstresult`` phase hook reaches the configured component and nothing else. Observers wrap phase
-hooks with ``wrapper=True`` hookimpls.
+hooks with ``wrapper=True`` hookimpls. A configured component may implement the *component hook*
+``cbr_warm`` besides its phase hook, to be warmed up before anything is timed.
 
 Rules for implementers: hooks are called with keyword arguments only; declare just the arguments
 you use; a phase hook is called once per query (never per cell or per case pair), so vectorise the
@@ -60,6 +63,19 @@ def cbr_cli(app: typer.Typer) -> None:
     with ``@app.command()`` or sub-applications with ``app.add_typer(...)``. Raise
     :class:`~cbrcore.errors.CbrError` from a command for a user error: the CLI prints it and exits
     with code 2.
+    """
+
+
+@hookspec(firstresult=True)
+def cbr_world_object(obj: Any, ctx: Context) -> Any | None:
+    """Give the world for an object handed to an engine as ``Engine(config, world=obj)``.
+
+    firstresult: a plugin that knows the type of ``obj`` returns the world it stands for,
+    converted if need be (the grid plugin turns a NumPy occupancy or risk array into a
+    :class:`cbr_grid.Grid` and returns a ``Grid`` as it is); the others return None. The world
+    replaces the configuration's ``world`` slot. When no plugin answers, the engine raises a
+    :class:`~cbrcore.errors.CbrError` naming the object's type. Raise a ``CbrError`` for an
+    object of a known type that is not a valid world (an array with values out of range).
     """
 
 
@@ -126,6 +142,20 @@ def cbr_forget(casebase: CaseStore, ctx: Context) -> None:
     """
 
 
+@hookspec
+def cbr_warm(ctx: Context) -> None:
+    """Warm up: compile or load what this component's hot path will use, on a tiny problem.
+
+    Collect-all: implemented by configured components (a solver, a retriever, a reuser, a
+    retainer ...) besides their phase hook, and called once on every component that has it, when
+    the engine is built and before anything is timed, so that no query's timings include the
+    compilation or the cache loading of compiled kernels. ``ctx`` is the run's context, with its
+    world and case base; warm on a problem of your own (a few cells of the same types as the
+    world's) and leave the case base, the run's generator and the stash as they were. Return
+    value ignored.
+    """
+
+
 PHASE_HOOKS: dict[str, str] = {
     "retrieve": "cbr_retrieve",
     "reuse": "cbr_reuse",
@@ -136,5 +166,11 @@ PHASE_HOOKS: dict[str, str] = {
 }
 """Each phase of the cycle and the hook that carries it out."""
 
-PLUGIN_HOOKS = ("cbr_register", "cbr_cli")
+PLUGIN_HOOKS = ("cbr_register", "cbr_cli", "cbr_world_object")
 """Hooks implemented by plugin modules rather than by configured components."""
+
+COMPONENT_HOOKS = ("cbr_warm",)
+"""Hooks a configured component may implement besides the phase hook of its kind."""
+
+HOOKS = (*PLUGIN_HOOKS, *PHASE_HOOKS.values(), *COMPONENT_HOOKS)
+"""The name of every cbrcore hook, in the order of the hook reference."""

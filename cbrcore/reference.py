@@ -145,7 +145,7 @@ def config_reference(registry: Registry) -> str:
 def hook_reference() -> str:
     """The hook reference: every hookspec with its signature, kind and contract."""
     lines = ["# Hook reference", "", _markdown(inspect.cleandoc(hookspecs.__doc__ or "")), ""]
-    for name in (*hookspecs.PLUGIN_HOOKS, *hookspecs.PHASE_HOOKS.values()):
+    for name in hookspecs.HOOKS:
         function = getattr(hookspecs, name)
         opts = getattr(function, f"{hookspecs.PROJECT}_spec")
         signature = str(inspect.signature(function)).replace("'", "")

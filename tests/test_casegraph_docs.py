@@ -1,11 +1,19 @@
-"""The Python example of the case graph page runs and plans on the case graph."""
+"""The case graph page: its Python example runs, and its similarity radius figures come from a
+run that agrees with the deviation-table experiment."""
 
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import io
+import json
 import re
 from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+from cbrcore.cli import main
 
 PAGE = Path(__file__).resolve().parents[1] / "docs" / "casegraph.md"
 
@@ -17,3 +25,44 @@ def test_python_example_runs() -> None:
     with contextlib.redirect_stdout(printed):
         exec(compile(code.group(1), str(PAGE), "exec"), {})
     assert printed.getvalue().startswith("cost ")
+
+
+def _load(name: str) -> ModuleType:
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_similarity_radius_zero_is_the_deviation_tables_cbr_column(tmp_path: Path) -> None:
+    """The δr figures of the case graph and reproductions pages come from a run whose δr = 0 rows
+    are the deviation-table experiment's own CBR figures: checked here at ci size, seeded."""
+    radius = _load("casegraph_similarity_radius")
+    result = radius.main(["--size", "ci", "--radii", "0", "1", "--out", str(tmp_path)])
+    written = json.loads((tmp_path / "casegraph_similarity_radius.json").read_text())
+    assert written == json.loads(json.dumps(result))
+    assert main(["experiment", "deviation-table", "--size", "ci", "--seed", "0",
+                 "--out", str(tmp_path / "table")]) == 0
+    table = json.loads((tmp_path / "table" / "results.json").read_text())["rows"]
+    zero = [row for row in result["rows"] if row["radius"] == 0]
+    assert [row["vertices"] for row in zero] == [row["vertices"] for row in table]
+    for ours, theirs in zip(zero, table, strict=True):
+        assert ours["cbr_share"] == theirs["cbr_share"]
+        assert ours["cost_deviation"] == pytest.approx(theirs["deviation"]["CBR"]["cost"],
+                                                       rel=1e-12)
+        assert ours["cbr_only_cost_deviation"] == pytest.approx(
+            theirs["cbr_only_cost_deviation"], rel=1e-12)
+    # another radius grows another graph from the same tasks
+    one = [row for row in result["rows"] if row["radius"] == 1]
+    assert len(one) == len(zero) and all(row["tasks"] == table[0]["tasks"] for row in one)
+
+
+def test_the_radius_script_refuses_a_negative_radius(tmp_path: Path,
+                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    radius = _load("casegraph_similarity_radius")
+    with pytest.raises(SystemExit) as stopped:
+        radius.main(["--size", "ci", "--radii", "-1", "--out", str(tmp_path)])
+    assert stopped.value.code == 2
+    assert "--radii" in capsys.readouterr().err

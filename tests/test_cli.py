@@ -11,10 +11,11 @@ from __future__ import annotations
 import csv
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -416,9 +417,11 @@ def test_traceback_option_shows_where_an_error_came_from(cbr_cli: Cli, toy_confi
     (("run", "--bogus"), "No such option: --bogus"),
     (("validate",), "Missing argument"),
     (("teleport",), "No such command 'teleport'"),
-    (("experiment", "sum_of_squares", "--size", "huge"), "expected ci or full, got 'huge'"),
+    (("experiment", "sum_of_squares", "--size", "huge"), "'huge' is not one of 'ci', 'full'"),
     (("experiment",), "name an experiment, or use --list"),
-    (("reference", "everything"), "expected config or hooks, got 'everything'"),
+    (("experiment", "sum_of_squares", "--json"), "--json goes with --list"),
+    (("reference", "everything"), "'everything' is not one of 'config', 'hooks'"),
+    (("reference",), "Missing argument 'WHAT'"),
 ])
 def test_usage_errors_exit_with_code_2(cbr_cli: Cli, args: tuple[str, ...],
                                        message: str) -> None:
@@ -528,11 +531,11 @@ def test_reference_hooks_documents_every_hook(cbr_cli: Cli) -> None:
     lines = result.stdout.splitlines()
     assert lines[0] == "# Hook reference"
     headings = [line for line in lines if line.startswith("## ")]
-    assert headings == ["## `cbr_register`", "## `cbr_cli`", "## `cbr_retrieve`",
-                        "## `cbr_reuse`", "## `cbr_revise`", "## `cbr_solve`", "## `cbr_retain`",
-                        "## `cbr_forget`"]
-    assert lines.count("*firstresult*") == 4
-    assert lines.count("*collect-all*") == 4
+    assert headings == ["## `cbr_register`", "## `cbr_cli`", "## `cbr_world_object`",
+                        "## `cbr_retrieve`", "## `cbr_reuse`", "## `cbr_revise`", "## `cbr_solve`",
+                        "## `cbr_retain`", "## `cbr_forget`", "## `cbr_warm`"]
+    assert lines.count("*firstresult*") == 5
+    assert lines.count("*collect-all*") == 5
 
 
 @pytest.mark.usefixtures("toy")
@@ -616,3 +619,262 @@ def test_run_keeps_the_default_sqlite_case_base_in_a_new_output_folder(
         xs = [int(row["q_x"]) for row in csv.DictReader(handle)]
     info = cbr_cli("casebase", "info", str(out / "casebase.sqlite"), "--json")
     assert json.loads(info.stdout)["kinds"] == {toy_domain.KIND: min(6, len(set(xs)))}
+
+
+# -- conventions: version, help, metavars, completion ----------------------------------------
+
+
+def test_version_names_cbrcore_and_every_loaded_plugin(toy: Plugins, cbr_cli: Cli) -> None:
+    for option in ("--version", "-V"):
+        result = cbr_cli(option)
+        assert result.exit_code == 0, result.stderr
+        lines = result.stdout.splitlines()
+        python = sys.version.split()[0]
+        assert lines[0] == f"cbrcore {metadata.version('cbrcore')} (Python {python})"
+        listed = [line.split() for line in lines[1:]]
+        assert [words[0] for words in listed] == [p.name for p in toy.loaded]
+        # the plugins of this test are registered in code, not installed from a distribution
+        assert all(words[1:] == ["(registered", "in", "code)"] for words in listed)
+
+
+def test_version_shows_the_distribution_of_installed_plugins(
+        cbr_plugins: Callable[..., Plugins], cbr_cli: Cli) -> None:
+    cbr_plugins(entry_points=True)
+    lines = cbr_cli("-V").stdout.splitlines()
+    assert f"  core{' ' * (len(max(installed_plugins(), key=len)) - 4)}  cbrcore " \
+           f"{metadata.version('cbrcore')}" in lines
+
+
+@pytest.mark.usefixtures("toy")
+def test_cbr_alone_prints_help_and_succeeds(cbr_cli: Cli) -> None:
+    alone, helped, short = cbr_cli(), cbr_cli("--help"), cbr_cli("-h")
+    assert alone.exit_code == helped.exit_code == short.exit_code == 0
+    assert alone.stdout.startswith("Usage: cbr [OPTIONS] COMMAND [ARGS]...")
+    assert alone.stdout == helped.stdout == short.stdout
+    assert "-h, --help" in alone.stdout and "-V, --version" in alone.stdout
+
+
+# typer's typed placeholders and braced arguments, none of which help may show
+UNREADABLE = re.compile(r"<(?:(?:str|int|float|bool|path|file|directory|datetime|uuid)(?: range)?"
+                        r"|list\[[^\]]*\]|[^<>|\s]+(?:\|[^<>|\s]+)+)>|\{[a-z_]+\}")
+
+
+def _command_paths(command: Any, path: tuple[str, ...] = ()) -> Iterator[tuple[tuple[str, ...],
+                                                                            Any]]:
+    yield path, command
+    for name, sub in getattr(command, "commands", {}).items():
+        yield from _command_paths(sub, (*path, name))
+
+
+@pytest.mark.parametrize(("plugin_set", "some_commands"), [
+    ("test", {("run",), ("experiment",), ("casebase", "import"), ("greet",)}),
+    ("installed", {("sim", "run"), ("sim", "batch"), ("rupart", "add"), ("plan",),
+                   ("map", "show")}),
+])
+def test_every_help_names_values_by_readable_metavars(
+        load_toy: Callable[..., Plugins], cbr_plugins: Callable[..., Plugins], cbr_cli: Cli,
+        plugin_set: str, some_commands: set[tuple[str, ...]]) -> None:
+    """Walk the whole command tree, the plugins' commands included: each command's -h is its
+    --help, and neither shows a typed placeholder (``<int range>``) or a braced argument."""
+    from cbrcore.cli import build_app
+
+    if plugin_set == "test":
+        load_toy(("greeter", Greeter()))
+    else:
+        cbr_plugins(entry_points=True)
+    tree = list(_command_paths(typer.main.get_command(build_app())))
+    assert some_commands <= {path for path, _ in tree}
+    for path, command in tree:
+        helped = cbr_cli(*path, "--help")
+        assert helped.exit_code == 0, (path, helped.stderr)
+        assert cbr_cli(*path, "-h") == helped
+        assert UNREADABLE.search(helped.stdout) is None, (path, helped.stdout)
+        for param in command.params:
+            metavar = param.metavar
+            if metavar is None:  # a flag
+                assert getattr(param, "is_flag", False), (path, param.name)
+            else:  # capitals, or a list of choices
+                assert metavar == metavar.upper() or (
+                    metavar.startswith("[") and metavar.endswith("]")), (path, metavar)
+
+
+def test_unreadable_shapes_are_recognised() -> None:
+    """The pattern the help walk relies on catches typer's shapes and spares real help."""
+    for shape in ("{config}", "<list[str]>", "<int range>", "<path>", "<ci|full>"):
+        assert UNREADABLE.search(f"  run {shape}  help") is not None, shape
+    for fine in ("CONFIG", "[NAME]", "--size [ci|full]", "runs/<config name>",
+                 "experiments/<name>-<size>", "'{use: sqlite, path: FILE}'", "FILE..."):
+        assert UNREADABLE.search(fine) is None, fine
+
+
+@pytest.mark.usefixtures("toy")
+def test_help_lists_choices_and_the_registered_experiments(cbr_cli: Cli) -> None:
+    experiment = cbr_cli("experiment", "-h").stdout
+    assert "Usage: cbr experiment [OPTIONS] [NAME]" in experiment
+    assert re.search(r"--size \[ci\|full\] .*\[default: ci\]", " ".join(experiment.split()))
+    assert experiment.splitlines()[-2:] == ["  Experiments:", "    sum_of_squares"]
+    reference = cbr_cli("reference", "-h").stdout
+    assert "Usage: cbr reference [OPTIONS] WHAT" in reference
+    assert "config:" in reference and "hooks:" in reference
+    run = cbr_cli("run", "-h").stdout
+    assert "Usage: cbr run [OPTIONS] CONFIG" in run
+    assert "-s, --set KEY.PATH=VALUE" in run
+
+
+@pytest.fixture
+def completing(monkeypatch: pytest.MonkeyPatch, cbr_cli: Cli) -> Callable[[str], list[str]]:
+    """``completing("cbr run x.yaml --set ret")``: what bash completion offers for the last
+    word of the line, through the ``_CBR_COMPLETE`` protocol the installed script uses."""
+
+    def complete(line: str) -> list[str]:
+        words = line.split(" ")
+        monkeypatch.setenv("_CBR_COMPLETE", "complete_bash")
+        monkeypatch.setenv("COMP_WORDS", line)
+        monkeypatch.setenv("COMP_CWORD", str(len(words) - 1))
+        result = cbr_cli()
+        assert result.exit_code == 0, result.stderr
+        return result.stdout.split()
+
+    return complete
+
+
+@pytest.mark.usefixtures("toy")
+def test_completion_offers_experiments_references_and_settings(
+        completing: Callable[[str], list[str]]) -> None:
+    assert completing("cbr experiment ") == ["sum_of_squares"]
+    assert completing("cbr experiment sum") == ["sum_of_squares"]
+    assert completing("cbr experiment x") == []
+    assert completing("cbr reference ") == ["config", "hooks"]
+    assert completing("cbr run toy.yaml --set ret") == ["retain=", "retrieve="]
+    assert completing("cbr validate toy.yaml -s s") == ["seed=", "solver="]
+    # the toy's retriever and the faulty plugin's
+    assert completing("cbr run toy.yaml --set retrieve=") == [
+        "retrieve=exploding", "retrieve=nearest"]
+    assert completing("cbr run toy.yaml --set retrieve.use=n") == ["retrieve.use=nearest"]
+    assert completing("cbr run toy.yaml --set forget=c") == ["forget=capacity"]
+    assert completing("cbr run toy.yaml --set nowhere=") == []
+
+
+# -- experiment size, tables and JSON ---------------------------------------------------------
+
+
+@pytest.mark.usefixtures("toy")
+@pytest.mark.parametrize(("size", "n"), [((), 4), (("--size", "full"), 100)])
+def test_experiment_runs_at_ci_size_unless_told(cbr_cli: Cli, tmp_path: Path,
+                                                size: tuple[str, ...], n: int) -> None:
+    out = tmp_path / "exp"
+    result = cbr_cli("experiment", "sum_of_squares", *size, "--out", str(out))
+    assert result.exit_code == 0, result.stderr
+    # the sum of the squares below n is (n - 1) n (2n - 1) / 6
+    assert read_json(out / "results.json") == {"n": n, "sum_of_squares": (n - 1) * n * (2 * n - 1)
+                                               // 6}
+    assert read_json(out / "manifest.json")["size"] == ("full" if size else "ci")
+
+
+LONG_SUMMARY = ("A reproduction with a summary much longer than eighty columns, which a table "
+                "cut at the width of an absent terminal would wrap or truncate.")
+
+
+class LongWinded(SumOfSquares):
+    pass
+
+
+LongWinded.__doc__ = LONG_SUMMARY
+
+
+class Archive:
+    @hookimpl
+    def cbr_register(self, registry: Registry) -> None:
+        registry.add("experiment", "long_winded", LongWinded)
+
+
+def test_piped_tables_keep_every_cell_whole(load_toy: Callable[..., Plugins], cbr_cli: Cli,
+                                            monkeypatch: pytest.MonkeyPatch) -> None:
+    load_toy(("archive", Archive()))
+    monkeypatch.setenv("COLUMNS", "30")  # ignored: the output is not a terminal
+    listing = cbr_cli("experiment", "--list")
+    assert listing.exit_code == 0
+    [row] = [line for line in listing.stdout.splitlines() if "long_winded" in line]
+    assert LONG_SUMMARY in row and "archive" in row
+
+
+def test_tables_fit_a_terminal(load_toy: Callable[..., Plugins], cbr_cli: Cli,
+                               monkeypatch: pytest.MonkeyPatch) -> None:
+    load_toy(("archive", Archive()))
+    monkeypatch.setenv("TTY_COMPATIBLE", "1")  # rich's way to say the output is a terminal
+    monkeypatch.setenv("COLUMNS", "60")
+    listing = cbr_cli("experiment", "--list")
+    assert listing.exit_code == 0
+    lines = re.sub(r"\x1b\[[0-9;]*m", "", listing.stdout).splitlines()
+    assert max(len(line) for line in lines) <= 60
+    # the summary is wrapped within its cell, not lost
+    assert "eighty" in listing.stdout and "truncate." in listing.stdout
+
+
+@pytest.mark.usefixtures("toy")
+def test_run_json_prints_the_summary(cbr_cli: Cli, toy_config: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    result = cbr_cli("run", str(toy_config), "--out", str(out), "--json")
+    assert result.exit_code == 0, result.stderr
+    printed = json.loads(result.stdout)
+    assert printed == read_json(out / "summary.json")
+    assert printed["queries"] == 30 and printed["learned"] == 30
+
+
+@pytest.mark.usefixtures("toy")
+def test_validate_json_prints_the_resolved_components(cbr_cli: Cli, toy_config: Path) -> None:
+    result = cbr_cli("validate", str(toy_config), "--json", "--set", "forget.0.limit=4")
+    assert result.exit_code == 0, result.stderr
+    printed = json.loads(result.stdout)
+    assert printed["config"] == str(toy_config)
+    resolved = printed["resolved"]
+    assert resolved["seed"] == 3
+    # defaults filled in: the toy's nearest has no other option, tolerance's is written
+    assert resolved["retrieve"] == {"use": "nearest", "radius": 1}
+    assert resolved["forget"] == [{"use": "capacity", "limit": 4}]
+    assert resolved["casebase"]["use"] == "memory"
+
+
+@pytest.mark.usefixtures("toy")
+def test_experiment_list_json(cbr_cli: Cli) -> None:
+    result = cbr_cli("experiment", "--list", "--json")
+    assert result.exit_code == 0, result.stderr
+    assert json.loads(result.stdout) == {"experiments": [
+        {"name": "sum_of_squares", "plugin": "lab",
+         "summary": "Sum the squares below n: n is 4 at size ci."}]}
+
+
+# -- where a problem came from ----------------------------------------------------------------
+
+
+@pytest.mark.usefixtures("toy")
+@pytest.mark.parametrize("command", ["validate", "run"])
+def test_a_bad_set_value_names_the_option(cbr_cli: Cli, toy_config: Path, tmp_path: Path,
+                                          command: str) -> None:
+    out = ["--out", str(tmp_path / "out")] if command == "run" else []
+    result = cbr_cli(command, str(toy_config), *out, "--set", "retrieve.radius=-1",
+                     "--set", "workload={use: squares, count: x}")
+    assert result.exit_code == 2
+    assert result.stderr == (
+        f"error: {toy_config}: 2 problems:\n"
+        "  - --set retrieve.radius=-1: must be >= 0: -1\n"
+        "  - --set workload={use: squares, count: x}: workload.count: expected an integer, "
+        "got 'x'\n")
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_default_store_from_an_unloaded_plugin_is_named(
+        cbr_plugins: Callable[..., Plugins], cbr_cli: Cli, tmp_path: Path) -> None:
+    """Without ``core``, a configuration that names no case base is told where its default
+    store comes from, not shown an unknown 'memory' at a line the file does not have."""
+    cbr_plugins(("toy", toy_domain))
+    config = write(tmp_path / "bare.yaml", "# no case base named\n" + _toy_with(
+        "casebase: memory\n", ""))
+    for args in (("validate",), ("run", "--out", str(tmp_path / "out"))):
+        result = cbr_cli(args[0], str(config), *args[1:])
+        assert result.exit_code == 2
+        assert result.stderr == (
+            f"error: {config}: 1 problem:\n  - casebase: no case base is named, so the default "
+            "store 'memory' is used, but plugin 'core', which provides it, is not loaded (see "
+            "CBR_PLUGINS and CBR_DISABLE_PLUGINS); load it or name a store; registered stores: "
+            "none\n")

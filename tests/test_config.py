@@ -20,7 +20,14 @@ from hypothesis import strategies as st
 import cbr_observers
 import cbrcore.builtins
 import toy_domain
-from cbrcore.config import Config, _Marks, apply_overrides, load_config, parse_config
+from cbrcore.config import (
+    Config,
+    _Marks,
+    apply_overrides,
+    config_from_text,
+    load_config,
+    parse_config,
+)
 from cbrcore.errors import ConfigError
 from cbrcore.hookspecs import hookimpl
 from cbrcore.options import option, option_problems, structure_options, unstructure
@@ -322,8 +329,92 @@ def test_overridden_values_are_checked_like_written_ones(registry: Registry,
     assert config.retrieve.options == toy_domain.NearestOptions(2)
     with pytest.raises(ConfigError) as caught:
         load_config(path, registry, ["revise.tolerance='1'"])
+    assert caught.value.problems == ["--set revise.tolerance='1': expected a number, got '1'"]
+
+
+# (overrides, the one problem reported) for TOY_CONFIG, whose retrieve slot is line 4:
+# "retrieve: {use: nearest, radius: 1}"
+OVERRIDE_PROBLEMS = {
+    "an option": (["retrieve.radius=-1"], "--set retrieve.radius=-1: must be >= 0: -1"),
+    "a whole slot": (["retrieve={use: nearest, radius: -1}"],
+                     "--set retrieve={use: nearest, radius: -1}: retrieve.radius: must be >= 0: "
+                     "-1"),
+    "a list item": (["forget.0.limit=x"], "--set forget.0.limit=x: expected an integer, got 'x'"),
+    "the later of two": (["retrieve.radius=-1", "retrieve={use: nearest, radius: -2}"],
+                         "--set retrieve={use: nearest, radius: -2}: retrieve.radius: must be >= "
+                         "0: -2"),
+    "a slot the file lacks": (["world.level=1"],
+                              "--set world.level=1: world: expected a world name or a mapping with "
+                              "a 'use' key naming the world, got {'level': 1}"),
+    "a component's name": (["retrieve.use=nearst"],
+                           "--set retrieve.use=nearst: unknown retriever 'nearst'; registered: "
+                           "nearest (plugin toy)"),
+    "a sibling of a bad written option": (
+        ["retrieve.use=nearest"], "retrieve.radius (line 4, column 34): must be >= 0: -1"),
+}
+
+
+@pytest.mark.parametrize(("overrides", "problem"), OVERRIDE_PROBLEMS.values(),
+                         ids=OVERRIDE_PROBLEMS.keys())
+def test_a_problem_in_an_overridden_value_names_the_option(
+        registry: Registry, tmp_path: Path, overrides: list[str], problem: str) -> None:
+    """A value set by ``--set`` is no longer where the file's lines say: its problem names the
+    option; values the override left alone keep their line and column."""
+    text = toy_domain.TOY_CONFIG
+    if problem.startswith("retrieve.radius (line 4"):
+        text = text.replace("radius: 1", "radius: -1")
+    path = write(tmp_path, text)
+    for load in (lambda: load_config(path, registry, overrides),
+                 lambda: config_from_text(text, registry, overrides)):
+        with pytest.raises(ConfigError) as caught:
+            load()
+        assert caught.value.problems == [problem]
+
+
+def test_overrides_are_attributed_only_with_the_document_marks(registry: Registry) -> None:
+    """Without marks, ``apply_overrides`` changes the data alone, as callers without a document
+    use it; with them, each applied override is recorded at its dotted path."""
+    marks = _Marks(yaml.compose(toy_domain.TOY_CONFIG, Loader=yaml.SafeLoader))
+    data = apply_overrides(yaml.safe_load(toy_domain.TOY_CONFIG),
+                           ["retrieve.radius=5", "seed=1"], "toy.yaml", marks)
+    assert marks.overrides == [("retrieve.radius", "retrieve.radius=5"), ("seed", "seed=1")]
+    assert marks.option("retrieve.radius") == ("retrieve.radius", "retrieve.radius=5")
+    assert marks.option("retrieve") is None and marks.option("retrieve.use") is None
+    assert parse_config(data, registry, marks=marks).seed == 1
+
+
+# --- the default store -------------------------------------------------------------------------
+
+
+def test_the_default_store_without_its_plugin_says_what_is_missing(tmp_path: Path) -> None:
+    """With the ``core`` plugin not loaded, a configuration naming no case base learns that the
+    default ``memory`` comes from ``core``, at no invented line: the file has no casebase."""
+    bare = load_plugins(extra=[("toy", toy_domain)], entry_points=False, environ={}).registry
+    text = "# the toy run without a case base\n\n" + toy_domain.TOY_CONFIG.replace(
+        "casebase: memory\n", "")
+    path = write(tmp_path, text)
+    with pytest.raises(ConfigError) as caught:
+        load_config(path, bare)
     assert caught.value.problems == [
-        "revise.tolerance (line 6, column 37): expected a number, got '1'"]
+        "casebase: no case base is named, so the default store 'memory' is used, but plugin "
+        "'core', which provides it, is not loaded (see CBR_PLUGINS and CBR_DISABLE_PLUGINS); "
+        "load it or name a store; registered stores: none"]
+
+    # a store the file names is an unknown component like any other, at its line
+    with pytest.raises(ConfigError) as named:
+        load_config(write(tmp_path, toy_domain.TOY_CONFIG, "named.yaml"), bare)
+    assert named.value.problems == [
+        "casebase (line 2, column 11): unknown store 'memory'; registered: none"]
+
+
+def test_the_core_plugin_provides_the_default_store(registry: Registry) -> None:
+    from cbrcore.config import DEFAULT_STORE, DEFAULT_STORE_PLUGIN
+    from cbrcore.plugins import builtin_plugins
+
+    assert registry.get("store", DEFAULT_STORE).plugin == DEFAULT_STORE_PLUGIN
+    assert builtin_plugins()[DEFAULT_STORE_PLUGIN] == "cbrcore.builtins"
+    config = parse_config({}, registry)
+    assert config.casebase is not None and config.casebase.name == DEFAULT_STORE
 
 
 # --- options ----------------------------------------------------------------------------------

@@ -9,8 +9,10 @@ import numpy as np
 import pytest
 
 import cbr_grid
-from cbr_grid.formats import load_grid, load_npy, load_pgm, load_png, load_ros, load_text
+from cbr_grid.formats import load_grid, load_npy, load_png, load_ros, load_text, read_image
+from cbr_grid.frame import MapFrame
 from cbr_grid.grid import Grid
+from cbr_grid.inflation import Inflation, inflate
 from cbrcore.context import Context
 from cbrcore.errors import CbrError, ConfigError
 from cbrcore.options import paths_relative_to, structure_options
@@ -48,9 +50,21 @@ def ros_yaml(folder: Path, image: str, *, negate: int = 0, mode: str | None = No
 
 @pytest.mark.parametrize("data", [P2, P5], ids=["P2", "P5"])
 def test_pgm_pixels_read_top_row_first(tmp_path: Path, data: bytes) -> None:
-    values, maxval = load_pgm(write(tmp_path, "map.pgm", data))
-    assert maxval == 255
-    np.testing.assert_array_equal(values, PIXELS)
+    levels = read_image(write(tmp_path, "map.pgm", data))
+    np.testing.assert_array_equal(levels * 255, PIXELS)
+
+
+def test_16_bit_pgm_reads_as_levels(tmp_path: Path) -> None:
+    # binary 16-bit samples are big-endian; a maximum value of 1000 reads v as v / 1000
+    pixels = np.array([[0, 65535, 32768]], dtype=">u2")
+    path = write(tmp_path, "deep.pgm", b"P5\n3 1\n65535\n" + pixels.tobytes())
+    np.testing.assert_array_equal(read_image(path), pixels / 65535)
+    plain = write(tmp_path, "plain.pgm", b"P2\n3 1\n1000\n0 1000 250\n")
+    np.testing.assert_allclose(read_image(plain), [[0, 1, 0.25]], atol=0.5 / 65535)
+    # a 16-bit map reads like its 8-bit twin: 0 and 50 occupied, 65535 free, 32768 unknown
+    write(tmp_path, "deep.pgm", b"P5\n3 1\n65535\n" + pixels.tobytes())
+    grid = load_ros(ros_yaml(tmp_path, "deep.pgm"), unknown_risk=U)
+    np.testing.assert_array_equal(grid.risk, [[1, 0, U]])
 
 
 @pytest.mark.parametrize("data", [P2, P5], ids=["P2", "P5"])
@@ -58,15 +72,37 @@ def test_ros_trinary(tmp_path: Path, data: bytes) -> None:
     write(tmp_path, "map.pgm", data)
     grid = load_ros(ros_yaml(tmp_path, "map.pgm"), unknown_risk=U)
     np.testing.assert_array_equal(grid.risk, TRINARY)
-    # by default unknown cells are obstacles
+    # the unknown cells are marked whatever risk they were given
+    np.testing.assert_array_equal(grid.unknown, np.array(TRINARY) == U)
+    # by default unknown cells are obstacles; 0 makes them free
     default = load_ros(ros_yaml(tmp_path, "map.pgm", mode="trinary"))
     np.testing.assert_array_equal(default.risk, np.where(np.array(TRINARY) == U, 1, TRINARY))
+    np.testing.assert_array_equal(default.unknown, grid.unknown)
+    free = load_ros(ros_yaml(tmp_path, "map.pgm"), unknown_risk=0)
+    np.testing.assert_array_equal(free.risk, np.where(np.array(TRINARY) == U, 0, TRINARY))
+
+
+def test_ros_keeps_resolution_and_origin_as_the_frame(tmp_path: Path) -> None:
+    write(tmp_path, "map.pgm", P2)
+    grid = load_ros(ros_yaml(tmp_path, "map.pgm"))
+    assert grid.frame == MapFrame(0.05, -1.0, -2.5, 0.0)
+    assert grid.frame.origin == (-1.0, -2.5, 0.0)
+    # the lower-left cell (0, 1) has its centre half a cell up and right of the origin
+    np.testing.assert_allclose(grid.to_map([(0, 1)]), [[-0.975, -2.475]])
+
+
+def test_ros_accepts_nav2s_map_type_key(tmp_path: Path) -> None:
+    write(tmp_path, "map.pgm", P2)
+    path = ros_yaml(tmp_path, "map.pgm")
+    path.write_text(path.read_text() + "map_type: occupancy\n")
+    assert load_ros(path).width == 4
 
 
 def test_ros_scale_gives_in_between_cells_their_occupancy(tmp_path: Path) -> None:
     write(tmp_path, "map.pgm", P5)
     grid = load_ros(ros_yaml(tmp_path, "map.pgm", mode="scale"))
     np.testing.assert_allclose(grid.risk, SCALE, rtol=0, atol=1e-15)
+    assert grid.unknown is None
 
 
 def test_ros_negate(tmp_path: Path) -> None:
@@ -137,28 +173,25 @@ def test_map_extension_reads_moving_ai(tmp_path: Path) -> None:
     assert load_grid(path).risk.tolist() == [[0, 1, 0]]
 
 
-@pytest.mark.parametrize(("name", "data", "message"), [
-    ("bad.pgm", b"P6\n1 1\n255\n\x00", "line 1: expected the magic number P2 or P5, got 'P6'"),
-    ("bad.pgm", b"\n# only a comment\nP4", "line 3: expected the magic number P2 or P5, "
-     "got 'P4'"),
-    ("bad.pgm", b"", "line 1: expected the magic number P2 or P5, the file ends"),
-    ("bad.pgm", b"P2\n0 2\n255\n", "line 2: expected a positive width, got '0'"),
-    ("bad.pgm", b"P2\n1 1\n", "expected a maximum value from 1 to 255, the file ends"),
-    ("bad.pgm", b"P2\n1 1\n65535\n0\n", "line 3: expected a maximum value from 1 to 255 "
-     "(8-bit pixels), got 65535"),
-    ("bad.pgm", b"P5\n2 2\n255\n\x00\x00\x00", "expected 4 pixel bytes (2x2) after the header, "
-     "got 3"),
-    ("bad.pgm", b"P2\n2 1\n255\n0 x\n", "line 4: expected a pixel value"),
-    ("bad.pgm", b"P2\n2 1\n255\n0\n", "expected 2 pixel values (2x1) after the header, got 1"),
-    ("bad.pgm", b"P2\n2 2\n15\n0 0\n0 16\n", "line 5: expected pixel values up to the maximum "
-     "15, got 16 at (1, 1)"),
+@pytest.mark.parametrize(("data", "message"), [
+    (b"", "cannot read the image; expected a PGM (P2 or P5), PNG or another image format"),
+    (b"\n# secret words\nP4", "cannot read the image; expected a PGM"),
+    (b"P2\n0 2\n255\n", "cannot read the image; expected a PGM"),
+    (b"P5\n2 2\n255\n\x00\x00\x00", "cannot read the image: its pixel data ends before the "
+     "size its header gives"),
+    (b"P2\n2 1\n255\n0\n", "cannot read the image: its pixel data ends before the size"),
+    (b"P2\n2 2\n15\n0 0\n0 16\n", "cannot read the image: a pixel value exceeds the image's "
+     "maximum value"),
+    (b"P2\n2 1\n255\n0 secret\n", "cannot read the image: the file is damaged"),
 ])
-def test_bad_pgm(tmp_path: Path, name: str, data: bytes, message: str) -> None:
-    path = write(tmp_path, name, data)
+def test_bad_pgm(tmp_path: Path, data: bytes, message: str) -> None:
+    path = write(tmp_path, "bad.pgm", data)
     with pytest.raises(CbrError) as error:
-        load_pgm(path)
+        read_image(path)
     assert str(error.value).startswith(str(path))
     assert message in str(error.value)
+    # the file's own words are never repeated
+    assert "secret" not in str(error.value).removeprefix(str(path))
 
 
 @pytest.mark.parametrize(("text", "message"), [
@@ -236,3 +269,73 @@ def test_map_file_world_component(tmp_path: Path) -> None:
     with pytest.raises(ConfigError) as error:
         structure_options(component.options, {"path": "a.png", "threshold": 1.5}, "world")
     assert error.value.problems == ["world.threshold: must be <= 1.0: 1.5"]
+
+
+def test_load_grid_places_a_map_of_cells_in_a_given_frame(tmp_path: Path) -> None:
+    path = write(tmp_path, "small.grid", ".#\n..\n")
+    frame = MapFrame(0.5, 10.0, 20.0)
+    grid = load_grid(path, frame=frame)
+    assert grid.frame == frame
+    np.testing.assert_allclose(grid.to_map([(1, 0)]), [[10.75, 20.75]])
+    assert load_grid(path).frame is None
+    write(tmp_path, "map.pgm", P2)
+    with pytest.raises(CbrError, match="a ROS map has its own frame"):
+        load_grid(ros_yaml(tmp_path, "map.pgm"), frame=frame)
+
+
+def test_map_file_world_inflates_in_metres(tmp_path: Path) -> None:
+    # a 1 x 7 strip, 0.1 m cells, one obstacle at x = 0: the robot (radius 0.15 m) keeps its
+    # centre out of the cell 0.1 m away, and the cost decays over 0.3 m
+    write(tmp_path, "strip.pgm", b"P2\n7 1\n255\n0 255 255 255 255 255 255\n")
+    text = (tmp_path / "strip.yaml")
+    text.write_text("image: strip.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nnegate: 0\n"
+                    "occupied_thresh: 0.65\nfree_thresh: 0.2\n")
+    registry = Registry()
+    cbr_grid.cbr_register(registry=registry)
+    component = registry.get("world", "map_file")
+    with paths_relative_to(tmp_path):
+        options = structure_options(component.options, {
+            "path": "strip.yaml", "inflation": {"robot_radius": 0.15, "inflation_radius": 0.3,
+                                                "cost_scaling_factor": 3.0}}, "world")
+    world = registry.create("world", "map_file", options, Context(registry=registry, seed=0))
+    # Nav2: int(252 exp(-3 (d - 0.15))) at d = 0.2 and 0.3 m: 216 and 160, risk cost / 254
+    np.testing.assert_allclose(world.risk, [[1, 1, 216 / 254, 160 / 254, 0, 0, 0]])
+    assert world.frame == MapFrame(0.1)
+    problems = [
+        ({"robot_radius": 0.3, "inflation_radius": 0.2},
+         "world.inflation.inflation_radius: must be at least robot_radius (0.3), got 0.2"),
+        ({"robot_radius": -1.0}, "world.inflation.robot_radius: must be a finite number >= 0"),
+        ({"inflation_radius": 1.0}, "world.inflation.robot_radius: required option is missing"),
+    ]
+    for inflation, message in problems:
+        with pytest.raises(ConfigError) as error:
+            structure_options(component.options, {"path": "a.yaml", "inflation": inflation},
+                              "world")
+        assert any(message in problem for problem in error.value.problems), error.value.problems
+
+
+@pytest.mark.parametrize(("name", "options"), [
+    ("movingai", {"map": "small.map"}),
+    ("generated", {"kind": "maze", "width": 9, "height": 9}),
+])
+def test_every_grid_world_inflates(tmp_path: Path, name: str, options: dict[str, object]
+                                   ) -> None:
+    write(tmp_path, "small.map", "type octile\nheight 3\nwidth 5\nmap\n.....\n..@..\n.....\n")
+    registry = Registry()
+    cbr_grid.cbr_register(registry=registry)
+    component = registry.get("world", name)
+    ctx = Context(registry=registry, seed=0)
+    with paths_relative_to(tmp_path):
+        plain = registry.create("world", name, structure_options(component.options, options,
+                                                                  "world"), ctx)
+        inflated = registry.create("world", name, structure_options(
+            component.options, {**options, "inflation": {"robot_radius": 1.0}}, "world"), ctx)
+    # without a frame the radius is in cells: every 4-neighbour of an obstacle is blocked too
+    np.testing.assert_array_equal(inflated.risk, inflate(plain, Inflation(1.0)).risk)
+    blocked = ~plain.passable
+    near = blocked.copy()
+    near[1:] |= blocked[:-1]
+    near[:-1] |= blocked[1:]
+    near[:, 1:] |= blocked[:, :-1]
+    near[:, :-1] |= blocked[:, 1:]
+    np.testing.assert_array_equal(~inflated.passable, near)

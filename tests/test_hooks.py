@@ -157,6 +157,66 @@ def test_hook_cbr_cli(capsys: pytest.CaptureFixture[str]) -> None:
         "hello", "refuse"]
 
 
+class Warms(_Component):
+    """A solver that logs when it warms up and when it solves."""
+
+    @hookimpl
+    def cbr_warm(self, ctx: Context) -> None:
+        self._log(("warm", ctx.step, ctx.world))
+
+    @hookimpl
+    def cbr_solve(self, problem: int) -> Solution:
+        self._log(("solve", problem))
+        return Solution(problem * problem)
+
+
+def test_hook_cbr_warm() -> None:
+    """``cbr_warm`` is collect-all on the configured components that implement it besides their
+    phase hook: called once on each, with the run's context (its world built), when the engine is
+    built and before the first query; its time is ``engine.warm_seconds``, in no query's
+    timings."""
+    with engine_for(load(), "solver: warms\n") as engine:
+        assert engine.ctx.stash[LOG] == [("warm", 0, None)]
+        assert engine.warm_seconds >= 0
+        proposal = engine.solve(4)
+        engine.solve(5)
+        assert set(proposal.timings) == {"solve"}
+        assert engine.ctx.stash[LOG] == [("warm", 0, None), ("solve", 4), ("solve", 5)]
+
+
+class Rooms:
+    """A plugin that makes worlds of strings: the name of a room."""
+
+    @hookimpl
+    def cbr_world_object(self, obj: object, ctx: Context) -> object | None:
+        if isinstance(obj, str):
+            return {"room": obj, "seed": ctx.seed}
+        return None
+
+
+class Numbers:
+    """A plugin that makes worlds of integers, asked after ``Rooms``."""
+
+    @hookimpl
+    def cbr_world_object(self, obj: object) -> object | None:
+        return ("number", obj) if isinstance(obj, int) else None
+
+
+def test_hook_cbr_world_object() -> None:
+    """``cbr_world_object`` is firstresult on the loaded plugins, called with the object and the
+    run's context when an engine is given ``world=obj``: the first plugin that returns something
+    makes the world, a plugin returns None for types it does not know, and the world replaces the
+    configured one (``engine.world`` and ``ctx.world``). No answer is an error naming the type."""
+    plugins = load(("rooms", Rooms()), ("numbers", Numbers()))
+    with Engine.from_dict({"seed": 3}, world="kitchen", plugins=plugins) as engine:
+        assert engine.world == {"room": "kitchen", "seed": 3}
+        assert engine.ctx.world is engine.world
+    with Engine.from_dict({}, world=7, plugins=plugins) as engine:
+        assert engine.world == ("number", 7)
+    with pytest.raises(CbrError, match="float"):
+        Engine.from_dict({}, world=2.5, plugins=plugins)
+
+
 # --- phase hooks ------------------------------------------------------------------------------
 
 
@@ -240,6 +300,7 @@ class HookComponents:
         registry.add("solver", "declines", Declines)
         registry.add("retainer", "tags", Tags, options=TagOptions)
         registry.add("forgetter", "trims", Trims, options=TagOptions)
+        registry.add("solver", "warms", Warms)
 
 
 def test_hook_cbr_retrieve() -> None:
@@ -353,7 +414,7 @@ def _kind(name: str) -> str:
 def test_hookspecs_are_all_known() -> None:
     """The spec module's functions are exactly the plugin and phase hooks the engine knows, and
     each is a hook of cbrcore's plugin managers."""
-    assert set(SPECS) == {*hookspecs.PLUGIN_HOOKS, *hookspecs.PHASE_HOOKS.values()}
+    assert set(SPECS) == set(hookspecs.HOOKS)
     hooks = new_plugin_manager().hook
     assert all(hasattr(hooks, name) for name in SPECS)
 

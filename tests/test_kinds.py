@@ -333,8 +333,7 @@ def test_set_overrides_a_slot(gauges: Plugins) -> None:
     assert config.slots["gauge"].options == PreciseOptions(5)
     with pytest.raises(ConfigError) as caught:
         config_from_text("gauge: precise\n", gauges.registry, ["gauge.digits='5'"])
-    assert caught.value.problems == ["gauge.digits (line 1, column 8): expected an integer, "
-                                     "got '5'"]
+    assert caught.value.problems == ["--set gauge.digits='5': expected an integer, got '5'"]
 
 
 def test_a_slot_is_unknown_without_the_plugin_declaring_it() -> None:

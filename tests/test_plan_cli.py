@@ -7,9 +7,11 @@ import math
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from cbr_grid.costs import path_length, turns
+from cbr_grid.formats import load_grid
 from cbr_grid.movingai import Scenario, load_scen
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult
@@ -17,6 +19,7 @@ from cbrcore.testing import CliResult
 Cli = Callable[..., CliResult]
 
 MOVINGAI = Path(__file__).resolve().parent / "data" / "movingai"
+DEPOT = Path(__file__).resolve().parent / "data" / "ros" / "depot.yaml"
 ARENA = MOVINGAI / "maps" / "dao" / "arena.map"
 ARENA_SCEN = MOVINGAI / "scenarios" / "dao" / "arena.map.scen"
 KEYS = {"solver", "length", "cost", "turns", "time_ms", "expanded", "path"}
@@ -176,3 +179,119 @@ def test_a_plot_that_cannot_be_written_is_a_user_error(cbr_cli: Cli, tmp_path: P
     result = cbr_cli("map", "show", str(ARENA), "--plot", str(out))
     assert result.exit_code == 2
     assert f"error: {out}: cannot write the picture" in result.stderr
+
+
+# depot (0.05 m cells, origin (0, 0), 307 rows): (2, 2) m is cell (40, 266), (20, 3.5) m cell
+# (400, 236); see test_ros_maps.py
+DEPOT_START, DEPOT_GOAL = (40, 266), (400, 236)
+
+
+def depot_clearance(path: list[list[int]]) -> float:
+    """The least distance in metres from a path cell to an obstacle of the depot, by brute
+    force."""
+    depot = load_grid(DEPOT)
+    obstacles = np.argwhere(~depot.passable)[:, ::-1]
+    cells = np.array(path)
+    return float(np.hypot(*(cells[:, None, :] - obstacles[None]).transpose(2, 0, 1)).min()) * 0.05
+
+
+def test_plan_a_ros_map_from_metres_to_metres_with_inflation(cbr_cli: Cli, tmp_path: Path
+                                                            ) -> None:
+    out = tmp_path / "depot.png"
+    common = ("plan", str(DEPOT), "--frame", "map", "--start", "2,2", "--goal", "20,3.5")
+    result = cbr_cli(*common, "--robot-radius", "0.22", "--json", "--plot", str(out))
+    assert result.exit_code == 0, result.stderr
+    record = json.loads(result.stdout)
+    assert set(record) == {*KEYS, "length_m", "path_m"}
+    assert tuple(record["path"][0]) == DEPOT_START
+    assert tuple(record["path"][-1]) == DEPOT_GOAL
+    assert record["length_m"] == pytest.approx(record["length"] * 0.05)
+    # metres are the cell centres: (x + 0.5) * 0.05 and (307 - y - 0.5) * 0.05
+    assert record["path_m"][0] == pytest.approx([2.025, 2.025])
+    assert record["path_m"][-1] == pytest.approx([20.025, 3.525])
+    assert depot_clearance(record["path"]) > 0.22
+    assert out.read_bytes().startswith(PNG_SIGNATURE)
+    # without inflation the shortest path passes closer than the robot's radius
+    plain = cbr_cli(*common, "--json")
+    assert plain.exit_code == 0, plain.stderr
+    assert depot_clearance(json.loads(plain.stdout)["path"]) < 0.22
+
+    text = cbr_cli(*common, "--robot-radius", "0.22", "--inflation-radius", "0.55",
+                   "--cost-scaling", "3")
+    assert text.exit_code == 0, text.stderr
+    values = dict(line.split(maxsplit=1) for line in text.stdout.splitlines())
+    assert list(values) == ["length", "cost", "turns", "time_ms", "expanded", "length_m",
+                            "path_m"]
+    assert values["path_m"].split()[0] == "2.025,2.025"
+    # the decaying cost makes the path dearer than its length
+    assert float(values["cost"]) > float(values["length"])
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (("--start", "40,266", "--goal", "400,236", "--robot-radius", "0.22"), None),
+    (("--frame", "map", "--start", "-1,2", "--goal", "20,3.5"),
+     "--start (-1, 2) m falls in cell (-20, 266), outside the 604x307 grid, which covers "
+     "x 0 to 30.2 m and y 0 to 15.35 m"),
+    # the centre of cell (150, 75), a leg of a shelf: x 150.5 cells, y 307 - 75 - 0.5 cells
+    (("--frame", "map", "--start", "2,2", "--goal", "7.525,11.575"),
+     "--goal (7.525, 11.575) m falls in cell (150, 75), on an obstacle"),
+    (("--frame", "map", "--start", "2,2", "--goal", "20,3.5", "--robot-radius", "0.6"),
+     "--goal (20, 3.5) m falls in cell (400, 236), within the robot radius (0.6 m) of an "
+     "obstacle"),
+    (("--start", "40,266", "--goal", "400,236", "--robot-radius", "0.6"),
+     "goal (400, 236) within the robot radius (0.6 m) of an obstacle"),
+])
+def test_plan_names_a_bad_point_and_its_cell(cbr_cli: Cli, args: tuple[str, ...],
+                                             message: str | None) -> None:
+    result = cbr_cli("plan", str(DEPOT), *args)
+    if message is None:
+        assert result.exit_code == 0, result.stderr
+        return
+    assert result.exit_code == 2
+    assert f"error: {message}" in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+@pytest.mark.parametrize(("map_file", "args", "option"), [
+    (ARENA, ("--frame", "map", "--start", "1,1", "--goal", "2,2"), "'--frame'"),
+    (DEPOT, ("--scen", str(ARENA_SCEN)), "'--scen'"),
+    (ARENA, ("--scen", str(ARENA_SCEN), "--frame", "map"), "'--frame'"),
+    (DEPOT, ("--frame", "map", "--start", "2,x", "--goal", "1,1"), "'--start'"),
+    (DEPOT, ("--frame", "map", "--start", "2,nan", "--goal", "1,1"), "'--start'"),
+    (DEPOT, ("--start", "40,266", "--goal", "400,236", "--inflation-radius", "1"),
+     "'--robot-radius'"),
+    (DEPOT, ("--start", "40,266", "--goal", "400,236", "--robot-radius", "0.5",
+             "--inflation-radius", "0.2"), "'--inflation-radius'"),
+    (DEPOT, ("--start", "40,266", "--goal", "400,236", "--frame", "metres"), "'--frame'"),
+])
+def test_plan_refuses_frames_and_inflation_that_do_not_apply(
+        cbr_cli: Cli, map_file: Path, args: tuple[str, ...], option: str) -> None:
+    result = cbr_cli("plan", str(map_file), *args)
+    assert result.exit_code == 2
+    assert option in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_map_show_reads_a_ros_map_with_its_frame(cbr_cli: Cli, tmp_path: Path) -> None:
+    out = tmp_path / "depot.png"
+    result = cbr_cli("map", "show", str(DEPOT), "--robot-radius", "0.22", "--plot", str(out))
+    assert result.exit_code == 0, result.stderr
+    lines = result.stdout.splitlines()
+    plain = load_grid(DEPOT)
+    # inflation blocks more cells than the map's own obstacles
+    passable = int(lines[0].split(", ")[1].split()[0])
+    assert passable < int(plain.passable.sum())
+    assert lines[0].startswith(f"{DEPOT}: 604x307, ") and lines[0].endswith(", 0 unknown")
+    assert lines[1] == ("frame: 0.05 m per cell, origin (0, 0, yaw 0), x 0 to 30.2 m, "
+                        "y 0 to 15.35 m")
+    assert out.read_bytes().startswith(PNG_SIGNATURE)
+
+
+def test_map_show_reads_every_format(cbr_cli: Cli, tmp_path: Path) -> None:
+    (tmp_path / "small.grid").write_text(".#\n..\n", encoding="ascii")
+    np.save(tmp_path / "risk.npy", np.array([[0.0, 1.0, 0.5]]))
+    for path, size, passable in ((tmp_path / "small.grid", "2x2", 3),
+                                 (tmp_path / "risk.npy", "3x1", 2)):
+        result = cbr_cli("map", "show", str(path))
+        assert result.exit_code == 0, result.stderr
+        assert result.stdout.strip() == f"{path}: {size}, {passable} passable cells, 0 unknown"

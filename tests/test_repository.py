@@ -195,3 +195,99 @@ def test_guide_example_runs_through_its_entry_point(guide_example: tuple[Path, P
     assert second["cbr_share"] > first["cbr_share"]  # the second run starts with the kept cases
     assert json.loads((tmp_path / "first" / "phase_counts.json").read_text())["retrieve"] == 200
     assert cbr("floor-path", "0,0", "3,1").stdout == "0,0 1,1 2,1 3,1\n"
+
+
+# -- dependencies: declared exactly as the code imports them ----------------------------------
+
+# import name -> distribution name, where they differ
+DISTRIBUTION_OF = {"yaml": "pyyaml", "PIL": "pillow"}
+# imported only by the testing kit, which pytest itself loads (the pytest11 entry point)
+TESTING_KIT = {"pytest", "hypothesis"}
+
+
+def _requirement_names(requirements: list[str]) -> set[str]:
+    return {re.split(r"[<>=!~\[; ]", r, maxsplit=1)[0].lower() for r in requirements}
+
+
+def _third_party_imports(folders: list[Path]) -> dict[str, list[str]]:
+    """Top-level modules imported anywhere under ``folders`` (lazy imports included) that are
+    neither the standard library nor this repository's packages, with where each is imported."""
+    import ast
+
+    ours = {"cbrcore"} | {p.name for p in (ROOT / "plugins").iterdir() if p.is_dir()}
+    found: dict[str, list[str]] = {}
+    for folder in folders:
+        for path in folder.rglob("*.py"):
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                if isinstance(node, ast.Import):
+                    names = [alias.name for alias in node.names]
+                elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                    names = [node.module]
+                else:
+                    continue
+                for name in names:
+                    top = name.split(".")[0]
+                    if top not in sys.stdlib_module_names and top not in ours:
+                        found.setdefault(top, []).append(path.relative_to(ROOT).as_posix())
+    return found
+
+
+def test_runtime_dependencies_are_what_the_code_imports() -> None:
+    import tomllib
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    declared = _requirement_names(project["dependencies"])
+    imported = _third_party_imports([ROOT / "cbrcore", ROOT / "plugins"])
+    # the testing kit's docstring example imports the plugin under test; it is not code we run
+    imported.pop("my_plugin", None)
+    kit = {name for name in TESTING_KIT if name in imported}
+    assert all(p.startswith("cbrcore/testing/") for name in kit for p in imported[name])
+    needed = {DISTRIBUTION_OF.get(name, name).lower() for name in imported} - kit
+    assert declared - needed == set(), "declared but never imported at runtime"
+    assert needed - declared == set(), "imported at runtime but not declared"
+
+
+def test_every_dependency_and_extra_is_in_the_dependencies_page() -> None:
+    import tomllib
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    page = (ROOT / "docs" / "dependencies.md").read_text(encoding="utf-8")
+    rows = {line.split("|")[1].strip() for line in page.splitlines() if line.startswith("| ")}
+    runtime = _requirement_names(project["dependencies"])
+    assert runtime <= rows, f"runtime packages without a row: {runtime - rows}"
+    for extra, requirements in project["optional-dependencies"].items():
+        assert f"`{extra}`" in rows, f"the {extra} extra has no row"
+        for name in _requirement_names(requirements) - runtime:
+            assert name in page, f"{name} (extra {extra}) is not on the dependencies page"
+
+
+def test_the_readme_test_command_installs_every_package_the_tests_import() -> None:
+    import tomllib
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    extras = re.findall(r"\.\[([\w,]+)\]", README_COMMANDS[1])
+    installed = _requirement_names(project["dependencies"]) | {"cbrcore", "cbr_sample"}
+    for extra in ",".join(extras).split(","):
+        installed |= _requirement_names(project["optional-dependencies"][extra])
+    imported = _third_party_imports([ROOT / "tests", ROOT / "benchmarks"])
+    local = {p.stem for p in (ROOT / "tests").glob("*.py")} | {
+        p.stem for p in (ROOT / "benchmarks").glob("*.py")}
+    needed = {DISTRIBUTION_OF.get(name, name).lower() for name in imported} - local
+    # the agreement libraries import under other names than they install as
+    needed = {{"irsim": "ir-sim", "cbr_openfloor": "cbrcore"}.get(n, n) for n in needed}
+    assert needed - installed - {"pyastar2d", "tcod"} == set()
+
+
+# -- self-contained tests ---------------------------------------------------------------------
+
+# a sibling folder, an absolute path of this machine, or a climb above the repository's root
+OUTSIDE = re.compile(r"\.\./shared|[\"']/work/|parents\[(?:[2-9]|\d\d)\]"
+                     r"|\.parent\.parent\.parent")
+
+
+def test_no_test_reads_outside_the_repository() -> None:
+    offenders = [f"{path.relative_to(ROOT)}:{number}: {line.strip()}"
+                 for path in sorted((ROOT / "tests").rglob("*.py"))
+                 for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
+                 if OUTSIDE.search(line)]
+    assert offenders == []

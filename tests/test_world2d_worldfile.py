@@ -266,7 +266,8 @@ CASES = [
     ("inverted bounds", "bounds: [10, 0, 0, 8]\n", "bounds", "[10",
      "expected bounds [xmin, ymin, xmax, ymax] with xmin < xmax and ymin < ymax, got "
      "[10, 0, 0, 8]"),
-    ("missing bounds", "name: nothing\n", "bounds", "name",
+    # a key the file does not hold has no line or column of its own
+    ("missing bounds", "name: nothing\n", "bounds", None,
      "required key is missing; expected [xmin, ymin, xmax, ymax]"),
     ("unknown key", HEAD + "colour: red\n", "colour", "red", "unknown key; expected one of: "
      "bounds, name, seed"),

@@ -1,47 +1,81 @@
 """The ``cbr`` command line.
 
-User errors (bad configuration, unknown component, broken plugin, unusable case base, bad usage)
-print one clear message and exit with code 2; ``--traceback`` shows where they came from. A
-plugin that failed to load while the others did is one ``warning:`` line on stderr.
+``cbr`` alone prints help and exits 0; ``cbr --version`` (``-V``) prints the versions of cbrcore
+and of every loaded plugin. User errors (bad configuration, unknown component, broken plugin,
+unusable case base, bad usage) print one clear message and exit with code 2; ``--traceback``
+shows where they came from. A plugin that failed to load while the others did is one
+``warning:`` line on stderr.
 """
 
 from __future__ import annotations
 
+import platform
 import sys
 import traceback
 import warnings
 from collections.abc import Callable, Sequence
+from importlib import metadata
 from typing import TextIO
 
 import typer
 from rich.console import Console
 
 from cbrcore.cli import casebase, commands
+from cbrcore.cli.conventions import CONTEXT_SETTINGS, follow_conventions
 from cbrcore.errors import CbrError, PluginWarning
-from cbrcore.plugins import current
+from cbrcore.plugins import Plugins, current
+
+
+def _show_version(value: bool) -> None:
+    if not value:
+        return
+    typer.echo(versions(current()), nl=False)
+    raise typer.Exit()
+
+
+def versions(plugins: Plugins) -> str:
+    """What ``cbr --version`` prints: cbrcore's version and each loaded plugin's source."""
+    try:
+        own = metadata.version("cbrcore")
+    except metadata.PackageNotFoundError:  # a source tree that is not installed
+        own = "(not installed)"
+    lines = [f"cbrcore {own} (Python {platform.python_version()})"]
+    width = max((len(p.name) for p in plugins.loaded), default=0)
+    for p in plugins.loaded:
+        source = f"{p.distribution} {p.version}" if p.distribution else "(registered in code)"
+        lines.append(f"  {p.name:<{width}}  {source}")
+    if not plugins.loaded:
+        lines.append("  no plugins loaded")
+    lines += [f"  {failure.describe()}" for failure in plugins.failed]
+    return "\n".join(lines) + "\n"
 
 
 def _options(
     traceback_: bool = typer.Option(False, "--traceback", help="Show tracebacks of errors."),
+    version: bool = typer.Option(
+        False, "--version", "-V", is_eager=True, callback=_show_version,
+        help="Show the versions of cbrcore and of the loaded plugins, and exit."),
 ) -> None:
     """Case-based reasoning for mobile robot navigation."""
     # main() reads --traceback from the raw arguments, so errors raised while parsing or while
-    # plugins add their commands honour it too.
+    # plugins add their commands honour it too; --version is handled by its callback
 
 
 def build_app() -> typer.Typer:
     """The ``cbr`` application. A command added later replaces one of the same name, so third
     parties' commands come first, then those of cbrcore's own plugins, then the core's: a
-    built-in name always wins."""
+    built-in name always wins. Every command follows :mod:`cbrcore.cli.conventions`."""
     app = typer.Typer(name="cbr", no_args_is_help=True, pretty_exceptions_enable=False,
-                      rich_markup_mode=None, callback=_options)
+                      rich_markup_mode=None, callback=_options,
+                      context_settings=CONTEXT_SETTINGS)
     plugins = current()
     builtin = [plugins.pm.get_plugin(name) for name in plugins.builtins]
     third_party = [obj for _, obj in plugins.pm.list_name_plugin() if obj not in builtin]
     plugins.pm.subset_hook_caller("cbr_cli", remove_plugins=builtin)(app=app)
     plugins.pm.subset_hook_caller("cbr_cli", remove_plugins=third_party)(app=app)
-    commands.install(app)
+    commands.install(app, plugins.registry)
     app.add_typer(casebase.app)
+    follow_conventions(app)
     return app
 
 
@@ -76,6 +110,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _run(args: list[str], err: Console) -> int:
     show_traceback = "--traceback" in args
+    if not args:  # ``cbr`` alone asks what there is to do: help, and success
+        args = ["--help"]
     try:
         command = typer.main.get_command(build_app())
         result = command.main(args, prog_name="cbr", standalone_mode=False)

@@ -188,7 +188,8 @@ def export(
     store: StoreOption = None,
     config: ConfigOption = None,
     output: Annotated[Path | None, typer.Option(
-        "-o", "--output", help="File to write; default: standard output.", show_default=False,
+        "-o", "--output", metavar="FILE", help="File to write; default: standard output.",
+        show_default=False,
     )] = None,
     fmt: FormatOption = None,
 ) -> None:

@@ -1,7 +1,12 @@
-"""The built-in ``cbr`` commands: run, validate, plugins, experiment, reference."""
+"""The built-in ``cbr`` commands: run, validate, plugins, experiment, reference.
+
+Tables fit the terminal they are shown in; written to a pipe or a file they keep every cell
+whole, however wide (``--json`` gives the same facts for programs).
+"""
 
 from __future__ import annotations
 
+import enum
 import json
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -13,18 +18,51 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from cbrcore.cli import completion
 from cbrcore.config import load_config
 from cbrcore.engine import Engine
-from cbrcore.experiment import Size, run_experiment
+from cbrcore.experiment import Size as ExperimentSize
+from cbrcore.experiment import run_experiment
 from cbrcore.plugins import current
 from cbrcore.reference import config_reference, hook_reference
+from cbrcore.registry import Registry
 from cbrcore.run import run_workload
 
-_SET_HELP = "Override a configuration value: KEY.PATH=VALUE (VALUE is read as YAML). Repeatable."
+UNBOUNDED = 100_000
+"""The width of output that is not a terminal: wide enough that no table is wrapped or cut."""
+
+_SET_HELP = ("Override a configuration value (VALUE is read as YAML); repeatable. A problem in "
+             "the value is reported against this option.")
+
+
+class Size(enum.StrEnum):
+    """How large an experiment is run."""
+
+    ci = "ci"
+    full = "full"
+
+
+class Reference(enum.StrEnum):
+    """The references ``cbr reference`` prints."""
+
+    config = "config"
+    hooks = "hooks"
 
 
 def _out() -> Console:
-    return Console(highlight=False, soft_wrap=True)
+    console = Console(highlight=False, soft_wrap=True)
+    if not console.is_terminal:  # a pipe or a file: the reader, not a window, sets the width
+        console.width = UNBOUNDED
+    return console
+
+
+def _set_option() -> Any:
+    return typer.Option([], "--set", "-s", metavar="KEY.PATH=VALUE", help=_SET_HELP,
+                        autocompletion=completion.settings)
+
+
+def _json_option(what: str) -> Any:
+    return typer.Option(False, "--json", help=f"Print {what} as one JSON object.")
 
 
 @contextmanager
@@ -38,18 +76,23 @@ def _progress(label: str) -> Iterator[Callable[[int, int], None]]:
 
 
 def run(
-    config: Path = typer.Argument(..., help="The YAML configuration to run."),
+    config: Path = typer.Argument(..., metavar="CONFIG", help="The YAML configuration to run."),
     out: Path | None = typer.Option(
-        None, "--out", "-o",
+        None, "--out", "-o", metavar="DIR",
         help="Output folder (default: runs/<config name>; a run into a folder that holds a "
              "case base continues from it)."),
-    set_: list[str] = typer.Option([], "--set", "-s", help=_SET_HELP),
+    set_: list[str] = _set_option(),
+    as_json: bool = _json_option("the run's summary (that of summary.json)"),
 ) -> None:
     """Run the configured workload: results.csv, summary.json and manifest.json go to --out."""
     out_dir = out if out is not None else Path("runs") / config.stem
-    with Engine.from_yaml(config, overrides=set_, out_dir=out_dir.resolve()) as engine, \
+    checked = load_config(config, current().registry, set_)
+    with Engine(checked, out_dir=out_dir.resolve()) as engine, \
             _progress("queries") as progress:
         summary = run_workload(engine, out_dir, overrides=set_, progress=progress)
+    if as_json:
+        typer.echo(json.dumps(summary, indent=2, default=str))
+        return
     table = Table(title=f"{config.name}: {summary['queries']} queries", show_header=False)
     rows: list[tuple[str, Any]] = [
         ("answered by the case base", summary["from_casebase"]),
@@ -65,8 +108,9 @@ def run(
     rows += [("wall time s", f"{summary['seconds']:.2f}"), ("output", str(out_dir))]
     for key, value in rows:
         table.add_row(key, str(value))
-    _out().print(table)
-    _out().print(_evolution_table(summary["evolution"]))
+    console = _out()
+    console.print(table)
+    console.print(_evolution_table(summary["evolution"]))
 
 
 def _evolution_table(stretches: list[dict[str, Any]]) -> Table:
@@ -84,11 +128,17 @@ def _evolution_table(stretches: list[dict[str, Any]]) -> Table:
 
 
 def validate(
-    config: Path = typer.Argument(..., help="The YAML configuration to check."),
-    set_: list[str] = typer.Option([], "--set", "-s", help=_SET_HELP),
+    config: Path = typer.Argument(..., metavar="CONFIG",
+                                  help="The YAML configuration to check."),
+    set_: list[str] = _set_option(),
+    as_json: bool = _json_option("the resolved components, every default filled in,"),
 ) -> None:
     """Check a configuration without running it; list the components it selects."""
     checked = load_config(config, current().registry, set_)
+    if as_json:
+        typer.echo(json.dumps({"config": str(config), "resolved": checked.resolved()},
+                              indent=2, default=str))
+        return
     console = _out()
     console.print(f"{config}: ok")
     for slot, value in checked.resolved().items():
@@ -100,7 +150,7 @@ def validate(
 
 
 def plugins(
-    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+    as_json: bool = _json_option("the plugins"),
 ) -> None:
     """List the loaded plugins, their distributions, hooks, components and the component kinds
     they declare, and any failures."""
@@ -134,28 +184,40 @@ def plugins(
 
 
 def experiment(
-    name: str | None = typer.Argument(None, help="The experiment to run."),
+    name: str | None = typer.Argument(
+        None, metavar="NAME", help="The experiment to run (see --list).",
+        autocompletion=completion.experiment_names, show_default=False),
     list_: bool = typer.Option(False, "--list", help="List the registered experiments."),
-    size: str = typer.Option("full", "--size", help="ci (minutes) or full (the paper's scale)."),
-    out: Path | None = typer.Option(None, "--out", "-o",
+    size: Size = typer.Option(
+        Size.ci, "--size",
+        help="ci: small enough for a test run (minutes at most); full: the papers' scale."),
+    out: Path | None = typer.Option(None, "--out", "-o", metavar="DIR",
                                     help="Output folder (default: experiments/<name>-<size>)."),
-    seed: int = typer.Option(0, "--seed", min=0, help="Seed of every random choice."),
+    seed: int = typer.Option(0, "--seed", min=0, metavar="SEED",
+                             help="Seed of every random choice."),
+    as_json: bool = typer.Option(False, "--json",
+                                 help="With --list: print the experiments as one JSON object."),
 ) -> None:
     """Run an experiment registered by a plugin: results.json, results.md and PNG figures."""
     registry = current().registry
     if list_:
+        found = [c for c in registry if c.kind == "experiment"]
+        if as_json:
+            typer.echo(json.dumps({"experiments": [
+                {"name": c.name, "plugin": c.plugin, "summary": c.summary} for c in found]},
+                indent=2))
+            return
         table = Table("experiment", "plugin", "what it reproduces")
-        for component in registry:
-            if component.kind == "experiment":
-                table.add_row(component.name, component.plugin, component.summary)
+        for component in found:
+            table.add_row(component.name, component.plugin, component.summary)
         _out().print(table)
         return
+    if as_json:
+        raise typer.BadParameter("--json goes with --list", param_hint="--json")
     if name is None:
         raise typer.BadParameter("name an experiment, or use --list", param_hint="NAME")
-    if size not in ("ci", "full"):
-        raise typer.BadParameter(f"expected ci or full, got {size!r}", param_hint="--size")
-    out_dir = out if out is not None else Path("experiments") / f"{name}-{size}"
-    sized: Size = "ci" if size == "ci" else "full"
+    out_dir = out if out is not None else Path("experiments") / f"{name}-{size.value}"
+    sized: ExperimentSize = "ci" if size is Size.ci else "full"
     with _progress(name) as progress:
         written = run_experiment(name, current(), size=sized, out_dir=out_dir, seed=seed,
                                  progress=progress)
@@ -166,19 +228,25 @@ def experiment(
 
 
 def reference(
-    what: str = typer.Argument(..., help="config or hooks"),
+    what: Reference = typer.Argument(
+        ..., metavar="WHAT", show_default=False,
+        help="config: every component and its options; hooks: the hook specifications."),
 ) -> None:
     """Print the configuration or hook reference as markdown."""
-    if what == "config":
+    if what is Reference.config:
         typer.echo(config_reference(current().registry), nl=False)
-    elif what == "hooks":
-        typer.echo(hook_reference(), nl=False)
     else:
-        raise typer.BadParameter(f"expected config or hooks, got {what!r}", param_hint="WHAT")
+        typer.echo(hook_reference(), nl=False)
 
 
-def install(app: typer.Typer) -> None:
-    """Add the built-in commands to ``app``."""
-    for command in (run, validate, plugins, experiment, reference):
+def install(app: typer.Typer, registry: Registry) -> None:
+    """Add the built-in commands to ``app``; ``registry`` holds the experiments that
+    ``cbr experiment --help`` lists."""
+    names = [c.name for c in registry if c.kind == "experiment"]
+    # \b keeps click from rewrapping the list, which would break names at their hyphens
+    listed = ("\b\nExperiments:\n" + "\n".join(f"  {name}" for name in names) if names
+              else "No experiment is registered.")
+    for command in (run, validate, plugins):
         app.command()(command)
-
+    app.command(epilog=listed)(experiment)
+    app.command()(reference)

@@ -4,7 +4,7 @@ Installing cbrcore makes these fixtures available to every pytest run (through t
 entry point), so a plugin's own test suite can use them without any import:
 
 ``cbr_plugins``
-    Load plugin modules for the duration of one test, without installing them.
+    Load plugin modules (or their names) for the duration of one test, without installing them.
 ``cbr_engine``
     Build an :class:`~cbrcore.engine.Engine` from YAML text, a mapping or a file; closed after
     the test.
@@ -13,10 +13,8 @@ entry point), so a plugin's own test suite can use them without any import:
 
 A typical test::
 
-    import my_plugin
-
     def test_my_retriever(cbr_plugins, cbr_engine):
-        cbr_plugins(my_plugin, entry_points=True)
+        cbr_plugins("my_plugin", entry_points=True)
         engine = cbr_engine("retrieve: {use: my_retriever, k: 2}\\nsolver: my_solver\\n")
         proposal = engine.solve(problem)
         ...
@@ -27,6 +25,8 @@ A plugin that registers a store runs the tests of the store protocol by subclass
     from cbrcore.testing import StoreContract
 
     class TestMyStore(StoreContract):
+        persistent = True   # adds the tests of a store that keeps its commits when reopened
+
         @pytest.fixture
         def open_store(self, tmp_path):
             return lambda name: MyStore(tmp_path / name)
@@ -38,9 +38,9 @@ environment where cbrcore is installed.
 from __future__ import annotations
 
 import contextlib
-import copy
+import importlib
 import io
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -53,7 +53,7 @@ from cbrcore.testing.stores import StoreContract  # noqa: E402
 
 if TYPE_CHECKING:
     from cbrcore.config import Config
-    from cbrcore.engine import Engine
+    from cbrcore.engine import Engine, Overrides
     from cbrcore.plugins import Plugins
     from cbrcore.registry import Registry
 
@@ -71,21 +71,39 @@ class CliResult(NamedTuple):
 def _plugin_pair(plugin: Any) -> tuple[str, Any]:
     if isinstance(plugin, tuple):
         name, obj = plugin
-        return str(name), obj
+        return str(name), _module(obj) if isinstance(obj, str) else obj
+    if isinstance(plugin, str):
+        return plugin, _module(plugin)
     name = getattr(plugin, "__name__", None)
     if not isinstance(name, str):
         raise TypeError(f"cannot name plugin {plugin!r}: pass a (name, plugin) pair")
     return name, plugin
 
 
+def _module(name: str) -> Any:
+    """The module called ``name``, imported; a clear error when it cannot be."""
+    from cbrcore.errors import CbrError
+
+    try:
+        return importlib.import_module(name)
+    except ImportError as exc:
+        raise CbrError(f"cbr_plugins({name!r}): cannot import the plugin module {name!r}: "
+                       f"{type(exc).__name__}: {exc}; expected the dotted name of an importable "
+                       f"module (on sys.path), such as 'my_plugin' or 'my_package.plugin'"
+                       ) from exc
+
+
 @pytest.fixture
 def cbr_plugins() -> Iterator[Callable[..., Plugins]]:
     """Temporarily register plugins: ``cbr_plugins(*plugins, entry_points=False, environ=None)``.
 
-    Each plugin is a module or object implementing cbrcore hooks, named by its ``__name__``, or a
-    ``(name, plugin)`` pair to choose the name (and to name objects without ``__name__``, such as
-    class instances). The plugins are loaded with :func:`cbrcore.plugins.load_plugins` and made
-    current with :func:`cbrcore.plugins.use_plugins` until the test ends, so
+    Each plugin is a module or object implementing cbrcore hooks, named by its ``__name__``; a
+    module's dotted name (``"my_plugin"``), imported with :func:`importlib.import_module` and
+    named by that string; or a ``(name, plugin)`` pair to choose the name (and to name objects
+    without ``__name__``, such as class instances), whose plugin may be a module name too. A
+    name that cannot be imported raises :class:`~cbrcore.errors.CbrError` naming it. The
+    plugins are loaded with :func:`cbrcore.plugins.load_plugins` and made current with
+    :func:`cbrcore.plugins.use_plugins` until the test ends, so
     :func:`cbrcore.plugins.current`, :meth:`Engine.from_yaml <cbrcore.engine.Engine.from_yaml>`,
     the ``cbr_engine`` fixture and the ``cbr_cli`` fixture all see them.
 
@@ -112,29 +130,28 @@ def cbr_plugins() -> Iterator[Callable[..., Plugins]]:
         yield register
 
 
-def _parse(config: str | Mapping[str, Any], overrides: Sequence[str],
-           registry: Registry) -> Config:
-    from cbrcore.config import apply_overrides, config_from_text, parse_config
+def _parse(config: str, overrides: Overrides, registry: Registry) -> Config:
+    from cbrcore.config import config_from_text
 
-    if isinstance(config, str):
-        return config_from_text(config, registry, overrides)
-    data = apply_overrides(copy.deepcopy(dict(config)), overrides, "configuration")
-    return parse_config(data, registry)
+    return config_from_text(config, registry, overrides)
 
 
 @pytest.fixture
 def cbr_engine() -> Iterator[Callable[..., Engine]]:
-    """Build engines: ``cbr_engine(config, *, plugins=None, out_dir=None, overrides=()) -> Engine``.
+    """Build engines: ``cbr_engine(config, *, world=None, plugins=None, out_dir=None,
+    overrides=()) -> Engine``.
 
     ``config`` is YAML text, a mapping of the same shape, or a :class:`~pathlib.Path` to a YAML
     file. Text and mappings are checked by :func:`cbrcore.config.parse_config` against the
     registry of ``plugins`` (default: the current plugins, see ``cbr_plugins``), with relative
-    ``Path`` options resolved against the working directory; a path goes through
-    :meth:`Engine.from_yaml <cbrcore.engine.Engine.from_yaml>`, resolving them against the
-    file's folder. ``overrides`` are ``KEY.PATH=VALUE`` strings as given to ``cbr run --set``; a
-    mapping is copied before they apply. ``out_dir`` is the engine's output folder (None: an
-    embedded engine without one). A bad configuration raises
-    :class:`~cbrcore.errors.ConfigError`.
+    ``Path`` options resolved against the working directory; a mapping goes through
+    :meth:`Engine.from_dict <cbrcore.engine.Engine.from_dict>` (which copies it) and a path
+    through :meth:`Engine.from_yaml <cbrcore.engine.Engine.from_yaml>`, resolving them against
+    the file's folder. ``overrides`` are ``KEY.PATH=VALUE`` strings as given to
+    ``cbr run --set``, or a mapping of ``KEY.PATH`` to Python values. ``world`` is a world
+    object replacing the configured world (a NumPy array or a grid, with the grid plugin).
+    ``out_dir`` is the engine's output folder (None: an embedded engine without one). A bad
+    configuration raises :class:`~cbrcore.errors.ConfigError`.
 
     Every engine built is closed when the test ends.
     """
@@ -143,15 +160,19 @@ def cbr_engine() -> Iterator[Callable[..., Engine]]:
 
     engines: list[Engine] = []
 
-    def build(config: str | Mapping[str, Any] | Path, *, plugins: Plugins | None = None,
-              out_dir: Path | None = None, overrides: Sequence[str] = ()) -> Engine:
+    def build(config: str | Mapping[str, Any] | Path, *, world: Any = None,
+              plugins: Plugins | None = None, out_dir: Path | None = None,
+              overrides: Overrides = ()) -> Engine:
         plugins = plugins or current()
         if isinstance(config, Path):
-            engine = Engine.from_yaml(config, overrides=overrides, plugins=plugins,
+            engine = Engine.from_yaml(config, world=world, overrides=overrides, plugins=plugins,
+                                      out_dir=out_dir)
+        elif isinstance(config, Mapping):
+            engine = Engine.from_dict(config, world=world, overrides=overrides, plugins=plugins,
                                       out_dir=out_dir)
         else:
             parsed = _parse(config, overrides, plugins.registry)
-            engine = Engine(parsed, plugins=plugins, out_dir=out_dir)
+            engine = Engine(parsed, world=world, plugins=plugins, out_dir=out_dir)
         engines.append(engine)
         return engine
 

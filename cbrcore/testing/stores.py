@@ -21,7 +21,10 @@ on its store with one class::
 before is a new, empty case base, and the same name opens the same case base again. The
 reference for what a store must do is :class:`~cbrcore.casebase.MemoryStore`: random sequences
 of operations and transactions must leave the store under test in the state they leave a memory
-store in (this test needs hypothesis, and is skipped without it).
+store in (with hypothesis, a test dependency of cbrcore).
+
+The tests of a promise (``persistent``, ``shared``) are added to a subclass that makes it, and
+only then: a store that does not make a promise has no tests of it, rather than skipped ones.
 """
 
 from __future__ import annotations
@@ -60,7 +63,8 @@ class StoreContract:
 
     Subclass it in a test module (with a name starting with ``Test``) and define the
     ``open_store`` fixture; set ``persistent`` and ``shared`` to what the store promises, which
-    adds the tests of those promises. Inside the class, ``store`` is a new, empty case base, and
+    adds the tests of those promises to the subclass (and only then: no test is skipped).
+    Inside the class, ``store`` is a new, empty case base, and
     ``stores(name)`` opens case bases as ``open_store`` does; every store they open is closed
     when the test ends.
     """
@@ -95,9 +99,18 @@ class StoreContract:
         """A new, empty case base."""
         return stores("casebase")
 
-    def _needs(self, promise: str) -> None:
-        if not getattr(self, promise):
-            pytest.skip(f"the store is not {promise} ({type(self).__name__}.{promise} is false)")
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """Add the tests of the promises the subclass makes; hide those of the promises it
+        does not make but a base class did."""
+        super().__init_subclass__(**kwargs)
+        for promise, tests in _PROMISES.items():
+            for name, test in vars(tests).items():
+                if not name.startswith("test_"):
+                    continue
+                if getattr(cls, promise):
+                    setattr(cls, name, test)
+                elif hasattr(cls, name):
+                    setattr(cls, name, None)  # pytest collects only callables
 
     # -- the protocol -----------------------------------------------------------------------
 
@@ -350,17 +363,25 @@ class StoreContract:
         store.close()
         store.close()
 
-    def test_describe_gives_plain_facts(self, store: CaseStore) -> None:
-        if not hasattr(store, "describe"):
-            pytest.skip("the store has no describe()")
+    def test_describe_gives_plain_facts_or_none(self, store: CaseStore) -> None:
         store.add(Case(1, 1))
         facts = describe(store)  # raises, naming the store, what it must not return
         assert all(key for key in facts)
+        if not hasattr(store, "describe"):
+            assert facts == {}
 
-    # -- promises some stores make ----------------------------------------------------------
+    # -- against the memory store -----------------------------------------------------------
+
+    def test_random_operations_agree_with_the_memory_store(self, stores: OpenStore) -> None:
+        from cbrcore.testing._agree import run_against_memory
+
+        run_against_memory(stores)
+
+
+class _PersistentTests:
+    """The tests a persistent store adds (``persistent = True``)."""
 
     def test_a_reopened_store_holds_what_it_committed(self, stores: OpenStore) -> None:
-        self._needs("persistent")
         first = stores("casebase")
         with first.transaction():
             kept = first.add(Case({"n": 1}, [1, 2], kind="vertex", meta={"m": True}))
@@ -378,7 +399,6 @@ class StoreContract:
         assert again.check() == []
 
     def test_ids_are_not_reused_after_reopening(self, stores: OpenStore) -> None:
-        self._needs("persistent")
         first = stores("casebase")
         for n in range(3):
             first.add(Case(n, n))
@@ -386,8 +406,11 @@ class StoreContract:
         first.close()
         assert stores("casebase").add(Case(4, 4)).id == 4
 
+
+class _SharedTests:
+    """The tests a shared store adds (``shared = True``)."""
+
     def test_two_open_stores_see_each_others_commits(self, stores: OpenStore) -> None:
-        self._needs("shared")
         first, second = stores("casebase"), stores("casebase")
         first.add(Case(1, 1))
         assert second.revision == 1
@@ -395,10 +418,6 @@ class StoreContract:
         second.set_meta("k", "v")
         assert (first.revision, first.get_meta("k")) == (2, "v")
 
-    # -- against the memory store -----------------------------------------------------------
 
-    def test_random_operations_agree_with_the_memory_store(self, stores: OpenStore) -> None:
-        pytest.importorskip("hypothesis")
-        from cbrcore.testing._agree import run_against_memory
-
-        run_against_memory(stores)
+_PROMISES: dict[str, type] = {"persistent": _PersistentTests, "shared": _SharedTests}
+"""Each promise a store may make, and the class holding its tests."""

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
 from cbr_behaviors.index import (
@@ -27,6 +26,7 @@ from cbr_behaviors.index import (
     TERMS,
     VARIABLE_CODE,
 )
+from cbrcore.compiled import njit
 
 SONAR_KIND, MOTORS_KIND, SET_KIND, POINT_KIND, TERM_KIND, FRACTION_KIND = range(6)
 """The kinds of feature, each with its own distance."""
@@ -51,7 +51,7 @@ _SIXTEEN = np.uint64(16)
 _THIRTY_TWO = np.uint64(32)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def popcount(x: np.uint64) -> int:
     """The set bits of ``x``: summed in pairs, nibbles, then bytes by shifts and adds alone,
     which run on SIMD lanes (a 64-bit multiply does not)."""
@@ -64,7 +64,7 @@ def popcount(x: np.uint64) -> int:
     return np.int64(x & _LOW)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _case(rows: np.ndarray | None, i: int) -> int:
     """The case at position ``i`` of the pass: ``i`` itself when ``rows`` is None. The test is
     settled when the kernel is compiled for each type of ``rows``, so that a pass over every
@@ -74,7 +74,7 @@ def _case(rows: np.ndarray | None, i: int) -> int:
     return rows[i]
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _add(f: int, i: int, d: float, both: bool, weight: float, d_sum: np.ndarray,
          w_sum: np.ndarray, per_feature: np.ndarray | None) -> None:
     """Adds feature ``f``'s distance ``d`` at position ``i`` to the weighted sums if the case
@@ -86,7 +86,7 @@ def _add(f: int, i: int, d: float, both: bool, weight: float, d_sum: np.ndarray,
         per_feature[f, i] = d if both else np.nan
 
 
-@numba.njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def score(n: int, rows: np.ndarray | None, specified: np.ndarray, sonar: np.ndarray,
           motors: np.ndarray, points: np.ndarray, fractions: np.ndarray, bits: np.ndarray,
           sizes: np.ndarray, terms: np.ndarray, lengths: np.ndarray, q_specified: np.ndarray,

@@ -2,7 +2,9 @@
 
 Every component works on the run's one graph (:mod:`cbr_casegraph.state`); each phase hook is
 called once per query and hands the work to the vectorised or compiled code of
-:mod:`cbr_casegraph.graph` and :mod:`cbr_casegraph.planner`.
+:mod:`cbr_casegraph.graph` and :mod:`cbr_casegraph.planner`. The retriever, the reuser and the
+retainer warm up when the engine is built (``cbr_warm``): each runs its phase once on a small
+graph of its own, so that the compiled code is ready before the first query is timed.
 """
 
 from __future__ import annotations
@@ -17,8 +19,10 @@ import numpy as np
 from cbr_casegraph.graph import SEGMENT
 from cbr_casegraph.state import graph_of
 from cbr_grid.distances import DistanceName
+from cbr_grid.grid import Grid, grid_world
 from cbr_grid.query import GridQuery
 from cbr_kinematics import HOLONOMIC, robot_kinematics
+from cbrcore.casebase.memory import MemoryStore
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
@@ -37,6 +41,27 @@ def _planner() -> ModuleType:
     """The planner module; it loads numba, so only when a query is planned, not at every
     start of ``cbr``."""
     return importlib.import_module("cbr_casegraph.planner")
+
+
+_WARM_SIZE = 24
+_WARM_PATH = [(x, 2) for x in range(2, 21)] + [(20, y) for y in range(3, 21)]
+"""The path learned on the warm-up grid: along the top, then down the right side."""
+_WARM_QUERY = GridQuery((3, 4), (18, 19))
+"""A query whose start and goal lie near the ends of the warm-up path."""
+
+
+def _warm_context(ctx: Context, *, learned: bool = True) -> Context:
+    """A context of its own for a warm-up: a small free grid with the world's corner rule and
+    cost model, and a memory case base holding a case graph of one learned path (or none). The
+    run's case base, graph, stash and generator stay as they were."""
+    world = grid_world(ctx, "the case graph")
+    grid = Grid(np.zeros((_WARM_SIZE, _WARM_SIZE)), corner_cutting=world.corner_cutting,
+                cost_model=world.cost_model)
+    scratch = Context(registry=ctx.registry, seed=ctx.seed, world=grid, casebase=MemoryStore())
+    if learned:
+        with scratch.mirror.transaction():
+            graph_of(scratch).add_path(_WARM_PATH)
+    return scratch
 
 
 @attrs.frozen
@@ -65,7 +90,17 @@ class CaseGraphRetriever:
         graph_of(ctx)
 
     @hookimpl
+    def cbr_warm(self, ctx: Context) -> None:
+        """Retrieve once from a small graph of its own."""
+        scratch = _warm_context(ctx)
+        self.retrieve(_WARM_QUERY, scratch)
+
+    @hookimpl
     def cbr_retrieve(self, problem: GridQuery, casebase: CaseStore, ctx: Context) -> Retrieval:
+        return self.retrieve(problem, ctx)
+
+    def retrieve(self, problem: GridQuery, ctx: Context) -> Retrieval:
+        """The retrieval of ``problem`` from the case graph of ``ctx``."""
         planner = _planner()
         graph = graph_of(ctx)
         settings = planner.Settings(delta=self.options.delta, selective=self.options.selective)
@@ -145,8 +180,20 @@ class CaseGraphReuser:
         graph_of(ctx)
 
     @hookimpl
+    def cbr_warm(self, ctx: Context) -> None:
+        """Adapt once on a small graph of its own, from what the default retriever finds."""
+        scratch = _warm_context(ctx)
+        retrieval = CaseGraphRetriever(RetrieveOptions(), scratch).retrieve(_WARM_QUERY, scratch)
+        if retrieval.usable:
+            self.reuse(_WARM_QUERY, retrieval, scratch)
+
+    @hookimpl
     def cbr_reuse(self, problem: GridQuery, retrieval: Retrieval, ctx: Context
                   ) -> Solution | None:
+        return self.reuse(problem, retrieval, ctx)
+
+    def reuse(self, problem: GridQuery, retrieval: Retrieval, ctx: Context) -> Solution | None:
+        """The path adapted from ``retrieval`` in the case graph of ``ctx``, or None."""
         planner = _planner()
         found: Found = retrieval.payload
         settings = attrs.evolve(found.settings, connector=self.options.connector,
@@ -185,7 +232,18 @@ class CaseGraphRetainer:
         graph_of(ctx)
 
     @hookimpl
+    def cbr_warm(self, ctx: Context) -> None:
+        """Retain one path into a small, empty graph of its own."""
+        scratch = _warm_context(ctx, learned=False)
+        with scratch.mirror.transaction():
+            self.retain(Solution(_WARM_PATH), Outcome(success=True), scratch)
+
+    @hookimpl
     def cbr_retain(self, solution: Solution, outcome: Outcome, ctx: Context) -> None:
+        self.retain(solution, outcome, ctx)
+
+    def retain(self, solution: Solution, outcome: Outcome, ctx: Context) -> None:
+        """Record the use of the solution's segments and keep the path of a successful trip."""
         graph = graph_of(ctx)
         graph.record_use(solution.cases)
         if outcome.success and len(solution.value) > 1:

@@ -10,14 +10,14 @@ to the overlay and removing it costs nothing.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
 from cbr_grid.costs import SQRT2
 from cbr_grid.search_base import DX, DY, move, pop, push, push_grown
+from cbrcore.compiled import njit
 
 
-@numba.njit(cache=True)
+@njit
 def graph_search(indptr: np.ndarray, target: np.ndarray, weight: np.ndarray, edge: np.ndarray,
                  o_ptr: np.ndarray, o_target: np.ndarray, o_weight: np.ndarray,
                  xy: np.ndarray, source: int, goal: int, informed: bool, scale: float
@@ -98,7 +98,7 @@ def graph_search(indptr: np.ndarray, target: np.ndarray, weight: np.ndarray, edg
     return True, dist[goal], vertices, codes, settled
 
 
-@numba.njit(cache=True)
+@njit
 def descend(cost: np.ndarray, factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
             x0: int, y0: int, x1: int, y1: int, px: int, py: int) -> np.ndarray:
     """The cheapest path from the source of a cost map to cell (px, py), source first.
@@ -139,7 +139,7 @@ def descend(cost: np.ndarray, factor: np.ndarray, passable: np.ndarray, corner_c
     return path
 
 
-@numba.njit(cache=True)
+@njit
 def run_costs(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
               starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
     """The cost of each straight run starts[k] -> ends[k]; inf when a step is not allowed."""
@@ -168,7 +168,7 @@ def run_costs(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
     return costs
 
 
-@numba.njit(cache=True)
+@njit
 def path_cost(factor: np.ndarray, path: np.ndarray) -> float:
     """The cost of a path of 8-neighbour steps under the step cost contract."""
     total = 0.0

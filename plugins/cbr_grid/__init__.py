@@ -1,5 +1,6 @@
-"""The grid world family: grids with per-cell risk, distances, path costs, Moving AI maps, the
-simulated robot of the ``trips`` workload and the map learning of the ``risk_map`` retainer."""
+"""The grid world family: grids with per-cell risk, distances, path costs, Moving AI and ROS
+maps, inflation by a robot's radius, the simulated robot of the ``trips`` workload and the map
+learning of the ``risk_map`` retainer."""
 
 from __future__ import annotations
 
@@ -7,17 +8,33 @@ from pathlib import Path
 from typing import Literal
 
 import attrs
+import numpy as np
 
 from cbr_grid.formats import load_grid
+from cbr_grid.frame import MapFrame
 from cbr_grid.generate import generate
 from cbr_grid.grid import Grid
+from cbr_grid.inflation import Inflation, inflate
 from cbr_grid.movingai import load_map
+from cbr_grid.query import Cell, GridQuery
 from cbr_grid.risk import RiskMap, RiskOptions
 from cbr_grid.trips import Trips, TripsOptions
 from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
 from cbrcore.options import option
 from cbrcore.registry import Registry
+
+__all__ = ["Cell", "Grid", "GridQuery", "Inflation", "MapFrame", "generate", "inflate",
+           "load_grid", "load_map"]
+"""What a program embedding the engine needs to hand it grid worlds and queries."""
+
+_INFLATION_DOC = ("Inflate the obstacles by the robot's radius, as Nav2's inflation layer does: "
+                  "robot_radius, inflation_radius, cost_scaling_factor (metres on a map with a "
+                  "frame, else cells); null inflates nothing.")
+
+
+def _inflated(grid: Grid, inflation: Inflation | None) -> Grid:
+    return grid if inflation is None else inflate(grid, inflation)
 
 
 @attrs.frozen
@@ -26,6 +43,7 @@ class MovingAIOptions:
     corner_cutting: bool = option(
         False, "Let a diagonal step pass one blocked orthogonal cell (the benchmarks' optimal "
         "lengths assume false).")
+    inflation: Inflation | None = option(None, _INFLATION_DOC)
 
 
 def movingai_world(options: MovingAIOptions, ctx: Context) -> Grid:
@@ -34,7 +52,8 @@ def movingai_world(options: MovingAIOptions, ctx: Context) -> Grid:
     Passable cells have risk 0 and blocked cells risk 1; moves are 8-connected with steps of
     length 1 and sqrt(2), and by default a diagonal step never cuts a blocked corner.
     """
-    return load_map(options.map, corner_cutting=options.corner_cutting)
+    return _inflated(load_map(options.map, corner_cutting=options.corner_cutting),
+                     options.inflation)
 
 
 _UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
@@ -47,20 +66,23 @@ class MapFileOptions:
     corner_cutting: bool = option(
         False, "Let a diagonal step pass one blocked orthogonal cell.")
     unknown_risk: float = option(
-        1.0, "ROS maps: the risk of cells neither free nor occupied (1 treats them as obstacles).",
-        validator=_UNIT)
+        1.0, "ROS maps: the risk of cells neither free nor occupied: 1 treats them as obstacles "
+        "(lethal), 0 as free, a value between as a hazard.", validator=_UNIT)
     threshold: float = option(
         0.5, "PNG images: pixels darker than this luminance (0 black, 1 white) are obstacles.",
         validator=_UNIT)
+    inflation: Inflation | None = option(None, _INFLATION_DOC)
 
 
 def map_file_world(options: MapFileOptions, ctx: Context) -> Grid:
     """A grid read from a .map, .yaml (ROS map_server), .png, .npy or .grid file.
 
     The extension chooses the loader; the file's top row becomes y = 0 (see cbr_grid.formats).
+    A ROS map keeps its metric frame, so its inflation radii are in metres.
     """
-    return load_grid(options.path, corner_cutting=options.corner_cutting,
+    grid = load_grid(options.path, corner_cutting=options.corner_cutting,
                      unknown_risk=options.unknown_risk, threshold=options.threshold)
+    return _inflated(grid, options.inflation)
 
 
 @attrs.frozen
@@ -76,6 +98,7 @@ class GeneratedOptions:
         validator=attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.lt(1.0)))
     corner_cutting: bool = option(
         False, "Let a diagonal step pass one blocked orthogonal cell.")
+    inflation: Inflation | None = option(None, _INFLATION_DOC)
 
 
 def generated_world(options: GeneratedOptions, ctx: Context) -> Grid:
@@ -84,9 +107,10 @@ def generated_world(options: GeneratedOptions, ctx: Context) -> Grid:
     The layout and the optional terrain risk draw from independent streams of ``ctx.seed``, so
     the same seed always gives the same grid (see cbr_grid.generate).
     """
-    return generate(options.kind, options.width, options.height, ctx.seed,
+    grid = generate(options.kind, options.width, options.height, ctx.seed,
                     density=options.density, terrain=options.terrain,
                     corner_cutting=options.corner_cutting)
+    return _inflated(grid, options.inflation)
 
 
 @hookimpl
@@ -96,3 +120,15 @@ def cbr_register(registry: Registry) -> None:
     registry.add("world", "generated", generated_world, options=GeneratedOptions)
     registry.add("workload", "trips", Trips, options=TripsOptions)
     registry.add("retainer", "risk_map", RiskMap, options=RiskOptions)
+
+
+@hookimpl
+def cbr_world_object(obj: object, ctx: Context) -> Grid | None:
+    """A :class:`Grid` given as ``Engine(world=...)`` is the world as it is; a NumPy array is
+    read by :meth:`Grid.from_array` (booleans: True an obstacle; floats: risk in [0, 1];
+    integers: a ROS occupancy grid's -1 and 0 to 100)."""
+    if isinstance(obj, Grid):
+        return obj
+    if isinstance(obj, np.ndarray):
+        return Grid.from_array(obj)
+    return None

@@ -3,29 +3,29 @@
 Every loader returns a :class:`~cbr_grid.grid.Grid` whose row y = 0 is the image's (or file's)
 top row, as in Moving AI maps, so a picture of the map reads the same way as the grid. Every
 error names the file and says what was expected; where a line number means something the error
-reads ``<file>, line N: expected ...``. Errors quote numbers and the format's own words (a PGM
-magic number, a ROS ``mode``) but never other text of the file: a configuration that names the
+reads ``<file>, line N: expected ...``. Errors quote numbers and the format's own words (a ROS
+``mode``) but never other text of the file: a configuration that names the
 wrong file, a secret one say, must not get it printed.
 
 ROS map_server (``.yaml``)
     A YAML mapping with ``image`` (relative to the YAML file), ``resolution`` (> 0), ``origin``
     ([x, y, yaw]), ``negate`` (0/1 or false/true), ``occupied_thresh`` and ``free_thresh``
     (0 <= free <= occupied <= 1) and optionally ``mode`` (``trinary``, the default, or
-    ``scale``; ``raw`` is refused). ROS puts ``origin`` at the image's bottom-left corner; the
-    grid keeps cells only, so ``resolution`` and ``origin`` are checked and then dropped, and
-    y = 0 is the image's top row. A pixel value v of an image with maximum value m reads as the
-    occupancy p = (m - v) / m, or v / m with ``negate`` (for 8-bit images, (255 - v) / 255 and
-    v / 255). A cell is occupied (risk 1) when p > occupied_thresh, free (risk 0) when
-    p < free_thresh, and unknown otherwise; unknown cells get ``unknown_risk`` (1 by default:
-    treated as obstacles). In ``scale`` mode the unknown band instead gets risk p. Colour
-    images are averaged over their channels (alpha ignored), as map_server does.
-PGM (``.pgm``, inside a ROS map)
-    Binary ``P5`` and plain ``P2`` greymaps with a maximum value of at most 255; ``#`` comments
-    are allowed in the header (and anywhere in ``P2``).
+    ``scale``; ``raw`` is refused); ``map_type`` (written by Nav2's test maps) is accepted and
+    ignored. ``resolution`` and ``origin`` become the grid's ``frame``
+    (:class:`~cbr_grid.frame.MapFrame`); y = 0 is the image's top row. A pixel of level l in
+    [0, 1] (v / m for a value v of maximum m) reads as the occupancy p = 1 - l, or l with
+    ``negate``. A cell is occupied (risk 1) when p > occupied_thresh, free (risk 0) when
+    p < free_thresh, and unknown otherwise: unknown cells are marked in the grid's ``unknown``
+    mask and get ``unknown_risk`` (1 by default: obstacles; 0 makes them free, a value between
+    a hazard). In ``scale`` mode the band between gets risk p instead and nothing is unknown.
+    Colour images are averaged over their channels (alpha ignored), as map_server does.
+Images (``.pgm`` and others inside a ROS map, ``.png``)
+    Read with Pillow (:func:`read_image`): binary ``P5`` and plain ``P2`` greymaps of 8 or 16
+    bits, PNG, and whatever else Pillow reads.
 PNG (``.png``)
-    Read with matplotlib; a colour image is reduced to luminance 0.299 R + 0.587 G + 0.114 B
-    (alpha ignored). Cells darker than ``threshold`` (luminance in [0, 1]) are obstacles, the
-    rest free.
+    A colour image is reduced to luminance 0.299 R + 0.587 G + 0.114 B (alpha ignored). Cells
+    darker than ``threshold`` (luminance in [0, 1]) are obstacles, the rest free.
 NumPy (``.npy``)
     A 2-D array of real risk values in [0, 1], ``[y, x]``; pickled and complex arrays are
     refused.
@@ -39,20 +39,19 @@ from __future__ import annotations
 
 import io
 import math
-import re
 from pathlib import Path
 from typing import Any
 
+import attrs
 import numpy as np
 import yaml
 
+from cbr_grid.frame import MapFrame
 from cbr_grid.grid import Grid
 from cbr_grid.movingai import load_map
 from cbrcore.documents import compose_yaml, construct_yaml, read_bytes
 from cbrcore.errors import CbrError
 
-_DIGITS = 18
-"""The most digits a PGM size or pixel value may have: any such number fits in 64 bits."""
 
 def _read(path: Path) -> bytes:
     try:
@@ -61,116 +60,68 @@ def _read(path: Path) -> bytes:
         raise CbrError(f"{path}: cannot read: {exc.strerror or exc}") from exc
 
 
-def _grid(path: Path, risk: np.ndarray, corner_cutting: bool) -> Grid:
+def _grid(path: Path, risk: np.ndarray, corner_cutting: bool, frame: MapFrame | None = None,
+          unknown: np.ndarray | None = None) -> Grid:
     """A grid of ``risk``, with Grid's own complaint about the values prefixed by the file."""
     try:
-        return Grid(risk, corner_cutting=corner_cutting)
+        return Grid(risk, corner_cutting=corner_cutting, frame=frame, unknown=unknown)
     except CbrError as exc:
         raise CbrError(f"{path}: {exc}") from exc
 
 
-# --- PGM -----------------------------------------------------------------------------------------
-
-_PGM_TOKEN = re.compile(rb"#[^\n]*|[^\s#]+")
-_MAGIC = re.compile(rb"P[0-9]")
-
-
-def _line_of(data: bytes, offset: int) -> int:
-    return data.count(b"\n", 0, offset) + 1
-
-
-def _pgm_tokens(data: bytes, count: int) -> tuple[list[tuple[bytes, int]], int]:
-    """The first ``count`` non-comment tokens with their offsets, and where the last one ends."""
-    tokens: list[tuple[bytes, int]] = []
-    end = 0
-    for match in _PGM_TOKEN.finditer(data):
-        if match.group().startswith(b"#"):
-            continue
-        tokens.append((match.group(), match.start()))
-        end = match.end()
-        if len(tokens) == count:
-            break
-    return tokens, end
-
-
-def load_pgm(path: str | Path) -> tuple[np.ndarray, int]:
-    """The pixels ``[y, x]`` (row 0 = the image's top) and maximum value of a P2 or P5 greymap."""
-    path = Path(path)
-    data = _read(path)
-    tokens, end = _pgm_tokens(data, 4)
-    names = ("the magic number P2 or P5", "a positive width", "a positive height",
-             "a maximum value from 1 to 255")
-    if tokens and tokens[0][0] not in (b"P2", b"P5"):
-        # another Netpbm magic number is named; anything else may not be an image at all
-        magic = tokens[0][0]
-        got = f", got {magic.decode()!r}" if _MAGIC.fullmatch(magic) else ""
-        raise CbrError(f"{path}, line {_line_of(data, tokens[0][1])}: expected {names[0]}{got}")
-    if len(tokens) < 4:
-        raise CbrError(f"{path}, line {_line_of(data, len(data))}: expected "
-                       f"{names[len(tokens)]}, the file ends")
-    magic = tokens[0][0]
-    numbers = []
-    for name, (token, offset) in zip(names[1:], tokens[1:], strict=True):
-        if not token.isdigit() or len(token) > _DIGITS or int(token) < 1:
-            got = (f", got {token.decode()!r}" if token.isdigit() and len(token) <= _DIGITS
-                   else "")  # digits: a number
-            raise CbrError(f"{path}, line {_line_of(data, offset)}: expected {name}{got}")
-        numbers.append(int(token))
-    width, height, maxval = numbers
-    if maxval > 255:
-        raise CbrError(f"{path}, line {_line_of(data, tokens[3][1])}: expected {names[3]} "
-                       f"(8-bit pixels), got {maxval}")
-    if magic == b"P5":
-        # exactly one whitespace byte separates the maximum value from the pixel bytes
-        pixels = np.frombuffer(data, dtype=np.uint8, offset=min(end + 1, len(data)))
-        if pixels.size != width * height:
-            raise CbrError(f"{path}: expected {width * height} pixel bytes ({width}x{height}) "
-                           f"after the header, got {pixels.size}")
-        values = pixels.astype(np.int64)
-        offsets = None
-    else:
-        body = [(m.group(), m.start()) for m in _PGM_TOKEN.finditer(data, end)
-                if not m.group().startswith(b"#")]
-        bad = next(((t, o) for t, o in body if not t.isdigit() or len(t) > _DIGITS), None)
-        if bad is not None:
-            raise CbrError(f"{path}, line {_line_of(data, bad[1])}: expected a pixel value")
-        if len(body) != width * height:
-            raise CbrError(f"{path}: expected {width * height} pixel values ({width}x{height}) "
-                           f"after the header, got {len(body)}")
-        values = np.array([t for t, _ in body], dtype=np.int64)
-        offsets = [o for _, o in body]
-    over = np.flatnonzero(values > maxval)
-    if len(over):
-        i = int(over[0])
-        place = (f"line {_line_of(data, offsets[i])}" if offsets is not None
-                 else f"byte {end + 1 + i}")
-        raise CbrError(f"{path}, {place}: expected pixel values up to the maximum {maxval}, "
-                       f"got {values[i]} at ({i % width}, {i // width})")
-    return values.reshape(height, width), maxval
-
-
 # --- images --------------------------------------------------------------------------------------
 
-def _image(path: Path) -> np.ndarray:
-    """The image as floats in [0, 1], ``[y, x]`` or ``[y, x, channel]``, row 0 at the top."""
-    import matplotlib.image
+# Pillow's own words for a damaged file, by what they mean; other messages may quote the file
+_PILLOW_PROBLEMS = (
+    ("truncated", "its pixel data ends before the size its header gives"),
+    ("not enough image data", "its pixel data ends before the size its header gives"),
+    ("too large for this mode", "a pixel value exceeds the image's maximum value"),
+)
 
+
+def read_image(path: str | Path) -> np.ndarray:
+    """The image's levels as floats in [0, 1] (0 black), ``[y, x]`` for a greyscale image or
+    ``[y, x, channel]`` for colour (alpha last), row 0 at the top.
+
+    Any image Pillow reads: PGM (binary ``P5`` and plain ``P2``, 8 or 16 bits), PNG (8 or 16
+    bits, palette images expanded), BMP, TIFF... Pillow scales a PGM's values to its full range,
+    so a pixel v of maximum value m reads as v / m, rounded to 1/255 (1/65535 for 16 bits).
+    """
+    from PIL import Image, UnidentifiedImageError
+
+    path = Path(path)
     if not path.is_file():
         raise CbrError(f"{path}: cannot read: no such file")
     data = _read(path)
     try:
-        # the format by the file's extension, as matplotlib deduces it from a file name
-        image = np.asarray(matplotlib.image.imread(io.BytesIO(data),
-                                                   format=path.suffix[1:].lower() or "png"))
-    except Exception as exc:  # the image libraries raise many unrelated types for a bad file
-        # their messages may quote the file's first bytes, so only the expectation is said
-        raise CbrError(f"{path}: cannot read the image; expected a PNG file") from exc
-    if np.issubdtype(image.dtype, np.integer):
-        image = image / np.iinfo(image.dtype).max
-    if image.ndim not in (2, 3) or image.size == 0:
+        with Image.open(io.BytesIO(data)) as image:
+            image.load()
+            if image.mode in ("P", "PA"):
+                image = image.convert("RGBA")
+            mode = image.mode
+            pixels = np.asarray(image)
+    except UnidentifiedImageError as exc:
+        raise CbrError(f"{path}: cannot read the image; expected a PGM (P2 or P5), PNG or "
+                       "another image format Pillow reads") from exc
+    except Exception as exc:  # Pillow raises many unrelated types for a damaged file
+        text = str(exc)
+        # only Pillow's own words are said: other messages may quote the file's bytes
+        said = next((meaning for words, meaning in _PILLOW_PROBLEMS if words in text),
+                    "the file is damaged")
+        raise CbrError(f"{path}: cannot read the image: {said}") from exc
+    if pixels.ndim not in (2, 3) or pixels.size == 0:
         raise CbrError(f"{path}: expected a greyscale or colour image, got an array of shape "
-                       f"{image.shape}")
-    return image.astype(np.float64)
+                       f"{pixels.shape}")
+    if pixels.dtype == bool:
+        return pixels.astype(np.float64)
+    if mode.startswith("I"):
+        # 16-bit greyscale, which Pillow holds in 32-bit integers
+        if pixels.min() < 0 or pixels.max() > 65535:
+            raise CbrError(f"{path}: expected pixel values from 0 to 65535")
+        return pixels / 65535.0
+    if mode == "F":
+        raise CbrError(f"{path}: expected an image of integer pixels, got floating point ones")
+    return pixels / 255.0
 
 
 def load_png(path: str | Path, *, threshold: float = 0.5, corner_cutting: bool = False) -> Grid:
@@ -178,7 +129,7 @@ def load_png(path: str | Path, *, threshold: float = 0.5, corner_cutting: bool =
     path = Path(path)
     if not 0 <= threshold <= 1:
         raise CbrError(f"{path}: the threshold must be within [0, 1], got {threshold!r}")
-    image = _image(path)
+    image = read_image(path)
     if image.ndim == 3:
         if image.shape[2] >= 3:
             image = image[:, :, :3] @ np.array([0.299, 0.587, 0.114])
@@ -238,27 +189,35 @@ def _field(path: Path, data: dict[str, Any], lines: dict[str, int], key: str, ex
     return value
 
 
+KEYS = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh", "mode")
+"""The keys of a ROS map description this loader reads."""
+IGNORED_KEYS = ("map_type",)
+"""Keys real map descriptions carry that say nothing the loader needs: Nav2's test maps write
+``map_type: occupancy``."""
+
+
 def load_ros(path: str | Path, *, unknown_risk: float = 1.0,
              corner_cutting: bool = False) -> Grid:
-    """The grid of a ROS map_server map: a YAML description and its image (PGM or PNG).
+    """The grid of a ROS map_server map: a YAML description and its image (PGM, PNG, ...).
 
-    See the module docstring for the rules; y = 0 is the image's top row.
+    See the module docstring for the rules; y = 0 is the image's top row, the grid's ``frame``
+    holds ``resolution`` and ``origin`` and its ``unknown`` mask the cells of the unknown band.
     """
     path = Path(path)
     if not 0 <= unknown_risk <= 1:
         raise CbrError(f"{path}: the risk of unknown cells must be within [0, 1], "
                        f"got {unknown_risk!r}")
     data, lines = _yaml_mapping(path)
-    known = {"image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh", "mode"}
-    extra = sorted(str(k) for k in data if k not in known)
+    extra = sorted(str(k) for k in data if k not in KEYS and k not in IGNORED_KEYS)
     if extra:
         raise CbrError(f"{path}, line {lines.get(extra[0], 1)}: expected only the keys "
-                       f"{', '.join(sorted(known))}, got another key")
+                       f"{', '.join(sorted(KEYS + IGNORED_KEYS))}, got another key")
     image = _field(path, data, lines, "image", "an image file name",
                    lambda v: isinstance(v, str) and v != "")
-    _field(path, data, lines, "resolution", "a positive number", lambda v: _number(v) and v > 0)
-    _field(path, data, lines, "origin", "a list of three numbers [x, y, yaw]",
-           lambda v: isinstance(v, list) and len(v) == 3 and all(map(_number, v)))
+    resolution = _field(path, data, lines, "resolution", "a positive number",
+                        lambda v: _number(v) and v > 0)
+    origin = _field(path, data, lines, "origin", "a list of three numbers [x, y, yaw]",
+                    lambda v: isinstance(v, list) and len(v) == 3 and all(map(_number, v)))
     negate = _field(path, data, lines, "negate", "0 or 1",
                     lambda v: isinstance(v, bool) or v in (0, 1))
     occupied = _field(path, data, lines, "occupied_thresh", "a number within [0, 1]",
@@ -273,20 +232,20 @@ def load_ros(path: str | Path, *, unknown_risk: float = 1.0,
         raise CbrError(f"{path}, line {lines.get('mode', 1)}: expected 'mode' to be trinary or "
                        f"scale, got {got}")
 
-    image_path = path.parent / image
-    if image_path.suffix.lower() == ".pgm":
-        values, maxval = load_pgm(image_path)
-        level = values / maxval
-    else:
-        level = _image(image_path)
-        if level.ndim == 3:
-            # map_server averages the colour channels and ignores alpha
-            level = level[:, :, :3].mean(axis=2) if level.shape[2] >= 3 else level[:, :, 0]
+    level = read_image(path.parent / image)
+    if level.ndim == 3:
+        # map_server averages the colour channels and ignores alpha
+        level = level[:, :, :3].mean(axis=2) if level.shape[2] >= 3 else level[:, :, 0]
     occupancy = level if negate else 1.0 - level
-    risk = np.where(occupancy > occupied, 1.0,
-                    np.where(occupancy < free, 0.0,
-                             occupancy if mode == "scale" else unknown_risk))
-    return _grid(path, risk, corner_cutting)
+    band = (occupancy <= occupied) & (occupancy >= free)
+    risk = np.where(occupancy > occupied, 1.0, 0.0)
+    if mode == "scale":
+        risk[band] = occupancy[band]
+        unknown = None
+    else:
+        risk[band] = unknown_risk
+        unknown = band if band.any() else None
+    return _grid(path, risk, corner_cutting, MapFrame(resolution, *origin), unknown)
 
 
 # --- NumPy and text ------------------------------------------------------------------------------
@@ -347,22 +306,28 @@ EXTENSIONS = (".map", ".yaml", ".yml", ".png", ".npy", ".grid")
 
 
 def load_grid(path: str | Path, *, corner_cutting: bool = False, unknown_risk: float = 1.0,
-              threshold: float = 0.5) -> Grid:
+              threshold: float = 0.5, frame: MapFrame | None = None) -> Grid:
     """The grid of a map file, read by the loader its extension names (see :data:`EXTENSIONS`).
 
-    ``unknown_risk`` applies to ROS maps and ``threshold`` to PNG images.
+    ``unknown_risk`` applies to ROS maps and ``threshold`` to PNG images. ``frame`` places a
+    map of cells only (every format but ROS maps, which carry their own) in a map frame.
     """
     path = Path(path)
     suffix = path.suffix.lower()
-    if suffix == ".map":
-        return load_map(path, corner_cutting=corner_cutting)
     if suffix in (".yaml", ".yml"):
+        if frame is not None:
+            raise CbrError(f"{path}: a ROS map has its own frame (resolution and origin); "
+                           "expected no frame to be given")
         return load_ros(path, unknown_risk=unknown_risk, corner_cutting=corner_cutting)
-    if suffix == ".png":
-        return load_png(path, threshold=threshold, corner_cutting=corner_cutting)
-    if suffix == ".npy":
-        return load_npy(path, corner_cutting=corner_cutting)
-    if suffix == ".grid":
-        return load_text(path, corner_cutting=corner_cutting)
-    raise CbrError(f"{path}: expected a map file ending in {', '.join(EXTENSIONS)}, "
-                   f"got {suffix or 'no extension'!r}")
+    if suffix == ".map":
+        grid = load_map(path, corner_cutting=corner_cutting)
+    elif suffix == ".png":
+        grid = load_png(path, threshold=threshold, corner_cutting=corner_cutting)
+    elif suffix == ".npy":
+        grid = load_npy(path, corner_cutting=corner_cutting)
+    elif suffix == ".grid":
+        grid = load_text(path, corner_cutting=corner_cutting)
+    else:
+        raise CbrError(f"{path}: expected a map file ending in {', '.join(EXTENSIONS)}, "
+                       f"got {suffix or 'no extension'!r}")
+    return grid if frame is None else attrs.evolve(grid, frame=frame)

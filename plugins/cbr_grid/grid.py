@@ -6,6 +6,10 @@ obstacle. A robot moves to any of its 8 neighbours per step. A diagonal step pas
 orthogonal cells beside it; by default both must be passable (the Moving AI rule, no corner
 cutting). With ``corner_cutting`` a diagonal step may pass one blocked orthogonal cell, but it
 never squeezes between two, since a robot cannot pass through the shared corner of two obstacles.
+
+A grid read from a ROS map knows where it lies in metres (``frame``, a
+:class:`~cbr_grid.frame.MapFrame`) and which of its cells the map left unknown (``unknown``);
+both are None for grids that are cells only, and a changed map (``attrs.evolve``) keeps them.
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from cbr_grid.costs import CostModel
+from cbr_grid.frame import MapFrame
 from cbr_grid.query import Cell, path_array
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
@@ -42,6 +47,23 @@ def _risk_array(value: ArrayLike) -> np.ndarray:
     return risk
 
 
+def _mask(value: ArrayLike | None) -> np.ndarray | None:
+    """A private, read-only boolean copy of ``value``, or None."""
+    if value is None:
+        return None
+    mask = np.array(value)
+    if mask.dtype != bool:
+        raise CbrError(f"the unknown cells must be a boolean mask, got an array of {mask.dtype}")
+    mask.setflags(write=False)
+    return mask
+
+
+def _same_shape(grid: Grid, _: attrs.Attribute, mask: np.ndarray | None) -> None:
+    if mask is not None and mask.shape != grid.risk.shape:
+        raise CbrError(f"the unknown cells' mask has shape {mask.shape}, the risk "
+                       f"{grid.risk.shape}")
+
+
 def _listing(items: list[str]) -> str:
     shown = ", ".join(items[:_LISTED])
     return shown if len(items) <= _LISTED else f"{shown} and {len(items) - _LISTED} more"
@@ -52,7 +74,9 @@ class Grid:
     """A rectangular grid world: per-cell risk (1 = obstacle) and the corner cutting rule.
 
     ``risk`` is copied and made read-only: a changed map is a new grid (``attrs.evolve``), so
-    the derived ``passable`` and ``factor`` arrays can be computed once.
+    the derived ``passable`` and ``factor`` arrays can be computed once. ``frame`` places the
+    grid in a metric map frame; ``unknown`` marks (True) the cells the map does not know,
+    whatever risk they were given.
     """
 
     risk: np.ndarray = attrs.field(converter=_risk_array)
@@ -60,6 +84,10 @@ class Grid:
                                        validator=attrs.validators.instance_of(bool))
     cost_model: CostModel = attrs.field(factory=CostModel,
                                         validator=attrs.validators.instance_of(CostModel))
+    frame: MapFrame | None = attrs.field(
+        default=None, validator=attrs.validators.optional(attrs.validators.instance_of(MapFrame)))
+    unknown: np.ndarray | None = attrs.field(default=None, converter=_mask,
+                                             validator=_same_shape)
     passable: np.ndarray = attrs.field(init=False)
     """Boolean mask (height, width): True where risk < 1."""
     factor: np.ndarray = attrs.field(init=False)
@@ -77,6 +105,55 @@ class Grid:
         values.setflags(write=False)
         return values
 
+    @classmethod
+    def from_array(cls, array: ArrayLike, *, frame: MapFrame | None = None,
+                   unknown_risk: float = 1.0, occupied_thresh: float = 0.65,
+                   free_thresh: float = 0.25, corner_cutting: bool = False,
+                   cost_model: CostModel | None = None) -> Grid:
+        """A grid of an in-memory map ``[y, x]``, row 0 at the top, read by its dtype:
+
+        - booleans: True is an obstacle (risk 1), False free (risk 0);
+        - floats: risk values in [0, 1]; NaN marks an unknown cell;
+        - integers: a ROS ``OccupancyGrid``'s data, -1 unknown and 0 to 100 the occupancy in
+          percent, read as map_server reads its image: above ``occupied_thresh`` an obstacle,
+          below ``free_thresh`` free, in between the occupancy as risk (``scale`` mode). An
+          ``OccupancyGrid`` lists its rows bottom first: flip it (``data[::-1]``) first.
+
+        Unknown cells get ``unknown_risk`` (1, the default, makes them obstacles; 0 free) and
+        are marked in ``unknown``.
+        """
+        values = np.asarray(array)
+        if not 0 <= unknown_risk <= 1:
+            raise CbrError(f"the risk of unknown cells must be within [0, 1], got "
+                           f"{unknown_risk!r}")
+        if not 0 <= free_thresh <= occupied_thresh <= 1:
+            raise CbrError(f"expected 0 <= free_thresh <= occupied_thresh <= 1, got "
+                           f"free_thresh={free_thresh!r}, occupied_thresh={occupied_thresh!r}")
+        if values.dtype == bool:
+            risk, unknown = values.astype(np.float64), None
+        elif np.issubdtype(values.dtype, np.integer):
+            bad = (values < -1) | (values > 100)
+            if bad.any():
+                y, x = (int(i) for i in np.argwhere(bad)[0])
+                raise CbrError(f"occupancy values must be -1 (unknown) or 0 to 100; "
+                               f"{int(bad.sum())} cell(s) are not, the first is ({x}, {y}) "
+                               f"with {int(values[y, x])}")
+            unknown = values == -1
+            occupancy = values / 100.0
+            risk = np.where(occupancy > occupied_thresh, 1.0,
+                            np.where(occupancy < free_thresh, 0.0, occupancy))
+            risk[unknown] = unknown_risk
+        elif np.issubdtype(values.dtype, np.floating):
+            unknown = np.isnan(values)
+            risk = np.where(unknown, unknown_risk, values)
+        else:
+            raise CbrError(f"expected a boolean, integer or float array, got {values.dtype}")
+        if unknown is not None and not unknown.any():
+            unknown = None
+        return cls(risk, corner_cutting=corner_cutting,
+                   cost_model=CostModel() if cost_model is None else cost_model, frame=frame,
+                   unknown=unknown)
+
     @property
     def width(self) -> int:
         """Number of columns (x runs over 0 .. width-1)."""
@@ -88,8 +165,25 @@ class Grid:
         return int(self.risk.shape[0])
 
     def __repr__(self) -> str:
-        return (f"Grid({self.width}x{self.height}, {int(self.passable.sum())} passable, "
-                f"corner_cutting={self.corner_cutting}, cost_model={self.cost_model!r})")
+        where = "" if self.frame is None else f", frame={self.frame!r}"
+        unknown = "" if self.unknown is None else f", {int(self.unknown.sum())} unknown"
+        return (f"Grid({self.width}x{self.height}, {int(self.passable.sum())} passable"
+                f"{unknown}, corner_cutting={self.corner_cutting}, "
+                f"cost_model={self.cost_model!r}{where})")
+
+    def _frame(self, what: str) -> MapFrame:
+        if self.frame is None:
+            raise CbrError(f"{what} needs a grid with a map frame; this grid has cells only")
+        return self.frame
+
+    def to_map(self, cells: ArrayLike) -> np.ndarray:
+        """The (n, 2) map-frame points, in metres, of the centres of ``cells`` (x, y)."""
+        return self._frame("converting cells to metres").to_map(cells, self.height)
+
+    def to_cells(self, points: ArrayLike) -> np.ndarray:
+        """The (n, 2) cells (x, y) holding the map-frame ``points`` (metres); they may lie off
+        the grid (see :meth:`inside`)."""
+        return self._frame("converting metres to cells").to_cells(points, self.height)
 
     def inside(self, cells: ArrayLike) -> np.ndarray:
         """Boolean array, one entry per (x, y) row of ``cells``: is the cell on the grid."""

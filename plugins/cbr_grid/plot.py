@@ -1,10 +1,18 @@
-"""Pictures of grids: the map in grey levels, and a path over it with its start and goal."""
+"""Pictures of grids: the map in grey levels, and a path over it with its start and goal.
+
+A grid with a map frame is drawn in metres (axes "x [m]" and "y [m]", the map frame's y up, a
+turned frame turned); a grid of cells only in cells, row 0 at the top as in a map file.
+"""
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+from matplotlib.patches import Patch
+from matplotlib.transforms import Affine2D
 from numpy.typing import ArrayLike
 
 from cbr_grid.directions import STEPS
@@ -13,11 +21,58 @@ from cbr_grid.query import Cell, path_array
 
 _INCHES_PER_CELL = 0.12
 _MIN_INCHES, _MAX_INCHES = 4.0, 12.0
+UNKNOWN_COLOUR = (0.55, 0.66, 0.82)
+"""The colour of unknown cells: a greyish blue, apart from the grey levels of risk."""
+
+Place = Callable[[np.ndarray], np.ndarray]
+"""Where (n, 2) cell coordinates (fractional allowed) are drawn on the axes."""
+
+
+def _image(grid: Grid) -> np.ndarray:
+    """The map's RGB picture ``[y, x, channel]``: free white, risk grey, obstacles black,
+    unknown cells in :data:`UNKNOWN_COLOUR`."""
+    rgb = np.repeat((1.0 - grid.risk)[:, :, None], 3, axis=2)
+    if grid.unknown is not None:
+        rgb[grid.unknown] = UNKNOWN_COLOUR
+    return rgb
+
+
+def _draw_map(axes: Axes, grid: Grid) -> Place:
+    """Draw the map into ``axes``, set its limits and labels, and say where cells go."""
+    picture = _image(grid)
+    frame = grid.frame
+    if frame is None:
+        axes.imshow(picture, interpolation="nearest", origin="upper")
+        axes.set_xlim(-0.5, grid.width - 0.5)
+        axes.set_ylim(grid.height - 0.5, -0.5)
+        axes.set_xlabel("x")
+        axes.set_ylabel("y")
+        axes.set_xticks(np.unique(np.linspace(0, grid.width - 1, 5).round()))
+        axes.set_yticks(np.unique(np.linspace(0, grid.height - 1, 5).round()))
+        return lambda cells: cells
+    width, height = grid.width * frame.resolution, grid.height * frame.resolution
+    if frame.yaw == 0:
+        axes.imshow(picture, interpolation="nearest", origin="upper",
+                    extent=(frame.x, frame.x + width, frame.y, frame.y + height))
+    else:
+        # drawn along the image's own axes, then turned about its lower-left corner
+        image = axes.imshow(picture, interpolation="nearest", origin="upper",
+                            extent=(0.0, width, 0.0, height))
+        image.set_transform(Affine2D().rotate(frame.yaw).translate(frame.x, frame.y)
+                            + axes.transData)
+    corners = frame.corners(grid.width, grid.height)
+    axes.set_xlim(corners[:, 0].min(), corners[:, 0].max())
+    axes.set_ylim(corners[:, 1].min(), corners[:, 1].max())
+    axes.set_aspect("equal")
+    axes.set_xlabel("x [m]")
+    axes.set_ylabel("y [m]")
+    return lambda cells: frame.to_map(cells, grid.height)
 
 
 def draw_grid(grid: Grid, path: ArrayLike | None = None, start: Cell | None = None,
               goal: Cell | None = None, **headings: ArrayLike | int | None) -> Figure:
-    """A figure of ``grid``: free cells white, risk as grey levels, obstacles black.
+    """A figure of ``grid``: free cells white, risk as grey levels, obstacles black, unknown
+    cells greyish blue; in metres when the grid has a map frame, else in cells.
 
     ``path`` (a sequence of (x, y) cells) is drawn as a line through the cell centres, ``start``
     as a green circle and ``goal`` as a red cross. Row 0 is at the top, as in a map file.
@@ -42,10 +97,9 @@ def draw_on(axes: Axes, grid: Grid, path: ArrayLike | None = None, start: Cell |
     drawn as arrows at the start and the goal; ``reversing``, one flag per step of the path,
     draws the steps driven in reverse dashed, in orange.
     """
-    axes.imshow(1.0 - grid.risk, cmap="gray", vmin=0.0, vmax=1.0, interpolation="nearest",
-                origin="upper")
+    place = _draw_map(axes, grid)
     if path is not None:
-        cells = path_array(path)
+        cells = place(path_array(path).astype(np.float64))
         axes.plot(cells[:, 0], cells[:, 1], color="tab:blue", linewidth=1.5, label=label)
         if reversing is not None and np.any(reversing):
             back = np.flatnonzero(np.asarray(reversing, dtype=bool))
@@ -57,20 +111,21 @@ def draw_on(axes: Axes, grid: Grid, path: ArrayLike | None = None, start: Cell |
         if cell is not None and direction is not None:
             dx, dy = STEPS[direction % 8]
             # longer than a step and above the path, so the arrow shows beside the marker
-            axes.annotate("", xy=(cell[0] + 1.8 * dx, cell[1] + 1.8 * dy), xytext=cell,
+            tail, tip = place(np.array([cell, (cell[0] + 1.8 * dx, cell[1] + 1.8 * dy)],
+                                       dtype=np.float64))
+            axes.annotate("", xy=tuple(tip), xytext=tuple(tail),
                           arrowprops={"arrowstyle": "-|>", "color": colour, "linewidth": 2.0,
                                       "mutation_scale": 14}, zorder=5)
-    if start is not None:
-        axes.plot(*start, marker="o", color="tab:green", markersize=7, linestyle="none",
-                  label="start")
-    if goal is not None:
-        axes.plot(*goal, marker="X", color="tab:red", markersize=8, linestyle="none",
-                  label="goal")
-    if legend and (path is not None or start is not None or goal is not None):
-        axes.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
-    axes.set_xlim(-0.5, grid.width - 0.5)
-    axes.set_ylim(grid.height - 0.5, -0.5)
-    axes.set_xlabel("x")
-    axes.set_ylabel("y")
-    axes.set_xticks(np.unique(np.linspace(0, grid.width - 1, 5).round()))
-    axes.set_yticks(np.unique(np.linspace(0, grid.height - 1, 5).round()))
+    for cell, marker, colour, size, name in ((start, "o", "tab:green", 7, "start"),
+                                             (goal, "X", "tab:red", 8, "goal")):
+        if cell is not None:
+            (x, y), = place(np.array([cell], dtype=np.float64))
+            axes.plot(x, y, marker=marker, color=colour, markersize=size, linestyle="none",
+                      label=name)
+    unknown = grid.unknown is not None and bool(grid.unknown.any())
+    if legend and (path is not None or start is not None or goal is not None or unknown):
+        handles, _ = axes.get_legend_handles_labels()
+        if unknown:
+            handles.append(Patch(facecolor=UNKNOWN_COLOUR, edgecolor="none", label="unknown"))
+        axes.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0),
+                    fontsize="small")

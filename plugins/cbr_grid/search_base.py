@@ -28,10 +28,10 @@ from __future__ import annotations
 import threading
 from collections.abc import Sequence
 
-import numba
 import numpy as np
 
 from cbr_grid.directions import STEPS
+from cbrcore.compiled import njit
 
 MOVE_DIRECTIONS = np.array([0, 4, 6, 2, 7, 1, 5, 3], dtype=np.int64)
 """The direction (:mod:`cbr_grid.directions`) of each move 0-7: orthogonal first, then diagonal."""
@@ -49,7 +49,7 @@ INITIAL_HEAP = 1024
 """The capacity a grid search's heap starts with; :func:`push_grown` doubles it when full."""
 
 
-@numba.njit(cache=True)
+@njit
 def push(keys: np.ndarray, items: np.ndarray, size: int, key: float, item: int) -> None:
     """Add (key, item) to the heap of ``size`` entries; the arrays have room for it."""
     # Move the hole up rather than swapping: one write per level instead of two.
@@ -65,7 +65,7 @@ def push(keys: np.ndarray, items: np.ndarray, size: int, key: float, item: int) 
     items[i] = item
 
 
-@numba.njit(cache=True)
+@njit
 def pop(keys: np.ndarray, items: np.ndarray, size: int) -> int:
     """Remove the entry with the smallest key from the heap of ``size`` entries; its item."""
     top = items[0]
@@ -88,7 +88,7 @@ def pop(keys: np.ndarray, items: np.ndarray, size: int) -> int:
     return top
 
 
-@numba.njit(cache=True)
+@njit
 def push_grown(keys: np.ndarray, items: np.ndarray, size: int, key: float, item: int
                ) -> tuple[np.ndarray, np.ndarray]:
     """Add (key, item) to the heap of ``size`` entries, doubling its arrays when they are full;
@@ -100,7 +100,7 @@ def push_grown(keys: np.ndarray, items: np.ndarray, size: int, key: float, item:
     return keys, items
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def move(passable: np.ndarray, corner_cutting: bool, cx: int, cy: int, d: int, x0: int, y0: int,
          x1: int, y1: int) -> bool:
     """Whether move ``d`` from (cx, cy) stays in the window [x0, x1] x [y0, y1] on passable

@@ -37,7 +37,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import attrs
-import numba
 import numpy as np
 
 from cbr_landmarks.graph import MAX_LANDMARKS, LandmarkGraph
@@ -52,6 +51,7 @@ from cbr_landmarks.similarity import (
     normaliser,
 )
 from cbr_world2d.fuzzy import TWO_PI
+from cbrcore.compiled import njit
 
 BIN = 0.5
 """Metres of distance peak per bin of stored pairs."""
@@ -75,7 +75,7 @@ class Found:
 # the prefilter
 
 
-@numba.njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: float,
           normalise: int, classes: np.ndarray, class_bins: np.ndarray, bin_start: np.ndarray,
           bin_box: np.ndarray, tri: np.ndarray, key: np.ndarray, key_row: np.ndarray,

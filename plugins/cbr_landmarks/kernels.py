@@ -8,10 +8,10 @@ This module is imported where graphs are first matched, not when the plugin load
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
 from cbr_world2d.fuzzy import TWO_PI
+from cbrcore.compiled import njit
 
 EPSILON = 1e-12
 """Slack of every pruning comparison: a bound summed in another order than the score it bounds
@@ -20,7 +20,7 @@ may differ from it in the last bits, and must not prune the optimum for that."""
 
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def coded_normaliser(na: int, nb: int, normalise: int) -> int:
     """:func:`cbr_landmarks.similarity.normaliser` with ``normalise`` an index into
     :data:`~cbr_landmarks.similarity.NORMALISE`."""
@@ -31,7 +31,7 @@ def coded_normaliser(na: int, nb: int, normalise: int) -> int:
     return max(na, nb) - 1
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def height(a1: float, a2: float, a3: float, b1: float, b2: float, b3: float) -> float:
     """:func:`cbr_world2d.fuzzy.overlap` of two triangles given by their corners, the same
     arithmetic written with selects instead of branches so that loops over many pairs run on
@@ -49,7 +49,7 @@ def height(a1: float, a2: float, a3: float, b1: float, b2: float, b3: float) -> 
     return 1.0 if a2 == b2 else h
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def pair_similarity(d1: float, d2: float, d3: float, a1: float, a2: float, a3: float,
                     e1: float, e2: float, e3: float, b1: float, b2: float, b3: float) -> float:
     """``sim`` of two pairs given by their distance triangles ``d, e`` and angle triangles
@@ -61,7 +61,7 @@ def pair_similarity(d1: float, d2: float, d3: float, a1: float, a2: float, a3: f
                   + height(a1, a2, a3, b1 + shift, b2 + shift, b3 + shift))
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _similarity(da: np.ndarray, aa: np.ndarray, p: int, db: np.ndarray, ab: np.ndarray,
                 q: int) -> float:
     """:func:`pair_similarity` of row ``p`` of ``da, aa`` and row ``q`` of ``db, ab``."""
@@ -69,7 +69,7 @@ def _similarity(da: np.ndarray, aa: np.ndarray, p: int, db: np.ndarray, ab: np.n
                            db[q, 0], db[q, 1], db[q, 2], ab[q, 0], ab[q, 1], ab[q, 2])
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _allowed_pair(i: int, j: int, adj_a: np.ndarray, adj_b: np.ndarray, base_b: int,
                   matched_a: np.ndarray, matched_b: np.ndarray, count: int,
                   constraint: int) -> bool:
@@ -87,7 +87,7 @@ def _allowed_pair(i: int, j: int, adj_a: np.ndarray, adj_b: np.ndarray, base_b: 
     return True
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _rest(depth: int, m: int, order: np.ndarray, cands: np.ndarray, ncand: np.ndarray,
           s: np.ndarray, used: int) -> float:
     """What the landmarks from ``depth`` on could still add: each one's best similarity to a
@@ -104,7 +104,7 @@ def _rest(depth: int, m: int, order: np.ndarray, cands: np.ndarray, ncand: np.nd
     return total
 
 
-@numba.njit(cache=True)
+@njit
 def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: np.ndarray,
                ab: np.ndarray, adj_b: np.ndarray, pair_b: int, base_b: int, nb: int,
                normalise: int, constraint: int, threshold: float, references: np.ndarray,
@@ -294,7 +294,7 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
     return best / n, best_ra, best_rb, nodes
 
 
-@numba.njit(cache=True)
+@njit
 def match_rows(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, rows: np.ndarray,
                references: np.ndarray, counts: np.ndarray, pair_starts: np.ndarray,
                key_start: np.ndarray, db: np.ndarray, ab: np.ndarray, adj_b: np.ndarray,

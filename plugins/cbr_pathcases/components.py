@@ -2,7 +2,9 @@
 
 Each phase hook runs once per query over the arrays of :mod:`cbr_pathcases.base`: retrieval
 compares the query with every stored end point at once, retention compares the new path with
-every stored path in one compiled call (:mod:`cbr_pathcases.hausdorff`).
+every stored path in one compiled call (:mod:`cbr_pathcases.hausdorff`). The reuser and the
+retainer warm up when the engine is built (``cbr_warm``): each runs its compiled code once on a
+small grid of its own, so that it is ready before the first query is timed.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from cbr_kinematics import robot_kinematics
 from cbr_pathcases.base import PATH, PathBase, base_of
 from cbr_pathcases.cost import Combine, Measure, measure
 from cbr_pathcases.selection import Rule, probabilities
+from cbrcore.casebase.memory import MemoryStore
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
@@ -30,6 +33,16 @@ from cbrcore.options import option
 
 _UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
 _POSITIVE = attrs.validators.gt(0.0)
+
+_WARM_PATH = np.array([[x, 1] for x in range(1, 7)] + [[6, y] for y in range(2, 7)])
+"""A path of the warm-up grid: along the top, then down the right side."""
+
+
+def _warm_grid(world: Grid) -> Grid:
+    """A small free grid with the world's corner rule and cost model: its arrays have the types
+    of the world's, so what is compiled on it serves the world."""
+    return Grid(np.zeros((8, 8)), corner_cutting=world.corner_cutting,
+                cost_model=world.cost_model)
 
 
 @attrs.frozen
@@ -147,15 +160,19 @@ class PathReuser:
         self.rng = ctx.spawn_rng()
         base_of(ctx)
 
-    def _search_options(self, name: str) -> dict[str, Any]:
-        seed = int(self.rng.integers(2**32))
+    def _search_options(self, name: str, seed: int | None = None) -> dict[str, Any]:
+        """A search's keyword arguments; ``seed`` None draws one from the component's
+        generator."""
+        if seed is None:
+            seed = int(self.rng.integers(2**32))
         if name == "genetic":
             return {"generations": self.options.generations, "seed": seed}
         if name == "randomized":
             return {"noise": self.options.noise, "seed": seed}
         return {}
 
-    def _connect(self, grid: Grid, a: np.ndarray, b: np.ndarray) -> np.ndarray | None:
+    def _connect(self, grid: Grid, a: np.ndarray, b: np.ndarray,
+                 seed: int | None = None) -> np.ndarray | None:
         """A path from cell ``a`` to cell ``b`` inside their box widened by the margin."""
         if (a == b).all():
             return a[None, :]
@@ -163,7 +180,7 @@ class PathReuser:
         window = (*(np.minimum(a, b) - m).tolist(), *(np.maximum(a, b) + m).tolist())
         found = self.connect_search(grid.factor, grid.passable, grid.corner_cutting,
                                     tuple(a.tolist()), [tuple(b.tolist())], window,
-                                    **self._search_options(self.options.connector))
+                                    **self._search_options(self.options.connector, seed))
         return None if found is None else found.path
 
     def _extend(self, grid: Grid, start: np.ndarray, goal: np.ndarray,
@@ -174,6 +191,17 @@ class PathReuser:
             return None
         # an extension that runs back along the case leaves a loop: cut it
         return without_loops(np.concatenate((head, path[1:], tail[1:])))
+
+    @hookimpl
+    def cbr_warm(self, ctx: Context) -> None:
+        """Connect, and improve with the genetic algorithm if configured, once on a small grid,
+        with a fixed seed so that the component's generator is not drawn from."""
+        grid = _warm_grid(ctx.world)
+        path = self._connect(grid, _WARM_PATH[0], _WARM_PATH[-1], seed=0)
+        if self.genetic is not None and path is not None:
+            self.genetic(grid.factor, grid.passable, grid.corner_cutting,
+                         tuple(_WARM_PATH[0].tolist()), [tuple(_WARM_PATH[-1].tolist())],
+                         seed_paths=[path], **self._search_options("genetic", 0))
 
     @hookimpl
     def cbr_reuse(self, problem: GridQuery, retrieval: Retrieval, ctx: Context
@@ -265,7 +293,21 @@ class PathRetainer:
         base.set_cost(case_id, new, n)
 
     @hookimpl
+    def cbr_warm(self, ctx: Context) -> None:
+        """Retain a path twice into a case base of its own on a small grid: the second time
+        compares it with a stored path, as every later retain does."""
+        scratch = Context(registry=ctx.registry, seed=ctx.seed, world=_warm_grid(ctx.world),
+                          casebase=MemoryStore())
+        for path in (_WARM_PATH, _WARM_PATH[:-1]):
+            with scratch.mirror.transaction():
+                self.retain(Solution(path.tolist()), Outcome(success=True), scratch)
+
+    @hookimpl
     def cbr_retain(self, solution: Solution, outcome: Outcome, ctx: Context) -> None:
+        self.retain(solution, outcome, ctx)
+
+    def retain(self, solution: Solution, outcome: Outcome, ctx: Context) -> None:
+        """Learn from the driven ``solution`` into the path base of ``ctx``."""
         from cbr_pathcases.hausdorff import hausdorff  # compiled: loaded with the first retain
 
         base = base_of(ctx)

@@ -27,9 +27,10 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 import numpy.typing as npt
+
+from cbrcore.compiled import njit
 
 SQRT2 = math.sqrt(2.0)
 
@@ -39,7 +40,7 @@ METRICS = {"euclidean": _EUCLIDEAN, "manhattan": _MANHATTAN, "octile": _OCTILE,
            "chebyshev": _CHEBYSHEV}
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _key(dx: int, dy: int, metric: int) -> float:
     """A key of the distance between cells ``|dx|, |dy|`` apart, increasing with the distance.
 
@@ -55,13 +56,13 @@ def _key(dx: int, dy: int, metric: int) -> float:
     return float(max(dx, dy))
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _value(key: float, metric: int) -> float:
     """The distance of a :func:`_key`."""
     return math.sqrt(key) if metric == _EUCLIDEAN else key
 
 
-@numba.njit(cache=True)
+@njit
 def _directed(a: np.ndarray, a0: int, a1: int, b: np.ndarray, b0: int, b1: int, metric: int,
               limit: float) -> float:
     """D(a[a0:a1], b[b0:b1]) by early break; inf as soon as it is known to exceed ``limit``."""
@@ -91,7 +92,7 @@ def _directed(a: np.ndarray, a0: int, a1: int, b: np.ndarray, b0: int, b1: int, 
     return _value(worst, metric)
 
 
-@numba.njit(cache=True)
+@njit
 def _box(cells: np.ndarray, s: int, e: int) -> tuple[int, int, int, int]:
     """The inclusive bounding box (x0, y0, x1, y1) of ``cells[s:e]``, which is not empty."""
     x0 = x1 = cells[s, 0]
@@ -103,7 +104,7 @@ def _box(cells: np.ndarray, s: int, e: int) -> tuple[int, int, int, int]:
     return x0, y0, x1, y1
 
 
-@numba.njit(cache=True)
+@njit
 def _all(path: np.ndarray, cells: np.ndarray, offsets: np.ndarray, metric: int, limit: float,
          forward: np.ndarray, backward: np.ndarray) -> None:
     """Fill ``forward[i] = D(path, P_i)`` and ``backward[i] = D(P_i, path)`` for each stored path.

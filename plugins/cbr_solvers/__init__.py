@@ -13,6 +13,9 @@ For a robot whose kinematic model (:mod:`cbr_kinematics.models`) limits its turn
 case graph paper (:mod:`cbr_solvers.kinematic_search`); :mod:`cbr_solvers.graph_search` runs the
 same search over a graph of directed edges and :mod:`cbr_solvers.manoeuvres` prices the turns
 and manoeuvres of both.
+
+Every solver warms up when the engine is built (``cbr_warm``): it plans once on a small grid
+with the world's rules, so that its compiled kernels are ready before the first query is timed.
 """
 
 from __future__ import annotations
@@ -49,6 +52,21 @@ KINEMATIC_MODULES = {"dijkstra": "cbr_solvers.kinematic_search",
 """The grid searches that plan for a kinematic model (section 5 of the case graph paper), and
 the module that holds each one's function taking ``kinematics``, ``heading`` and
 ``final_heading``."""
+
+
+def warm_grid(world: Grid, size: int = 8) -> Grid:
+    """A ``size`` x ``size`` grid with ``world``'s corner rule and cost model and a wall down
+    its middle, to compile a search's kernels on: the arrays a search receives have the types
+    of the world's (read-only, C-ordered float64 factors and boolean passability), so what is
+    compiled for it serves the world."""
+    risk = np.zeros((size, size))
+    risk[1:size - 1, size // 2] = 1.0  # a wall, so that the search expands and turns
+    return Grid(risk, corner_cutting=world.corner_cutting, cost_model=world.cost_model)
+
+
+def warm_query(grid: Grid) -> GridQuery:
+    """A query across the wall of a :func:`warm_grid`."""
+    return GridQuery((0, grid.height // 2), (grid.width - 1, grid.height // 2))
 
 
 def load_search(name: str, *, kinematic: bool = False) -> Callable[..., Any]:
@@ -99,6 +117,14 @@ class GridSolver:
             options.update(window=window)
         found = self.search(grid.factor, passable, grid.corner_cutting, start, goals, **options)
         return None if found is None else found.path
+
+    @hookimpl
+    def cbr_warm(self, ctx: Context) -> None:
+        """Plan once on a :func:`warm_grid` with the world's rules, in a context of its own so
+        that the run's generator is not drawn from."""
+        grid = warm_grid(ctx.world)
+        scratch = Context(registry=ctx.registry, seed=ctx.seed, world=grid)
+        self.cbr_solve(warm_query(grid), scratch)
 
     @hookimpl
     def cbr_solve(self, problem: GridQuery, ctx: Context) -> Solution | None:

@@ -26,12 +26,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-import numba
 import numpy as np
 
 from cbr_grid.costs import SQRT2
 from cbr_grid.search_base import DX, DY, INITIAL_HEAP, move, pop, push_grown
 from cbr_solvers.search import SearchResult, _min_factor, _run
+from cbrcore.compiled import njit
 
 # Integer step lengths of the distance map: orthogonal and diagonal.
 ORTHOGONAL_STEPS = 3
@@ -45,7 +45,7 @@ _ALL = np.zeros(0, dtype=np.int64)
 """No wanted cells: propagate over the whole window."""
 
 
-@numba.njit(cache=True)
+@njit
 def _propagate(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
                goals: np.ndarray, x0: int, y0: int, x1: int, y1: int, exact: bool,
                wanted: np.ndarray) -> np.ndarray:

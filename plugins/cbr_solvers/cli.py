@@ -1,7 +1,10 @@
-"""``cbr plan`` and ``cbr map show``: plan on a Moving AI map, draw a map and a planned path.
+"""``cbr plan`` and ``cbr map show``: plan on a map, draw a map and a planned path.
 
-``cbr plan`` answers one start and goal, or a sample of a ``.scen`` file's scenarios in one
-process, checking each length against the file's optimal one. The compiled searches and
+Both take every map :func:`cbr_grid.formats.load_grid` reads (Moving AI ``.map``, ROS
+map_server ``.yaml``, ``.png``, ``.npy``, ``.grid``) and can inflate its obstacles by a robot's
+radius (:mod:`cbr_grid.inflation`). ``cbr plan`` answers one start and goal, given as cells or,
+on a map with a metric frame, in metres; or a sample of a Moving AI ``.scen`` file's scenarios
+in one process, checking each length against the file's optimal one. The compiled searches and
 matplotlib are imported inside the commands, so that loading the plugin at every start of ``cbr``
 stays cheap.
 """
@@ -21,8 +24,10 @@ import numpy as np
 import typer
 
 from cbr_grid.costs import path_length, turns
+from cbr_grid.formats import EXTENSIONS, load_grid
 from cbr_grid.grid import Grid
-from cbr_grid.movingai import Scenario, load_map, load_scen
+from cbr_grid.inflation import Inflation, inflate
+from cbr_grid.movingai import Scenario, load_scen
 from cbr_grid.query import Cell
 from cbrcore.errors import CbrError
 
@@ -36,13 +41,51 @@ class SolverName(enum.StrEnum):
     genetic = "genetic"
 
 
-MapPath = Annotated[Path, typer.Argument(metavar="MAP", help="The Moving AI .map file.",
-                                          show_default=False)]
+class FrameName(enum.StrEnum):
+    cell = "cell"
+    map = "map"
+
+
+MapPath = Annotated[Path, typer.Argument(
+    metavar="MAP", help="The map file: Moving AI .map, ROS map_server .yaml, .png (dark cells "
+    "are obstacles), .npy (risk array) or .grid (text).", show_default=False)]
 PlotPath = Annotated[
     Path | None,
-    typer.Option("--plot", help="Draw the picture to this file (PNG, or another format "
-                 "matplotlib knows by the extension).", show_default=False),
+    typer.Option("--plot", metavar="FILE", help="Draw the picture to this file (PNG, or "
+                 "another format matplotlib knows by the extension).", show_default=False),
 ]
+UnknownRisk = Annotated[float, typer.Option(
+    "--unknown-risk", metavar="RISK", min=0.0, max=1.0,
+    help="ROS maps: the risk of unknown cells: 1 lethal (obstacles), 0 free, between a hazard.")]
+RobotRadius = Annotated[float | None, typer.Option(
+    "--robot-radius", metavar="R", min=0.0, help="Inflate the obstacles by the robot's "
+    "inscribed radius R, as Nav2's inflation layer does (metres on a map with a frame, else "
+    "cells).", show_default=False)]
+InflationRadius = Annotated[float | None, typer.Option(
+    "--inflation-radius", metavar="R", min=0.0, help="With --robot-radius: how far from "
+    "obstacles the decaying cost reaches (default: the robot radius).", show_default=False)]
+CostScaling = Annotated[float | None, typer.Option(
+    "--cost-scaling", metavar="F", min=0.0, help="With --robot-radius: how fast the cost "
+    "decays beyond the robot radius, per metre or cell (default 3.0).", show_default=False)]
+
+
+def _map(map_file: Path, unknown_risk: float, robot_radius: float | None,
+         inflation_radius: float | None, cost_scaling: float | None) -> tuple[Grid, Grid]:
+    """The map as read and as planned on (inflated when a robot radius is given)."""
+    if robot_radius is None:
+        if inflation_radius is not None or cost_scaling is not None:
+            raise typer.BadParameter("--inflation-radius and --cost-scaling inflate by a robot "
+                                     "radius: give --robot-radius too",
+                                     param_hint="'--robot-radius'")
+        inflation = None
+    else:
+        try:
+            inflation = Inflation(robot_radius, inflation_radius,
+                                  3.0 if cost_scaling is None else cost_scaling)
+        except ValueError as exc:
+            raise typer.BadParameter(str(exc), param_hint="'--inflation-radius'") from None
+    read = load_grid(map_file, unknown_risk=unknown_risk)
+    return read, read if inflation is None else inflate(read, inflation)
 
 
 def _cell(text: str, option: str) -> Cell:
@@ -69,11 +112,11 @@ def _heading(text: str | None, option: str) -> int | None:
 
 
 def _searcher(solver: SolverName, kinematics: str, heading: int | None,
-              final_heading: int | None) -> Search:
+              final_heading: int | None, grid: Grid) -> Search:
     """The search function of ``solver`` for the kinematic model named ``kinematics``, its
-    compiled kernel loaded before any timing."""
+    compiled kernels loaded, for ``grid``'s rules, before any timing."""
     from cbr_kinematics import kinematics_of
-    from cbr_solvers import KINEMATIC_MODULES, load_search
+    from cbr_solvers import KINEMATIC_MODULES, load_search, warm_grid, warm_query
     from cbrcore.context import Context
     from cbrcore.plugins import current
 
@@ -94,11 +137,13 @@ def _searcher(solver: SolverName, kinematics: str, heading: int | None,
         function = functools.partial(load_search(solver.value, kinematic=True),
                                      kinematics=model, heading=heading,
                                      final_heading=final_heading)
-    # The first call loads the kernel from the disk cache (or compiles it); a search on a
-    # one-cell grid keeps that out of the times reported. It must be a Grid: numba compiles
-    # apart for the read-only arrays a Grid holds.
-    tiny = Grid(np.zeros((1, 1)))
-    function(tiny.factor, tiny.passable, tiny.corner_cutting, (0, 0), [(0, 0)])
+    # The first call loads the kernels from the disk cache (or compiles them); a search around
+    # a wall, with the map's rules and the same options, runs every kernel the timed search
+    # will, so none of that reaches the times reported. 16 cells leave a constrained robot room
+    # to turn to any heading.
+    warm = warm_grid(grid, size=16)
+    query = warm_query(warm)
+    function(warm.factor, warm.passable, warm.corner_cutting, query.start, [query.goal])
     return function
 
 
@@ -115,7 +160,50 @@ def _plan(search: Search, solver: SolverName, grid: Grid, start: Cell,
               "path": result.path.tolist()}
     if hasattr(result, "headings"):
         record.update(headings=result.headings.tolist(), reversing=result.reversing.tolist())
+    if grid.frame is not None:
+        record.update(length_m=record["length"] * grid.frame.resolution,
+                      path_m=grid.to_map(result.path).tolist())
     return record
+
+
+def _point(text: str, option: str) -> tuple[float, float]:
+    """The map-frame point written ``X,Y`` (metres) in ``text``; a usage error otherwise."""
+    parts = text.split(",")
+    try:
+        x, y = (float(part.strip()) for part in parts)
+    except ValueError:
+        raise typer.BadParameter(f"expected a point X,Y of two numbers (metres), got {text!r}",
+                                 param_hint=f"'{option}'") from None
+    if not (np.isfinite(x) and np.isfinite(y)):
+        raise typer.BadParameter(f"expected a point X,Y of two finite numbers, got {text!r}",
+                                 param_hint=f"'{option}'")
+    return x, y
+
+
+def _endpoint(read: Grid, grid: Grid, written: Cell | tuple[float, float], option: str,
+              frame: FrameName, radius: float | None) -> Cell:
+    """The cell of a start or goal written as a cell or a map-frame point: on ``grid`` (the
+    map as planned on) and free, or an error naming ``option`` and the cell."""
+    what = option.removeprefix("--")
+    if frame is FrameName.map:
+        x, y = (int(v) for v in grid.to_cells(written)[0])
+        said = f"{option} ({written[0]:g}, {written[1]:g}) m falls in cell ({x}, {y}),"
+        if not grid.in_bounds((x, y)):
+            corners = grid.frame.corners(grid.width, grid.height)
+            (left, bottom), (right, top) = corners.min(0), corners.max(0)
+            raise CbrError(f"{said} outside the {grid.width}x{grid.height} grid, which covers "
+                           f"x {left:g} to {right:g} m and y {bottom:g} to {top:g} m")
+        if not read.passable[y, x]:
+            raise CbrError(f"{said} on an obstacle")
+    else:
+        x, y = written
+        said = f"{what} ({x}, {y})"
+        if not read.in_bounds((x, y)) or not read.passable[y, x]:
+            return read.check_cell((x, y), what)
+    if not grid.passable[y, x]:
+        unit = "m" if grid.frame is not None else "cells"
+        raise CbrError(f"{said} within the robot radius ({radius:g} {unit}) of an obstacle")
+    return x, y
 
 
 def _save_plot(grid: Grid, out: Path, path: list[list[int]] | None = None,
@@ -127,7 +215,7 @@ def _save_plot(grid: Grid, out: Path, path: list[list[int]] | None = None,
 
     figure = draw_grid(grid, path=path, start=start, goal=goal, **headings)
     try:
-        figure.savefig(out, dpi=150)
+        figure.savefig(out, dpi=150, bbox_inches="tight")
     except (OSError, ValueError) as exc:
         raise CbrError(f"{out}: cannot write the picture: {exc}") from exc
 
@@ -187,24 +275,27 @@ def _plan_scenarios(search: Search, solver: SolverName, grid: Grid, scen: Path,
 def plan(
     map_file: MapPath,
     start: Annotated[str | None, typer.Option(
-        "--start", metavar="X,Y", help="The start cell (column, row).", show_default=False)]
-    = None,
+        "--start", metavar="X,Y", help="The start: a cell (column, row), or with --frame map a "
+        "point in metres.", show_default=False)] = None,
     goal: Annotated[str | None, typer.Option(
-        "--goal", metavar="X,Y", help="The goal cell (column, row).", show_default=False)]
-    = None,
+        "--goal", metavar="X,Y", help="The goal: a cell (column, row), or with --frame map a "
+        "point in metres.", show_default=False)] = None,
+    frame: Annotated[FrameName, typer.Option(
+        "--frame", help="How --start and --goal are written: cells, or metres in the map frame "
+        "of a ROS map.")] = FrameName.cell,
     scen: Annotated[Path | None, typer.Option(
-        "--scen", help="Plan the scenarios of this Moving AI .scen file instead.",
-        show_default=False)] = None,
+        "--scen", metavar="FILE", help="Plan the scenarios of this Moving AI .scen file "
+        "instead (with a .map only).", show_default=False)] = None,
     limit: Annotated[int | None, typer.Option(
-        "--limit", min=1, help="With --scen: plan this many scenarios, spread evenly over the "
-        "buckets (default: all).", show_default=False)] = None,
+        "--limit", metavar="N", min=1, help="With --scen: plan this many scenarios, spread "
+        "evenly over the buckets (default: all).", show_default=False)] = None,
     solver: Annotated[SolverName, typer.Option("--solver", help="The search to plan with.")]
     = SolverName.astar,
     seed: Annotated[int | None, typer.Option(
-        "--seed", min=0, help="With --solver genetic: the random seed (default 0).",
+        "--seed", metavar="N", min=0, help="With --solver genetic: the random seed (default 0).",
         show_default=False)] = None,
     kinematics: Annotated[str, typer.Option(
-        "--kinematics", help="The robot's kinematic model: holonomic, forward, "
+        "--kinematics", metavar="NAME", help="The robot's kinematic model: holonomic, forward, "
         "forward_backward or another registered one.")] = "holonomic",
     heading: Annotated[str | None, typer.Option(
         "--heading", metavar="DIR", help="The direction the robot faces at the start: E, NE, "
@@ -212,10 +303,14 @@ def plan(
     final_heading: Annotated[str | None, typer.Option(
         "--final-heading", metavar="DIR", help="The direction in which the robot must be able "
         "to drive on from the goal (default: any).", show_default=False)] = None,
+    unknown_risk: UnknownRisk = 1.0,
+    robot_radius: RobotRadius = None,
+    inflation_radius: InflationRadius = None,
+    cost_scaling: CostScaling = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON objects.")] = False,
     plot: PlotPath = None,
 ) -> None:
-    """Plan a path on a Moving AI map: one start and goal, or the scenarios of a .scen file."""
+    """Plan a path on a map: one start and goal, or the scenarios of a Moving AI .scen file."""
     if scen is None:
         if start is None or goal is None:
             raise typer.BadParameter("give --start and --goal, or --scen",
@@ -229,21 +324,31 @@ def plan(
         if plot is not None:
             raise typer.BadParameter("--plot draws one path, not the scenarios of --scen",
                                      param_hint="'--plot'")
+        if map_file.suffix.lower() != ".map":
+            raise typer.BadParameter(f"Moving AI scenarios go with a Moving AI .map, not "
+                                     f"{map_file.name}", param_hint="'--scen'")
+        if frame is FrameName.map:
+            raise typer.BadParameter("scenarios give cells: --frame map does not apply",
+                                     param_hint="'--frame'")
     if seed is not None and solver is not SolverName.genetic:
         raise typer.BadParameter("--seed applies to --solver genetic only", param_hint="'--seed'")
-    start_cell = None if start is None else _cell(start, "--start")
-    goal_cell = None if goal is None else _cell(goal, "--goal")
+    parse = _cell if frame is FrameName.cell else _point
+    start_at = None if start is None else parse(start, "--start")
+    goal_at = None if goal is None else parse(goal, "--goal")
     start_heading = _heading(heading, "--heading")
     goal_heading = _heading(final_heading, "--final-heading")
-    grid = load_map(map_file)
-    search = _searcher(solver, kinematics, start_heading, goal_heading)
+    read, grid = _map(map_file, unknown_risk, robot_radius, inflation_radius, cost_scaling)
+    if frame is FrameName.map and grid.frame is None:
+        raise typer.BadParameter(f"{map_file} has no metric frame (ROS .yaml maps have one): "
+                                 "give --start and --goal as cells", param_hint="'--frame'")
+    search = _searcher(solver, kinematics, start_heading, goal_heading, grid)
     if seed is not None:
         search = functools.partial(search, seed=seed)
     if scen is not None:
         _plan_scenarios(search, solver, grid, scen, limit, as_json)
         return
-    start_cell = grid.check_cell(start_cell, "start")
-    goal_cell = grid.check_cell(goal_cell, "goal")
+    start_cell = _endpoint(read, grid, start_at, "--start", frame, robot_radius)
+    goal_cell = _endpoint(read, grid, goal_at, "--goal", frame, robot_radius)
     record = _plan(search, solver, grid, start_cell, goal_cell)
     if record is None:
         typer.echo(f"no path from {start_cell} to {goal_cell} on {map_file}", err=True)
@@ -254,27 +359,42 @@ def plan(
     if as_json:
         typer.echo(json.dumps(record))
         return
-    for key in ("length", "cost", "turns", "time_ms", "expanded"):
-        value = record[key]
-        typer.echo(f"{key:<9} {value:.6g}" if isinstance(value, float) else f"{key:<9} {value}")
+    for key in ("length", "cost", "turns", "time_ms", "expanded", "length_m"):
+        value = record.get(key)
+        if value is not None:
+            typer.echo(f"{key:<9} {value:.6g}" if isinstance(value, float)
+                       else f"{key:<9} {value}")
     if "headings" in record:
         from cbr_grid.directions import NAMES
 
         typer.echo(f"{'headings':<9} {' '.join(NAMES[h] for h in record['headings'])}")
         typer.echo(f"{'reversing':<9} {sum(record['reversing'])} of {len(record['reversing'])} "
                    "steps")
+    if "path_m" in record:
+        typer.echo(f"{'path_m':<9} " + " ".join(f"{x:.3f},{y:.3f}" for x, y in record["path_m"]))
     if plot is not None:
         typer.echo(f"wrote {plot}")
 
 
 def show(
     map_file: MapPath,
+    unknown_risk: UnknownRisk = 1.0,
+    robot_radius: RobotRadius = None,
+    inflation_radius: InflationRadius = None,
+    cost_scaling: CostScaling = None,
     plot: PlotPath = None,
 ) -> None:
-    """Print a Moving AI map's size and passable cells; draw it with --plot."""
-    grid = load_map(map_file)
+    """Print a map's size, passable and unknown cells and metric frame; draw it with --plot."""
+    _, grid = _map(map_file, unknown_risk, robot_radius, inflation_radius, cost_scaling)
+    unknown = 0 if grid.unknown is None else int(grid.unknown.sum())
     typer.echo(f"{map_file}: {grid.width}x{grid.height}, {int(grid.passable.sum())} passable "
-               "cells")
+               f"cells, {unknown} unknown")
+    if grid.frame is not None:
+        corners = grid.frame.corners(grid.width, grid.height)
+        (left, bottom), (right, top) = corners.min(0), corners.max(0)
+        x, y, yaw = grid.frame.origin
+        typer.echo(f"frame: {grid.frame.resolution:g} m per cell, origin ({x:g}, {y:g}, "
+                   f"yaw {yaw:g}), x {left:g} to {right:g} m, y {bottom:g} to {top:g} m")
     if plot is not None:
         _save_plot(grid, plot)
         typer.echo(f"wrote {plot}")
@@ -283,6 +403,7 @@ def show(
 def add_commands(app: typer.Typer) -> None:
     """Add ``cbr plan`` and the ``cbr map`` group to ``app``."""
     app.command()(plan)
-    maps = typer.Typer(name="map", help="Look at Moving AI maps.", no_args_is_help=True)
+    maps = typer.Typer(name="map", help=f"Look at maps ({', '.join(EXTENSIONS)}).",
+                       no_args_is_help=True)
     maps.command()(show)
     app.add_typer(maps)

@@ -48,7 +48,6 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 
-import numba
 import numpy as np
 
 from cbr_grid.costs import SQRT2
@@ -62,6 +61,7 @@ from cbr_grid.search_base import (
     move,
 )
 from cbr_solvers.search import SearchResult, _heuristic
+from cbrcore.compiled import njit
 
 DEFAULT_GENERATIONS = 50_000
 DEFAULT_POPULATION = 50
@@ -72,7 +72,7 @@ DISTANCES = ("euclidean", "octile")
 _REVERSE = MOVE_OF_DIRECTION[(MOVE_DIRECTIONS + 4) % 8]
 
 
-@numba.njit(cache=True)
+@njit
 def _goal_distance(x: int, y: int, goals: np.ndarray, euclidean: bool) -> float:
     """The distance from (x, y) to the nearest goal; 0 exactly on a goal."""
     if not euclidean:
@@ -85,7 +85,7 @@ def _goal_distance(x: int, y: int, goals: np.ndarray, euclidean: bool) -> float:
     return best
 
 
-@numba.njit(cache=True)
+@njit
 def _decode(genes: np.ndarray, factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
             sx: int, sy: int, goals: np.ndarray, x0: int, y0: int, x1: int, y1: int,
             euclidean: bool, cells: np.ndarray) -> tuple[int, float, float, int]:
@@ -121,7 +121,7 @@ def _decode(genes: np.ndarray, factor: np.ndarray, passable: np.ndarray, corner_
     return n, distance, cost, decoded
 
 
-@numba.njit(cache=True)
+@njit
 def _walk(genes: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: int, sy: int,
           goals: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> None:
     """Fill ``genes`` with a random walk from (sx, sy) that draws only feasible moves."""
@@ -146,13 +146,13 @@ def _walk(genes: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: int
         last = d
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _better(d1: float, c1: float, d2: float, c2: float) -> bool:
     """Whether fitness (d1, c1) beats (d2, c2): nearer the goal, or as near and cheaper."""
     return d1 < d2 or (d1 == d2 and c1 < c2)
 
 
-@numba.njit(cache=True)
+@njit
 def _tournament(distance: np.ndarray, cost: np.ndarray) -> int:
     """The fitter of two chromosomes drawn at random (binary tournament)."""
     a = np.random.randint(0, distance.shape[0])
@@ -160,7 +160,7 @@ def _tournament(distance: np.ndarray, cost: np.ndarray) -> int:
     return b if _better(distance[b], cost[b], distance[a], cost[a]) else a
 
 
-@numba.njit(cache=True)
+@njit
 def _evolve(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: int, sy: int,
             goals: np.ndarray, x0: int, y0: int, x1: int, y1: int, euclidean: bool,
             seeds: np.ndarray, size: int, generations: int, mutation: float, bound: float,

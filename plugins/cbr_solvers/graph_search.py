@@ -11,7 +11,6 @@ heading), an arrival direction of -1 none on the turn out of it. The search itse
 from __future__ import annotations
 
 import attrs
-import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -20,6 +19,7 @@ from cbr_grid.directions import between, check_heading
 from cbr_grid.search_base import pop, push_grown
 from cbr_kinematics.models import Kinematics
 from cbr_solvers.manoeuvres import CODES, leave_costs
+from cbrcore.compiled import njit
 
 
 def _int_array(values: ArrayLike) -> np.ndarray:
@@ -119,7 +119,7 @@ class GraphPath:
     expanded: int
 
 
-@numba.njit(cache=True)
+@njit
 def _search(indptr: np.ndarray, order: np.ndarray, heads: np.ndarray, weights: np.ndarray,
             departures: np.ndarray, arrivals: np.ndarray, parts: np.ndarray, xy: np.ndarray,
             source: int, heading: int, goal: int, final: int, turns: np.ndarray,

@@ -22,7 +22,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import attrs
-import numba
 import numpy as np
 
 from cbr_grid.costs import SQRT2
@@ -42,6 +41,7 @@ from cbr_kinematics.models import Kinematics
 from cbr_solvers.aistar import heuristic_table
 from cbr_solvers.manoeuvres import CODES, leave_costs, manoeuvre_cells
 from cbr_solvers.search import HeuristicTable, guidance, window_min_factor
+from cbrcore.compiled import njit
 
 
 @attrs.frozen
@@ -76,7 +76,7 @@ class KinematicPath:
         return facing(self.directions)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _step_cost(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, cx: int, cy: int,
                b: int, x0: int, y0: int, x1: int, y1: int) -> float:
     """F of the step from (cx, cy) in direction b; inf when the move is not allowed."""
@@ -89,7 +89,7 @@ def _step_cost(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, c
     return (SQRT2 if b % 2 == 1 else 1.0) * (fa + fb) * 0.5
 
 
-@numba.njit(cache=True)
+@njit
 def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: int, sy: int,
             heading: int, gx: int, gy: int, final: int, x0: int, y0: int, x1: int, y1: int,
             informed: bool, scale: float, table: np.ndarray, turns: np.ndarray,
@@ -209,7 +209,7 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
     return best, expanded, arrivals
 
 
-@numba.njit(cache=True)
+@njit
 def _read_path(parent: np.ndarray, best: int, sx: int, sy: int, x0: int, y0: int, ww: int,
                source: int, terminal: int) -> np.ndarray:
     """The cells driven from (sx, sy) to state ``best``, read back through the packed parents

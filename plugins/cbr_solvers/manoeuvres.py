@@ -8,16 +8,16 @@ manoeuvre made before its successor pack into one integer.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
 from cbr_grid.directions import STEPS
+from cbrcore.compiled import njit
 
 CODES = 73
 """The number of manoeuvre codes: none, 8 single and 64 double ones."""
 
 
-@numba.njit(cache=True)
+@njit
 def leave_costs(arrival: int, out_cost: np.ndarray, turns: np.ndarray, manoeuvres: int,
                 extra: np.ndarray, code: np.ndarray) -> None:
     """Fill ``extra[b]`` with the least cost added to leave the vertex in direction b after
@@ -68,7 +68,7 @@ def leave_costs(arrival: int, out_cost: np.ndarray, turns: np.ndarray, manoeuvre
                     code[b] = 9 + 8 * one_l[x] + p
 
 
-@numba.njit(cache=True)
+@njit
 def decode(code: int) -> tuple[int, int]:
     """The directions (l, p) of the intermediate edges of manoeuvre ``code``; -1 for none."""
     if code == 0:
@@ -78,7 +78,7 @@ def decode(code: int) -> tuple[int, int]:
     return (code - 9) // 8, (code - 9) % 8
 
 
-@numba.njit(cache=True)
+@njit
 def manoeuvre_cells(x: int, y: int, code: int, out: np.ndarray, at: int) -> int:
     """Write the cells driven by manoeuvre ``code`` at cell (x, y) into ``out`` from row
     ``at`` (out to the neighbour and back, once or twice); the next free row."""

@@ -25,7 +25,6 @@ import weakref
 from collections.abc import Callable, Sequence
 
 import attrs
-import numba
 import numpy as np
 
 from cbr_grid.costs import SQRT2
@@ -39,6 +38,7 @@ from cbr_grid.search_base import (
     pop,
     push_grown,
 )
+from cbrcore.compiled import njit
 
 
 @attrs.frozen
@@ -54,7 +54,7 @@ class SearchResult:
     expanded: int
 
 
-@numba.njit(cache=True)
+@njit
 def _heuristic(x: int, y: int, goals: np.ndarray, scale: float) -> float:
     best = np.inf
     for k in range(goals.shape[0]):
@@ -65,7 +65,7 @@ def _heuristic(x: int, y: int, goals: np.ndarray, scale: float) -> float:
     return best * scale
 
 
-@numba.njit(cache=True)
+@njit
 def window_min_factor(factor: np.ndarray, passable: np.ndarray, x0: int, y0: int, x1: int,
                       y1: int) -> float:
     """The least factor of a passable cell in the window (inf if none); ValueError for one that
@@ -82,7 +82,7 @@ def window_min_factor(factor: np.ndarray, passable: np.ndarray, x0: int, y0: int
     return least
 
 
-@numba.njit(cache=True)
+@njit
 def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: int, sy: int,
             goals: np.ndarray, x0: int, y0: int, x1: int, y1: int, informed: bool, scale: float,
             table: np.ndarray, stamp: np.ndarray, dist: np.ndarray, parent: np.ndarray,

@@ -49,17 +49,19 @@ WorldArgument = Annotated[str, typer.Argument(
     help="A world file (YAML), or generated:KIND:SEED with KIND semi_structured, scenario or "
     "office.")]
 PlotOption = Annotated[Path | None, typer.Option(
-    "--plot", show_default=False,
+    "--plot", metavar="FILE", show_default=False,
     help="Draw the picture to this file (PNG, or another format matplotlib knows by the "
     "extension).")]
 PilotOption = Annotated[str, typer.Option(
-    "--pilot", help="The pilot: a component of kind 'pilot' (potential_field, behaviors, or "
-    "another registered one).")]
+    "--pilot", metavar="PILOT", help="The pilot: a component of kind 'pilot' (potential_field, "
+    "behaviors, or another registered one).")]
 TimeoutOption = Annotated[float, typer.Option(
-    "--timeout", help="Seconds after which a trial has failed.")]
-DtOption = Annotated[float, typer.Option("--dt", help="The simulation step in seconds.")]
+    "--timeout", metavar="SECONDS", help="Seconds after which a trial has failed.")]
+DtOption = Annotated[float, typer.Option("--dt", metavar="SECONDS",
+                                         help="The simulation step in seconds.")]
 ToleranceOption = Annotated[float, typer.Option(
-    "--tolerance", help="How close, in metres, the robot's centre must come to the target.")]
+    "--tolerance", metavar="METRES",
+    help="How close, in metres, the robot's centre must come to the target.")]
 RobotOption = Annotated[RobotName, typer.Option(
     "--robot", help="The robot: a Pioneer 2 DX (004) or the 5 cm/s robot of 002.")]
 RescueOption = Annotated[Rescue, typer.Option(
@@ -124,7 +126,8 @@ def _where(x: float, y: float) -> str:
 
 def show(world_name: WorldArgument, plot: PlotOption = None,
          at: Annotated[float, typer.Option(
-             "--at", help="Draw doors and people as they are at this time (seconds).")] = 0.0,
+             "--at", metavar="SECONDS",
+             help="Draw doors and people as they are at this time (seconds).")] = 0.0,
          ) -> None:
     """Print a 2D world's bounds and what it holds; draw it with --plot."""
     _writable(plot, "--plot")
@@ -178,23 +181,27 @@ def run(
         "--target", metavar="X,Y|PLACE", show_default=False,
         help="The target: X,Y in metres or a place of the world.")],
     heading: Annotated[float | None, typer.Option(
-        "--heading", show_default=False,
+        "--heading", metavar="DEGREES", show_default=False,
         help="The start heading in degrees counter-clockwise from +x (default: facing the "
         "target).")] = None,
     pilot: PilotOption = "potential_field",
     timeout: TimeoutOption = 300.0,
     dt: DtOption = 0.1,
     tolerance: ToleranceOption = 0.3,
-    seed: Annotated[int, typer.Option("--seed", min=0, help="The seed of the sensor noise.")]
+    seed: Annotated[int, typer.Option("--seed", min=0, metavar="SEED",
+                                      help="The seed of the sensor noise.")]
     = 0,
     robot: RobotOption = RobotName.pioneer2dx,
     rescue: RescueOption = Rescue.blocked,
     plot: PlotOption = None,
     gif: Annotated[Path | None, typer.Option(
-        "--gif", show_default=False, help="Animate the trial into this GIF file.")] = None,
-    fps: Annotated[int, typer.Option("--fps", min=1, help="Frames a second of the GIF.")] = 10,
+        "--gif", metavar="FILE", show_default=False,
+        help="Animate the trial into this GIF file.")] = None,
+    fps: Annotated[int, typer.Option("--fps", min=1, metavar="N",
+                                     help="Frames a second of the GIF.")] = 10,
     frames: Annotated[int, typer.Option(
-        "--frames", min=1, help="The most frames of the GIF, spread evenly over the trial.")]
+        "--frames", min=1, metavar="N",
+        help="The most frames of the GIF, spread evenly over the trial.")]
     = 150,
     as_json: JsonOption = False,
 ) -> None:
@@ -250,12 +257,13 @@ def run(
 def batch(
     world_name: WorldArgument,
     trials: Annotated[int, typer.Option(
-        "--trials", min=1, help="How many trials, between random free points.")] = 10,
+        "--trials", min=1, metavar="N", help="How many trials, between random free points.")] = 10,
     seed: Annotated[int, typer.Option(
-        "--seed", min=0, help="The seed of the random points and of every trial's noise.")]
+        "--seed", min=0, metavar="SEED",
+        help="The seed of the random points and of every trial's noise.")]
     = 0,
     workers: Annotated[int, typer.Option(
-        "--workers", min=1, help="Processes running trials at once.")] = 2,
+        "--workers", min=1, metavar="N", help="Processes running trials at once.")] = 2,
     pilot: PilotOption = "potential_field",
     timeout: TimeoutOption = 300.0,
     dt: DtOption = 0.1,

@@ -16,8 +16,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
+
+from cbrcore.compiled import njit
 
 GAP = 1e-6
 """Metres kept between a disc stopped by :func:`sweep` and what stopped it."""
@@ -25,7 +26,7 @@ GAP = 1e-6
 _INF = np.inf
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _segment_distance2(px: float, py: float, ax: float, ay: float, bx: float,
                        by: float) -> tuple[float, float, float]:
     """Squared distance from ``p`` to segment ``ab`` and the closest point of the segment."""
@@ -41,7 +42,7 @@ def _segment_distance2(px: float, py: float, ax: float, ay: float, bx: float,
     return (px - qx) * (px - qx) + (py - qy) * (py - qy), qx, qy
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _ray_segment(ox: float, oy: float, dx: float, dy: float, ax: float, ay: float, bx: float,
                  by: float) -> float:
     """Distance along the unit ray ``o + t d`` to segment ``ab`` (inf when missed)."""
@@ -67,7 +68,7 @@ def _ray_segment(ox: float, oy: float, dx: float, dy: float, ax: float, ay: floa
     return max(min(ta, tb), 0.0)
 
 
-@numba.njit(cache=True)
+@njit
 def _near(x: float, y: float, reach: float, segments: np.ndarray,
           discs: np.ndarray) -> tuple[np.ndarray, int, np.ndarray, int]:
     """Indices of the segments and discs within ``reach`` of ``(x, y)``: the only ones a ray
@@ -95,7 +96,7 @@ def _near(x: float, y: float, reach: float, segments: np.ndarray,
     return near_s, ns, near_d, nd
 
 
-@numba.njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")
 def _cast(x: float, y: float, angles: np.ndarray, max_range: float, segments: np.ndarray,
           discs: np.ndarray, out: np.ndarray) -> None:
     # Obstacles outer, rays inner, and the inner loops free of branches and of Python's
@@ -154,7 +155,7 @@ def _cast(x: float, y: float, angles: np.ndarray, max_range: float, segments: np
             out[k] = t if (b < 0.0) & (disc >= 0.0) & (t < best) else best
 
 
-@numba.njit(cache=True)
+@njit
 def cast_rays(x: float, y: float, angles: np.ndarray, max_range: float, segments: np.ndarray,
               discs: np.ndarray) -> np.ndarray:
     """Distance from ``(x, y)`` to the first segment or disc along each ray of absolute angle
@@ -165,7 +166,7 @@ def cast_rays(x: float, y: float, angles: np.ndarray, max_range: float, segments
     return out
 
 
-@numba.njit(cache=True)
+@njit
 def ring_ranges_into(x: float, y: float, theta: float, directions: np.ndarray,
                      offsets: np.ndarray, max_range: float, radius: float, segments: np.ndarray,
                      discs: np.ndarray, out: np.ndarray) -> None:
@@ -194,7 +195,7 @@ def ring_ranges_into(x: float, y: float, theta: float, directions: np.ndarray,
         out[b] = min(max(out[b] - radius, 0.0), max_range)
 
 
-@numba.njit(cache=True)
+@njit
 def _cone_nearest(x: float, y: float, theta: float, directions: np.ndarray, half: float,
                   limit: float, segments: np.ndarray, discs: np.ndarray,
                   out: np.ndarray) -> None:
@@ -257,7 +258,7 @@ def _cone_nearest(x: float, y: float, theta: float, directions: np.ndarray, half
         out[b] = best
 
 
-@numba.njit(cache=True)
+@njit
 def ring_ranges(x: float, y: float, theta: float, directions: np.ndarray, offsets: np.ndarray,
                 max_range: float, radius: float, segments: np.ndarray,
                 discs: np.ndarray) -> np.ndarray:
@@ -277,7 +278,7 @@ def ring_ranges(x: float, y: float, theta: float, directions: np.ndarray, offset
     return out
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _circle_entry(px: float, py: float, dx: float, dy: float, cx: float, cy: float,
                   r: float) -> float:
     """First t >= 0 at which ``p + t d`` (``p`` outside the circle) reaches the circle."""
@@ -294,7 +295,7 @@ def _circle_entry(px: float, py: float, dx: float, dy: float, cx: float, cy: flo
     return (-b - math.sqrt(disc)) / a
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _leaving(nx: float, ny: float, dx: float, dy: float, t0x: float, t0y: float, t1x: float,
              t1y: float) -> bool:
     """Whether a move along ``d`` that starts heading ``t0`` and ends heading ``t1`` never
@@ -302,7 +303,7 @@ def _leaving(nx: float, ny: float, dx: float, dy: float, t0x: float, t0y: float,
     return nx * dx + ny * dy >= 0.0 and nx * t0x + ny * t0y >= 0.0 and nx * t1x + ny * t1y >= 0.0
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _capsule_entry(px: float, py: float, dx: float, dy: float, t0x: float, t0y: float,
                    t1x: float, t1y: float, ax: float, ay: float, bx: float, by: float, r: float,
                    reach2: float) -> float:
@@ -345,7 +346,7 @@ def _capsule_entry(px: float, py: float, dx: float, dy: float, t0x: float, t0y: 
     return min(best, _circle_entry(px, py, dx, dy, bx, by, r))
 
 
-@numba.njit(cache=True)
+@njit
 def _sweep(x0: float, y0: float, x1: float, y1: float, radius: float, t0x: float, t0y: float,
            t1x: float, t1y: float, segments: np.ndarray, discs: np.ndarray) -> float:
     """:func:`sweep` for a move whose path starts heading ``t0`` and ends heading ``t1``.
@@ -388,7 +389,7 @@ def _sweep(x0: float, y0: float, x1: float, y1: float, radius: float, t0x: float
     return max(best, 0.0)
 
 
-@numba.njit(cache=True)
+@njit
 def sweep(x0: float, y0: float, x1: float, y1: float, radius: float, segments: np.ndarray,
           discs: np.ndarray) -> float:
     """The largest fraction ``u`` in [0, 1] of the straight move ``p0 -> p1`` that a disc of
@@ -403,7 +404,7 @@ def sweep(x0: float, y0: float, x1: float, y1: float, radius: float, segments: n
     return _sweep(x0, y0, x1, y1, radius, dx, dy, dx, dy, segments, discs)
 
 
-@numba.njit(cache=True)
+@njit
 def advance(x: float, y: float, theta: float, v: float, w: float, dt: float, radius: float,
             segments: np.ndarray, discs: np.ndarray) -> tuple[float, float, float, bool]:
     """Drive a disc of ``radius`` along the exact unicycle arc of speed ``v`` and turn rate
@@ -452,13 +453,13 @@ def advance(x: float, y: float, theta: float, v: float, w: float, dt: float, rad
     return cx, cy, wrap(theta + phi), blocked
 
 
-@numba.njit(cache=True)
+@njit
 def wrap(angle: float) -> float:
     """``angle`` wrapped into (-pi, pi]."""
     return angle - 2.0 * math.pi * math.ceil((angle - math.pi) / (2.0 * math.pi))
 
 
-@numba.njit(cache=True)
+@njit
 def nearest_point(x: float, y: float, segments: np.ndarray,
                   discs: np.ndarray) -> tuple[float, float, float]:
     """``(distance, qx, qy)``: the obstacle surface point nearest to ``(x, y)`` and the signed
@@ -490,7 +491,7 @@ def nearest_point(x: float, y: float, segments: np.ndarray,
     return best, bx, by
 
 
-@numba.njit(cache=True)
+@njit
 def clearance(x: float, y: float, segments: np.ndarray, discs: np.ndarray) -> float:
     """Distance from ``(x, y)`` to the nearest obstacle surface (negative inside a disc, inf in
     an empty world)."""
@@ -506,7 +507,7 @@ def clearance(x: float, y: float, segments: np.ndarray, discs: np.ndarray) -> fl
     return best
 
 
-@numba.njit(cache=True, inline="always")
+@njit(inline="always")
 def _blocks(x0: float, y0: float, dx: float, dy: float, ax: float, ay: float, bx: float,
             by: float) -> bool:
     """Whether segment ``ab`` meets the closed segment ``p0 -> p0 + d``."""
@@ -529,7 +530,7 @@ def _blocks(x0: float, y0: float, dx: float, dy: float, ax: float, ay: float, bx
     return max(ta, tb) >= 0.0 and min(ta, tb) <= 1.0
 
 
-@numba.njit(cache=True)
+@njit
 def visible(x0: float, y0: float, x1: float, y1: float, segments: np.ndarray) -> bool:
     """Line of sight: no segment meets the straight line from ``p0`` to ``p1`` (touching
     counts as blocking)."""
@@ -542,7 +543,7 @@ def visible(x0: float, y0: float, x1: float, y1: float, segments: np.ndarray) ->
     return True
 
 
-@numba.njit(cache=True)
+@njit
 def landmarks_seen(x: float, y: float, theta: float, landmarks: np.ndarray, fov: float,
                    max_range: float, segments: np.ndarray, out: np.ndarray) -> int:
     """The landmarks a camera at ``(x, y)`` facing ``theta`` sees, written compactly into the
@@ -577,7 +578,7 @@ def landmarks_seen(x: float, y: float, theta: float, landmarks: np.ndarray, fov:
     return n
 
 
-@numba.njit(cache=True)
+@njit
 def landmark_view(x: float, y: float, theta: float, landmarks: np.ndarray, fov: float,
                   max_range: float, segments: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -19,7 +19,6 @@ from __future__ import annotations
 import math
 
 import attrs
-import numba
 import numpy as np
 
 from cbr_world2d.checks import fraction, non_negative, positive
@@ -27,6 +26,7 @@ from cbr_world2d.fuzzy import Triangle, unchecked, wrap_angle
 from cbr_world2d.geometry import landmarks_seen, nearest_point, ring_ranges_into
 from cbr_world2d.robot import PIONEER_2DX, Pose, RobotState
 from cbr_world2d.world import World
+from cbrcore.compiled import njit
 
 PIONEER_SONAR_DEGREES: tuple[float, ...] = (
     90.0, 50.0, 30.0, 10.0, -10.0, -30.0, -50.0, -90.0,
@@ -38,13 +38,13 @@ order: ``SonarUnit 0..7`` the front ring at 90, 50, 30, 10, -10, -30, -50, -90 d
 ``params/p2dx.p``, section "Sonar parameters")."""
 
 
-@numba.njit(cache=True)
+@njit
 def _add_noise(ranges: np.ndarray, normal: np.ndarray, sigma: float, top: float) -> None:
     for i in range(ranges.shape[0]):
         ranges[i] = min(max(ranges[i] + sigma * normal[i], 0.0), top)
 
 
-@numba.njit(cache=True)
+@njit
 def _measure(seen: np.ndarray, uniform: np.ndarray, d_base: float, d_per_metre: float,
              b_base: float, b_per_metre: float, noise: float, out: np.ndarray) -> None:
     """Rows ``d_low, d_peak, d_high, b_low, b_peak, b_high`` of the camera's fuzzy measures

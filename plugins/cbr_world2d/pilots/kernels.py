@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from cbrcore.compiled import njit
 
-@numba.njit(cache=True)
+
+@njit
 def field_force(x: float, y: float, theta: float, tx: float, ty: float, ranges: np.ndarray,
                 angles: np.ndarray, attraction: float, repulsion: float, influence: float,
                 min_range: float) -> tuple[float, float]:
@@ -36,7 +37,7 @@ def field_force(x: float, y: float, theta: float, tx: float, ty: float, ranges: 
     return fx, fy
 
 
-@numba.njit(cache=True)
+@njit
 def field_command(x: float, y: float, theta: float, tx: float, ty: float, ranges: np.ndarray,
                   angles: np.ndarray, attraction: float, repulsion: float, influence: float,
                   min_range: float, turn_gain: float, max_turn_rate: float, max_speed: float,
@@ -60,7 +61,7 @@ def field_command(x: float, y: float, theta: float, tx: float, ty: float, ranges
     return v, w
 
 
-@numba.njit(cache=True)
+@njit
 def sector(ranges: np.ndarray, angles: np.ndarray, arc: float,
            distance: float) -> tuple[float, float]:
     """``(nearest, side)`` over the beams within ``arc`` of the heading (``angles`` relative to
@@ -82,7 +83,7 @@ def sector(ranges: np.ndarray, angles: np.ndarray, arc: float,
     return nearest, (-1.0 if weight > 0.0 else 1.0)
 
 
-@numba.njit(cache=True)
+@njit
 def sides(ranges: np.ndarray, angles: np.ndarray, arc: float) -> tuple[float, float]:
     """``(left, right)``: the shortest reading among the beams within ``arc`` of straight left
     (+90 degrees from the heading, ``angles`` relative to it) and of straight right (-90); inf

@@ -1,0 +1,104 @@
+"""The conventions every ``cbr`` command follows, a plugin's included.
+
+``-h`` works wherever ``--help`` does (:data:`CONTEXT_SETTINGS`, inherited by every command
+below the application). Help names each value by a readable metavar: an argument by its name in
+capitals (``CONFIG``, ``[NAME]`` when optional, ``FILE...`` when repeated), an option by the
+metavar it declares or else its choices (``--size [ci|full]``) or its name in capitals
+(``--trials TRIALS``), never by a typed placeholder (``<int range>``, ``<list[str]>``) or a
+braced argument (``{config}``). Declare a metavar that says what the value is where the name
+does not (``--set KEY.PATH=VALUE``, ``--start X,Y|PLACE``), and list a fixed set of values as an
+``enum.Enum`` (or :func:`choices` in the metavar of a value typer cannot see as a choice).
+
+:func:`follow_conventions` gives a typer application's commands, its groups' included, the
+:class:`CbrCommand` class that renders help this way; ``cbr`` applies it to the whole
+application after plugins have added their commands, so plugin authors need do nothing.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Iterable
+from typing import Any
+
+import typer
+from typer.core import TyperCommand
+from typer.models import CommandInfo
+
+CONTEXT_SETTINGS: dict[str, Any] = {"help_option_names": ["-h", "--help"]}
+"""The settings of the ``cbr`` application's context, which every command's context inherits."""
+
+
+def choices(values: Iterable[object]) -> str:
+    """The metavar listing a fixed set of values: ``[ci|full]``."""
+    return "[" + "|".join(str(v.value if isinstance(v, enum.Enum) else v) for v in values) + "]"
+
+
+def _choices_of(param: Any) -> tuple[object, ...] | None:
+    """The fixed values a parameter takes, if it takes a fixed set."""
+    # typer describes a parameter's type by a type descriptor from 0.29, by click's parameter
+    # type before: both hold the choices of an enum (or click.Choice) as ``choices``
+    described = getattr(param, "type_descriptor", None) or getattr(param, "type", None)
+    found = getattr(described, "choices", None)
+    return tuple(found) if found else None
+
+
+def metavar_of(param: Any) -> str | None:
+    """The metavar help shows for ``param``: None for a flag, which takes no value."""
+    if param.metavar is not None:
+        return str(param.metavar)
+    if param.param_type_name == "argument":
+        return str(param.name).upper()
+    if getattr(param, "is_flag", False) or getattr(param, "count", False):
+        return None
+    found = _choices_of(param)
+    return choices(found) if found else str(param.name).upper()
+
+
+class CbrCommand(TyperCommand):
+    """A typer command whose usage line and help name values by readable metavars."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        for param in self.params:
+            # set once, so that usage errors ("Missing argument 'CONFIG'") agree with help
+            param.metavar = metavar_of(param)
+
+    def collect_usage_pieces(self, ctx: typer.Context) -> list[str]:
+        pieces = [self.options_metavar] if self.options_metavar else []
+        for param in self.get_params(ctx):
+            if param.param_type_name != "argument":
+                continue
+            name = str(param.metavar)
+            if param.nargs != 1:
+                name += "..."
+            pieces.append(name if param.required else f"[{name}]")
+        return pieces
+
+    def format_options(self, ctx: typer.Context, formatter: Any) -> None:
+        arguments: list[tuple[str, str]] = []
+        options: list[tuple[str, str]] = []
+        for param in self.get_params(ctx):
+            record = param.get_help_record(ctx)
+            if record is None:  # hidden
+                continue
+            if param.param_type_name == "argument":
+                # the record's own name carries typer's type placeholder; the metavar is enough
+                arguments.append((str(param.metavar), record[1]))
+            else:
+                options.append(record)
+        for title, rows in (("Arguments", arguments), ("Options", options)):
+            if rows:
+                with formatter.section(title):
+                    formatter.write_dl(rows)
+
+
+def follow_conventions(app: typer.Typer) -> None:
+    """Build the commands of ``app`` and of its groups, at any depth, as :class:`CbrCommand`,
+    except a command that chose a class of its own (a subclass of typer's)."""
+    commands: list[CommandInfo] = list(app.registered_commands)
+    for group in app.registered_groups:
+        if group.typer_instance is not None:
+            follow_conventions(group.typer_instance)
+    for info in commands:
+        if info.cls is None or info.cls is TyperCommand:  # typer's default
+            info.cls = CbrCommand

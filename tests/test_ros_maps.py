@@ -1,0 +1,115 @@
+"""The shipped Nav2 maps: frames, metre starts and goals, planning with inflation, pictures."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cbr_grid.formats import load_grid
+from cbr_grid.frame import MapFrame
+from cbr_grid.grid import Grid
+from cbr_grid.inflation import Inflation, inflate
+from cbr_grid.plot import UNKNOWN_COLOUR, draw_grid
+from cbr_solvers.search import astar
+
+ROS = Path(__file__).resolve().parent / "data" / "ros"
+DEPOT = ROS / "depot.yaml"
+CIRCULAR = ROS / "map_circular.yaml"
+ROBOT = 0.22  # the radius of Nav2's default robot, metres
+
+# depot: 0.05 m cells, origin (0, 0), 604 x 307 cells. (2, 2) m lies 40 cells right of and 40
+# up from the lower-left corner: column 40, row 307 - 1 - 40 = 266. (20, 3.5) m: column 400,
+# row 306 - 70 = 236. Between them the shortest path passes a box 0.05 m away.
+START_M, GOAL_M = (2.0, 2.0), (20.0, 3.5)
+START, GOAL = (40, 266), (400, 236)
+
+
+def clearance(grid: Grid, path: np.ndarray) -> float:
+    """The least distance, in metres, from a path cell's centre to an obstacle cell's centre,
+    by brute force over every pair."""
+    obstacles = np.argwhere(~grid.passable)[:, ::-1]
+    gaps = np.hypot(*(path[:, None, :] - obstacles[None, :, :]).transpose(2, 0, 1))
+    return float(gaps.min()) * grid.frame.resolution
+
+
+def test_both_maps_load_with_their_frames() -> None:
+    depot = load_grid(DEPOT)
+    assert (depot.width, depot.height) == (604, 307)
+    assert depot.frame == MapFrame(0.05, 0.0, 0.0, 0.0)
+    assert depot.unknown is None  # its grey outside reads as free (p = 50/255 < 0.25)
+    circular = load_grid(CIRCULAR)
+    assert (circular.width, circular.height) == (384, 384)
+    assert circular.frame == MapFrame(0.05, -10.0, -10.0, 0.0)
+    # its grey 205 reads as p = 50/255 = 0.19608, just above free_thresh 0.196: unknown
+    # space, marked and, by default, lethal
+    assert circular.unknown is not None and circular.unknown.sum() > circular.passable.sum()
+    assert (circular.risk[circular.unknown] == 1).all()
+    assert circular.unknown[0, 0]
+
+
+def test_metres_land_on_the_right_cells() -> None:
+    depot = load_grid(DEPOT)
+    np.testing.assert_array_equal(depot.to_cells([START_M, GOAL_M]), [START, GOAL])
+    np.testing.assert_allclose(depot.to_map([START]), [[2.025, 2.025]])
+    # map_circular's origin is (-10, -10): (-2, 0) m is 160 cells right of and 200 up from the
+    # lower-left corner, row 383 - 200 = 183; the map frame's (0, 0) is cell (200, 183)
+    circular = load_grid(CIRCULAR)
+    np.testing.assert_array_equal(circular.to_cells([(-2.0, 0.0), (0.0, 0.0)]),
+                                  [[160, 183], [200, 183]])
+    np.testing.assert_allclose(circular.to_map([(200, 183)]), [[0.025, 0.025]])
+
+
+def test_inflated_plan_keeps_the_robot_radius_from_obstacles() -> None:
+    depot = load_grid(DEPOT)
+    inflated = inflate(depot, Inflation(ROBOT, 0.55, 3.0))
+    assert inflated.frame == depot.frame
+    start, goal = (tuple(int(v) for v in cell) for cell in inflated.to_cells([START_M, GOAL_M]))
+    plain = astar(depot.factor, depot.passable, depot.corner_cutting, start, [goal])
+    found = astar(inflated.factor, inflated.passable, inflated.corner_cutting, start, [goal])
+    assert found is not None and plain is not None
+    assert tuple(found.path[0]) == START and tuple(found.path[-1]) == GOAL
+    assert clearance(depot, plain.path) < ROBOT
+    assert clearance(depot, found.path) > ROBOT
+    assert inflated.path_problems(found.path) == []
+
+
+def test_pictures_have_metric_axes() -> None:
+    depot = load_grid(DEPOT)
+    axes = draw_grid(depot, path=[START, (41, 266)], start=START, goal=GOAL).axes[0]
+    assert axes.get_xlabel() == "x [m]" and axes.get_ylabel() == "y [m]"
+    np.testing.assert_allclose(axes.images[0].get_extent(), [0, 30.2, 0, 15.35])
+    np.testing.assert_allclose(axes.get_xlim(), [0, 30.2])
+    np.testing.assert_allclose(axes.get_ylim(), [0, 15.35])
+    line = axes.get_lines()[0]
+    np.testing.assert_allclose(np.column_stack(line.get_data()), [[2.025, 2.025],
+                                                                 [2.075, 2.025]])
+
+    circular = load_grid(CIRCULAR)
+    axes = draw_grid(circular).axes[0]
+    np.testing.assert_allclose(axes.images[0].get_extent(), [-10, 9.2, -10, 9.2])
+    picture = axes.images[0].get_array()
+    np.testing.assert_allclose(picture[0, 0], UNKNOWN_COLOUR)
+    assert [text.get_text() for text in axes.get_legend().get_texts()] == ["unknown"]
+    # free and obstacle cells keep white and black
+    free = np.argwhere(circular.passable)[0]
+    blocked = np.argwhere(~circular.passable & ~circular.unknown)[0]
+    np.testing.assert_allclose(picture[tuple(free)], [1, 1, 1])
+    np.testing.assert_allclose(picture[tuple(blocked)], [0, 0, 0])
+
+
+def test_a_turned_frame_is_drawn_turned() -> None:
+    grid = Grid(np.zeros((2, 4)), frame=MapFrame(1.0, 5.0, 0.0, np.pi / 2))
+    axes = draw_grid(grid, path=[(0, 1), (1, 1)]).axes[0]
+    assert axes.get_xlabel() == "x [m]"
+    np.testing.assert_allclose(axes.get_xlim(), [3, 5], atol=1e-12)
+    np.testing.assert_allclose(axes.get_ylim(), [0, 4], atol=1e-12)
+    np.testing.assert_allclose(np.column_stack(axes.get_lines()[0].get_data()),
+                               [[4.5, 0.5], [4.5, 1.5]], atol=1e-12)
+
+
+def test_cells_only_grids_keep_cell_axes() -> None:
+    axes = draw_grid(Grid(np.zeros((3, 5)))).axes[0]
+    assert axes.get_xlabel() == "x"
+    assert axes.get_ylim() == pytest.approx((2.5, -0.5))
