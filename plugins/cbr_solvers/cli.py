@@ -88,15 +88,26 @@ def _map(map_file: Path, unknown_risk: float, robot_radius: float | None,
     return read, read if inflation is None else inflate(read, inflation)
 
 
-def _cell(text: str, option: str) -> Cell:
-    """The cell written ``X,Y`` in ``text``; a usage error naming ``option`` otherwise."""
-    parts = text.split(",")
+def _pair(text: str, option: str, number: type[int] | type[float], what: str) -> tuple[Any, Any]:
+    """The two numbers written ``X,Y`` in ``text``; a usage error naming ``option`` otherwise."""
     try:
-        x, y = (int(part.strip()) for part in parts)
+        x, y = (number(part.strip()) for part in text.split(","))
     except ValueError:
-        raise typer.BadParameter(f"expected a cell X,Y of two integers, got {text!r}",
+        raise typer.BadParameter(f"expected {what} X,Y, got {text!r}",
                                  param_hint=f"'{option}'") from None
+    if not (np.isfinite(x) and np.isfinite(y)):
+        raise typer.BadParameter(f"expected {what} X,Y, got {text!r}", param_hint=f"'{option}'")
     return x, y
+
+
+def _cell(text: str, option: str) -> Cell:
+    """The cell written ``X,Y`` in ``text``."""
+    return _pair(text, option, int, "a cell of two integers")
+
+
+def _point(text: str, option: str) -> tuple[float, float]:
+    """The map-frame point written ``X,Y`` (metres) in ``text``."""
+    return _pair(text, option, float, "a point of two finite numbers (metres)")
 
 
 def _heading(text: str | None, option: str) -> int | None:
@@ -164,20 +175,6 @@ def _plan(search: Search, solver: SolverName, grid: Grid, start: Cell,
         record.update(length_m=record["length"] * grid.frame.resolution,
                       path_m=grid.to_map(result.path).tolist())
     return record
-
-
-def _point(text: str, option: str) -> tuple[float, float]:
-    """The map-frame point written ``X,Y`` (metres) in ``text``; a usage error otherwise."""
-    parts = text.split(",")
-    try:
-        x, y = (float(part.strip()) for part in parts)
-    except ValueError:
-        raise typer.BadParameter(f"expected a point X,Y of two numbers (metres), got {text!r}",
-                                 param_hint=f"'{option}'") from None
-    if not (np.isfinite(x) and np.isfinite(y)):
-        raise typer.BadParameter(f"expected a point X,Y of two finite numbers, got {text!r}",
-                                 param_hint=f"'{option}'")
-    return x, y
 
 
 def _endpoint(read: Grid, grid: Grid, written: Cell | tuple[float, float], option: str,
