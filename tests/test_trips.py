@@ -433,6 +433,35 @@ def test_bad_places_and_sites_are_refused(places: Any, sites: Any, message: str,
         cbr_engine(map_config(walled, places=places, sites=sites))
 
 
+ROS_MAP = Path(__file__).parent / "data" / "ros" / "map_circular.yaml"
+
+
+def test_places_and_sites_in_metres_are_the_cells_they_fall_in(
+        cbr_engine: Callable[..., Engine]) -> None:
+    # map_circular's origin is (-10, -10) m with 0.05 m cells and 384 rows: the point (x, y) m
+    # falls in cell (floor((x + 10) / 0.05), 383 - floor((y + 10) / 0.05))
+    metres = map_config(ROS_MAP, count=20, frame="map", places=[[-1.5, 0.5], [1.5, -0.5]],
+                        sites=[{"cells": [[0.5, 1.5]], "appear": 0.5}], unknown_static=5)
+    cells = map_config(ROS_MAP, count=20, places=[[170, 173], [230, 193]],
+                       sites=[{"cells": [[210, 153]], "appear": 0.5}], unknown_static=5)
+    by_metres, by_cells = cbr_engine(metres), cbr_engine(cells)
+    assert by_metres.workload.places.tolist() == [[170, 173], [230, 193]]
+    assert [s.tolist() for s in by_metres.workload.true_world.sites] == [[[210, 153]]]
+    assert ([(q.start, q.goal) for q in by_metres.workload.queries(by_metres.ctx)]
+            == [(q.start, q.goal) for q in by_cells.workload.queries(by_cells.ctx)])
+
+
+def test_places_in_metres_need_a_map_frame_and_cells_whole_numbers(
+        walled: Path, cbr_engine: Callable[..., Engine]) -> None:
+    with pytest.raises(CbrError, match=r"workload 'trips': places are in metres \(frame: map\), "
+                                       r"but the map has no metric frame"):
+        cbr_engine(map_config(walled, frame="map", places=[[0, 0], [2, 2]]))
+    with pytest.raises(CbrError, match=r"workload 'trips': places\[1\] \(2.5, 2.0\): expected a "
+                                       r"cell of two whole numbers; for points in metres set "
+                                       r"frame: map"):
+        cbr_engine(map_config(walled, places=[[0, 0], [2.5, 2]]))
+
+
 def test_sites_are_read_from_yaml_and_checked(walled: Path,
                                               cbr_engine: Callable[..., Engine]) -> None:
     data = yaml.safe_load(f"""

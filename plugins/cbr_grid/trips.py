@@ -16,7 +16,7 @@ world, also in a later run that continues a case base.
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping, Sequence
-from typing import Any
+from typing import Any, Literal
 
 import attrs
 import numpy as np
@@ -42,7 +42,7 @@ _UNIT = attrs.validators.and_(attrs.validators.instance_of(float), attrs.validat
 _COUNT = attrs.validators.and_(attrs.validators.instance_of(int), attrs.validators.ge(0))
 
 
-def _some_cells(_: object, attribute: attrs.Attribute, value: list[tuple[int, int]]) -> None:
+def _some_cells(_: object, attribute: attrs.Attribute, value: list[tuple[float, float]]) -> None:
     if not value:
         raise ValueError(f"'{attribute.name}' must hold at least one cell (x, y), got {value!r}")
 
@@ -55,9 +55,9 @@ class Site:
     ``appear``.
     """
 
-    cells: list[tuple[int, int]] = option(
-        doc="The (x, y) cells blocked together, each free in the configured map.",
-        validator=_some_cells)
+    cells: list[tuple[float, float]] = option(
+        doc="The (x, y) cells blocked together, each free in the configured map (points in "
+        "metres with the workload's frame: map).", validator=_some_cells)
     appear: float = option(
         doc="The probability that the site is blocked during one trip.", validator=_UNIT)
 
@@ -81,7 +81,11 @@ class TripsOptions:
         1, "The least Chebyshev distance between the start and the goal of a trip.",
         validator=attrs.validators.and_(attrs.validators.instance_of(int),
                                         attrs.validators.ge(1)))
-    places: list[tuple[int, int]] | None = option(
+    frame: Literal["cell", "map"] = option(
+        "cell", "How places and sites are written: grid cells (x, y), or points (x, y) in "
+        "metres in the map frame of a map that has one (a ROS map), each standing for the cell "
+        "it falls in.")
+    places: list[tuple[float, float]] | None = option(
         None, "Fixed places (x, y) the trips go between: each trip's start and goal are two "
         "different places drawn uniformly (seeded), whatever min_distance says; null draws "
         "random free cells. At least 2 distinct places, each free in the map and on no site.")
@@ -135,10 +139,12 @@ class Trips:
         self.configured = ctx.stash.setdefault(CONFIGURED_WORLD,
                                                grid_world(ctx, "workload 'trips'"))
         self.planner = planner_of(options.replanner, ctx, "workload 'trips': replanner")
-        places = self._checked_places(options.places)
+        places = self._checked_places(
+            None if options.places is None else self._cells(options.places, "places"))
         self.true_world = TrueWorld(self.configured, appear=options.appear, places=places,
                                     what="workload 'trips'")
-        sites = [(site.cells, site.appear) for site in options.sites]
+        sites = [(self._cells(site.cells, f"sites[{i}].cells"), site.appear)
+                 for i, site in enumerate(options.sites)]
         # the random unknowns keep off the listed sites and the places, so they cannot collide
         pool = self.configured.passable.copy()
         for cells in self.true_world.site_cells([cells for cells, _ in sites]):
@@ -167,6 +173,21 @@ class Trips:
     def places(self) -> np.ndarray | None:
         """The (k, 2) cells trips go between, or None for random free cells."""
         return self.true_world.places
+
+    def _cells(self, written: Sequence[tuple[float, float]], what: str) -> list[tuple[int, int]]:
+        """The grid cells of ``written`` places or site cells, as the workload's ``frame``
+        says they are written."""
+        if self.options.frame == "map":
+            if self.configured.frame is None:
+                raise CbrError(f"workload 'trips': {what} are in metres (frame: map), but the map "
+                               "has no metric frame (ROS .yaml maps have one); give cells with "
+                               "frame: cell")
+            return [(int(x), int(y)) for x, y in self.configured.to_cells(written)]
+        for i, (x, y) in enumerate(written):
+            if not (float(x).is_integer() and float(y).is_integer()):
+                raise CbrError(f"workload 'trips': {what}[{i}] ({x}, {y}): expected a cell of "
+                               "two whole numbers; for points in metres set frame: map")
+        return [(int(x), int(y)) for x, y in written]
 
     def _checked_places(self, places: Sequence[tuple[int, int]] | None) -> np.ndarray | None:
         """The configured places as a (k, 2) array; a CbrError unless they are at least 2
