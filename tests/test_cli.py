@@ -654,6 +654,16 @@ def test_cbr_alone_prints_help_and_succeeds(cbr_cli: Cli) -> None:
     assert "-h, --help" in alone.stdout and "-V, --version" in alone.stdout
 
 
+@pytest.mark.parametrize("group", ["casebase", "sim", "map", "rupart"])
+def test_a_group_alone_prints_its_help_and_succeeds(group: str, cbr_plugins: Callable[..., Plugins],
+                                                    cbr_cli: Cli) -> None:
+    cbr_plugins(entry_points=True)
+    alone, helped = cbr_cli(group), cbr_cli(group, "--help")
+    assert alone.exit_code == helped.exit_code == 0
+    assert alone.stdout == helped.stdout
+    assert alone.stdout.startswith(f"Usage: cbr {group} [OPTIONS] COMMAND [ARGS]...")
+
+
 # typer's typed placeholders and braced arguments, none of which help may show
 UNREADABLE = re.compile(r"<(?:(?:str|int|float|bool|path|file|directory|datetime|uuid)(?: range)?"
                         r"|list\[[^\]]*\]|[^<>|\s]+(?:\|[^<>|\s]+)+)>|\{[a-z_]+\}")

@@ -118,6 +118,12 @@ def _run(args: list[str], err: Console) -> int:
     except typer.Exit as exc:
         return exc.exit_code
     except typer.TyperException as exc:  # usage errors, raised by typer's copy of click
+        # a group given no command (``cbr sim``) is asked what there is, as ``cbr`` alone: its
+        # help, and success; click names that case by its class, in whichever copy raised it
+        helped = getattr(exc, "ctx", None)
+        if type(exc).__name__ == "NoArgsIsHelpError" and helped is not None:
+            typer.echo(helped.get_help())
+            return 0
         exc.show()
         return exc.exit_code
     except typer.Abort:
