@@ -91,12 +91,35 @@ def _component_section(component: Component) -> list[str]:
     if component.options is NoOptions or not attrs.fields(component.options):
         return [*lines, "No options.", ""]
     lines += ["| option | type | default | meaning |", "|---|---|---|---|"]
+    return [*lines, *_option_rows(component.options, ""), ""]
+
+
+def _nested(kind: object) -> type | None:
+    """The options class an option's value is a mapping of (``Inflation | None``, ``list[Site]``),
+    if any."""
+    if attrs.has(kind):  # type: ignore[arg-type]
+        return kind  # type: ignore[return-value]
+    for arg in typing.get_args(kind):
+        found = _nested(arg)
+        if found is not None:
+            return found
+    return None
+
+
+def _option_rows(options: type, prefix: str) -> list[str]:
+    """A table row per option of ``options``, then per option of the mapping an option takes,
+    named by its dotted path (``inflation.robot_radius``; ``sites[].cells`` in list items)."""
+    rows = []
     # resolved as when options are read, so the text does not depend on whether they were
-    for field in attrs.fields(attrs.resolve_types(component.options)):
+    for field in attrs.fields(attrs.resolve_types(options)):
         meaning = _markdown(field.metadata.get("doc", "")).replace("\n", " ").replace("|", "\\|")
-        lines.append(f"| `{field.name}` | {_option_type(field)} | {_default(field)} "
-                     f"| {meaning} |")
-    return [*lines, ""]
+        rows.append(f"| `{prefix}{field.name}` | {_option_type(field)} | {_default(field)} "
+                    f"| {meaning} |")
+        inner = _nested(field.type)
+        if inner is not None:
+            listed = typing.get_origin(field.type) is list
+            rows += _option_rows(inner, f"{prefix}{field.name}{'[]' if listed else ''}.")
+    return rows
 
 
 def _where(kind: Kind) -> str:

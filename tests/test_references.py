@@ -209,4 +209,8 @@ def test_the_reference_shows_the_kind_an_option_names(registry: Registry) -> Non
         in chain
     assert "| `fallback` | str \\| None naming a solver | `None` |" in chain
     assert "| `improvers` | list[str] naming a solver | `[]` |" in chain
-    assert "| `tries` |" not in chain  # nested options are documented by their type
+    # a nested options class's options follow, by their dotted paths
+    assert "| `first.solver` | str naming a solver | `'compute'` | The solver of this stage. |" \
+        in chain
+    assert "| `stages[].tries` | int | `1` | How often the stage is tried. |" in chain
+    assert "| `tries` |" not in chain

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,7 @@ from cbr_grid.grid import Grid
 from cbr_grid.inflation import Inflation, inflate
 from cbr_grid.plot import UNKNOWN_COLOUR, draw_grid
 from cbr_solvers.search import astar
+from cbrcore.engine import Engine
 
 ROS = Path(__file__).resolve().parent / "data" / "ros"
 DEPOT = ROS / "depot.yaml"
@@ -113,3 +115,20 @@ def test_cells_only_grids_keep_cell_axes() -> None:
     axes = draw_grid(Grid(np.zeros((3, 5)))).axes[0]
     assert axes.get_xlabel() == "x"
     assert axes.get_ylim() == pytest.approx((2.5, -0.5))
+
+
+def test_a_map_of_cells_placed_in_a_frame_by_its_world_options(
+        tmp_path: Path, cbr_engine: Callable[..., Engine]) -> None:
+    # a 4 x 3 text map of 0.5 m cells whose lower-left corner is at (10, 20) m, with one
+    # obstacle at cell (1, 0), inflated by a 1.0 m inscribed radius
+    (tmp_path / "room.grid").write_text(".#..\n....\n....\n")
+    world = {"use": "map_file", "path": str(tmp_path / "room.grid"),
+             "frame": {"resolution": 0.5, "origin": [10, 20, 0]},
+             "inflation": {"robot_radius": 1.0}}
+    engine = cbr_engine({"world": world, "solver": "astar"})
+    grid = engine.world
+    assert grid.frame == MapFrame(0.5, 10.0, 20.0, 0.0)
+    assert grid.to_map([(0, 2)]).tolist() == [[10.25, 20.25]]
+    # 1 m is 2 cells: left free are the cells farther from (1, 0), (3, 1), (0, 2) and (2, 2)
+    # at sqrt(5) cells and (3, 2) at sqrt(8); (3, 0) and (1, 2), exactly 2 away, are inside
+    assert np.argwhere(grid.passable)[:, ::-1].tolist() == [[3, 1], [0, 2], [2, 2], [3, 2]]

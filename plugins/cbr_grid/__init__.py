@@ -60,6 +60,21 @@ _UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0)
 
 
 @attrs.frozen
+class FrameOptions:
+    """Where a map of cells only lies in a metric map frame, written as a ROS map writes it."""
+
+    resolution: float = option(doc="The side of a cell in metres.",
+                               validator=attrs.validators.gt(0.0))
+    origin: tuple[float, float, float] = option(
+        (0.0, 0.0, 0.0), "[x, y, yaw]: the pose in the map frame of the map's lower-left "
+        "corner (metres, radians), as in a ROS map_server YAML.")
+
+    def frame(self) -> MapFrame:
+        x, y, yaw = self.origin
+        return MapFrame(self.resolution, x, y, yaw)
+
+
+@attrs.frozen
 class MapFileOptions:
     path: Path = option(doc="The map file (relative to the configuration file): .map (Moving AI), "
                         ".yaml (ROS map_server), .png, .npy (risk array) or .grid (text).")
@@ -71,6 +86,10 @@ class MapFileOptions:
     threshold: float = option(
         0.5, "PNG images: pixels darker than this luminance (0 black, 1 white) are obstacles.",
         validator=_UNIT)
+    frame: FrameOptions | None = option(
+        None, "Maps of cells only (.map, .png, .npy, .grid): place the map in a metric map "
+        "frame, {resolution, origin}, so that inflation radii, trips' places and pictures are "
+        "in metres; a ROS map carries its own and takes none.")
     inflation: Inflation | None = option(None, _INFLATION_DOC)
 
 
@@ -78,10 +97,12 @@ def map_file_world(options: MapFileOptions, ctx: Context) -> Grid:
     """A grid read from a .map, .yaml (ROS map_server), .png, .npy or .grid file.
 
     The extension chooses the loader; the file's top row becomes y = 0 (see cbr_grid.formats).
-    A ROS map keeps its metric frame, so its inflation radii are in metres.
+    A ROS map keeps its metric frame, and ``frame`` gives another map one, so its inflation
+    radii are in metres.
     """
     grid = load_grid(options.path, corner_cutting=options.corner_cutting,
-                     unknown_risk=options.unknown_risk, threshold=options.threshold)
+                     unknown_risk=options.unknown_risk, threshold=options.threshold,
+                     frame=None if options.frame is None else options.frame.frame())
     return _inflated(grid, options.inflation)
 
 
