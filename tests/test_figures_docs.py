@@ -9,6 +9,7 @@ import json
 import re
 import shlex
 import shutil
+import statistics
 import subprocess
 import sys
 from collections.abc import Callable
@@ -218,3 +219,172 @@ def test_the_2d_world_page_shows_what_its_trials_config_does(
     assert f"the {len(reached) / len(results) * 100:.1f} % success rate" in text
     assert all(r["consultations"] == "6" for r in csv.DictReader(
         (tmp_path / "trials.csv").open(encoding="utf-8"))), "six consultations each"
+
+
+# --- the grid pages' figures of whole configuration runs, small enough to run here -------------
+
+
+def _words(page: str) -> str:
+    return " ".join((ROOT / "docs" / page).read_text(encoding="utf-8").split())
+
+
+def _run(cbr_cli: Callable[..., CliResult], out: Path, config: str, *sets: str
+         ) -> tuple[dict[str, Any], list[dict[str, str]]]:
+    """Run ``configs/<config>`` into ``out``; its summary and the rows of its results.csv."""
+    overrides = [arg for value in sets for arg in ("--set", value)]
+    done = cbr_cli("run", str(ROOT / "configs" / config), "--out", str(out), *overrides)
+    assert done.exit_code == 0, done.stderr
+    summary: dict[str, Any] = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    with (out / "results.csv").open(encoding="utf-8") as rows:
+        return summary, list(csv.DictReader(rows))
+
+
+def _cell(row: dict[str, str], prefix: str) -> tuple[int, int]:
+    return int(row[f"q_{prefix}_x"]), int(row[f"q_{prefix}_y"])
+
+
+def _initial_map(config: str, out: Path) -> Any:
+    from cbrcore.engine import Engine
+
+    return Engine.from_yaml(ROOT / "configs" / config, out_dir=out).ctx.world
+
+
+@pytest.mark.usefixtures("every_plugin")
+def test_the_kinematics_page_figures_of_the_nonholonomic_config(
+        cbr_cli: Callable[..., CliResult], tmp_path: Path) -> None:
+    from cbr_grid.directions import STEPS
+
+    summary, rows = _run(cbr_cli, tmp_path / "run", "nonholonomic.yaml")
+    grid = _initial_map("nonholonomic.yaml", tmp_path / "map")
+    unsolved = [row for row in rows if row["source"] == "none"]
+
+    def facing_a_wall(row: dict[str, str]) -> bool:
+        start, heading = _cell(row, "start"), int(row["q_heading"])
+        # no first step within 45 degrees of the heading: a robot that turns no more per cell
+        # cannot leave, and forward_backward's manoeuvres begin with such a step too
+        return not any(grid.step_allowed(start, (start[0] + int(STEPS[(heading + t) % 8][0]),
+                                                 start[1] + int(STEPS[(heading + t) % 8][1])))
+                       for t in (-1, 0, 1))
+
+    queries = summary["queries"]
+    text = _words("kinematics.md")
+    assert (f"the case graph plans {summary['cbr_share'] * 100:.0f}% of the trips and the "
+            f"fallback {summary['from_solver'] / queries * 100:.0f}%; {len(unsolved)} trips have "
+            f"no path the robot can drive, {sum(map(facing_a_wall, unsolved))} of them because "
+            "it starts facing a wall") in text
+    assert (f"The paths proposed cost {summary['metric_means']['deviation'] * 100:.1f}% more "
+            "than the holonomic optimum on average, and "
+            f"{summary['success_rate'] * 100:.0f}% of the trips reach their goal") in text
+
+
+def _octile(row: dict[str, str]) -> float:
+    (sx, sy), (gx, gy) = _cell(row, "start"), _cell(row, "goal")
+    dx, dy = abs(sx - gx), abs(sy - gy)
+    return max(dx, dy) + (2 ** 0.5 - 1) * min(dx, dy)
+
+
+@pytest.mark.usefixtures("every_plugin")
+def test_the_case_graph_page_figures_of_the_ideal_length(
+        cbr_cli: Callable[..., CliResult], tmp_path: Path) -> None:
+    """The octile test against the landmark bound on the office of configs/hybrid_grid.yaml."""
+    from cbr_pathquality.ideal import Landmarks
+
+    ratio = 2.5
+    octile, octile_rows = _run(cbr_cli, tmp_path / "octile", "hybrid_grid.yaml",
+                               "revise.ideal=octile", f"revise.max_ratio={ratio}")
+    rejected = [row for row in octile_rows if row["fallback_reason"].startswith("revision")]
+    assert rejected, "the octile test rejects some trips"
+    above = all(float(row["optimal_cost"]) / _octile(row) > ratio for row in rejected)
+    landmarks, rows = _run(cbr_cli, tmp_path / "landmarks", "hybrid_grid.yaml")
+    bound = Landmarks(_initial_map("hybrid_grid.yaml", tmp_path / "map"), 8)
+    tight = statistics.median(bound.bound(_cell(row, "start"), _cell(row, "goal"))
+                              / float(row["optimal_cost"]) for row in rows)
+    text = _words("casegraph.md")
+    assert (f"every trip that the octile test (at a ratio of {ratio:g}) rejected had an "
+            "optimal path above that ratio too" in text) == above
+    assert (f"and the CBR share was {octile['cbr_share'] * 100:.0f}%. The landmark bound is "
+            f"within {(1 - tight) * 100:.0f}% of the true length on half of that map's trips; "
+            f"with it the same configuration answers {landmarks['cbr_share'] * 100:.0f}% of its "
+            f"{landmarks['queries']} trips from the case graph") in text
+
+
+# --- the prose follows its figures ------------------------------------------------------------
+
+
+def test_records_reads_a_table_by_its_header(figures: ModuleType) -> None:
+    text = "| map | A* ms |\n|---|---|\n| x 1 | 0.5 |\n| y | 2 |\n"
+    assert figures.records(text, 0) == [{"map": "x 1", "A* ms": "0.5"},
+                                         {"map": "y", "A* ms": "2"}]
+    with pytest.raises(figures.FiguresError, match="1 tables, not table 2"):
+        figures.records(text, 1)
+
+
+def test_ranges_and_lists_read_as_prose(figures: ModuleType) -> None:
+    assert figures._span([0.62, 0.8, 0.7], 2) == "0.62-0.80"
+    assert figures._span([3.04, 2.96], 1) == "3.0"
+    assert figures._listed(["a"]) == "a"
+    assert figures._listed(["a", "b", "c"]) == "a, b and c"
+    # two significant digits: 998 -> 1,000, 872 -> 870, 3.46 -> 3.5
+    assert [figures._about(v) for v in (998.0, 872.0, 3.46)] == ["1,000", "870", "3.5"]
+
+
+def test_the_profile_gives_a_function_its_own_time_per_call(figures: ModuleType) -> None:
+    profile = ("   ncalls  tottime  percall  cumtime  percall filename:lineno(function)\n"
+               "      200    0.033    0.000    0.033    0.000 /x/aistar.py:58(_propagate)\n"
+               "    40/20    0.010    0.000    0.020    0.001 /x/search.py:23(graph_search)\n")
+    assert figures._profile_per_call(profile, "_propagate") == (200, pytest.approx(0.165))
+    assert figures._profile_per_call(profile, "graph_search") == (40, pytest.approx(0.25))
+    with pytest.raises(figures.FiguresError, match="no line for adapt"):
+        figures._profile_per_call(profile, "adapt")
+
+
+def _delivery(arms: dict[str, tuple[float, float, float, float]]) -> dict[str, Any]:
+    """Results of rupart-delivery whose arms have (delivered, missed, collisions, contacts)."""
+    def spread(mean: float) -> dict[str, float]:
+        return {"mean": mean, "std": 0.1, "min": mean, "max": mean}
+
+    return {"seeds": [0, 1, 2], "days": 2, "length": 1800.0, "summary": {
+        arm: {"delivered": spread(d), "missed": spread(m), "collisions": spread(c),
+              "contacts": spread(k), "mean_delivery_time": spread(100.0)}
+        for arm, (d, m, c, k) in arms.items()}}
+
+
+def test_the_delivery_reading_draws_its_conclusions_from_the_figures(
+        figures: ModuleType, monkeypatch: pytest.MonkeyPatch) -> None:
+    better = _delivery({"fixed": (2, 14, 2.0, 30), "cbr": (5, 11, 1.0, 90),
+                        "adaptive": (4, 12, 0.5, 80), "learned-weights": (4, 11, 0.4, 70)})
+    monkeypatch.setattr(figures, "_delivery", lambda: better)
+    reading = figures._delivery_reading()
+    assert "fewer collisions of the robot's (0.50 against 2.00 a day)" in reading
+    assert "not established" not in reading  # the differences exceed the spread of 0.1
+    assert "`cbr` delivers most (5.0 a day" in reading
+    assert "**Learned weights** gain over fixed weights" in reading
+    assert "All four miss most deadlines" in reading
+    worse = _delivery({"fixed": (9, 2, 0.5, 30), "cbr": (5, 3, 1.0, 20),
+                       "adaptive": (4, 3, 1.5, 80), "learned-weights": (10, 1, 2.0, 70)})
+    monkeypatch.setattr(figures, "_delivery", lambda: worse)
+    reading = figures._delivery_reading()
+    assert "this run does not show both" in reading
+    assert "`learned-weights` delivers most (10.0 a day" in reading
+    assert "people reach them more often" not in reading  # cbr has fewer contacts than fixed
+    assert "**Learned weights** show no gain" in reading
+    assert "miss most deadlines" not in reading
+
+
+def test_the_first_diversion_is_named_by_the_nearest_landmark(figures: ModuleType) -> None:
+    landmarks = {"l1": [3.2, 0.9], "l2": [3.4, 3.79]}
+    assert figures._first_way({"diverting": [[2.9, 4.6], [3.0, 0.0]]}, landmarks) == "l2"
+    assert figures._first_way({"diverting": [[3.0, 0.2]]}, landmarks) == "l1"
+    assert figures._first_way({"diverting": []}, landmarks) is None
+
+
+def test_a_learning_curve_is_below_from_the_last_crossing(
+        figures: ModuleType, monkeypatch: pytest.MonkeyPatch) -> None:
+    # with a window of 1 the curves are the costs: b dips below a at trip 2, rises above at
+    # trip 3 and stays below from trip 4 on
+    assert figures._mean_curve([[1.0, 3.0], [3.0, 5.0]], 1) == [2.0, 4.0]
+    assert figures._mean_curve([[1.0, 3.0, 5.0]], 2) == [1.0, 2.0, 4.0]
+    results = {"curves": {"a": [[2.0, 2.0, 2.0, 2.0, 2.0]], "b": [[3.0, 1.0, 3.0, 1.0, 1.0]]}}
+    monkeypatch.setattr("cbr_pathcases.experiments.WINDOW", 1)
+    assert figures._below_from(results, "b", "a") == 4
+    assert figures._below_from(results, "a", "b") is None
