@@ -109,16 +109,32 @@ class Config:
 
 class _Marks:
     """Where each YAML path of a configuration came from, for error messages: the line and
-    column it was written at in the document, or the ``--set`` option that set it."""
+    column it was written at in the document, or the override that set it."""
 
     def __init__(self, node: yaml.Node | None) -> None:
-        self.marks: dict[str, yaml.Mark] = {}
+        # a path the configuration holds at no known position (one given as data) maps to None
+        self.marks: dict[str, yaml.Mark | None] = {}
         self.duplicates: list[str] = []
-        # (path, option) for each override in the order applied: a later one replaces what an
+        # (path, origin) for each override in the order applied: a later one replaces what an
         # earlier one set beneath its path
         self.overrides: list[tuple[str, str]] = []
         if node is not None:
             self._walk(node, "")
+
+    @classmethod
+    def of_data(cls, data: Any) -> _Marks:
+        """The marks of a configuration given as data: the paths it holds, at no position."""
+        marks = cls(None)
+
+        def walk(value: Any, path: str) -> None:
+            marks.marks[path] = None
+            items = (value.items() if isinstance(value, Mapping)
+                     else enumerate(value) if isinstance(value, list) else ())
+            for key, item in items:
+                walk(item, f"{path}.{key}" if path else str(key))
+
+        walk(data, "")
+        return marks
 
     def _walk(self, node: yaml.Node, path: str) -> None:
         self.marks[path] = node.start_mark
@@ -146,31 +162,32 @@ class _Marks:
             probe = probe.rpartition(".")[0]
         return self.at(self.marks.get(probe)) if probe else ""
 
-    def overridden(self, path: str, option: str) -> None:
-        """Record that the ``--set`` ``option`` set the value at ``path``."""
-        self.overrides.append((path, option))
+    def overridden(self, path: str, origin: str) -> None:
+        """Record that the override named ``origin`` (``--set KEY=VALUE``,
+        ``overrides['KEY']``) set the value at ``path``."""
+        self.overrides.append((path, origin))
 
     def option(self, path: str) -> tuple[str, str] | None:
-        """The override (its path and option) that the value at ``path`` came from: one that
+        """The override (its path and origin) that the value at ``path`` came from: one that
         set ``path`` or a path enclosing it, or one below ``path`` when the document does not
         hold ``path`` (the override made it)."""
-        for set_path, option in reversed(self.overrides):
+        for set_path, origin in reversed(self.overrides):
             if path == set_path or path.startswith(f"{set_path}."):
-                return set_path, option
+                return set_path, origin
             if set_path.startswith(f"{path}.") and path not in self.marks:
-                return set_path, option
+                return set_path, origin
         return None
 
     def describe(self, path: str, message: str) -> str:
-        """One problem line: ``--set KEY=VALUE: ...`` for a value an override set, else the
-        YAML path and where the document holds it."""
+        """One problem line: ``--set KEY=VALUE: ...`` or ``overrides['KEY']: ...`` for a value
+        an override set, else the YAML path and where the document holds it."""
         found = self.option(path)
         if found is None:
             return f"{path}{self.where(path)}: {message}"
-        set_path, option = found
+        set_path, origin = found
         if path == set_path:
-            return f"--set {option}: {message}"
-        return f"--set {option}: {path}: {message}"
+            return f"{origin}: {message}"
+        return f"{origin}: {path}: {message}"
 
 
 def parse_yaml(text: str, label: str) -> tuple[Any, _Marks]:
@@ -206,138 +223,121 @@ def read_yaml(path: Path) -> tuple[Any, _Marks]:
     return parse_yaml(text, str(path))
 
 
-def apply_overrides(data: Any, overrides: Sequence[str], source: str,
+def apply_overrides(data: Any, overrides: Overrides, source: str,
                     marks: _Marks | None = None) -> Any:
-    """Apply ``key.path=value`` overrides (values parsed as YAML within the document limits) to
-    the raw configuration.
+    """Apply ``overrides`` (see :data:`Overrides`) to the raw configuration ``data``, in order.
 
-    With the ``marks`` of the document, each override is recorded there, so that a problem in
-    a value it set names the ``--set`` option rather than a line of the file.
-    """
-    if data is None:
-        data = {}
-    problems = []
-    for text in overrides:
-        key, sep, raw = text.partition("=")
-        if not sep or not all(part.strip() for part in key.split(".")):
-            problems.append(f"--set {text!r}: expected KEY.PATH=VALUE")
-            continue
-        try:
-            value = load_yaml(raw, f"--set {key.strip()}")
-        except yaml.YAMLError as exc:
-            problems.append(f"--set {text!r}: the value is not valid YAML ({exc})")
-            continue
-        except DocumentError as exc:  # the value may be huge: name its key alone
-            problems.append(f"--set {key.strip()}=...: the value is refused: {exc.problem}")
-            continue
-        parts = key.strip().split(".")
-        node = data
-        for depth, part in enumerate(parts[:-1]):
-            node, problem = _descend(node, part, ".".join(parts[: depth + 1]))
-            if problem:
-                problems.append(f"--set {text!r}: {problem}")
-                break
-        else:
-            last = parts[-1]
-            if isinstance(node, list) and last.isdigit() and int(last) < len(node):
-                node[int(last)] = value
-            elif isinstance(node, dict):
-                node[last] = value
-            else:
-                problems.append(f"--set {text!r}: {key} cannot be set")
-                continue
-            if marks is not None:
-                marks.overridden(".".join(parts), text)
-    if problems:
-        raise ConfigError(source, problems)
-    return data
+    Each ``KEY.PATH`` walks mappings by key and lists by index, and its value replaces what the
+    path held: a whole slot, one option or a list item. A component written by its name alone
+    gains options on the way (``retrieve: casegraph`` and ``retrieve.delta`` make
+    ``{use: casegraph, delta: ...}``), as does a slot not written at all. ``--set`` values are
+    parsed as YAML within the document limits; mapping values are copied.
 
-
-def overridden(data: Any, overrides: Overrides, source: str,
-               marks: _Marks | None = None) -> Any:
-    """Raw configuration ``data`` with ``overrides`` applied (see :data:`Overrides`); errors
-    name ``source``, and ``--set`` strings are recorded in the document's ``marks``."""
-    if isinstance(overrides, Mapping):
-        return apply_settings(data, overrides, source)
-    if isinstance(overrides, str):  # a lone string would be taken letter by letter
-        overrides = [overrides]
-    return apply_overrides(data, overrides, source, marks)
-
-
-def apply_settings(data: Any, settings: Mapping[str, Any], source: str) -> Any:
-    """Set each ``KEY.PATH`` of ``settings`` to its Python value in raw configuration ``data``.
-
-    A value replaces what the path held, as ``--set`` does: ``{"casebase": {"use": "memory"}}``
-    replaces the whole slot, ``{"retrieve.k": 3}`` one option, and a component written by its
-    name alone gains options on the way (``retrieve: casegraph`` becomes ``{use: casegraph}``).
-    Values are copied, and checked with the rest of the configuration afterwards, so a bad value
-    is reported at its key's path. A key that is not a dotted path, or that leads through a
-    value that is not a mapping, is a :class:`~cbrcore.errors.ConfigError` naming the key.
+    With the ``marks`` of the document, each override is recorded there, so that a problem in a
+    value it set names the override (``--set KEY.PATH=VALUE`` or ``overrides['KEY.PATH']``)
+    rather than a line of the file. Every override that cannot be applied is reported at once,
+    in a :class:`~cbrcore.errors.ConfigError` naming ``source``.
     """
     data = {} if data is None else data
-    problems = []
-    for key, value in settings.items():
-        label = f"overrides[{key!r}]"
-        parts = key.split(".") if isinstance(key, str) else []
-        if not parts or not all(part.strip() for part in parts):
-            problems.append(f"{label}: expected a key of the form KEY.PATH (dots between "
-                            "names), such as 'retrieve.k'")
-            continue
-        node, where = data, []
-        for part in parts[:-1]:
-            where.append(part)
-            node, problem = _setting_child(node, part, ".".join(where))
-            if problem:
-                problems.append(f"{label}: {problem}")
-                break
-        else:
-            last = parts[-1]
-            if isinstance(node, list) and last.isdigit() and int(last) < len(node):
-                node[int(last)] = copy.deepcopy(value)
-            elif isinstance(node, dict):
-                node[last] = copy.deepcopy(value)
-            else:
-                problems.append(f"{label}: {key} cannot be set: {'.'.join(where) or 'the top'} "
-                                f"holds {type(node).__name__}, not a mapping")
+    problems: list[str] = []
+    for setting in _settings(overrides, problems):
+        problem = _assign(data, setting.parts, setting.value)
+        if problem:
+            problems.append(f"{setting.label}: {problem}")
+        elif marks is not None:
+            marks.overridden(".".join(setting.parts), setting.origin)
     if problems:
         raise ConfigError(source, problems)
     return data
 
 
-def _setting_child(node: Any, part: str, path: str) -> tuple[Any, str | None]:
-    """The value under ``part`` of ``node`` that a setting descends into, made a mapping when
-    it is a component's name or absent; or a problem."""
-    if isinstance(node, list):
-        if part.isdigit() and int(part) < len(node):
-            if isinstance(node[int(part)], str):
-                node[int(part)] = {"use": node[int(part)]}
-            return node[int(part)], None
-        return node, f"{path}: the list has no item {part} (it has {len(node)})"
-    if not isinstance(node, dict):
-        return node, f"{path}: cannot be descended into; it holds {type(node).__name__}"
-    child = node.get(part)
+@attrs.frozen
+class _Setting:
+    """One override, read: the path it sets, its value and how problems name it."""
+
+    parts: list[str]
+    value: Any
+    label: str
+    """Names the override in a problem with its key: ``--set 'KEY=VALUE'``, ``overrides['KEY']``."""
+    origin: str
+    """Names the override in a problem with the value it set: ``--set KEY=VALUE``,
+    ``overrides['KEY']``."""
+
+
+def _settings(overrides: Overrides, problems: list[str]) -> list[_Setting]:
+    """The overrides read, each ``KEY.PATH`` split at its dots; a problem for each that cannot
+    be read."""
+    if isinstance(overrides, Mapping):
+        return [setting for key, value in overrides.items()
+                if (setting := _mapping_setting(key, value, problems)) is not None]
+    if isinstance(overrides, str):  # a lone string would be taken letter by letter
+        overrides = [overrides]
+    return [setting for text in overrides
+            if (setting := _option_setting(text, problems)) is not None]
+
+
+def _option_setting(text: str, problems: list[str]) -> _Setting | None:
+    """A ``KEY.PATH=VALUE`` string as ``--set`` takes it, the value read as YAML."""
+    label = f"--set {text!r}"
+    key, sep, raw = text.partition("=")
+    if not sep or not all(part.strip() for part in key.split(".")):
+        problems.append(f"{label}: expected KEY.PATH=VALUE")
+        return None
+    try:
+        value = load_yaml(raw, f"--set {key.strip()}")
+    except yaml.YAMLError as exc:
+        problems.append(f"{label}: the value is not valid YAML ({exc})")
+        return None
+    except DocumentError as exc:  # the value may be huge: name its key alone
+        problems.append(f"--set {key.strip()}=...: the value is refused: {exc.problem}")
+        return None
+    return _Setting(key.strip().split("."), value, label, f"--set {text}")
+
+
+def _mapping_setting(key: Any, value: Any, problems: list[str]) -> _Setting | None:
+    """A ``KEY.PATH`` of a mapping of overrides with its Python value, copied so that the
+    configuration never shares it with the caller."""
+    label = f"overrides[{key!r}]"
+    parts = key.split(".") if isinstance(key, str) else []
+    if not parts or not all(part.strip() for part in parts):
+        problems.append(f"{label}: expected a key of the form KEY.PATH (dots between names), "
+                        "such as 'retrieve.k'")
+        return None
+    return _Setting(parts, copy.deepcopy(value), label, label)
+
+
+def _assign(data: Any, parts: Sequence[str], value: Any) -> str | None:
+    """Set the value at the path ``parts`` of ``data``; the problem when it cannot be set."""
+    node = data
+    for depth, part in enumerate(parts):
+        key: int | str
+        if isinstance(node, list):
+            if not (part.isdigit() and int(part) < len(node)):
+                return (f"{'.'.join(parts[: depth + 1])}: the list has no item {part} "
+                        f"(it has {len(node)})")
+            key = int(part)
+        elif isinstance(node, dict):
+            key = part
+        else:
+            parent = ".".join(parts[:depth]) or "the top level"
+            return (f"{'.'.join(parts)} cannot be set: {parent} holds {type(node).__name__}, "
+                    "not a mapping or a list")
+        if depth == len(parts) - 1:
+            node[key] = value
+        else:
+            node = _opened(node, key)
+    return None
+
+
+def _opened(node: list[Any] | dict[str, Any], key: Any) -> Any:
+    """The value under ``key`` of ``node`` that an override descends into: a component given
+    by its name alone gains options (``{use: name}``), and one not written starts empty."""
+    child = node[key] if isinstance(node, list) else node.get(key)
     if isinstance(child, str):
-        child = node[part] = {"use": child}
+        child = node[key] = {"use": child}
     elif child is None:
-        child = node[part] = {}
-    return child, None
-
-
-def _descend(node: Any, part: str, path: str) -> tuple[Any, str | None]:
-    if isinstance(node, list):
-        if part.isdigit() and int(part) < len(node):
-            if isinstance(node[int(part)], str):  # a list item given by name gains options
-                node[int(part)] = {"use": node[int(part)]}
-            return node[int(part)], None
-        return node, f"{path}: no list item {part}"
-    if not isinstance(node, dict):
-        return node, f"{path}: not a mapping"
-    child = node.get(part)
-    if isinstance(child, str):  # a component given by name alone gains options
-        child = node[part] = {"use": child}
-    elif child is None:
-        child = node[part] = {}
-    return child, None
+        child = node[key] = {}
+    return child
 
 
 def _component(raw: Any, kind: str, path: str, registry: Registry,
@@ -439,7 +439,7 @@ def load_config(path: Path | str, registry: Registry, overrides: Overrides = ())
     """Read, override (see :data:`Overrides`) and check the configuration file at ``path``."""
     path = Path(path).resolve()
     data, marks = read_yaml(path)
-    data = overridden(data, overrides, str(path), marks)
+    data = apply_overrides(data, overrides, str(path), marks)
     return parse_config(data, registry, source=path, marks=marks)
 
 
@@ -447,5 +447,18 @@ def config_from_text(text: str, registry: Registry, overrides: Overrides = ()) -
     """Check a configuration given as YAML text; relative paths resolve against the working
     directory."""
     data, marks = parse_yaml(text, "configuration")
-    data = overridden(data, overrides, "configuration", marks)
+    data = apply_overrides(data, overrides, "configuration", marks)
+    return parse_config(data, registry, marks=marks)
+
+
+def config_from_data(data: Mapping[str, Any], registry: Registry,
+                     overrides: Overrides = ()) -> Config:
+    """Check a configuration given as a mapping of the shape of a YAML one, which is copied,
+    never changed; relative paths resolve against the working directory."""
+    if not isinstance(data, Mapping):
+        raise ConfigError("configuration", [f"expected a mapping of settings, got "
+                                            f"{type(data).__name__}"])
+    data = copy.deepcopy(dict(data))
+    marks = _Marks.of_data(data)
+    data = apply_overrides(data, overrides, "configuration", marks)
     return parse_config(data, registry, marks=marks)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import collections
 import contextlib
-import copy
 import os
 import time
 from collections.abc import Iterable, Mapping
@@ -16,7 +15,7 @@ import attrs
 import pluggy
 
 from cbrcore.casebase.store import CaseStore
-from cbrcore.config import ComponentRef, Config, Overrides, load_config, overridden, parse_config
+from cbrcore.config import ComponentRef, Config, Overrides, config_from_data, load_config
 from cbrcore.context import Context
 from cbrcore.errors import CbrError, ConfigError, PhaseError, PluginError
 from cbrcore.hookimpls import implemented_hooks, unknown_hooks
@@ -24,9 +23,6 @@ from cbrcore.hookspecs import PHASE_HOOKS
 from cbrcore.model import CASEBASE, Outcome, Proposal, Retrieval, Revision, Solution
 from cbrcore.plugins import Plugins, current, new_plugin_manager
 from cbrcore.registry import KIND_HOOK
-
-"""Overrides of a configuration's settings: ``KEY.PATH=VALUE`` strings, values in YAML, as
-``cbr run --set`` takes them; or a mapping of ``KEY.PATH`` to Python values."""
 
 _PHASE_OF_HOOK = {hook: phase for phase, hook in PHASE_HOOKS.items()}
 
@@ -261,12 +257,8 @@ class Engine:
         ``world`` are those of :meth:`from_yaml`.
         """
         plugins = plugins or current()
-        if not isinstance(data, Mapping):
-            raise ConfigError("configuration", [f"expected a mapping of settings, got "
-                                                f"{type(data).__name__}"])
-        raw = overridden(copy.deepcopy(dict(data)), overrides, "configuration")
-        return cls(parse_config(raw, plugins.registry), world=world, plugins=plugins,
-                   out_dir=out_dir)
+        return cls(config_from_data(data, plugins.registry, overrides), world=world,
+                   plugins=plugins, out_dir=out_dir)
 
     def _world_object(self, obj: Any) -> Any:
         """The world the loaded plugins make of ``obj`` (``cbr_world_object``)."""
@@ -285,8 +277,7 @@ class Engine:
             raise CbrError(
                 f"world: no loaded plugin makes a world of a {_type_name(obj)} given as "
                 f"Engine(world=...); plugins that take world objects: "
-                f"{', '.join(takers) or 'none'} (the grid plugin takes a cbr_grid.Grid or a "
-                f"2-D NumPy array); the worlds a configuration can name instead: "
+                f"{', '.join(takers) or 'none'}; the worlds a configuration can name instead: "
                 f"{', '.join(worlds) or 'none registered'}")
         return world
 

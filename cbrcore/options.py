@@ -201,8 +201,28 @@ def in_run_folder(path: Path, out_dir: Path | None, config_dir: Path) -> Path:
     return (config_dir if out_dir is None else out_dir) / path
 
 
+def _mapping_first(converter: cattrs.Converter) -> Callable[[type], Callable[[Any, type], Any]]:
+    """A structure hook factory for nested options classes that refuses anything but a mapping
+    with the keys the class takes: cattrs's own hook would fail on ``value.keys()`` or ``key in
+    value`` with words about Python types."""
+
+    def factory(cls: type) -> Callable[[Any, type], Any]:
+        structure = converter.gen_structure_attrs_fromdict(cls)
+        keys = ", ".join(field.name for field in attrs.fields(cls) if field.init)
+
+        def checked(value: Any, kind: type) -> Any:
+            if not isinstance(value, Mapping):
+                raise TypeError(f"expected a mapping with keys {keys}, got {value!r}")
+            return structure(value, kind)
+
+        return checked
+
+    return factory
+
+
 def _make_converter() -> cattrs.Converter:
     converter = cattrs.Converter(forbid_extra_keys=True, detailed_validation=True)
+    converter.register_structure_hook_factory(attrs.has, _mapping_first(converter))
     converter.register_structure_hook(int, _integer)
     converter.register_structure_hook(float, _strict(float, "a number", (int, float)))
     converter.register_structure_hook(bool, _strict(bool, "true or false", (bool,)))

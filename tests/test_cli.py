@@ -26,6 +26,7 @@ from matplotlib.figure import Figure
 
 import toy_domain
 from cbrcore import hookimpl
+from cbrcore.cli.completion import split_option_value
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.experiment import ExperimentResult, Size
@@ -731,16 +732,38 @@ def test_help_lists_choices_and_the_registered_experiments(cbr_cli: Cli) -> None
     assert "-s, --set KEY.PATH=VALUE" in run
 
 
-@pytest.fixture
-def completing(monkeypatch: pytest.MonkeyPatch, cbr_cli: Cli) -> Callable[[str], list[str]]:
-    """``completing("cbr run x.yaml --set ret")``: what bash completion offers for the last
-    word of the line, through the ``_CBR_COMPLETE`` protocol the installed script uses."""
+def bash_words(line: str) -> tuple[list[str], int]:
+    """The words bash hands a completion function for ``line``, the cursor at its end, and the
+    index of the cursor's word: the line split at blanks and at each ``=``, which is in bash's
+    COMP_WORDBREAKS and becomes a word of its own; a blank at the end begins an empty word."""
+    words = [piece for blank_separated in line.split(" ")
+             for piece in ([p for p in re.split("(=)", blank_separated) if p] or [""])]
+    return words, len(words) - 1
 
-    def complete(line: str) -> list[str]:
-        words = line.split(" ")
+
+def test_the_bash_words_are_those_bash_hands_over() -> None:
+    """As bash 5 gives them to a ``complete -F`` function (COMP_WORDS, COMP_CWORD)."""
+    assert bash_words("cbr run x.yaml --set ret") == (["cbr", "run", "x.yaml", "--set", "ret"], 4)
+    assert bash_words("cbr run x.yaml --set retrieve=") == (
+        ["cbr", "run", "x.yaml", "--set", "retrieve", "="], 5)
+    assert bash_words("cbr run x.yaml --set retrieve=ne") == (
+        ["cbr", "run", "x.yaml", "--set", "retrieve", "=", "ne"], 6)
+    assert bash_words("cbr experiment ") == (["cbr", "experiment", ""], 2)
+
+
+@pytest.fixture
+def completing(monkeypatch: pytest.MonkeyPatch, cbr_cli: Cli) -> Callable[..., list[str]]:
+    """``completing("cbr run x.yaml --set ret")``: what bash completion offers for the last
+    word of the line, through the ``_CBR_COMPLETE`` protocol the installed script uses: the
+    words of :func:`bash_words` joined by newlines, as the script joins them. With
+    ``split=False`` the line is split at blanks alone, as a bash without ``=`` in its
+    COMP_WORDBREAKS splits it."""
+
+    def complete(line: str, *, split: bool = True) -> list[str]:
+        words, cword = bash_words(line) if split else (line.split(" "), line.count(" "))
         monkeypatch.setenv("_CBR_COMPLETE", "complete_bash")
-        monkeypatch.setenv("COMP_WORDS", line)
-        monkeypatch.setenv("COMP_CWORD", str(len(words) - 1))
+        monkeypatch.setenv("COMP_WORDS", "\n".join(words))
+        monkeypatch.setenv("COMP_CWORD", str(cword))
         result = cbr_cli()
         assert result.exit_code == 0, result.stderr
         return result.stdout.split()
@@ -750,19 +773,77 @@ def completing(monkeypatch: pytest.MonkeyPatch, cbr_cli: Cli) -> Callable[[str],
 
 @pytest.mark.usefixtures("toy")
 def test_completion_offers_experiments_references_and_settings(
-        completing: Callable[[str], list[str]]) -> None:
+        completing: Callable[..., list[str]]) -> None:
     assert completing("cbr experiment ") == ["sum_of_squares"]
     assert completing("cbr experiment sum") == ["sum_of_squares"]
     assert completing("cbr experiment x") == []
     assert completing("cbr reference ") == ["config", "hooks"]
     assert completing("cbr run toy.yaml --set ret") == ["retain=", "retrieve="]
     assert completing("cbr validate toy.yaml -s s") == ["seed=", "solver="]
+
+
+@pytest.mark.usefixtures("toy")
+def test_bash_completes_the_value_after_the_equals_sign_it_split_at(
+        completing: Callable[..., list[str]]) -> None:
+    """Bash replaces only what follows the ``=``: the value part is offered, not the word."""
     # the toy's retriever and the faulty plugin's
-    assert completing("cbr run toy.yaml --set retrieve=") == [
-        "retrieve=exploding", "retrieve=nearest"]
-    assert completing("cbr run toy.yaml --set retrieve.use=n") == ["retrieve.use=nearest"]
-    assert completing("cbr run toy.yaml --set forget=c") == ["forget=capacity"]
+    assert completing("cbr run toy.yaml --set retrieve=") == ["exploding", "nearest"]
+    assert completing("cbr run toy.yaml --set retrieve=ne") == ["nearest"]
+    assert completing("cbr run toy.yaml --set retrieve.use=n") == ["nearest"]
+    assert completing("cbr validate toy.yaml -s forget=c") == ["capacity"]
+    assert completing("cbr run toy.yaml --set forget=x") == []
     assert completing("cbr run toy.yaml --set nowhere=") == []
+    assert completing("cbr run toy.yaml --set seed=") == []
+    # a blank after the '=' begins a word of its own, which is no value of the key before it
+    assert completing("cbr run toy.yaml --set retrieve= ") == []
+
+
+@pytest.mark.usefixtures("toy")
+def test_bash_without_the_split_completes_the_whole_word(
+        completing: Callable[..., list[str]]) -> None:
+    assert completing("cbr run toy.yaml --set retrieve=ne", split=False) == ["retrieve=nearest"]
+    assert completing("cbr run toy.yaml --set forget=", split=False) == ["forget=capacity"]
+
+
+@pytest.mark.usefixtures("toy")
+@pytest.mark.parametrize("shell", ["zsh", "fish"])
+def test_zsh_and_fish_complete_the_whole_word(shell: str, monkeypatch: pytest.MonkeyPatch,
+                                              cbr_cli: Cli) -> None:
+    """Zsh and fish keep ``KEY=VALUE`` one word and pass the line typed so far."""
+
+    def complete(line: str) -> list[str]:
+        monkeypatch.setenv("_CBR_COMPLETE", f"complete_{shell}")
+        monkeypatch.setenv("_TYPER_COMPLETE_ARGS", line)
+        monkeypatch.setenv("_TYPER_COMPLETE_FISH_ACTION", "get-args")
+        result = cbr_cli()
+        assert result.exit_code == 0, result.stderr
+        if shell == "fish":  # one "value<TAB>help" line each
+            return [row.split("\t")[0] for row in result.stdout.splitlines()]
+        # zsh: _arguments '*: :(("value":"help" ...))', or _files when nothing matched
+        return re.findall(r'(?:^|\(\()"([^"]*)"', result.stdout, flags=re.M)
+
+    assert complete("cbr run toy.yaml --set ret") == ["retain=", "retrieve="]
+    assert complete("cbr run toy.yaml --set retrieve=") == ["retrieve=exploding",
+                                                             "retrieve=nearest"]
+    assert complete("cbr run toy.yaml --set retrieve=ne") == ["retrieve=nearest"]
+    assert complete("cbr run toy.yaml -s forget=c") == ["forget=capacity"]
+
+
+def test_only_a_bash_request_for_a_split_value_is_recognised() -> None:
+    """:func:`split_option_value` reads the bash protocol's variables and nothing else."""
+    def split(words: list[str], cword: int, shell: str = "bash") -> tuple[str, str] | None:
+        return split_option_value("cbr", {"_CBR_COMPLETE": f"complete_{shell}",
+                                          "COMP_WORDS": "\n".join(words),
+                                          "COMP_CWORD": str(cword)})
+
+    assert split(["cbr", "run", "x", "--set", "retrieve", "="], 5) == ("--set", "retrieve=")
+    assert split(["cbr", "run", "x", "-s", "retrieve", "=", "ne"], 6) == ("-s", "retrieve=ne")
+    assert split(["cbr", "run", "x", "--set", "retrieve", "=", "ne"], 6, "zsh") is None
+    assert split(["cbr", "run", "x", "--set", "retrieve=ne"], 4) is None  # whole: not split
+    assert split(["cbr", "run", "x", "--set", "retrieve", "=", ""], 6) is None
+    assert split(["cbr", "run", "x", "retrieve", "="], 4) is None  # no option before the key
+    assert split(["cbr", "=", "x"], 2) is None
+    assert split_option_value("cbr", {"_CBR_COMPLETE": "complete_bash"}) is None
 
 
 # -- experiment size, tables and JSON ---------------------------------------------------------

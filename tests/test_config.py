@@ -24,6 +24,7 @@ from cbrcore.config import (
     Config,
     _Marks,
     apply_overrides,
+    config_from_data,
     config_from_text,
     load_config,
     parse_config,
@@ -311,11 +312,11 @@ def test_invalid_overrides_are_all_reported() -> None:
                             "--set '=3': expected KEY.PATH=VALUE"]
     assert problems[2].startswith("--set 'seed=[1': the value is not valid YAML (")
     assert problems[3:] == [
-        "--set 'forget.5.limit=1': forget.5: no list item 5",
-        "--set 'seed.x=1': seed.x cannot be set",
-        "--set 'seed.x.y=1': seed.x: not a mapping",
-        "--set 'forget.x.limit=1': forget.x: no list item x",
-        "--set 'forget.3=keep': forget.3 cannot be set",
+        "--set 'forget.5.limit=1': forget.5: the list has no item 5 (it has 1)",
+        "--set 'seed.x=1': seed.x cannot be set: seed holds int, not a mapping or a list",
+        "--set 'seed.x.y=1': seed.x.y cannot be set: seed holds int, not a mapping or a list",
+        "--set 'forget.x.limit=1': forget.x: the list has no item x (it has 1)",
+        "--set 'forget.3=keep': forget.3: the list has no item 3 (it has 1)",
     ]
 
 
@@ -377,8 +378,9 @@ def test_overrides_are_attributed_only_with_the_document_marks(registry: Registr
     marks = _Marks(yaml.compose(toy_domain.TOY_CONFIG, Loader=yaml.SafeLoader))
     data = apply_overrides(yaml.safe_load(toy_domain.TOY_CONFIG),
                            ["retrieve.radius=5", "seed=1"], "toy.yaml", marks)
-    assert marks.overrides == [("retrieve.radius", "retrieve.radius=5"), ("seed", "seed=1")]
-    assert marks.option("retrieve.radius") == ("retrieve.radius", "retrieve.radius=5")
+    assert marks.overrides == [("retrieve.radius", "--set retrieve.radius=5"),
+                               ("seed", "--set seed=1")]
+    assert marks.option("retrieve.radius") == ("retrieve.radius", "--set retrieve.radius=5")
     assert marks.option("retrieve") is None and marks.option("retrieve.use") is None
     assert parse_config(data, registry, marks=marks).seed == 1
 
@@ -530,3 +532,166 @@ def test_a_key_written_twice_is_refused_with_its_line(tmp_path: Path, registry: 
         load_config(path, registry)
     assert caught.value.problems == ["seed (line 3, column 1): key written twice",
                                      "retrieve.use (line 6, column 3): key written twice"]
+
+
+# --- overrides as a mapping: the same edits as --set -------------------------------------------
+
+# one set of edits, written as --set strings and as a mapping of Python values
+EDITS_AS_STRINGS = ["retrieve.radius=2", "forget.0.limit=3", "seed=9", "metrics.0=abs_error",
+                    "reuse.x=1", "world.level=4", "observers=[trace]", "workload.high='8'"]
+EDITS_AS_MAPPING = {"retrieve.radius": 2, "forget.0.limit": 3, "seed": 9, "metrics.0": "abs_error",
+                    "reuse.x": 1, "world.level": 4, "observers": ["trace"], "workload.high": "8"}
+
+
+def test_both_forms_of_overrides_edit_the_configuration_alike() -> None:
+    """Strings and a mapping reach the same data: options set in mappings, a list item by
+    index, a component written by name gaining options, a slot the file lacks made."""
+    expected = {"seed": 9, "casebase": "memory",
+                "workload": {"use": "squares", "count": 30, "high": "8"},
+                "retrieve": {"use": "nearest", "radius": 2}, "reuse": {"use": "tangent", "x": 1},
+                "revise": {"use": "tolerance", "tolerance": 0}, "solver": "compute",
+                "retain": ["keep"], "forget": [{"use": "capacity", "limit": 3}],
+                "metrics": ["abs_error"], "world": {"level": 4}, "observers": ["trace"]}
+    for edits in (EDITS_AS_STRINGS, EDITS_AS_MAPPING):
+        assert apply_overrides(yaml.safe_load(toy_domain.TOY_CONFIG), edits, "toy.yaml") == expected
+
+
+def test_both_forms_record_each_override_in_the_marks() -> None:
+    marks = {}
+    for form, edits in (("strings", EDITS_AS_STRINGS), ("mapping", EDITS_AS_MAPPING)):
+        marks[form] = _Marks(yaml.compose(toy_domain.TOY_CONFIG, Loader=yaml.SafeLoader))
+        apply_overrides(yaml.safe_load(toy_domain.TOY_CONFIG), edits, "toy.yaml", marks[form])
+    paths = [text.partition("=")[0] for text in EDITS_AS_STRINGS]
+    assert marks["strings"].overrides == [(text.partition("=")[0], f"--set {text}")
+                                          for text in EDITS_AS_STRINGS]
+    assert marks["mapping"].overrides == [(path, f"overrides[{path!r}]") for path in paths]
+
+
+# (the --set string, the same edit as a mapping key and value, what is wrong with its key)
+BAD_KEYS = [
+    ("forget.5.limit=1", ("forget.5.limit", 1), "forget.5: the list has no item 5 (it has 1)"),
+    ("forget.x.limit=1", ("forget.x.limit", 1), "forget.x: the list has no item x (it has 1)"),
+    ("forget.1=keep", ("forget.1", "keep"), "forget.1: the list has no item 1 (it has 1)"),
+    ("seed.x=1", ("seed.x", 1), "seed.x cannot be set: seed holds int, not a mapping or a list"),
+    ("seed.x.y=1", ("seed.x.y", 1),
+     "seed.x.y cannot be set: seed holds int, not a mapping or a list"),
+    ("retain.0.x.y=1", ("retain.0.x.y", 1),
+     "retain.0.x.y cannot be set: retain.0 holds int, not a mapping or a list"),
+]
+
+
+@pytest.mark.parametrize(("text", "setting", "problem"), BAD_KEYS,
+                         ids=[text for text, _, _ in BAD_KEYS])
+def test_a_key_that_cannot_be_set_is_the_same_problem_in_both_forms(
+        text: str, setting: tuple[str, Any], problem: str) -> None:
+    data = {"seed": 3, "forget": [{"use": "capacity"}], "retain": [7]}
+    for edits, label in (([text], f"--set {text!r}"),
+                         (dict([setting]), f"overrides[{setting[0]!r}]")):
+        with pytest.raises(ConfigError) as caught:
+            apply_overrides(copy.deepcopy(data), edits, "run.yaml")
+        assert caught.value.problems == [f"{label}: {problem}"]
+
+
+def test_the_top_level_that_is_not_a_mapping_cannot_be_set() -> None:
+    with pytest.raises(ConfigError) as caught:
+        apply_overrides(5, {"seed": 1}, "run.yaml")
+    assert caught.value.problems == [
+        "overrides['seed']: seed cannot be set: the top level holds int, not a mapping or a list"]
+
+
+def test_mapping_values_are_copied() -> None:
+    """The configuration never shares a value with the caller: changing one changes neither."""
+    value = {"use": "nearest", "radius": 2}
+    data = apply_overrides({}, {"retrieve": value, "retrieve.radius": 3}, "run.yaml")
+    assert data == {"retrieve": {"use": "nearest", "radius": 3}}
+    assert value == {"use": "nearest", "radius": 2}
+
+
+# (a mapping override, the one problem reported) for TOY_CONFIG, whose retrieve slot is line 4:
+# "retrieve: {use: nearest, radius: 1}"; the mapping counterparts of OVERRIDE_PROBLEMS
+MAPPING_OVERRIDE_PROBLEMS = {
+    "an option": ({"retrieve.radius": -1}, "overrides['retrieve.radius']: must be >= 0: -1"),
+    "a whole slot": ({"retrieve": {"use": "nearest", "radius": -1}},
+                     "overrides['retrieve']: retrieve.radius: must be >= 0: -1"),
+    "a list item": ({"forget.0.limit": "x"},
+                    "overrides['forget.0.limit']: expected an integer, got 'x'"),
+    "the later of two": ({"retrieve.radius": -1, "retrieve": {"use": "nearest", "radius": -2}},
+                         "overrides['retrieve']: retrieve.radius: must be >= 0: -2"),
+    "a slot the file lacks": ({"world.level": 1},
+                              "overrides['world.level']: world: expected a world name or a "
+                              "mapping with a 'use' key naming the world, got {'level': 1}"),
+    "a component's name": ({"retrieve.use": "nearst"},
+                           "overrides['retrieve.use']: unknown retriever 'nearst'; registered: "
+                           "nearest (plugin toy)"),
+    "a sibling of a bad written option": (
+        {"retrieve.use": "nearest"}, "retrieve.radius (line 4, column 34): must be >= 0: -1"),
+}
+
+
+@pytest.mark.parametrize(("overrides", "problem"), MAPPING_OVERRIDE_PROBLEMS.values(),
+                         ids=MAPPING_OVERRIDE_PROBLEMS.keys())
+def test_a_problem_in_a_mapping_override_names_its_key(
+        registry: Registry, tmp_path: Path, overrides: dict[str, Any], problem: str) -> None:
+    """As for ``--set``: a value a mapping override set is named by its key, not by the line
+    of the file that held the value it replaced; from data, a value the data wrote is named by
+    its path alone, there being no line."""
+    text = toy_domain.TOY_CONFIG
+    if problem.startswith("retrieve.radius (line 4"):
+        text = text.replace("radius: 1", "radius: -1")
+    path = write(tmp_path, text)
+    for load, expected in (
+            (lambda: load_config(path, registry, overrides), problem),
+            (lambda: config_from_text(text, registry, overrides), problem),
+            (lambda: config_from_data(yaml.safe_load(text), registry, overrides),
+             problem.replace(" (line 4, column 34)", ""))):
+        with pytest.raises(ConfigError) as caught:
+            load()
+        assert caught.value.problems == [expected]
+
+
+def test_from_data_a_problem_the_data_wrote_is_not_blamed_on_an_override_beneath_it(
+        registry: Registry) -> None:
+    """The data held ``world`` (without a ``use``) before ``world.level`` was set below it."""
+    with pytest.raises(ConfigError) as caught:
+        config_from_data({"world": {"mode": "exact"}}, registry, {"world.level": 1})
+    assert caught.value.problems == [
+        "world: expected a world name or a mapping with a 'use' key naming the world, got "
+        "{'mode': 'exact', 'level': 1}"]
+
+
+def test_config_from_data_leaves_the_mapping_alone(registry: Registry) -> None:
+    data = {"retrieve": "nearest", "forget": ["capacity"]}
+    config = config_from_data(data, registry, {"retrieve.radius": 4, "forget.0.limit": 2})
+    assert config.retrieve is not None and config.retrieve.options.radius == 4
+    assert [ref.options.limit for ref in config.forget] == [2]
+    assert data == {"retrieve": "nearest", "forget": ["capacity"]}
+
+
+@attrs.frozen
+class Radii:
+    robot_radius: float = option(doc="")
+    inflation_radius: float | None = option(None, "")
+
+
+@attrs.frozen
+class NestingOptions:
+    inflation: Radii | None = option(None, "")
+    sites: list[Radii] = option(factory=list)
+
+
+@pytest.mark.parametrize(("data", "problems"), [
+    ({"inflation": 0.3}, [("w.inflation", "expected a mapping with keys robot_radius, "
+                                          "inflation_radius, got 0.3")]),
+    ({"sites": [0.3, {"robot_radius": 1}, "x", [1]]},
+     [("w.sites.0", "expected a mapping with keys robot_radius, inflation_radius, got 0.3"),
+      ("w.sites.2", "expected a mapping with keys robot_radius, inflation_radius, got 'x'"),
+      ("w.sites.3", "expected a mapping with keys robot_radius, inflation_radius, got [1]")]),
+])
+def test_a_nested_option_given_a_scalar_asks_for_a_mapping_of_its_keys(
+        data: dict[str, Any], problems: list[tuple[str, str]]) -> None:
+    assert option_problems(NestingOptions, data, "w") == (None, problems)
+    # the mappings themselves are read as before, null leaving an optional one out
+    assert option_problems(NestingOptions, {"inflation": {"robot_radius": 1}, "sites": [
+        {"robot_radius": 2, "inflation_radius": 3}]}, "w") == (
+        NestingOptions(Radii(1.0), [Radii(2.0, 3.0)]), [])
+    assert option_problems(NestingOptions, {"inflation": None}, "w") == (NestingOptions(), [])

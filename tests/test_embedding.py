@@ -107,15 +107,47 @@ def test_a_world_object_replaces_the_configured_world() -> None:
 def test_an_object_no_plugin_takes_names_its_type_and_the_worlds() -> None:
     with pytest.raises(CbrError) as caught:
         Engine.from_dict({}, world={"cells": []}, plugins=grid_plugins())
-    message = str(caught.value)
-    assert "no loaded plugin makes a world of a dict" in message
-    assert "plugins that take world objects: grid" in message
-    assert "generated (grid)" in message and "map_file (grid)" in message
+    assert str(caught.value) == (
+        "world: no loaded plugin makes a world of a dict given as Engine(world=...); plugins "
+        "that take world objects: grid; the worlds a configuration can name instead: "
+        "generated (grid), map_file (grid), movingai (grid)")
+
+
+class Rooms:
+    """A plugin of another world, which takes no object it is shown here."""
+
+    @hookimpl
+    def cbr_world_object(self, obj: object) -> object | None:
+        return None
+
+
+def test_without_the_grid_plugin_the_refusal_names_only_the_loaded_ones() -> None:
+    """The engine does not know grids: it names the plugins that implement the hook."""
+    plugins = load_plugins(extra=[("core", cbrcore.builtins), ("rooms", Rooms())],
+                           entry_points=False, environ={})
+    with pytest.raises(CbrError) as caught:
+        Engine.from_dict({}, world=np.zeros((2, 2)), plugins=plugins)
+    assert str(caught.value) == (
+        "world: no loaded plugin makes a world of a numpy.ndarray of shape (2, 2) given as "
+        "Engine(world=...); plugins that take world objects: rooms; the worlds a configuration "
+        "can name instead: none registered")
 
 
 def test_a_bad_array_is_refused_by_the_grid_plugin() -> None:
     with pytest.raises(CbrError, match="within \\[0, 1\\]"):
         Engine.from_dict({}, world=np.full((3, 3), 2.0), plugins=grid_plugins())
+
+
+def test_an_array_of_0_and_1_is_not_taken_for_occupancy_percentages() -> None:
+    # a wall of 1s across the middle row: as percentages (1 %) it would be free, and the
+    # solver would plan straight through it
+    walls = np.zeros((3, 3), dtype=np.int64)
+    walls[1] = 1
+    with pytest.raises(CbrError, match=r"an array of int64 is ambiguous: expected booleans"):
+        Engine.from_dict({"solver": "astar"}, world=walls, plugins=grid_plugins())
+    with Engine.from_dict({"solver": "astar"}, world=walls == 1,
+                          plugins=grid_plugins()) as engine:
+        assert engine.solve(GridQuery((0, 0), (0, 2))).solution is None
 
 
 class Spoils:
@@ -182,17 +214,32 @@ def test_from_yaml_takes_mapping_overrides(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("overrides", "expected"), [
-    ({"retrieve.radius": "3"}, r"retrieve\.radius.*'3'"),
-    ({"retrieve..radius": 3}, r"overrides\['retrieve\.\.radius'\]: expected a key of the form"),
-    ({7: 3}, r"overrides\[7\]: expected a key of the form KEY\.PATH"),
-    ({"seed.x": 3}, r"overrides\['seed\.x'\]: seed\.x cannot be set: seed holds int"),
-    ({"retain.4.x": 1}, r"overrides\['retain\.4\.x'\]: retain\.4: the list has no item 4"),
+    ({"retrieve.radius": "3"}, "overrides['retrieve.radius']: expected an integer, got '3'"),
+    ({"retrieve..radius": 3}, "overrides['retrieve..radius']: expected a key of the form "
+                              "KEY.PATH (dots between names), such as 'retrieve.k'"),
+    ({7: 3}, "overrides[7]: expected a key of the form KEY.PATH (dots between names), such as "
+             "'retrieve.k'"),
+    ({"seed.x": 3}, "overrides['seed.x']: seed.x cannot be set: seed holds int, not a mapping "
+                    "or a list"),
+    ({"retain.4.x": 1}, "overrides['retain.4.x']: retain.4: the list has no item 4 (it has 1)"),
 ])
 def test_a_bad_mapping_override_names_its_key(overrides: dict[object, object],
                                               expected: str) -> None:
     config = {"seed": 1, "retrieve": "nearest", "retain": ["keep"]}
-    with pytest.raises(ConfigError, match=expected):
+    with pytest.raises(ConfigError) as caught:
         Engine.from_dict(config, plugins=toy_plugins(), overrides=overrides)
+    assert caught.value.problems == [expected]
+
+
+def test_a_bad_mapping_override_of_a_file_names_its_key_not_the_file_line() -> None:
+    """The file's own ``delta: 8`` is valid: the problem is the override's value (checked with
+    the installed plugins, which the file's components come from)."""
+    with pytest.raises(ConfigError) as caught:
+        Engine.from_yaml(ROOT / "configs" / "hybrid_grid.yaml", overrides={"retrieve.delta": -1})
+    assert caught.value.problems == ["overrides['retrieve.delta']: must be >= 1: -1"]
+    with pytest.raises(ConfigError) as caught:
+        Engine.from_yaml(ROOT / "configs" / "hybrid_grid.yaml", overrides=["retrieve.delta=-1"])
+    assert caught.value.problems == ["--set retrieve.delta=-1: must be >= 1: -1"]
 
 
 def test_an_engine_given_a_mapping_points_to_from_dict() -> None:

@@ -4,7 +4,7 @@ and a page that differs from its results fails ``benchmarks/figures.py --check``
 from __future__ import annotations
 
 import csv
-import importlib.util
+import importlib
 import json
 import re
 import shlex
@@ -12,7 +12,7 @@ import shutil
 import statistics
 import subprocess
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -26,14 +26,20 @@ ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = ROOT / "benchmarks" / "figures.py"
 
 
+#: the modules of the docfigures package the tests reach
+MODULES = ("results", "wording", "catalogue", "pages", "keep", "case_benchmarks",
+           "ros2005_baseline", "pathcases_experiments", "rupart_experiments")
+
+
 @pytest.fixture(scope="module")
-def figures() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("figures", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["figures"] = module
-    spec.loader.exec_module(module)
-    return module
+def figures() -> Iterator[ModuleType]:
+    """The docfigures package, imported as the script imports it: from the script's folder."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.syspath_prepend(str(SCRIPT.parent))
+        package = importlib.import_module("docfigures")
+        for name in MODULES:
+            importlib.import_module(f"docfigures.{name}")
+        yield package
 
 
 def test_the_pages_hold_what_the_results_say() -> None:
@@ -43,9 +49,9 @@ def test_the_pages_hold_what_the_results_say() -> None:
 
 
 def test_every_block_is_on_a_page_and_every_page_block_is_known(figures: ModuleType) -> None:
-    used = figures.used()
-    assert set(used) == set(figures.BLOCKS)
-    for block in figures.BLOCKS.values():
+    used = figures.pages.used()
+    assert set(used) == set(figures.catalogue.BLOCKS)
+    for block in figures.catalogue.BLOCKS.values():
         assert block.source.is_file(), block.source
 
 
@@ -60,12 +66,12 @@ def test_a_changed_figure_is_reported_with_its_page_and_block(figures: ModuleTyp
     assert cell.search(text, start), "the genetic table holds a success rate of 0.90"
     page.write_text(text[:start] + cell.sub("| 0.95 |", text[start:], count=1),
                     encoding="utf-8")
-    stale = figures.check(docs)
+    stale = figures.pages.check(docs)
     assert len(stale) == 1
     assert stale[0].startswith("docs/benchmarks.md: block genetic differs")
-    assert figures.write(docs) == ["docs/benchmarks.md: block genetic rewritten"]
+    assert figures.pages.write(docs) == ["docs/benchmarks.md: block genetic rewritten"]
     assert page.read_text(encoding="utf-8") == text
-    assert figures.check(docs) == []
+    assert figures.pages.check(docs) == []
 
 
 def test_an_unknown_block_names_its_page(figures: ModuleType, tmp_path: Path) -> None:
@@ -73,20 +79,22 @@ def test_an_unknown_block_names_its_page(figures: ModuleType, tmp_path: Path) ->
     docs.mkdir()
     (docs / "page.md").write_text("# P\n\n<!-- figures: nowhere -->\n<!-- /figures -->\n",
                                   encoding="utf-8")
-    with pytest.raises(figures.FiguresError, match=r"docs/page\.md: block nowhere: unknown"):
-        figures.check(docs)
+    with pytest.raises(figures.results.FiguresError,
+                       match=r"docs/page\.md: block nowhere: unknown"):
+        figures.pages.check(docs)
 
 
 def test_table_selects_columns_and_rows_by_name(figures: ModuleType) -> None:
     text = ("intro\n\n| map | a | b |\n|---|---|---|\n| x 1 | 1 | 2 |\n| y 2 | 3 | 4 |\n\n"
             "| k |\n|---|\n| v |\n")
-    assert figures.table(text, 0, ["b", "map"], where="y") == (
+    results = figures.results
+    assert results.table(text, 0, ["b", "map"], where="y") == (
         "| b | map |\n| --- | --- |\n| 4 | y 2 |")
-    assert figures.table(text, 1) == "| k |\n| --- |\n| v |"
-    with pytest.raises(figures.FiguresError, match="no column 'c'"):
-        figures.table(text, 0, ["c"])
-    with pytest.raises(figures.FiguresError, match="2 tables, not table 3"):
-        figures.table(text, 2)
+    assert results.table(text, 1) == "| k |\n| --- |\n| v |"
+    with pytest.raises(results.FiguresError, match="no column 'c'"):
+        results.table(text, 0, ["c"])
+    with pytest.raises(results.FiguresError, match="2 tables, not table 3"):
+        results.table(text, 2)
 
 
 def test_check_fails_naming_the_page_from_the_command_line(tmp_path: Path) -> None:
@@ -103,6 +111,51 @@ def test_check_fails_naming_the_page_from_the_command_line(tmp_path: Path) -> No
                           capture_output=True, text=True, timeout=120, check=False)
     assert done.returncode == 1
     assert "docs/benchmarks.md: block engine-overhead differs" in done.stderr
+
+
+def test_an_experiment_run_is_kept_with_its_command_table_and_trimmed_results(
+        figures: ModuleType, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    keep = figures.keep
+    monkeypatch.setattr(keep, "KEPT", tmp_path / "kept")
+    run = tmp_path / "run"
+    run.mkdir()
+    curves = {"map-only": [[1.23456, 2.0]], "cbr": [[0.99999, 1.5]], "map-learning": [[3.0]]}
+    (run / "results.json").write_text(json.dumps({"curves": curves, "trips": 2}),
+                                      encoding="utf-8")
+    (run / "results.md").write_text("| a |\n|---|\n| 1 |\n", encoding="utf-8")
+
+    def manifest(experiment: str, seed: int) -> None:
+        (run / "manifest.json").write_text(json.dumps(
+            {"experiment": experiment, "size": "full", "seed": seed}), encoding="utf-8")
+
+    manifest("path-cases-learning", 0)
+    target = keep.keep_experiment("path-cases-learning", run)
+    assert target == tmp_path / "kept" / "path-cases-learning.json"
+    # the pages quote the curves of two robots only, to four decimals
+    assert json.loads(target.read_text(encoding="utf-8")) == {
+        "command": "cbr experiment path-cases-learning --size full --seed 0",
+        "table": "| a |\n|---|\n| 1 |\n",
+        "results": {"curves": {"map-only": [[1.2346, 2.0]], "cbr": [[1.0, 1.5]]}, "trips": 2}}
+    manifest("path-cases-learning", 1)
+    assert keep.keep_experiment("path-cases-learning", run).name == (
+        "path-cases-learning-seed-1.json")
+    manifest("cbr-share", 0)
+    with pytest.raises(figures.results.FiguresError,
+                       match=r"manifest\.json is of experiment 'cbr-share', not 'deviation-table'"):
+        keep.keep_experiment("deviation-table", run)
+    (run / "manifest.json").write_text("{", encoding="utf-8")
+    with pytest.raises(figures.results.FiguresError,
+                       match=rf"^{re.escape(str(run))}/manifest\.json: not JSON"):
+        keep.keep_experiment("cbr-share", run)
+
+
+def test_a_run_folder_without_results_is_named_by_the_command_line(tmp_path: Path) -> None:
+    done = subprocess.run([sys.executable, str(SCRIPT), "--keep-experiment", "cbr-share",
+                           str(tmp_path / "nowhere")], capture_output=True, text=True,
+                          timeout=120, check=False)
+    assert done.returncode == 1
+    assert done.stderr == (f"figures: {tmp_path / 'nowhere' / 'manifest.json'}: no such results "
+                           "file\n")
 
 
 def test_every_experiment_command_on_a_page_names_its_size() -> None:
@@ -313,29 +366,37 @@ def test_the_case_graph_page_figures_of_the_ideal_length(
 
 def test_records_reads_a_table_by_its_header(figures: ModuleType) -> None:
     text = "| map | A* ms |\n|---|---|\n| x 1 | 0.5 |\n| y | 2 |\n"
-    assert figures.records(text, 0) == [{"map": "x 1", "A* ms": "0.5"},
-                                         {"map": "y", "A* ms": "2"}]
-    with pytest.raises(figures.FiguresError, match="1 tables, not table 2"):
-        figures.records(text, 1)
+    assert figures.results.records(text, 0) == [{"map": "x 1", "A* ms": "0.5"},
+                                                 {"map": "y", "A* ms": "2"}]
+    with pytest.raises(figures.results.FiguresError, match="1 tables, not table 2"):
+        figures.results.records(text, 1)
 
 
 def test_ranges_and_lists_read_as_prose(figures: ModuleType) -> None:
-    assert figures._span([0.62, 0.8, 0.7], 2) == "0.62-0.80"
-    assert figures._span([3.04, 2.96], 1) == "3.0"
-    assert figures._listed(["a"]) == "a"
-    assert figures._listed(["a", "b", "c"]) == "a, b and c"
+    wording = figures.wording
+    assert wording.span([0.62, 0.8, 0.7], 2) == "0.62-0.80"
+    assert wording.span([3.04, 2.96], 1) == "3.0"
+    assert wording.span([5.2, 6.4], 0, "%") == "5-6%"
+    assert wording.listed(["a"]) == "a"
+    assert wording.listed(["a", "b", "c"]) == "a, b and c"
+    with pytest.raises(figures.results.FiguresError, match="nothing to list"):
+        wording.listed([])
     # two significant digits: 998 -> 1,000, 872 -> 870, 3.46 -> 3.5
-    assert [figures._about(v) for v in (998.0, 872.0, 3.46)] == ["1,000", "870", "3.5"]
+    assert [wording.about(v) for v in (998.0, 872.0, 3.46)] == ["1,000", "870", "3.5"]
+    assert [wording.all_of(f) for f in ("50/50", "49/50")] == ["all 50", "49 of 50"]
+    assert wording.pm({"mean": 0.125, "std": 0.05}, 100, sign=True) == "+12.5 ± 5.0"
+    assert wording.pm({"mean": None, "std": None}) == "-"
 
 
 def test_the_profile_gives_a_function_its_own_time_per_call(figures: ModuleType) -> None:
     profile = ("   ncalls  tottime  percall  cumtime  percall filename:lineno(function)\n"
                "      200    0.033    0.000    0.033    0.000 /x/aistar.py:58(_propagate)\n"
                "    40/20    0.010    0.000    0.020    0.001 /x/search.py:23(graph_search)\n")
-    assert figures._profile_per_call(profile, "_propagate") == (200, pytest.approx(0.165))
-    assert figures._profile_per_call(profile, "graph_search") == (40, pytest.approx(0.25))
-    with pytest.raises(figures.FiguresError, match="no line for adapt"):
-        figures._profile_per_call(profile, "adapt")
+    per_call = figures.case_benchmarks.profile_per_call
+    assert per_call(profile, "_propagate") == (200, pytest.approx(0.165))
+    assert per_call(profile, "graph_search") == (40, pytest.approx(0.25))
+    with pytest.raises(figures.results.FiguresError, match="no line for adapt"):
+        per_call(profile, "adapt")
 
 
 def _delivery(arms: dict[str, tuple[float, float, float, float]]) -> dict[str, Any]:
@@ -353,8 +414,9 @@ def test_the_delivery_reading_draws_its_conclusions_from_the_figures(
         figures: ModuleType, monkeypatch: pytest.MonkeyPatch) -> None:
     better = _delivery({"fixed": (2, 14, 2.0, 30), "cbr": (5, 11, 1.0, 90),
                         "adaptive": (4, 12, 0.5, 80), "learned-weights": (4, 11, 0.4, 70)})
-    monkeypatch.setattr(figures, "_delivery", lambda: better)
-    reading = figures._delivery_reading()
+    delivery = figures.rupart_experiments
+    monkeypatch.setattr(delivery, "delivery", lambda: better)
+    reading = delivery.delivery_reading()
     assert "fewer collisions of the robot's (0.50 against 2.00 a day)" in reading
     assert "not established" not in reading  # the differences exceed the spread of 0.1
     assert "`cbr` delivers most (5.0 a day" in reading
@@ -362,8 +424,8 @@ def test_the_delivery_reading_draws_its_conclusions_from_the_figures(
     assert "All four miss most deadlines" in reading
     worse = _delivery({"fixed": (9, 2, 0.5, 30), "cbr": (5, 3, 1.0, 20),
                        "adaptive": (4, 3, 1.5, 80), "learned-weights": (10, 1, 2.0, 70)})
-    monkeypatch.setattr(figures, "_delivery", lambda: worse)
-    reading = figures._delivery_reading()
+    monkeypatch.setattr(delivery, "delivery", lambda: worse)
+    reading = delivery.delivery_reading()
     assert "this run does not show both" in reading
     assert "`learned-weights` delivers most (10.0 a day" in reading
     assert "people reach them more often" not in reading  # cbr has fewer contacts than fixed
@@ -373,18 +435,20 @@ def test_the_delivery_reading_draws_its_conclusions_from_the_figures(
 
 def test_the_first_diversion_is_named_by_the_nearest_landmark(figures: ModuleType) -> None:
     landmarks = {"l1": [3.2, 0.9], "l2": [3.4, 3.79]}
-    assert figures._first_way({"diverting": [[2.9, 4.6], [3.0, 0.0]]}, landmarks) == "l2"
-    assert figures._first_way({"diverting": [[3.0, 0.2]]}, landmarks) == "l1"
-    assert figures._first_way({"diverting": []}, landmarks) is None
+    first_way = figures.ros2005_baseline.first_way
+    assert first_way({"diverting": [[2.9, 4.6], [3.0, 0.0]]}, landmarks) == "l2"
+    assert first_way({"diverting": [[3.0, 0.2]]}, landmarks) == "l1"
+    assert first_way({"diverting": []}, landmarks) is None
 
 
 def test_a_learning_curve_is_below_from_the_last_crossing(
         figures: ModuleType, monkeypatch: pytest.MonkeyPatch) -> None:
     # with a window of 1 the curves are the costs: b dips below a at trip 2, rises above at
     # trip 3 and stays below from trip 4 on
-    assert figures._mean_curve([[1.0, 3.0], [3.0, 5.0]], 1) == [2.0, 4.0]
-    assert figures._mean_curve([[1.0, 3.0, 5.0]], 2) == [1.0, 2.0, 4.0]
+    learning = figures.pathcases_experiments
+    assert learning.mean_curve([[1.0, 3.0], [3.0, 5.0]], 1) == [2.0, 4.0]
+    assert learning.mean_curve([[1.0, 3.0, 5.0]], 2) == [1.0, 2.0, 4.0]
     results = {"curves": {"a": [[2.0, 2.0, 2.0, 2.0, 2.0]], "b": [[3.0, 1.0, 3.0, 1.0, 1.0]]}}
     monkeypatch.setattr("cbr_pathcases.experiments.WINDOW", 1)
-    assert figures._below_from(results, "b", "a") == 4
-    assert figures._below_from(results, "a", "b") is None
+    assert learning.below_from(results, "b", "a") == 4
+    assert learning.below_from(results, "a", "b") is None

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import matplotlib.image
@@ -9,6 +10,7 @@ import numpy as np
 import pytest
 
 import cbr_grid
+import cbr_grid.formats
 from cbr_grid.formats import load_grid, load_npy, load_png, load_ros, load_text, read_image
 from cbr_grid.frame import MapFrame
 from cbr_grid.grid import Grid
@@ -61,10 +63,34 @@ def test_16_bit_pgm_reads_as_levels(tmp_path: Path) -> None:
     np.testing.assert_array_equal(read_image(path), pixels / 65535)
     plain = write(tmp_path, "plain.pgm", b"P2\n3 1\n1000\n0 1000 250\n")
     np.testing.assert_allclose(read_image(plain), [[0, 1, 0.25]], atol=0.5 / 65535)
-    # a 16-bit map reads like its 8-bit twin: 0 and 50 occupied, 65535 free, 32768 unknown
-    write(tmp_path, "deep.pgm", b"P5\n3 1\n65535\n" + pixels.tobytes())
+    # a 16-bit map reads like an 8-bit one: 0 (p 1) occupied, 65535 (p 0) free and 32768
+    # (p 32767 / 65535, just below 0.5) unknown
     grid = load_ros(ros_yaml(tmp_path, "deep.pgm"), unknown_risk=U)
     np.testing.assert_array_equal(grid.risk, [[1, 0, U]])
+
+
+def test_a_map_image_past_pillows_pixel_limit_is_read(tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    from PIL import Image
+
+    path = write(tmp_path, "map.pgm", P5)  # 4 x 2 = 8 pixels
+    # past the limit Pillow warns, past twice the limit it refuses: a map is read either way
+    for limit in (7, 3):
+        monkeypatch.setattr(Image, "MAX_IMAGE_PIXELS", limit)
+        np.testing.assert_array_equal(read_image(path) * 255, PIXELS)
+        # the limit is Pillow's again for everything else
+        assert limit == Image.MAX_IMAGE_PIXELS
+
+
+@pytest.mark.parametrize("limit", [7, 3])
+def test_a_map_image_past_the_map_limit_is_refused_for_its_size(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, limit: int) -> None:
+    monkeypatch.setattr(cbr_grid.formats, "MAX_IMAGE_PIXELS", limit)
+    path = write(tmp_path, "map.pgm", P5)
+    message = (f"{path}: cannot read the image: it has 8 pixels, more than the {limit} a map "
+               "image may have (cbr_grid.formats.MAX_IMAGE_PIXELS)")
+    with pytest.raises(CbrError, match=f"^{re.escape(message)}$"):
+        read_image(path)
 
 
 @pytest.mark.parametrize("data", [P2, P5], ids=["P2", "P5"])
@@ -306,6 +332,8 @@ def test_map_file_world_inflates_in_metres(tmp_path: Path) -> None:
          "world.inflation.inflation_radius: must be at least robot_radius (0.3), got 0.2"),
         ({"robot_radius": -1.0}, "world.inflation.robot_radius: must be a finite number >= 0"),
         ({"inflation_radius": 1.0}, "world.inflation.robot_radius: required option is missing"),
+        (0.3, "world.inflation: expected a mapping with keys robot_radius, inflation_radius, "
+              "cost_scaling_factor, got 0.3"),
     ]
     for inflation, message in problems:
         with pytest.raises(ConfigError) as error:

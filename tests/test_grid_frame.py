@@ -23,8 +23,12 @@ def test_cell_centres_in_metres_by_hand() -> None:
                                [[10.25, 20.25], [10.25, 21.75], [11.25, 21.25]])
     np.testing.assert_array_equal(frame.to_cells([(10.25, 20.25), (11.25, 21.25)], height=4),
                                   [[0, 3], [2, 1]])
-    # a point on the border between cells belongs to the larger x and the smaller map y
+    # a point on the border between cells belongs to the larger x and the larger map y: the
+    # cell right of it and above it, whose row number is the smaller (row 2 spans map y 20.5
+    # to 21, row 3 20 to 20.5)
     np.testing.assert_array_equal(frame.to_cells([(10.5, 20.5)], height=4), [[1, 2]])
+    # unit cells, 10 rows: map y 1 is the border between row 9 (y 0 to 1) and row 8 (y 1 to 2)
+    np.testing.assert_array_equal(MapFrame(1.0).to_cells([[0.5, 1.0]], 10), [[0, 8]])
     # points off the map give cells off the grid
     np.testing.assert_array_equal(frame.to_cells([(9.9, 19.9)], height=4), [[-1, 4]])
 
@@ -109,15 +113,32 @@ def test_from_array_reads_booleans_floats_and_occupancy() -> None:
     np.testing.assert_allclose(occupancy.risk, [[1, 0, 0, 0.25, 0.65, 1, 1]])
     np.testing.assert_array_equal(occupancy.unknown, [[True] + [False] * 6])
     assert occupancy.frame == frame
-    free = Grid.from_array(np.array([[-1, 50]]), unknown_risk=0.0, occupied_thresh=0.4,
-                           free_thresh=0.1)
+    free = Grid.from_array(np.array([[-1, 50]], dtype=np.int8), unknown_risk=0.0,
+                           occupied_thresh=0.4, free_thresh=0.1)
     np.testing.assert_allclose(free.risk, [[0, 1]])
 
 
+@pytest.mark.parametrize("dtype", [np.int64, np.int32, np.uint8, np.int16])
+def test_only_int8_reads_as_occupancy_other_integers_are_refused(dtype: type) -> None:
+    # a hand-made map of 0 free and 1 wall: as occupancy percentages it would be all free
+    walls = np.array([[0, 1, 0], [0, 1, 0]], dtype=dtype)
+    with pytest.raises(CbrError, match=rf"^an array of {np.dtype(dtype)} is ambiguous: expected "
+                                       r"booleans \(True an obstacle, e\.g\. array == 1 .*\), "
+                                       r"int8 occupancy values .* or floats \(risk in \[0, 1\]\)$"):
+        Grid.from_array(walls)
+    # read as the message suggests, the walls are walls
+    np.testing.assert_array_equal(Grid.from_array(walls == 1).passable,
+                                  [[True, False, True], [True, False, True]])
+    np.testing.assert_array_equal(Grid.from_array(walls.astype(np.int8)).passable,
+                                  [[True, True, True], [True, True, True]])
+
+
 @pytest.mark.parametrize(("array", "kwargs", "message"), [
-    (np.array([[0, 101]]), {}, r"-1 \(unknown\) or 0 to 100; 1 cell\(s\) .* \(1, 0\) with 101"),
-    (np.array([[-2]]), {}, "with -2"),
-    (np.array([["a"]]), {}, "expected a boolean, integer or float array"),
+    (np.array([[0, 101]], dtype=np.int8), {},
+     r"-1 \(unknown\) or 0 to 100; 1 cell\(s\) .* \(1, 0\) with 101"),
+    (np.array([[-2]], dtype=np.int8), {}, "with -2"),
+    (np.array([["a"]]), {}, r"expected a boolean, int8 \(ROS occupancy\) or float array, got "
+                            r"<U1"),
     (np.array([[0.5]]), {"unknown_risk": 2.0}, r"unknown cells must be within \[0, 1\]"),
     (np.array([[0]]), {"free_thresh": 0.7}, "free_thresh <= occupied_thresh"),
     (np.array([[1.5]]), {}, r"within \[0, 1\]"),
@@ -126,3 +147,22 @@ def test_from_array_refuses_bad_values(array: np.ndarray, kwargs: dict[str, floa
                                        message: str) -> None:
     with pytest.raises(CbrError, match=message):
         Grid.from_array(array, **kwargs)
+
+
+def test_a_blocked_unknown_cell_says_how_to_cross_unknown_space() -> None:
+    # int8 occupancy: -1 unknown (lethal by default), 100 an obstacle, 0 free
+    grid = Grid.from_array(np.array([[-1, 100, 0]], dtype=np.int8), frame=MapFrame(1.0))
+    with pytest.raises(CbrError, match=r"^start \(0, 0\) is on an unknown cell \(lethal with "
+                                       r"unknown_risk 1; give unknown_risk below 1 to cross "
+                                       r"unknown space\)$"):
+        grid.check_cell((0, 0), "start")
+    with pytest.raises(CbrError, match=r"^start \(1, 0\) is on an obstacle$"):
+        grid.check_cell((1, 0), "start")
+    # in metres, the cell (0, 0) of a 1-row grid of 1 m cells spans x 0 to 1 m, y 0 to 1 m
+    with pytest.raises(CbrError, match=r"^--goal \(0\.5, 0\.5\) m falls in cell \(0, 0\), on an "
+                                       r"unknown cell \(lethal with --unknown-risk 1"):
+        grid.check_point((0.5, 0.5), "--goal", unknown_risk="--unknown-risk")
+    assert grid.check_point((2.5, 0.5), "--goal") == (2, 0)
+    # a risk below 1 makes unknown space passable: the cell is no longer refused
+    assert Grid.from_array(np.array([[-1]], dtype=np.int8), unknown_risk=0.5).check_cell(
+        (0, 0), "start") == (0, 0)

@@ -384,3 +384,15 @@ def test_the_reference_shows_each_kind_with_its_declarer(gauges: Plugins) -> Non
                             "Declared by plugin `gauges`.\n\n### `plain`\n")
     assert "## solver (slot `solver`)\n\nImplements cbr_solve" in text
     assert text.count("Declared by cbrcore.") == len(KINDS)
+
+
+def test_a_mapping_override_sets_a_slot_and_names_its_key(gauges: Plugins) -> None:
+    """A plugin's slot takes mapping overrides as ``--set`` does: by name, gaining options on
+    the way, and a bad value is named by its key, not by the line the file wrote."""
+    config = config_from_text("seed: 2\n", gauges.registry, {"gauge": "precise"})
+    assert config.slots["gauge"].name == "precise"
+    config = config_from_text("gauge: precise\n", gauges.registry, {"gauge.digits": 5})
+    assert config.slots["gauge"].options == PreciseOptions(5)
+    with pytest.raises(ConfigError) as caught:
+        config_from_text("gauge: precise\n", gauges.registry, {"gauge.digits": "5"})
+    assert caught.value.problems == ["overrides['gauge.digits']: expected an integer, got '5'"]

@@ -227,8 +227,22 @@ def test_plan_a_ros_map_from_metres_to_metres_with_inflation(cbr_cli: Cli, tmp_p
     assert float(values["cost"]) > float(values["length"])
 
 
+def test_plan_takes_cells_off_a_robot_radius_on_an_inflated_map(cbr_cli: Cli) -> None:
+    # (40, 266) and (400, 236) are the cells of (2, 2) m and (20, 3.5) m, more than 0.22 m from
+    # a shelf; the path found keeps off every cell the inflation blocked
+    result = cbr_cli("plan", str(DEPOT), "--start", "40,266", "--goal", "400,236",
+                     "--robot-radius", "0.22", "--json")
+    assert result.exit_code == 0, result.stderr
+    path = np.array(json.loads(result.stdout)["path"])
+    assert path[0].tolist() == [40, 266] and path[-1].tolist() == [400, 236]
+    blocked = ~load_grid(DEPOT).passable
+    ys, xs = np.nonzero(blocked)
+    obstacles = np.column_stack((xs, ys))
+    nearest = np.array([np.hypot(*(obstacles - cell).T).min() for cell in path])
+    assert (nearest * 0.05 > 0.22).all()
+
+
 @pytest.mark.parametrize(("args", "message"), [
-    (("--start", "40,266", "--goal", "400,236", "--robot-radius", "0.22"), None),
     (("--frame", "map", "--start", "-1,2", "--goal", "20,3.5"),
      "--start (-1, 2) m falls in cell (-20, 266), outside the 604x307 grid, which covers "
      "x 0 to 30.2 m and y 0 to 15.35 m"),
@@ -242,14 +256,37 @@ def test_plan_a_ros_map_from_metres_to_metres_with_inflation(cbr_cli: Cli, tmp_p
      "goal (400, 236) within the robot radius (0.6 m) of an obstacle"),
 ])
 def test_plan_names_a_bad_point_and_its_cell(cbr_cli: Cli, args: tuple[str, ...],
-                                             message: str | None) -> None:
+                                             message: str) -> None:
     result = cbr_cli("plan", str(DEPOT), *args)
-    if message is None:
-        assert result.exit_code == 0, result.stderr
-        return
     assert result.exit_code == 2
     assert f"error: {message}" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+CIRCULAR = DEPOT.parent / "map_circular.yaml"
+
+
+UNKNOWN_HINT = ("on an unknown cell (lethal with --unknown-risk 1; give --unknown-risk below 1 "
+                "to cross unknown space)")
+
+
+@pytest.mark.parametrize(("args", "said"), [
+    # map_circular: origin (-10, -10) m, 0.05 m cells, 384 rows: (0, 8) m is the cell
+    # (200, 383 - 360), in the unknown space outside the mapped room
+    # the goals are the unknown top-left corner cell (0, 0), in metres its centre
+    (("--frame", "map", "--start", "0,8", "--goal", "-9.975,9.175"),
+     "--start (0, 8) m falls in cell (200, 23),"),
+    (("--start", "200,23", "--goal", "0,0"), "start (200, 23) is"),
+])
+def test_plan_says_how_to_cross_an_unknown_cell(cbr_cli: Cli, args: tuple[str, ...],
+                                                said: str) -> None:
+    assert load_grid(CIRCULAR).unknown[23, 200]
+    result = cbr_cli("plan", str(CIRCULAR), *args)
+    assert result.exit_code == 2
+    assert f"error: {said} {UNKNOWN_HINT}" in result.stderr
+    # with unknown space free, the same start is a start like any other
+    crossing = cbr_cli("plan", str(CIRCULAR), *args, "--unknown-risk", "0")
+    assert crossing.exit_code == 0, crossing.stderr
 
 
 @pytest.mark.parametrize(("map_file", "args", "option"), [
@@ -270,6 +307,62 @@ def test_plan_refuses_frames_and_inflation_that_do_not_apply(
     assert result.exit_code == 2
     assert option in result.stderr
     assert "Traceback" not in result.stderr
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (("--robot-radius", "0.2", "--cost-scaling", "inf"),
+     "Invalid value for '--cost-scaling': must be a finite number >= 0, got inf"),
+    (("--robot-radius", "inf"), "Invalid value for '--robot-radius': must be a finite number "
+                                ">= 0, got inf"),
+    (("--robot-radius", "0.5", "--inflation-radius", "0.2"),
+     "Invalid value for '--inflation-radius': must be at least --robot-radius (0.5), got 0.2"),
+])
+def test_plan_names_the_inflation_option_at_fault_as_written(
+        cbr_cli: Cli, args: tuple[str, ...], message: str) -> None:
+    result = cbr_cli("plan", str(DEPOT), "--start", "40,266", "--goal", "400,236", *args)
+    assert result.exit_code == 2
+    assert message in " ".join(result.stderr.split())
+    assert "_" not in result.stderr.split("Invalid value")[1]
+
+
+@pytest.mark.parametrize(("args", "hint"), [
+    (("--robot-radius", "1"), "'--robot-radius'"),
+    (("--robot-radius", "1", "--inflation-radius", "2"), "'--robot-radius' / '--inflation-radius'"),
+    (("--cost-scaling", "2"), "'--cost-scaling'"),
+])
+def test_plan_refuses_inflation_with_scenarios(cbr_cli: Cli, args: tuple[str, ...],
+                                               hint: str) -> None:
+    # the file's optimal lengths are those of the map uninflated: no inflated path could agree
+    result = cbr_cli("plan", str(ARENA), "--scen", str(ARENA_SCEN), *args)
+    assert result.exit_code == 2
+    assert (f"Invalid value for {hint}: a scenario file's optimal lengths are for the map as it "
+            "is: --scen plans without inflation") in " ".join(result.stderr.split())
+    assert "Traceback" not in result.stderr
+
+
+def turned_depot(folder: Path, yaw: float) -> Path:
+    """The depot map with its origin turned by ``yaw`` radians."""
+    text = DEPOT.read_text(encoding="utf-8")
+    path = folder / f"turned_{yaw:g}.yaml"
+    path.write_text("\n".join(f"image: {DEPOT.parent / 'depot.pgm'}" if line.startswith("image:")
+                              else f"origin: [0.0, 0.0, {yaw!r}]" if line.startswith("origin:")
+                              else line for line in text.splitlines()), encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize("command", [("map", "show"), ("plan",)])
+def test_a_turned_map_warns_once_that_nav2_ignores_the_yaw(cbr_cli: Cli, tmp_path: Path,
+                                                           command: tuple[str, ...]) -> None:
+    plan = ("--start", "40,266", "--goal", "400,236") if command == ("plan",) else ()
+    turned = cbr_cli(*command, str(turned_depot(tmp_path, 0.5)), *plan)
+    assert turned.exit_code == 0, turned.stderr
+    warnings = [line for line in turned.stderr.splitlines() if line.startswith("warning:")]
+    assert warnings == [f"warning: {tmp_path / 'turned_0.5.yaml'}: the origin's yaw is 0.5 rad; "
+                        "metre coordinates here are turned by the yaw, unlike Nav2, which "
+                        "ignores it"]
+    straight = cbr_cli(*command, str(turned_depot(tmp_path, 0.0)), *plan)
+    assert straight.exit_code == 0, straight.stderr
+    assert "warning" not in straight.stderr
 
 
 def test_map_show_reads_a_ros_map_with_its_frame(cbr_cli: Cli, tmp_path: Path) -> None:

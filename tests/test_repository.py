@@ -270,8 +270,9 @@ def test_the_readme_test_command_installs_every_package_the_tests_import() -> No
     for extra in ",".join(extras).split(","):
         installed |= _requirement_names(project["optional-dependencies"][extra])
     imported = _third_party_imports([ROOT / "tests", ROOT / "benchmarks"])
-    local = {p.stem for p in (ROOT / "tests").glob("*.py")} | {
-        p.stem for p in (ROOT / "benchmarks").glob("*.py")}
+    local = ({p.stem for p in (ROOT / "tests").glob("*.py")}
+             | {p.stem for p in (ROOT / "benchmarks").glob("*.py")}
+             | {p.parent.name for p in (ROOT / "benchmarks").glob("*/__init__.py")})
     needed = {DISTRIBUTION_OF.get(name, name).lower() for name in imported} - local
     # the agreement libraries import under other names than they install as
     needed = {{"irsim": "ir-sim", "cbr_openfloor": "cbrcore"}.get(n, n) for n in needed}

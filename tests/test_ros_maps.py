@@ -15,6 +15,7 @@ from cbr_grid.inflation import Inflation, inflate
 from cbr_grid.plot import UNKNOWN_COLOUR, draw_grid
 from cbr_solvers.search import astar
 from cbrcore.engine import Engine
+from cbrcore.errors import ConfigError
 
 ROS = Path(__file__).resolve().parent / "data" / "ros"
 DEPOT = ROS / "depot.yaml"
@@ -132,3 +133,32 @@ def test_a_map_of_cells_placed_in_a_frame_by_its_world_options(
     # 1 m is 2 cells: left free are the cells farther from (1, 0), (3, 1), (0, 2) and (2, 2)
     # at sqrt(5) cells and (3, 2) at sqrt(8); (3, 0) and (1, 2), exactly 2 away, are inside
     assert np.argwhere(grid.passable)[:, ::-1].tolist() == [[3, 1], [0, 2], [2, 2], [3, 2]]
+
+
+@pytest.mark.parametrize(("frame", "problem"), [
+    ("{resolution: 0.5, origin: [.nan, 0, 0]}",
+     "world.frame.origin (line 1, column 74): must be three finite numbers [x, y, yaw], got "
+     "[nan, 0.0, 0.0]"),
+    ("{resolution: 0.5, origin: [0, 0, .inf]}",
+     "world.frame.origin (line 1, column 74): must be three finite numbers [x, y, yaw], got "
+     "[0.0, 0.0, inf]"),
+    ("{resolution: .inf}",
+     "world.frame.resolution (line 1, column 61): must be a finite number of metres > 0, got inf"),
+])
+def test_a_frame_that_is_not_finite_is_the_options_problem(
+        frame: str, problem: str, cbr_engine: Callable[..., Engine]) -> None:
+    # refused while the configuration is read, at its YAML path, before any map is loaded
+    # (the map file does not even exist)
+    with pytest.raises(ConfigError) as caught:
+        cbr_engine(f"world: {{use: map_file, path: room.grid, frame: {frame}}}\n")
+    assert caught.value.problems == [problem]
+
+
+def test_a_frame_given_for_a_ros_map_is_the_frame_options_problem(
+        cbr_engine: Callable[..., Engine]) -> None:
+    with pytest.raises(ConfigError) as caught:
+        cbr_engine({"world": {"use": "map_file", "path": str(CIRCULAR),
+                              "frame": {"resolution": 0.05}}})
+    assert caught.value.problems == [
+        "world.frame: must be null for a ROS map (map_circular.yaml), which carries its own "
+        "frame (resolution and origin)"]

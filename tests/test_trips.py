@@ -451,12 +451,50 @@ def test_places_and_sites_in_metres_are_the_cells_they_fall_in(
             == [(q.start, q.goal) for q in by_cells.workload.queries(by_cells.ctx)])
 
 
+DEPOT = Path(__file__).parent / "data" / "ros" / "depot.yaml"
+
+
+@pytest.mark.parametrize(("map_file", "workload", "message"), [
+    # depot: origin (0, 0), 0.05 m cells, 604x307: (-1, 2) m is column floor(-20) = -20 and row
+    # 306 - floor(40) = 266
+    (DEPOT, {"places": [[2, 2], [-1, 2]]},
+     r"places\[1\] \(-1, 2\) m falls in cell \(-20, 266\), outside the 604x307 grid, which "
+     r"covers x 0 to 30\.2 m and y 0 to 15\.35 m"),
+    # the centre of cell (150, 75), a leg of a shelf: x 150.5 cells, y 307 - 75 - 0.5 cells
+    (DEPOT, {"places": [[2, 2], [20, 3.5]],
+             "sites": [{"cells": [[2.5, 2], [7.525, 11.575]], "appear": 0.5}]},
+     r"sites\[0\]\.cells\[1\] \(7\.525, 11\.575\) m falls in cell \(150, 75\), on an "
+     r"obstacle"),
+    # map_circular: origin (-10, -10) m, 384 rows; (0, 8) m is column 200, row 383 - 360 = 23,
+    # in the unknown space around the mapped room
+    (ROS_MAP, {"places": [[0, 8], [0, 0]]},
+     r"places\[0\] \(0, 8\) m falls in cell \(200, 23\), on an unknown cell \(lethal with "
+     r"unknown_risk 1; give unknown_risk below 1 to cross unknown space\)"),
+])
+def test_bad_places_in_metres_are_quoted_as_written_with_their_cell(
+        map_file: Path, workload: dict[str, Any], message: str,
+        cbr_engine: Callable[..., Engine]) -> None:
+    with pytest.raises(CbrError, match=rf"^workload 'trips': {message}$"):
+        cbr_engine(map_config(map_file, frame="map", **workload))
+
+
+def test_a_cell_of_unknown_space_says_how_to_cross_it(cbr_engine: Callable[..., Engine]) -> None:
+    # map_circular's cell (0, 0), its top-left corner, is unknown: lethal by default, free with
+    # unknown_risk 0
+    with pytest.raises(CbrError, match=r"workload 'trips': places\[0\] \(0, 0\) is on an "
+                                       r"unknown cell \(lethal with unknown_risk 1"):
+        cbr_engine(map_config(ROS_MAP, places=[[0, 0], [200, 183]]))
+    config = map_config(ROS_MAP, places=[[0, 0], [200, 183]])
+    config["world"]["unknown_risk"] = 0.0
+    assert cbr_engine(config).workload.places.tolist() == [[0, 0], [200, 183]]
+
+
 def test_places_in_metres_need_a_map_frame_and_cells_whole_numbers(
         walled: Path, cbr_engine: Callable[..., Engine]) -> None:
     with pytest.raises(CbrError, match=r"workload 'trips': places are in metres \(frame: map\), "
                                        r"but the map has no metric frame"):
         cbr_engine(map_config(walled, frame="map", places=[[0, 0], [2, 2]]))
-    with pytest.raises(CbrError, match=r"workload 'trips': places\[1\] \(2.5, 2.0\): expected a "
+    with pytest.raises(CbrError, match=r"workload 'trips': places\[1\] \(2.5, 2\): expected a "
                                        r"cell of two whole numbers; for points in metres set "
                                        r"frame: map"):
         cbr_engine(map_config(walled, places=[[0, 0], [2.5, 2]]))
@@ -477,11 +515,17 @@ def test_sites_are_read_from_yaml_and_checked(walled: Path,
                            r"workload\.sites\.0\.cells: must hold at least one cell"),
                           ({"cells": [[3, 4]], "appear": 1.5},
                            r"workload\.sites\.0\.appear: must be <= 1"),
+                          # cells are numbers, whole ones with frame: cell (checked below)
                           ({"cells": [[3, "a"]], "appear": 0.5},
-                           r"workload\.sites\.0\.cells\.0\.1: expected an integer"),
-                          ({"cells": [[3, 4]]}, r"workload\.sites\.0\.appear: required")]:
+                           r"workload\.sites\.0\.cells\.0\.1: expected a number, got 'a'"),
+                          ({"cells": [[3, 4.5]], "appear": 0.5},
+                           r"workload 'trips': sites\[0\]\.cells\[0\] \(3, 4\.5\): expected a "
+                           r"cell of two whole numbers"),
+                          ({"cells": [[3, 4]]}, r"workload\.sites\.0\.appear: required"),
+                          (0.3, r"workload\.sites\.0: expected a mapping with keys cells, "
+                                r"appear, got 0\.3")]:
         data["workload"]["sites"] = [site]
-        with pytest.raises(ConfigError, match=problem):
+        with pytest.raises(CbrError, match=problem):
             cbr_engine(data)
 
 

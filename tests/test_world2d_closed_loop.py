@@ -13,6 +13,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +24,7 @@ import cbr_world2d
 import cbrcore.builtins
 from cbr_world2d.actions import REACHED, TRIAL_ENDED, ActionReport, Divert
 from cbr_world2d.workload import Situation
+from cbr_world2d.worldfile import load_world
 from cbrcore import Case, Engine, Match, Outcome, Retrieval, Solution, hookimpl
 from cbrcore.casebase.store import CaseStore
 from cbrcore.config import parse_config
@@ -33,6 +35,8 @@ from cbrcore.registry import Registry
 from cbrcore.run import run_workload
 
 WORLDS = Path(cbr_world2d.__file__).parent / "worlds"
+PAGE = Path(__file__).resolve().parents[1] / "docs" / "world2d.md"
+"""The 2D world page, whose section on a family's components shows this agent's run."""
 KIND = "divert"
 NEAR = 1.0
 """How close, in metres, a stored diversion's start must be to be reused."""
@@ -252,3 +256,76 @@ def test_trials_need_a_pilot(plugins: Plugins) -> None:
 def test_a_start_inside_an_obstacle_is_named(plugins: Plugins) -> None:
     with pytest.raises(CbrError, match=r"workload\.trials\.0\.start 6,4 .*l2"):
         engine_for(plugins, None, trials=[{"start": "6,4", "target": "target"}])
+
+
+# --- the 2D world page shows this run ----------------------------------------------------------
+
+
+def _shown_files() -> dict[str, list[str]]:
+    """The CSV files the page shows of this run: each file's name and the lines shown of it."""
+    blocks = re.findall(r"^```text\n(trials\.csv\n.*?)^```$", PAGE.read_text(encoding="utf-8"),
+                        re.S | re.M)
+    assert len(blocks) == 1, "one text block on the page shows trials.csv and results.csv"
+    files = {}
+    for part in blocks[0].strip().split("\n\n"):
+        name, *lines = part.splitlines()
+        files[name] = lines
+    return files
+
+
+def _as_shown(actual: list[str], shown: list[str]) -> list[str]:
+    """``actual``'s lines cut where the page cuts its lines short with ``...``."""
+    return [line[:len(cut) - len("...")] + "..." if cut.endswith(",...") else line
+            for line, cut in zip(actual, shown, strict=True)]
+
+
+def test_the_2d_world_page_shows_the_rows_of_this_run(
+        run: tuple[Path, dict[str, Any], list[Case]]) -> None:
+    out, _, _ = run
+    shown = _shown_files()
+    assert set(shown) == {"trials.csv", "results.csv"}
+    for name, lines in shown.items():
+        actual = (out / name).read_text(encoding="utf-8").splitlines()
+        assert len(actual) == len(lines), f"the page shows every line of {name}"
+        assert _as_shown(actual, lines) == lines
+
+
+def test_the_2d_world_page_quotes_where_and_when_the_robot_is_diverted(
+        run: tuple[Path, dict[str, Any], list[Case]]) -> None:
+    """'in the first trial the robot is blocked in the V at t = 20.6 s, the solver diverts it to
+    (3.98, 7.53), beyond `l1`'s end of the V'"""
+    out, _, cases = run
+    first, second = (next(d for d in rows(out / "results.csv") if d["q_trial"] == trial)
+                     for trial in ("0", "1"))
+    # the diversion the robot was sent to and reached, as the case base keeps it
+    x, y = cases[0].solution
+    # ASIDE of the pose the page's results.csv gives, towards the target (8, 4): the same point
+    pose = float(first["q_x"]), float(first["q_y"])
+    heading = math.atan2(4.0 - pose[1], 8.0 - pose[0])
+    left, ahead = ASIDE
+    assert math.dist((x, y), (pose[0] + ahead * math.cos(heading) - left * math.sin(heading),
+                              pose[1] + ahead * math.sin(heading) + left * math.cos(heading))
+                     ) < 0.01
+    text = " ".join(PAGE.read_text(encoding="utf-8").split())
+    assert (f"blocked in the V at t = {float(first['q_t']):.1f} s, the solver diverts it to "
+            f"({x:.2f}, {y:.2f}), beyond `l1`'s end of the V") in text
+    world = load_world(WORLDS / "scenario2.yaml")
+    marks = {mark.id: (mark.x, mark.y) for mark in world.landmarks}
+    # beyond l1's end: nearer l1 than any other landmark, and farther from the apex l2 than l1
+    assert min(marks, key=lambda k: math.dist((x, y), marks[k])) == "l1"
+    assert math.dist((x, y), marks["l2"]) > math.dist(marks["l1"], marks["l2"])
+    assert "the second trial is blocked at the same spot" in text
+    assert math.dist(pose, (float(second["q_x"]), float(second["q_y"]))) <= NEAR
+
+
+def test_the_2d_world_page_states_the_configuration_of_this_run() -> None:
+    text = " ".join(PAGE.read_text(encoding="utf-8").split())
+    config = yaml.safe_load(CONFIG)
+    workload = config["workload"]
+    for setting in (f"casebase: {config['casebase']}", f"repeat: {workload['repeat']}",
+                    f"timeout: {workload['timeout']}",
+                    f"consult_on: [{', '.join(workload['consult_on'])}]",
+                    f"seed: {config['seed']}", f"retrieve: {config['retrieve']}",
+                    f"reuse: {config['reuse']}", f"solver: {config['solver']}",
+                    f"retain: [{', '.join(config['retain'])}]"):
+        assert f"`{setting}`" in text, setting

@@ -9,6 +9,10 @@ braced argument (``{config}``). Declare a metavar that says what the value is wh
 does not (``--set KEY.PATH=VALUE``, ``--start X,Y|PLACE``), and list a fixed set of values as an
 ``enum.Enum`` (or :func:`choices` in the metavar of a value typer cannot see as a choice).
 
+An option whose value is written ``KEY=VALUE`` (``--set retrieve=nearest``) completes in bash
+too, which splits that word at its ``=`` (:func:`cbrcore.cli.completion.split_option_value`):
+its completer is given the whole ``KEY=VALUE`` word and returns whole words, as in zsh and fish.
+
 :func:`follow_conventions` gives a typer application's commands, its groups' included, the
 :class:`CbrCommand` class that renders help this way; ``cbr`` applies it to the whole
 application after plugins have added their commands, so plugin authors need do nothing.
@@ -23,6 +27,8 @@ from typing import Any
 import typer
 from typer.core import TyperCommand
 from typer.models import CommandInfo
+
+from cbrcore.cli.completion import split_option_value
 
 CONTEXT_SETTINGS: dict[str, Any] = {"help_option_names": ["-h", "--help"]}
 """The settings of the ``cbr`` application's context, which every command's context inherits."""
@@ -90,6 +96,23 @@ class CbrCommand(TyperCommand):
             if rows:
                 with formatter.section(title):
                     formatter.write_dl(rows)
+
+    def shell_complete(self, ctx: typer.Context, incomplete: str) -> list[Any]:
+        """Completions of the word the parameters left: the value of a ``KEY=VALUE`` option
+        word that bash split at its ``=``, else the command's own (its options' names)."""
+        split = split_option_value(ctx.find_root().info_name or "")
+        if split is None:
+            return list(super().shell_complete(ctx, incomplete))
+        option, word = split
+        key = word[: word.index("=") + 1]
+        for param in self.get_params(ctx):
+            if option in (*param.opts, *param.secondary_opts):
+                items = [item for item in param.shell_complete(ctx, word)
+                         if str(item.value).startswith(key)]
+                for item in items:  # bash replaces what follows the '=' alone
+                    item.value = str(item.value)[len(key):]
+                return items
+        return []
 
 
 def follow_conventions(app: typer.Typer) -> None:

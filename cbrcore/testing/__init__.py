@@ -52,8 +52,8 @@ pytest.register_assert_rewrite("cbrcore.testing.stores", "cbrcore.testing._agree
 from cbrcore.testing.stores import StoreContract  # noqa: E402
 
 if TYPE_CHECKING:
-    from cbrcore.config import Config
-    from cbrcore.engine import Engine, Overrides
+    from cbrcore.config import Config, Overrides
+    from cbrcore.engine import Engine
     from cbrcore.plugins import Plugins
     from cbrcore.registry import Registry
 

@@ -19,9 +19,10 @@ import numpy as np
 from cbr_casegraph.graph import SEGMENT
 from cbr_casegraph.state import graph_of
 from cbr_grid.distances import DistanceName
-from cbr_grid.grid import Grid, grid_world
+from cbr_grid.grid import grid_world
 from cbr_grid.query import GridQuery
 from cbr_kinematics import HOLONOMIC, robot_kinematics
+from cbr_solvers import warm_grid
 from cbrcore.casebase.memory import MemoryStore
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
@@ -54,9 +55,7 @@ def _warm_context(ctx: Context, *, learned: bool = True) -> Context:
     """A context of its own for a warm-up: a small free grid with the world's corner rule and
     cost model, and a memory case base holding a case graph of one learned path (or none). The
     run's case base, graph, stash and generator stay as they were."""
-    world = grid_world(ctx, "the case graph")
-    grid = Grid(np.zeros((_WARM_SIZE, _WARM_SIZE)), corner_cutting=world.corner_cutting,
-                cost_model=world.cost_model)
+    grid = warm_grid(grid_world(ctx, "the case graph"), _WARM_SIZE, wall=False)
     scratch = Context(registry=ctx.registry, seed=ctx.seed, world=grid, casebase=MemoryStore())
     if learned:
         with scratch.mirror.transaction():

@@ -4,6 +4,7 @@ learning of the ``risk_map`` retainer."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Literal
 
@@ -57,17 +58,37 @@ def movingai_world(options: MovingAIOptions, ctx: Context) -> Grid:
 
 
 _UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
+_ROS_SUFFIXES = (".yaml", ".yml")
+
+
+def _positive_metres(_: object, attribute: attrs.Attribute, value: float) -> None:
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"'{attribute.name}' must be a finite number of metres > 0, "
+                         f"got {value!r}")
+
+
+def _finite_pose(_: object, attribute: attrs.Attribute, value: tuple[float, ...]) -> None:
+    if not all(math.isfinite(v) for v in value):
+        raise ValueError(f"'{attribute.name}' must be three finite numbers [x, y, yaw], "
+                         f"got {list(value)!r}")
+
+
+def _no_frame_for_ros(instance: MapFileOptions, attribute: attrs.Attribute,
+                      value: FrameOptions | None) -> None:
+    if value is not None and instance.path.suffix.lower() in _ROS_SUFFIXES:
+        raise ValueError(f"'{attribute.name}' must be null for a ROS map ({instance.path.name}), "
+                         "which carries its own frame (resolution and origin)")
 
 
 @attrs.frozen
 class FrameOptions:
     """Where a map of cells only lies in a metric map frame, written as a ROS map writes it."""
 
-    resolution: float = option(doc="The side of a cell in metres.",
-                               validator=attrs.validators.gt(0.0))
+    resolution: float = option(doc="The side of a cell in metres.", validator=_positive_metres)
     origin: tuple[float, float, float] = option(
         (0.0, 0.0, 0.0), "[x, y, yaw]: the pose in the map frame of the map's lower-left "
-        "corner (metres, radians), as in a ROS map_server YAML.")
+        "corner (metres, radians), as in a ROS map_server YAML; finite numbers.",
+        validator=_finite_pose)
 
     def frame(self) -> MapFrame:
         x, y, yaw = self.origin
@@ -89,7 +110,7 @@ class MapFileOptions:
     frame: FrameOptions | None = option(
         None, "Maps of cells only (.map, .png, .npy, .grid): place the map in a metric map "
         "frame, {resolution, origin}, so that inflation radii, trips' places and pictures are "
-        "in metres; a ROS map carries its own and takes none.")
+        "in metres; a ROS map carries its own and takes none.", validator=_no_frame_for_ros)
     inflation: Inflation | None = option(None, _INFLATION_DOC)
 
 
@@ -146,8 +167,9 @@ def cbr_register(registry: Registry) -> None:
 @hookimpl
 def cbr_world_object(obj: object, ctx: Context) -> Grid | None:
     """A :class:`Grid` given as ``Engine(world=...)`` is the world as it is; a NumPy array is
-    read by :meth:`Grid.from_array` (booleans: True an obstacle; floats: risk in [0, 1];
-    integers: a ROS occupancy grid's -1 and 0 to 100)."""
+    read by :meth:`Grid.from_array` (booleans: True an obstacle; floats: risk in [0, 1]; int8:
+    a ROS occupancy grid's -1 and 0 to 100; other integer dtypes are refused, as a map of 0
+    and 1 would read as 0 % and 1 % occupied)."""
     if isinstance(obj, Grid):
         return obj
     if isinstance(obj, np.ndarray):

@@ -22,7 +22,8 @@ ROS map_server (``.yaml``)
     Colour images are averaged over their channels (alpha ignored), as map_server does.
 Images (``.pgm`` and others inside a ROS map, ``.png``)
     Read with Pillow (:func:`read_image`): binary ``P5`` and plain ``P2`` greymaps of 8 or 16
-    bits, PNG, and whatever else Pillow reads.
+    bits, PNG, and whatever else Pillow reads, up to :data:`MAX_IMAGE_PIXELS` pixels whatever
+    Pillow's own limit.
 PNG (``.png``)
     A colour image is reduced to luminance 0.299 R + 0.587 G + 0.114 B (alpha ignored). Cells
     darker than ``threshold`` (luminance in [0, 1]) are obstacles, the rest free.
@@ -37,8 +38,13 @@ Text (``.grid``)
 
 from __future__ import annotations
 
+import contextlib
 import io
 import math
+import re
+import threading
+import warnings
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -79,6 +85,31 @@ _PILLOW_PROBLEMS = (
 )
 
 
+MAX_IMAGE_PIXELS = 2**30
+"""The most pixels a map image may have: 32768 x 32768, 1.6 km a side in 5 cm cells. Pillow's
+own limit (``PIL.Image.MAX_IMAGE_PIXELS``, about 89 million) guards against images from
+strangers; a map is a trusted local file, and the map of a large site may well have more."""
+
+_PILLOW_LIMIT = threading.Lock()
+"""Held while Pillow's process-wide limit is this module's, for one read."""
+
+
+@contextlib.contextmanager
+def _map_image_limit() -> Iterator[None]:
+    """Pillow's pixel limit set to :data:`MAX_IMAGE_PIXELS` for one read, every image past it
+    refused (Pillow only warns up to twice its limit), restored after."""
+    from PIL import Image
+
+    with _PILLOW_LIMIT, warnings.catch_warnings():
+        warnings.simplefilter("error", Image.DecompressionBombWarning)
+        saved = Image.MAX_IMAGE_PIXELS
+        Image.MAX_IMAGE_PIXELS = MAX_IMAGE_PIXELS
+        try:
+            yield
+        finally:
+            Image.MAX_IMAGE_PIXELS = saved
+
+
 def read_image(path: str | Path) -> np.ndarray:
     """The image's levels as floats in [0, 1] (0 black), ``[y, x]`` for a greyscale image or
     ``[y, x, channel]`` for colour (alpha last), row 0 at the top.
@@ -86,6 +117,7 @@ def read_image(path: str | Path) -> np.ndarray:
     Any image Pillow reads: PGM (binary ``P5`` and plain ``P2``, 8 or 16 bits), PNG (8 or 16
     bits, palette images expanded), BMP, TIFF... Pillow scales a PGM's values to its full range,
     so a pixel v of maximum value m reads as v / m, rounded to 1/255 (1/65535 for 16 bits).
+    Images of up to :data:`MAX_IMAGE_PIXELS` pixels are read, whatever Pillow's own limit.
     """
     from PIL import Image, UnidentifiedImageError
 
@@ -94,7 +126,7 @@ def read_image(path: str | Path) -> np.ndarray:
         raise CbrError(f"{path}: cannot read: no such file")
     data = _read(path)
     try:
-        with Image.open(io.BytesIO(data)) as image:
+        with _map_image_limit(), Image.open(io.BytesIO(data)) as image:
             image.load()
             if image.mode in ("P", "PA"):
                 image = image.convert("RGBA")
@@ -103,6 +135,13 @@ def read_image(path: str | Path) -> np.ndarray:
     except UnidentifiedImageError as exc:
         raise CbrError(f"{path}: cannot read the image; expected a PGM (P2 or P5), PNG or "
                        "another image format Pillow reads") from exc
+    except (Image.DecompressionBombError, Image.DecompressionBombWarning) as exc:
+        # Pillow's message gives the image's pixel count, a number: safe to quote
+        count = re.search(r"\((\d+) pixels\)", str(exc))
+        has = f"{count[1]} pixels, more" if count else "more pixels"
+        raise CbrError(f"{path}: cannot read the image: it has {has} than the "
+                       f"{MAX_IMAGE_PIXELS} a map image may have "
+                       "(cbr_grid.formats.MAX_IMAGE_PIXELS)") from exc
     except Exception as exc:  # Pillow raises many unrelated types for a damaged file
         text = str(exc)
         # only Pillow's own words are said: other messages may quote the file's bytes

@@ -83,8 +83,9 @@ class MapFrame:
 
     def to_cells(self, points: ArrayLike, height: int) -> np.ndarray:
         """The (n, 2) integer cells (x, y) of a grid ``height`` rows high holding the map-frame
-        ``points``; a point on a border between cells belongs to the cell right of it or below
-        it in the map frame (the larger x, the smaller map y). Cells may lie off the grid."""
+        ``points``; a point on a border between cells belongs to the cell right of it or above
+        it along the image's axes (with yaw 0: the larger map x, the larger map y, so the
+        smaller row y). Cells may lie off the grid."""
         xy = _points(points, "points")
         c, s = self._axes()
         dx, dy = xy[:, 0] - self.x, xy[:, 1] - self.y

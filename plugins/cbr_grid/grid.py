@@ -114,10 +114,14 @@ class Grid:
 
         - booleans: True is an obstacle (risk 1), False free (risk 0);
         - floats: risk values in [0, 1]; NaN marks an unknown cell;
-        - integers: a ROS ``OccupancyGrid``'s data, -1 unknown and 0 to 100 the occupancy in
-          percent, read as map_server reads its image: above ``occupied_thresh`` an obstacle,
-          below ``free_thresh`` free, in between the occupancy as risk (``scale`` mode). An
-          ``OccupancyGrid`` lists its rows bottom first: flip it (``data[::-1]``) first.
+        - int8, the dtype of a ROS ``OccupancyGrid``'s data: -1 unknown and 0 to 100 the
+          occupancy in percent, read as map_server reads its image: above ``occupied_thresh``
+          an obstacle, below ``free_thresh`` free, in between the occupancy as risk (``scale``
+          mode). An ``OccupancyGrid`` lists its rows bottom first: flip it (``data[::-1]``)
+          first.
+
+        Other integer dtypes are refused: an array of 0 and 1 for free and wall, the commonest
+        hand-made map, would read as 0 % and 1 % occupancy, all free.
 
         Unknown cells get ``unknown_risk`` (1, the default, makes them obstacles; 0 free) and
         are marked in ``unknown``.
@@ -131,7 +135,7 @@ class Grid:
                            f"free_thresh={free_thresh!r}, occupied_thresh={occupied_thresh!r}")
         if values.dtype == bool:
             risk, unknown = values.astype(np.float64), None
-        elif np.issubdtype(values.dtype, np.integer):
+        elif values.dtype == np.int8:
             bad = (values < -1) | (values > 100)
             if bad.any():
                 y, x = (int(i) for i in np.argwhere(bad)[0])
@@ -146,8 +150,14 @@ class Grid:
         elif np.issubdtype(values.dtype, np.floating):
             unknown = np.isnan(values)
             risk = np.where(unknown, unknown_risk, values)
+        elif np.issubdtype(values.dtype, np.integer):
+            raise CbrError(f"an array of {values.dtype} is ambiguous: expected booleans (True "
+                           "an obstacle, e.g. array == 1 for a map of 0 free and 1 wall), "
+                           "int8 occupancy values as a ROS OccupancyGrid holds them (-1 unknown, "
+                           "0 to 100 percent) or floats (risk in [0, 1])")
         else:
-            raise CbrError(f"expected a boolean, integer or float array, got {values.dtype}")
+            raise CbrError(f"expected a boolean, int8 (ROS occupancy) or float array, got "
+                           f"{values.dtype}")
         if unknown is not None and not unknown.any():
             unknown = None
         return cls(risk, corner_cutting=corner_cutting,
@@ -195,8 +205,19 @@ class Grid:
         """Whether ``cell`` (x, y) lies on the grid."""
         return bool(self.inside(cell)[0])
 
-    def check_cell(self, cell: object, what: str) -> Cell:
-        """``cell`` as an (x, y) tuple of ints, or a CbrError saying why ``what`` can't be there."""
+    def blocked_reason(self, cell: Cell, unknown_risk: str = "unknown_risk") -> str:
+        """Why the robot cannot stand on ``cell``, a blocked cell of the grid: ``on an
+        obstacle``, or for a cell the map does not know the words that tell how to cross
+        unknown space, naming the option that sets its risk as ``unknown_risk`` spells it."""
+        x, y = cell
+        if self.unknown is not None and self.unknown[y, x]:
+            return (f"on an unknown cell (lethal with {unknown_risk} 1; give {unknown_risk} "
+                    f"below 1 to cross unknown space)")
+        return "on an obstacle"
+
+    def check_cell(self, cell: object, what: str, *, unknown_risk: str = "unknown_risk") -> Cell:
+        """``cell`` as an (x, y) tuple of ints, or a CbrError saying why ``what`` can't be there
+        (``unknown_risk`` as in :meth:`blocked_reason`)."""
         try:
             xy = np.asarray(cell)
             ok = xy.shape == (2,) and np.issubdtype(xy.dtype, np.integer)
@@ -209,7 +230,24 @@ class Grid:
             raise CbrError(f"{what} ({x}, {y}) is outside the {self.width}x{self.height} grid "
                            f"(x in 0..{self.width - 1}, y in 0..{self.height - 1})")
         if not self.passable[y, x]:
-            raise CbrError(f"{what} ({x}, {y}) is on an obstacle")
+            raise CbrError(f"{what} ({x}, {y}) is {self.blocked_reason((x, y), unknown_risk)}")
+        return x, y
+
+    def check_point(self, point: tuple[float, float], what: str, *,
+                    unknown_risk: str = "unknown_risk") -> Cell:
+        """The cell (x, y) holding the map-frame ``point`` (metres), or a CbrError quoting the
+        point as written and the cell it falls in, unless that cell is on the grid and free
+        (``unknown_risk`` as in :meth:`blocked_reason`)."""
+        frame = self._frame(f"{what} in metres")
+        x, y = (int(v) for v in frame.to_cells(point, self.height)[0])
+        said = f"{what} ({point[0]:g}, {point[1]:g}) m falls in cell ({x}, {y}),"
+        if not self.in_bounds((x, y)):
+            corners = frame.corners(self.width, self.height)
+            (left, bottom), (right, top) = corners.min(0), corners.max(0)
+            raise CbrError(f"{said} outside the {self.width}x{self.height} grid, which covers "
+                           f"x {left:g} to {right:g} m and y {bottom:g} to {top:g} m")
+        if not self.passable[y, x]:
+            raise CbrError(f"{said} {self.blocked_reason((x, y), unknown_risk)}")
         return x, y
 
     def step_allowed(self, a: ArrayLike, b: ArrayLike) -> np.ndarray:

@@ -176,17 +176,19 @@ class Trips:
 
     def _cells(self, written: Sequence[tuple[float, float]], what: str) -> list[tuple[int, int]]:
         """The grid cells of ``written`` places or site cells, as the workload's ``frame``
-        says they are written."""
+        says they are written. Points in metres are checked here, where the metres as written
+        can be quoted with the cell they fall in; cells are checked by their users."""
         if self.options.frame == "map":
             if self.configured.frame is None:
                 raise CbrError(f"workload 'trips': {what} are in metres (frame: map), but the map "
                                "has no metric frame (ROS .yaml maps have one); give cells with "
                                "frame: cell")
-            return [(int(x), int(y)) for x, y in self.configured.to_cells(written)]
+            return [self.configured.check_point(point, f"workload 'trips': {what}[{i}]")
+                    for i, point in enumerate(written)]
         for i, (x, y) in enumerate(written):
             if not (float(x).is_integer() and float(y).is_integer()):
-                raise CbrError(f"workload 'trips': {what}[{i}] ({x}, {y}): expected a cell of "
-                               "two whole numbers; for points in metres set frame: map")
+                raise CbrError(f"workload 'trips': {what}[{i}] ({x:g}, {y:g}): expected a cell "
+                               "of two whole numbers; for points in metres set frame: map")
         return [(int(x), int(y)) for x, y in written]
 
     def _checked_places(self, places: Sequence[tuple[int, int]] | None) -> np.ndarray | None:

@@ -23,6 +23,7 @@ from cbr_kinematics import robot_kinematics
 from cbr_pathcases.base import PATH, PathBase, base_of
 from cbr_pathcases.cost import Combine, Measure, measure
 from cbr_pathcases.selection import Rule, probabilities
+from cbr_solvers import warm_grid
 from cbrcore.casebase.memory import MemoryStore
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
@@ -35,14 +36,8 @@ _UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0)
 _POSITIVE = attrs.validators.gt(0.0)
 
 _WARM_PATH = np.array([[x, 1] for x in range(1, 7)] + [[6, y] for y in range(2, 7)])
-"""A path of the warm-up grid: along the top, then down the right side."""
-
-
-def _warm_grid(world: Grid) -> Grid:
-    """A small free grid with the world's corner rule and cost model: its arrays have the types
-    of the world's, so what is compiled on it serves the world."""
-    return Grid(np.zeros((8, 8)), corner_cutting=world.corner_cutting,
-                cost_model=world.cost_model)
+"""A path of the warm-up grid (:func:`cbr_solvers.warm_grid`, 8 x 8 and free): along the top,
+then down the right side."""
 
 
 @attrs.frozen
@@ -196,7 +191,7 @@ class PathReuser:
     def cbr_warm(self, ctx: Context) -> None:
         """Connect, and improve with the genetic algorithm if configured, once on a small grid,
         with a fixed seed so that the component's generator is not drawn from."""
-        grid = _warm_grid(ctx.world)
+        grid = warm_grid(ctx.world, wall=False)
         path = self._connect(grid, _WARM_PATH[0], _WARM_PATH[-1], seed=0)
         if self.genetic is not None and path is not None:
             self.genetic(grid.factor, grid.passable, grid.corner_cutting,
@@ -296,8 +291,8 @@ class PathRetainer:
     def cbr_warm(self, ctx: Context) -> None:
         """Retain a path twice into a case base of its own on a small grid: the second time
         compares it with a stored path, as every later retain does."""
-        scratch = Context(registry=ctx.registry, seed=ctx.seed, world=_warm_grid(ctx.world),
-                          casebase=MemoryStore())
+        scratch = Context(registry=ctx.registry, seed=ctx.seed,
+                          world=warm_grid(ctx.world, wall=False), casebase=MemoryStore())
         for path in (_WARM_PATH, _WARM_PATH[:-1]):
             with scratch.mirror.transaction():
                 self.retain(Solution(path.tolist()), Outcome(success=True), scratch)

@@ -54,13 +54,15 @@ the module that holds each one's function taking ``kinematics``, ``heading`` and
 ``final_heading``."""
 
 
-def warm_grid(world: Grid, size: int = 8) -> Grid:
+def warm_grid(world: Grid, size: int = 8, *, wall: bool = True) -> Grid:
     """A ``size`` x ``size`` grid with ``world``'s corner rule and cost model and a wall down
-    its middle, to compile a search's kernels on: the arrays a search receives have the types
-    of the world's (read-only, C-ordered float64 factors and boolean passability), so what is
-    compiled for it serves the world."""
+    its middle (rows 1 to size - 2 of column size // 2), to compile a search's kernels on: the
+    arrays a search receives have the types of the world's (read-only, C-ordered float64
+    factors and boolean passability), so what is compiled for it serves the world. Without
+    ``wall`` the grid is free, for a family's warm-up paths that run anywhere."""
     risk = np.zeros((size, size))
-    risk[1:size - 1, size // 2] = 1.0  # a wall, so that the search expands and turns
+    if wall:
+        risk[1:size - 1, size // 2] = 1.0  # so that the search expands and turns
     return Grid(risk, corner_cutting=world.corner_cutting, cost_model=world.cost_model)
 
 

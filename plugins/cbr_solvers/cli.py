@@ -14,6 +14,7 @@ from __future__ import annotations
 import enum
 import functools
 import json
+import re
 import statistics
 import time
 from collections.abc import Callable
@@ -54,8 +55,10 @@ PlotPath = Annotated[
     typer.Option("--plot", metavar="FILE", help="Draw the picture to this file (PNG, or "
                  "another format matplotlib knows by the extension).", show_default=False),
 ]
+_UNKNOWN_RISK = "--unknown-risk"
+"""How errors about unknown cells name the option that sets their risk."""
 UnknownRisk = Annotated[float, typer.Option(
-    "--unknown-risk", metavar="RISK", min=0.0, max=1.0,
+    _UNKNOWN_RISK, metavar="RISK", min=0.0, max=1.0,
     help="ROS maps: the risk of unknown cells: 1 lethal (obstacles), 0 free, between a hazard.")]
 RobotRadius = Annotated[float | None, typer.Option(
     "--robot-radius", metavar="R", min=0.0, help="Inflate the obstacles by the robot's "
@@ -83,9 +86,31 @@ def _map(map_file: Path, unknown_risk: float, robot_radius: float | None,
             inflation = Inflation(robot_radius, inflation_radius,
                                   3.0 if cost_scaling is None else cost_scaling)
         except ValueError as exc:
-            raise typer.BadParameter(str(exc), param_hint="'--inflation-radius'") from None
+            raise _inflation_usage(exc) from None
     read = load_grid(map_file, unknown_risk=unknown_risk)
+    if read.frame is not None and read.frame.yaw != 0:
+        # Nav2's costmaps and AMCL ignore the yaw, so the same metres may mean other cells there
+        typer.echo(f"warning: {map_file}: the origin's yaw is {read.frame.yaw:g} rad; metre "
+                   "coordinates here are turned by the yaw, unlike Nav2, which ignores it",
+                   err=True)
     return read, read if inflation is None else inflate(read, inflation)
+
+
+_INFLATION_OPTIONS = {"robot_radius": "--robot-radius", "inflation_radius": "--inflation-radius",
+                      "cost_scaling_factor": "--cost-scaling"}
+"""The command line's spelling of each :class:`Inflation` field."""
+_FIELD_PROBLEM = re.compile(r"^'(?P<field>\w+)' (?P<rest>must .*)$", re.S)
+
+
+def _inflation_usage(exc: ValueError) -> typer.BadParameter:
+    """The usage error of an :class:`Inflation` validator's ``'field' must ...``, naming the
+    option of the field, and any other field it mentions, as the command line spells them."""
+    named = _FIELD_PROBLEM.match(str(exc))
+    if named is None or named["field"] not in _INFLATION_OPTIONS:
+        return typer.BadParameter(str(exc), param_hint="'--robot-radius'")
+    rest = re.sub("|".join(_INFLATION_OPTIONS), lambda m: _INFLATION_OPTIONS[m[0]],
+                  named["rest"])
+    return typer.BadParameter(rest, param_hint=f"'{_INFLATION_OPTIONS[named['field']]}'")
 
 
 def _pair(text: str, option: str, number: type[int] | type[float], what: str) -> tuple[Any, Any]:
@@ -181,22 +206,13 @@ def _endpoint(read: Grid, grid: Grid, written: Cell | tuple[float, float], optio
               frame: FrameName, radius: float | None) -> Cell:
     """The cell of a start or goal written as a cell or a map-frame point: on ``grid`` (the
     map as planned on) and free, or an error naming ``option`` and the cell."""
-    what = option.removeprefix("--")
     if frame is FrameName.map:
-        x, y = (int(v) for v in grid.to_cells(written)[0])
+        x, y = read.check_point(written, option, unknown_risk=_UNKNOWN_RISK)
         said = f"{option} ({written[0]:g}, {written[1]:g}) m falls in cell ({x}, {y}),"
-        if not grid.in_bounds((x, y)):
-            corners = grid.frame.corners(grid.width, grid.height)
-            (left, bottom), (right, top) = corners.min(0), corners.max(0)
-            raise CbrError(f"{said} outside the {grid.width}x{grid.height} grid, which covers "
-                           f"x {left:g} to {right:g} m and y {bottom:g} to {top:g} m")
-        if not read.passable[y, x]:
-            raise CbrError(f"{said} on an obstacle")
     else:
-        x, y = written
+        what = option.removeprefix("--")
+        x, y = read.check_cell(written, what, unknown_risk=_UNKNOWN_RISK)
         said = f"{what} ({x}, {y})"
-        if not read.in_bounds((x, y)) or not read.passable[y, x]:
-            return read.check_cell((x, y), what)
     if not grid.passable[y, x]:
         unit = "m" if grid.frame is not None else "cells"
         raise CbrError(f"{said} within the robot radius ({radius:g} {unit}) of an obstacle")
@@ -327,6 +343,14 @@ def plan(
         if frame is FrameName.map:
             raise typer.BadParameter("scenarios give cells: --frame map does not apply",
                                      param_hint="'--frame'")
+        given = [option for option, value in (("--robot-radius", robot_radius),
+                                              ("--inflation-radius", inflation_radius),
+                                              ("--cost-scaling", cost_scaling))
+                 if value is not None]
+        if given:
+            raise typer.BadParameter("a scenario file's optimal lengths are for the map as it "
+                                     "is: --scen plans without inflation",
+                                     param_hint=" / ".join(f"'{o}'" for o in given))
     if seed is not None and solver is not SolverName.genetic:
         raise typer.BadParameter("--seed applies to --solver genetic only", param_hint="'--seed'")
     parse = _cell if frame is FrameName.cell else _point

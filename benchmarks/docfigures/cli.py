@@ -1,0 +1,55 @@
+"""Figures the docs quote from benchmarks and experiments, rendered from committed results.
+
+The command line of ``benchmarks/figures.py``: check, write or list the pages' blocks, or commit
+new results for them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .catalogue import BLOCKS
+from .keep import keep_baseline, keep_experiment
+from .pages import check, used, write
+from .results import ROOT, FiguresError
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    mode = parser.add_mutually_exclusive_group(required=True)
+    mode.add_argument("--check", action="store_true", help="fail when a block is stale")
+    mode.add_argument("--write", action="store_true", help="rewrite the stale blocks")
+    mode.add_argument("--list", action="store_true", help="list the blocks and their sources")
+    mode.add_argument("--keep-experiment", nargs=2, metavar=("NAME", "DIR"),
+                      help="commit the results an experiment wrote into DIR")
+    mode.add_argument("--keep-baseline", action="store_true",
+                      help="rerun the reproductions page's baseline (002 without CBR) and "
+                           "commit its trials")
+    args = parser.parse_args(argv)
+    try:
+        if args.keep_baseline:
+            print(keep_baseline().relative_to(ROOT))
+            return 0
+        if args.keep_experiment:
+            name, run = args.keep_experiment
+            print(keep_experiment(name, Path(run)).relative_to(ROOT))
+            return 0
+        if args.list:
+            found = used()
+            for name, block in BLOCKS.items():
+                where = ", ".join(found.get(name, ["(no page)"]))
+                print(f"{name}: {block.source.relative_to(ROOT)} -> {where}")
+            return 0
+        lines = write() if args.write else check()
+    except FiguresError as exc:
+        print(f"figures: {exc}", file=sys.stderr)
+        return 1
+    for line in lines:
+        print(line, file=sys.stderr if args.check else sys.stdout)
+    if args.check and lines:
+        print("figures: run `python benchmarks/figures.py --write` after committing new results",
+              file=sys.stderr)
+        return 1
+    return 0
