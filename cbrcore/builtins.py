@@ -1,20 +1,24 @@
-"""The components cbrcore itself supplies: the case base stores."""
+"""The components cbrcore itself supplies: the case base stores (memory, SQLite, PostgreSQL)."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import attrs
 
 from cbrcore.casebase import MemoryStore, SQLiteStore
 from cbrcore.casebase.exchange import read_document
+from cbrcore.casebase.postgres_schema import schema_name_problem
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
-from cbrcore.errors import ConfigError
+from cbrcore.errors import CaseBaseError, ConfigError
 from cbrcore.hookspecs import hookimpl
 from cbrcore.options import OutputPath, in_run_folder, option
 from cbrcore.registry import Registry
+
+if TYPE_CHECKING:
+    from cbrcore.casebase.postgres import PostgresStore
 
 S = TypeVar("S", bound=CaseStore)
 
@@ -56,6 +60,41 @@ class SQLiteOptions:
     initial: Path | None = option(None, _INITIAL_DOC)
 
 
+def _schema_name(instance: Any, attribute: attrs.Attribute, value: str) -> None:
+    problem = schema_name_problem(value)
+    if problem is not None:
+        # the wording of attrs' own validators, which names the option in the problem's path
+        raise ValueError(f"'{attribute.name}' must name a PostgreSQL schema: {problem}")
+
+
+@attrs.frozen
+class PostgresOptions:
+    """Options of the ``postgres`` store."""
+
+    dsn: str = option(
+        "",
+        "The database: a libpq connection string ('host=db dbname=cases user=robot') or URI "
+        "('postgresql://robot@db/cases'). Empty: the standard PG* environment variables "
+        "(PGHOST, PGPORT, PGUSER, PGDATABASE, PGPASSWORD, ...) say where to connect.",
+    )
+    schema: str = option(
+        "cbrcore",
+        "The PostgreSQL schema holding the case base's tables: case bases in different schemas "
+        "share a database without meeting.",
+        validator=_schema_name,
+    )
+    busy_timeout: float = option(
+        5.0,
+        "Seconds to wait for another process's write lock before giving up.",
+        validator=attrs.validators.ge(0),
+    )
+    create: bool = option(True, "Create the case base (its schema and tables) when it is "
+                                "missing; false refuses a missing case base instead.")
+    read_only: bool = option(False, "Open an existing case base for reading alone, also with a "
+                                    "database role that may only read it; a write is an error.")
+    initial: Path | None = option(None, _INITIAL_DOC)
+
+
 @attrs.frozen
 class MemoryOptions:
     """Options of the ``memory`` store."""
@@ -93,7 +132,27 @@ def sqlite_store(options: SQLiteOptions, ctx: Context) -> SQLiteStore:
     return store if options.read_only else _started(store, options.initial)
 
 
+def postgres_store(options: PostgresOptions, ctx: Context) -> PostgresStore:
+    """A case base in a PostgreSQL database, shared by robots on several machines.
+
+    The case base lives in one schema of the database, created with its tables when missing
+    (unless told not to or opened read-only) and migrated when an older cbrcore made it. One
+    that is not a cbrcore case base, or of a newer schema version, is refused and left
+    untouched. Needs psycopg (the ``postgres`` extra).
+    """
+    try:
+        from cbrcore.casebase.postgres import PostgresStore
+    except ImportError as exc:
+        raise CaseBaseError(f"the postgres store needs psycopg, which cannot be imported "
+                            f"({exc}): pip install 'cbrcore[postgres]'") from exc
+    store = PostgresStore(options.dsn, schema=options.schema,
+                          busy_timeout=options.busy_timeout, create=options.create,
+                          read_only=options.read_only)
+    return store if options.read_only else _started(store, options.initial)
+
+
 @hookimpl
 def cbr_register(registry: Registry) -> None:
     registry.add("store", "memory", memory_store, options=MemoryOptions)
     registry.add("store", "sqlite", sqlite_store, options=SQLiteOptions)
+    registry.add("store", "postgres", postgres_store, options=PostgresOptions)

@@ -2,10 +2,11 @@
 
 Two sorts of hook live here.
 
-*Plugin hooks* (``cbr_register``, ``cbr_cli``, ``cbr_world_object``) are implemented by plugin
-modules found through the ``cbr`` entry point group and are called on the manager of the loaded
-plugins: ``cbr_register`` once when plugins load, ``cbr_cli`` when the command line starts,
-``cbr_world_object`` when an engine is given a world object instead of a configured world.
+*Plugin hooks* (``cbr_register``, ``cbr_cli``, ``cbr_world_object``, ``cbr_check_casebase``) are
+implemented by plugin modules found through the ``cbr`` entry point group and are called on the
+manager of the loaded plugins: ``cbr_register`` once when plugins load, ``cbr_cli`` when the
+command line starts, ``cbr_world_object`` when an engine is given a world object instead of a
+configured world, ``cbr_check_casebase`` when ``cbr casebase check`` checks a case base.
 
 *Phase hooks* (``cbr_retrieve`` ... ``cbr_forget``, ``cbr_solve``) are implemented by component
 instances. An :class:`~cbrcore.engine.Engine` has its own plugin manager holding exactly the
@@ -76,6 +77,21 @@ def cbr_world_object(obj: Any, ctx: Context) -> Any | None:
     replaces the configuration's ``world`` slot. When no plugin answers, the engine raises a
     :class:`~cbrcore.errors.CbrError` naming the object's type. Raise a ``CbrError`` for an
     object of a known type that is not a valid world (an array with values out of range).
+    """
+
+
+@hookspec
+def cbr_check_casebase(casebase: CaseStore) -> list[str]:
+    """Check the invariants the plugin's cases keep in ``casebase``; return the broken ones.
+
+    Collect-all: every loaded plugin's check runs when ``cbr casebase check`` checks a case base,
+    after the store's own check, and the command exits 1 when any returns a problem. A family
+    states here what its learn steps keep true of its cases (segments that meet only at their
+    ends, paths of 8-neighbour steps, risks within [0, 1]) and that the index it builds from the
+    store agrees with the store. The check reads only ``casebase``, which it must not change,
+    and needs no world: what it knows of the map the case base records. Return one message per
+    broken invariant, naming the case (or meta key) and what was expected; an empty list (or
+    None) when the plugin's cases are sound or the case base holds none of them.
     """
 
 
@@ -166,7 +182,7 @@ PHASE_HOOKS: dict[str, str] = {
 }
 """Each phase of the cycle and the hook that carries it out."""
 
-PLUGIN_HOOKS = ("cbr_register", "cbr_cli", "cbr_world_object")
+PLUGIN_HOOKS = ("cbr_register", "cbr_cli", "cbr_world_object", "cbr_check_casebase")
 """Hooks implemented by plugin modules rather than by configured components."""
 
 COMPONENT_HOOKS = ("cbr_warm",)

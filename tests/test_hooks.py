@@ -24,6 +24,7 @@ import cbr_observers
 import cbrcore.builtins
 import toy_domain
 from cbrcore import Case, Engine, Match, Outcome, Retrieval, Revision, Solution, hookimpl, hookspecs
+from cbrcore.casebase import MemoryStore, SQLiteStore
 from cbrcore.casebase.store import CaseStore
 from cbrcore.cli import main
 from cbrcore.config import parse_config
@@ -215,6 +216,45 @@ def test_hook_cbr_world_object() -> None:
         assert engine.world == ("number", 7)
     with pytest.raises(CbrError, match="float"):
         Engine.from_dict({}, world=2.5, plugins=plugins)
+
+
+class Squares:
+    """A family whose cases keep an invariant: the solution is the square of the problem."""
+
+    @hookimpl
+    def cbr_check_casebase(self, casebase: CaseStore) -> list[str]:
+        return [f"case {case.id}: {case.solution} is not {case.problem}²"
+                for case in casebase.cases(toy_domain.KIND) if case.solution != case.problem ** 2]
+
+
+class Silent:
+    """A plugin with nothing to check in this case base: None counts as no problem."""
+
+    @hookimpl
+    def cbr_check_casebase(self) -> None:
+        return None
+
+
+def test_hook_cbr_check_casebase(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``cbr_check_casebase`` is collect-all on the loaded plugins, called by ``cbr casebase
+    check`` with the case base once the store's own check passed: each plugin returns the broken
+    invariants of its cases, and any problem makes the command list them, named with the plugin,
+    and exit 1. The check must not change the case base."""
+    path = tmp_path / "cb.sqlite"
+    with SQLiteStore(path) as store:
+        store.add(Case(3, 9, kind=toy_domain.KIND))
+    plugins = load(("squares", Squares()), ("silent", Silent()))
+    with use_plugins(plugins):
+        assert main(["casebase", "check", str(path)]) == 0
+        assert capsys.readouterr().out == "ok\n"
+        with SQLiteStore(path) as store:
+            store.add(Case(4, 15, kind=toy_domain.KIND))
+            revision = store.revision
+        assert main(["casebase", "check", str(path)]) == 1
+        assert f"{path}: 1 problem:\n  - squares: case 2: 15 is not 4²\n" in capsys.readouterr().out
+    with SQLiteStore(path) as store:
+        assert store.revision == revision
+    assert plugins.pm.hook.cbr_check_casebase(casebase=MemoryStore()) == [[]]
 
 
 # --- phase hooks ------------------------------------------------------------------------------

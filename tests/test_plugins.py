@@ -416,7 +416,8 @@ def test_an_installed_plugin_passed_in_code_too_loads_once() -> None:
     assert plugins.failed == []
     assert [p.name for p in plugins.loaded].count("core") == 1
     assert "mine" not in [p.name for p in plugins.loaded]
-    assert [c.name for c in plugins.registry if c.kind == "store"] == ["memory", "sqlite"]
+    assert [c.name for c in plugins.registry if c.kind == "store"] == ["memory", "postgres",
+                                                                        "sqlite"]
 
 
 def test_a_code_plugin_cannot_take_a_builtin_component_name() -> None:

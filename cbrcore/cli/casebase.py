@@ -68,8 +68,9 @@ def _casebase_slot(file: Path | None, store: str | None, config: Path | None, *,
                    reading: bool) -> Config:
     """A configuration holding only the case base that ``FILE``, --store or --config names.
 
-    For a command that only reads (``reading``), a SQLite case base is opened read-only: that
-    never creates a file, and works in a folder the user may not write.
+    For a command that only reads (``reading``), a SQLite or PostgreSQL case base is opened
+    read-only: that never creates a file or a schema, works in a folder the user may not write,
+    and for a database role that may only read.
     """
     given = [name for name, value in (("FILE", file), ("--store", store), ("--config", config))
              if value is not None]
@@ -102,12 +103,12 @@ def _casebase_slot(file: Path | None, store: str | None, config: Path | None, *,
             raise ConfigError(label, exc.problems) from None
     if selected.casebase is None:
         raise CbrError(f"{label}: names no case base (its casebase slot is empty)")
-    if reading and selected.casebase.name == "sqlite":
-        selected = _with_sqlite_options(selected, read_only=True)
+    if reading and selected.casebase.name in ("sqlite", "postgres"):
+        selected = _with_store_options(selected, read_only=True)
     return selected
 
 
-def _with_sqlite_options(selected: Config, **changes: Any) -> Config:
+def _with_store_options(selected: Config, **changes: Any) -> Config:
     assert selected.casebase is not None
     options = attrs.evolve(selected.casebase.options, **changes)
     return attrs.evolve(selected, casebase=attrs.evolve(selected.casebase, options=options))
@@ -161,7 +162,8 @@ def check(
     store: StoreOption = None,
     config: ConfigOption = None,
 ) -> None:
-    """Check a case base thoroughly.
+    """Check a case base thoroughly: its store's own check, then the invariants of every loaded
+    plugin's cases (a case graph's segments meet only at vertices, ...).
 
     Prints "ok" and exits 0 when it is sound; lists the problems and exits 1 when it is not (or
     its store finds it unusable: corrupt, not a case base, or of another schema version); exits 2
@@ -170,6 +172,8 @@ def check(
     try:
         with _opened(_casebase_slot(file, store, config, reading=True)) as (_, casebase):
             problems = casebase.check()
+            if not problems:  # the families read the cases the store vouched for
+                problems = family_problems(casebase)
             label = str(casebase)
     except UnusableCaseBase as exc:
         typer.echo(str(exc))
@@ -180,6 +184,22 @@ def check(
                               *(f"  - {p}" for p in problems)]))
         raise typer.Exit(code=1)
     typer.echo("ok")
+
+
+def family_problems(casebase: CaseStore) -> list[str]:
+    """The broken invariants every loaded plugin finds among its cases (``cbr_check_casebase``),
+    each named with the plugin; a check that fails is a problem too."""
+    plugins = current()
+    problems = []
+    for impl in reversed(plugins.pm.hook.cbr_check_casebase.get_hookimpls()):
+        try:
+            # an implementation declares just the arguments it uses, as pluggy calls it
+            arguments = {"casebase": casebase}
+            found = impl.function(**{name: arguments[name] for name in impl.argnames}) or []
+        except CbrError as exc:
+            found = [f"the check failed: {exc}"]
+        problems += [f"{impl.plugin_name}: {problem}" for problem in found]
+    return problems
 
 
 @app.command("export")
@@ -242,7 +262,7 @@ def import_(
         # failed import leaves no file, and no other process sees the case base half imported
         partial = target.with_name(f".{target.name}.{secrets.token_hex(8)}.partial")
         try:
-            with _opened(_with_sqlite_options(selected, path=partial, create=True)) as (
+            with _opened(_with_store_options(selected, path=partial, create=True)) as (
                     _, casebase):
                 added = load_document(casebase, loaded, append=append)
                 revision = casebase.revision

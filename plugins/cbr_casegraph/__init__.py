@@ -28,6 +28,8 @@ from cbr_casegraph.components import (
     RiskySegments,
     VertexLimit,
 )
+from cbr_casegraph.invariants import graph_problems
+from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
 from cbrcore.registry import Registry
@@ -55,6 +57,12 @@ def _experiment(module: str, cls: str) -> Callable[[object, Context], object]:
         return getattr(importlib.import_module(module), cls)(options, ctx)
 
     return build
+
+
+@hookimpl
+def cbr_check_casebase(casebase: CaseStore) -> list[str]:
+    """The case graph's invariants (:mod:`cbr_casegraph.invariants`)."""
+    return graph_problems(casebase)
 
 
 @hookimpl

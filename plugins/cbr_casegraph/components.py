@@ -21,6 +21,7 @@ from cbr_casegraph.state import graph_of
 from cbr_grid.distances import DistanceName
 from cbr_grid.grid import grid_world
 from cbr_grid.query import GridQuery
+from cbr_grid.risk import record_map
 from cbr_kinematics import HOLONOMIC, robot_kinematics
 from cbr_solvers import warm_grid
 from cbrcore.casebase.memory import MemoryStore
@@ -246,8 +247,10 @@ class CaseGraphRetainer:
         graph = graph_of(ctx)
         graph.record_use(solution.cases)
         if outcome.success and len(solution.value) > 1:
-            graph.add_path(solution.value, similarity_delta=self.options.similarity_delta,
-                           distance=self.options.distance)
+            added = graph.add_path(solution.value, similarity_delta=self.options.similarity_delta,
+                                   distance=self.options.distance)
+            if added and graph.store is not None:
+                record_map(graph.store, graph.grid)
 
 
 class RedundantVertices:

@@ -126,9 +126,11 @@ class CaseGraph:
     # -- loading ---------------------------------------------------------------------------
 
     @classmethod
-    def load(cls, grid: Grid, store: CaseStore) -> CaseGraph:
+    def load(cls, grid: Grid, store: CaseStore, *, priced: bool = True) -> CaseGraph:
         """The graph stored in ``store``, its costs taken from ``grid``.
 
+        ``priced=False`` leaves every edge's cost and risk at 0: the graph's structure alone,
+        which the invariant check compares with the store without the compiled cost code.
         Raises CbrError naming the case when a stored segment does not fit the grid (another
         map's case base) or two segments overlap.
         """
@@ -145,7 +147,8 @@ class CaseGraph:
                                f"segment at cell ({x}, {y}); the case graph is inconsistent")
             graph._insert(case.id, graph._vertex(a), graph._vertex(b), uses=case.uses,
                           created=case.created or 0, cost=0.0, risk=0.0)
-        graph.refresh()
+        if priced:
+            graph.refresh()
         return graph
 
     def _segment_of(self, case: Case) -> tuple[Cell, Cell]:

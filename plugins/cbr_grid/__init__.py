@@ -18,8 +18,9 @@ from cbr_grid.grid import Grid
 from cbr_grid.inflation import Inflation, inflate
 from cbr_grid.movingai import load_map
 from cbr_grid.query import Cell, GridQuery
-from cbr_grid.risk import RiskMap, RiskOptions
+from cbr_grid.risk import RiskMap, RiskOptions, risk_problems
 from cbr_grid.trips import Trips, TripsOptions
+from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
 from cbrcore.options import option
@@ -162,6 +163,13 @@ def cbr_register(registry: Registry) -> None:
     registry.add("world", "generated", generated_world, options=GeneratedOptions)
     registry.add("workload", "trips", Trips, options=TripsOptions)
     registry.add("retainer", "risk_map", RiskMap, options=RiskOptions)
+
+
+@hookimpl
+def cbr_check_casebase(casebase: CaseStore) -> list[str]:
+    """The invariants of the risks the ``risk_map`` retainer learned
+    (:func:`cbr_grid.risk.risk_problems`)."""
+    return risk_problems(casebase)
 
 
 @hookimpl

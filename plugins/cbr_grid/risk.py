@@ -12,6 +12,10 @@ and makes the learned map the run's world. The learned map is a view of the case
 the core's store mirror (``ctx.learn_world``): a learn step that rolls back drops it, so the map
 is never ahead of the case base, and what another process sharing the case base learned reaches
 the planners at the next query.
+
+A grid family that writes cases records the size of the map they were learned on (meta key
+``grid.map``, :func:`record_map`), so that ``cbr casebase check`` can tell a case or learned cell
+off the map without loading the world (:func:`risk_problems`, the risk map's invariants).
 """
 
 from __future__ import annotations
@@ -37,6 +41,9 @@ LEARNED_RISK = "grid.learned_risk"
 
 CONFIGURED_WORLD = StashKey[Grid]()
 """The world as configured, before learned risks were applied to it."""
+
+MAP = "grid.map"
+"""Case base meta key of the map the cases were learned on: ``{"width": w, "height": h}``."""
 
 _DECIMALS = 12
 """Learned risks are rounded so that rises and reliefs that cancel out return exactly."""
@@ -131,7 +138,61 @@ class RiskMap:
             else:
                 stored[_key(x, y)] = float(value)
         casebase.set_meta(LEARNED_RISK, stored)
+        record_map(casebase, learned)
         ctx.mirror.put(_LEARNED, attrs.evolve(learned, risk=risk))
+
+
+def record_map(casebase: CaseStore, grid: Grid) -> None:
+    """Record the size of ``grid`` as the map of ``casebase``'s cases, inside the learn step that
+    writes them; a case base that already records it is left alone."""
+    size = {"width": grid.width, "height": grid.height}
+    if casebase.get_meta(MAP) != size:
+        casebase.set_meta(MAP, size)
+
+
+def recorded_map(casebase: CaseStore) -> tuple[tuple[int, int] | None, list[str]]:
+    """The (width, height) the case base records for its map (None when it records none), and
+    what is wrong with the record."""
+    value = casebase.get_meta(MAP)
+    if value is None:
+        return None, []
+    if (isinstance(value, Mapping) and set(value) == {"width", "height"}
+            and all(isinstance(value[k], int) and not isinstance(value[k], bool) and value[k] > 0
+                    for k in ("width", "height"))):
+        return (value["width"], value["height"]), []
+    return None, [f"meta {MAP!r} is {value!r}; expected {{'width': w, 'height': h}} with "
+                  "positive integers"]
+
+
+def risk_problems(casebase: CaseStore) -> list[str]:
+    """The broken invariants of the learned risks in ``casebase``: each entry names a cell once,
+    as 'x,y', on the recorded map, with a risk in [0, 1]."""
+    size, problems = recorded_map(casebase)
+    stored = casebase.get_meta(LEARNED_RISK)
+    if stored is None:
+        return problems
+    if not isinstance(stored, Mapping):
+        return [*problems, f"meta {LEARNED_RISK!r} is a {type(stored).__name__}; expected a "
+                           "mapping of 'x,y' cells to risks"]
+    seen: dict[tuple[int, int], str] = {}
+    for key, value in stored.items():
+        where = f"meta {LEARNED_RISK!r} entry {key!r}"
+        try:
+            x, y = (int(part) for part in str(key).split(","))
+        except ValueError:
+            problems.append(f"{where}: expected a cell 'x,y' of two integers")
+            continue
+        if (x, y) in seen:
+            problems.append(f"{where}: cell ({x}, {y}) is listed twice (also as "
+                            f"{seen[x, y]!r})")
+        seen[x, y] = str(key)
+        if x < 0 or y < 0 or (size is not None and not (x < size[0] and y < size[1])):
+            shape = f"the recorded {size[0]}x{size[1]} map" if size else "the map"
+            problems.append(f"{where}: cell ({x}, {y}) is outside {shape}")
+        if (isinstance(value, bool) or not isinstance(value, int | float)
+                or not 0 <= value <= 1):
+            problems.append(f"{where}: risk {value!r}; expected a number in [0, 1]")
+    return problems
 
 
 def stored_risks(casebase: CaseStore, grid: Grid) -> dict[tuple[int, int], float]:

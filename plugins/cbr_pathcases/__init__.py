@@ -13,6 +13,7 @@ experiment is in :mod:`cbr_pathcases.experiments`.
 
 from __future__ import annotations
 
+from cbr_pathcases.base import path_problems
 from cbr_pathcases.components import (
     PathRetainer,
     PathRetriever,
@@ -27,6 +28,7 @@ from cbr_pathcases.forgetting import (
     NearDuplicateOptions,
     NearDuplicatePaths,
 )
+from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
 from cbrcore.registry import Registry
@@ -37,6 +39,12 @@ def _learning(options: object, ctx: Context) -> object:
     from cbr_pathcases.experiments import Learning
 
     return Learning(options, ctx)
+
+
+@hookimpl
+def cbr_check_casebase(casebase: CaseStore) -> list[str]:
+    """The invariants of the whole-path cases (:func:`cbr_pathcases.base.path_problems`)."""
+    return path_problems(casebase)
 
 
 @hookimpl

@@ -14,6 +14,7 @@ loads them anew after a learn step that rolled back or when another writer moved
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping
 from typing import Any
 
@@ -21,6 +22,7 @@ import attrs
 import numpy as np
 
 from cbr_grid.grid import grid_world
+from cbr_grid.risk import recorded_map
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
@@ -171,6 +173,68 @@ def _meta(case: Case, store: CaseStore) -> Mapping[str, Any]:
         raise CbrError(f"{where}: meta needs numbers {', '.join(_META)}; missing or not a "
                        f"number: {', '.join(missing)}")
     return case.meta
+
+
+def path_problems(casebase: CaseStore) -> list[str]:
+    """The broken invariants of the path cases in ``casebase``; empty when they are sound.
+
+    Each path is a non-empty list of integer [x, y] cells in 8-neighbour steps, on the map the
+    case base records, starting and ending where its problem says; its meta holds finite,
+    non-negative numbers (at least one traversal); the arrays the family loads from the store
+    agree with the stored cases.
+    """
+    size, problems = recorded_map(casebase)
+    cases = casebase.cases(PATH)
+    for case in cases:
+        problems += _case_problems(case, size)
+    if problems or not cases:
+        return problems
+    try:
+        base = PathBase.load(casebase)
+    except CbrError as exc:
+        return [f"the path cases cannot be loaded from the case base: {exc}"]
+    loaded = {int(i): (p.tolist(), float(c), int(u)) for i, p, c, u in zip(
+        base.ids.tolist(), base.paths, base.costs.tolist(), base.uses.tolist(), strict=True)}
+    stored = {int(c.id or 0): (c.solution, float(c.meta["cost"]), c.uses) for c in cases}
+    differ = sorted(i for i in set(loaded) | set(stored) if loaded.get(i) != stored.get(i))
+    if differ:
+        problems.append(f"the loaded path index differs from the path cases "
+                        f"{', '.join(map(str, differ[:10]))}")
+    return problems
+
+
+def _case_problems(case: Case, size: tuple[int, int] | None) -> list[str]:
+    where = f"path case {case.id}"
+    path = case.solution
+    if not (isinstance(path, list) and path and all(
+            isinstance(cell, list) and len(cell) == 2
+            and all(isinstance(v, int) and not isinstance(v, bool) for v in cell)
+            for cell in path)):
+        return [f"{where}: the solution must be a non-empty list of integer [x, y] cells"]
+    problems = []
+    cells = np.array(path, dtype=np.int64)
+    if (np.abs(np.diff(cells, axis=0)).max(axis=1, initial=0) != 1).any():
+        problems.append(f"{where}: the cells must follow each other in 8-neighbour steps")
+    if cells.min() < 0 or (size is not None and ((cells[:, 0] >= size[0]).any()
+                                                 or (cells[:, 1] >= size[1]).any())):
+        shape = f"the recorded {size[0]}x{size[1]} map" if size else "the map"
+        problems.append(f"{where}: a cell is outside {shape}")
+    if case.problem != {"start": path[0], "goal": path[-1]}:
+        problems.append(f"{where}: problem {case.problem!r}; expected the path's ends "
+                        f"{{'start': {path[0]}, 'goal': {path[-1]}}}")
+    for key in _META:
+        value = case.meta.get(key)
+        if (isinstance(value, bool) or not isinstance(value, int | float)
+                or not math.isfinite(value) or value < 0):
+            problems.append(f"{where}: meta {key!r} is {value!r}; expected a finite number "
+                            ">= 0")
+    traversals = case.meta.get("traversals")
+    if isinstance(traversals, int | float) and 0 <= traversals < 1:
+        problems.append(f"{where}: meta 'traversals' is {traversals!r}; a stored path was "
+                        "traversed at least once")
+    if case.uses < 0:
+        problems.append(f"{where}: use count {case.uses}; expected a non-negative count")
+    return problems
 
 
 _PATHS = StashKey[PathBase]()

@@ -19,6 +19,7 @@ from cbr_grid.distances import DistanceName, distance
 from cbr_grid.drive import DriveReport
 from cbr_grid.grid import Grid
 from cbr_grid.query import GridQuery, path_array, without_loops
+from cbr_grid.risk import record_map
 from cbr_kinematics import robot_kinematics
 from cbr_pathcases.base import PATH, PathBase, base_of
 from cbr_pathcases.cost import Combine, Measure, measure
@@ -345,5 +346,6 @@ class PathRetainer:
                 base.touch([best])
             return
         base.remove(base.ids[similar].tolist())
+        record_map(base.store, grid)
         base.add(path, {"cost": cost, "length": measured.length, "risk": measured.risk,
                         "ideal": measured.ideal, "traversals": 1})
