@@ -21,6 +21,7 @@ from cbrcore.engine import output_folder
 from cbrcore.errors import CbrError, PluginError
 from cbrcore.plugins import Plugins
 from cbrcore.run import manifest, write_json, writing
+from cbrcore.tasks import TASKS, LocalTasks, TaskRunner
 
 Size = Literal["ci", "full"]
 
@@ -41,7 +42,11 @@ class Experiment(Protocol):
     def run(self, size: Size, out_dir: Path, progress: Callable[[int, int], None]
             ) -> ExperimentResult:
         """Run at ``size`` (``ci``: minutes at most, for the test suite; ``full``: the paper's
-        scale), calling ``progress(done, total)`` as work completes."""
+        scale), calling ``progress(done, total)`` as work completes.
+
+        Independent work goes through :func:`cbrcore.tasks.task_runner` of the factory's
+        context, so that ``cbr experiment --scheduler`` can spread it over processes or
+        machines."""
         ...
 
 
@@ -58,10 +63,18 @@ def spread(values: Sequence[float]) -> dict[str, float | None]:
 
 
 def run_experiment(name: str, plugins: Plugins, *, size: Size, out_dir: Path, seed: int = 0,
-                   progress: Callable[[int, int], None] | None = None) -> list[Path]:
-    """Run the experiment ``name`` and write its files into ``out_dir``; return their paths."""
+                   progress: Callable[[int, int], None] | None = None,
+                   tasks: TaskRunner | None = None) -> list[Path]:
+    """Run the experiment ``name`` and write its files into ``out_dir``; return their paths.
+
+    ``tasks`` runs the experiment's independent tasks (:mod:`cbrcore.tasks`; default:
+    :class:`~cbrcore.tasks.LocalTasks`); the experiment finds it with
+    :func:`~cbrcore.tasks.task_runner`. The results do not depend on it.
+    """
     component = plugins.registry.get("experiment", name)
     ctx = Context(registry=plugins.registry, seed=seed, out_dir=out_dir)
+    runner = tasks if tasks is not None else LocalTasks()
+    ctx.stash[TASKS] = runner
     output_folder(out_dir)
     try:
         experiment = component.factory(component.options(), ctx)
@@ -79,7 +92,8 @@ def run_experiment(name: str, plugins: Plugins, *, size: Size, out_dir: Path, se
     with writing(written[1]):
         files.write_text(written[1], result.table.rstrip() + "\n")
     write_json(written[2], manifest(None, plugins, seed=seed,
-                                    extra={"experiment": name, "size": size}))
+                                    extra={"experiment": name, "size": size,
+                                           "tasks": runner.description}))
     for stem, figure in result.figures.items():
         path = out_dir / f"{stem}.png"
         with writing(path), files.replacing(path, "wb") as image:

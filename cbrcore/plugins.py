@@ -123,6 +123,14 @@ def builtin_plugins() -> dict[str, str]:
     return {ep.name: ep.module for ep in dist.entry_points.select(group=ENTRY_POINT_GROUP)}
 
 
+def _is_entry_point(source: Any) -> bool:
+    """Whether a candidate plugin is an entry point still to load: the standard library's, or
+    the ``importlib_metadata`` backport's, which ``importlib.metadata`` hands out once a
+    package such as dask has imported the backport."""
+    return isinstance(source, metadata.EntryPoint) or (
+        type(source).__name__ == "EntryPoint" and callable(getattr(source, "load", None)))
+
+
 def _distribution(ep: metadata.EntryPoint) -> Source:
     dist = ep.dist
     return (dist.name, dist.version) if dist is not None else (None, None)
@@ -135,7 +143,7 @@ def _is_builtin(source: Any, dist: Source, modules: Set[str]) -> bool:
     built-ins they are. An entry point counts only from cbrcore's own distribution, so another
     distribution cannot claim a built-in by declaring an entry point of the same name.
     """
-    if isinstance(source, metadata.EntryPoint):
+    if _is_entry_point(source):
         return dist[0] == BUILTIN_DISTRIBUTION
     return isinstance(source, types.ModuleType) and source.__name__ in modules
 
@@ -204,7 +212,7 @@ def load_plugins(extra: Sequence[tuple[str, Any]] = (), *, entry_points: bool = 
             fail(name, dist, "load", f"the plugin name is already taken by {owner}")
             continue
         try:
-            obj = source.load() if isinstance(source, metadata.EntryPoint) else source
+            obj = source.load() if _is_entry_point(source) else source
         except Exception as exc:  # a broken plugin must not stop the others
             fail(name, dist, "import", f"{type(exc).__name__}: {exc}")
             continue

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import subprocess
 import sys
 import types
 from collections.abc import Callable, Iterator
@@ -551,3 +552,21 @@ def test_cbr_engine_reports_problems_with_line_and_column(
     with pytest.raises(ConfigError) as raised:
         cbr_engine("seed: 1\nretrieve: {use: nearest, radius: -1}\n")
     assert raised.value.problems == ["retrieve.radius (line 2, column 34): must be >= 0: -1"]
+
+
+def test_entry_points_load_after_the_importlib_metadata_backport_took_over() -> None:
+    # dask imports the backport, after which importlib.metadata hands out the backport's entry
+    # point objects; the plugins must load all the same
+    script = ("import json, importlib_metadata\n"
+              "from importlib import metadata\n"
+              "from cbrcore.plugins import load_plugins\n"
+              "plugins = load_plugins(environ={})\n"
+              "print(json.dumps({'kinds': sorted({type(ep).__module__ for ep in "
+              "metadata.entry_points(group='cbr')}), 'loaded': sorted(p.name for p in "
+              "plugins.loaded), 'grid': len(plugins.registry.by_plugin('grid'))}))\n")
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          timeout=120, check=True)
+    seen = json.loads(done.stdout)
+    assert seen["kinds"] == ["importlib_metadata"]
+    assert {"core", "grid", "solvers"} <= set(seen["loaded"])
+    assert seen["grid"] > 0

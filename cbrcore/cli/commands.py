@@ -27,6 +27,7 @@ from cbrcore.plugins import current
 from cbrcore.reference import config_reference, hook_reference
 from cbrcore.registry import Registry
 from cbrcore.run import run_workload
+from cbrcore.tasks import open_tasks
 
 UNBOUNDED = 100_000
 """The width of output that is not a terminal: wide enough that no table is wrapped or cut."""
@@ -197,6 +198,14 @@ def experiment(
                              help="Seed of every random choice."),
     as_json: bool = typer.Option(False, "--json",
                                  help="With --list: print the experiments as one JSON object."),
+    scheduler: str | None = typer.Option(
+        None, "--scheduler", metavar="SCHEDULER",
+        help="Run the experiment's independent tasks on Dask distributed: 'local' starts a "
+             "cluster on this machine, an address (tcp://host:8786) uses a running scheduler. "
+             "The results are the same as without it."),
+    workers: int | None = typer.Option(
+        None, "--workers", metavar="N",
+        help="With --scheduler local: worker processes (default: one per core)."),
 ) -> None:
     """Run an experiment registered by a plugin: results.json, results.md and PNG figures."""
     registry = current().registry
@@ -218,9 +227,9 @@ def experiment(
         raise typer.BadParameter("name an experiment, or use --list", param_hint="NAME")
     out_dir = out if out is not None else Path("experiments") / f"{name}-{size.value}"
     sized: ExperimentSize = "ci" if size is Size.ci else "full"
-    with _progress(name) as progress:
+    with open_tasks(scheduler, workers=workers) as tasks, _progress(name) as progress:
         written = run_experiment(name, current(), size=sized, out_dir=out_dir, seed=seed,
-                                 progress=progress)
+                                 progress=progress, tasks=tasks)
     console = _out()
     console.print((out_dir / "results.md").read_text(encoding="utf-8"), markup=False)
     for path in written:

@@ -46,6 +46,9 @@ EXPERIMENTS = {
     "time-vs-vertices": ("cbr_casegraph.experiments.timing", "TimeVsVertices",
                          "Fig. 2: CBR planning time against the vertex count, full and selective "
                          "adaptation."),
+    "fleet": ("cbr_casegraph.experiments.fleet", "Fleet",
+              "N robots learning into one case base at once, against one case base each: CBR "
+              "share, throughput and integrity."),
 }
 """The reproductions: name, module and class in :mod:`cbr_casegraph.experiments`, one-line
 summary."""

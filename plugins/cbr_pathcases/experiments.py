@@ -53,6 +53,7 @@ from cbrcore.context import Context
 from cbrcore.engine import Engine
 from cbrcore.experiment import ExperimentResult, Size, spread
 from cbrcore.plugins import current
+from cbrcore.tasks import task_runner
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -148,6 +149,13 @@ def drive(config: Mapping[str, Any], ideal: Mapping[tuple[Any, Any], float]
     return record
 
 
+def drive_job(job: tuple[dict[str, Any], dict[tuple[Any, Any], float]]
+              ) -> dict[str, list[Any]]:
+    """:func:`drive` with its arguments in one picklable tuple, as a task."""
+    config, ideal = job
+    return drive(config, ideal)
+
+
 def pair(start: tuple[int, int], goal: tuple[int, int]) -> str:
     """The names of the places a trip joins, in alphabetical order: ``"AC"`` both ways."""
     names = {cell: name for name, cell in PLACES.items()}
@@ -170,6 +178,7 @@ class Learning:
 
     def __init__(self, options: object, ctx: Context) -> None:
         self.seed = ctx.seed
+        self.tasks = task_runner(ctx)
 
     def run(self, size: Size, out_dir: Path, progress: Progress) -> ExperimentResult:
         import matplotlib
@@ -183,14 +192,11 @@ class Learning:
         ideal = {(a, b): ideal_length(grid, a, b) for a in PLACES.values()
                  for b in PLACES.values() if a != b}
         robots = (*ROBOTS, *CAPACITY_STRATEGIES)
-        runs: dict[str, list[dict[str, list[Any]]]] = {robot: [] for robot in robots}
-        done = 0
-        for robot in robots:
-            for k in range(seeds):
-                config = robot_config(robot, world, trips, self.seed + k)
-                runs[robot].append(drive(config, ideal))
-                done += 1
-                progress(done, len(robots) * seeds)
+        # every robot and seed drives on its own: the runs go to the run's task runner
+        jobs = [(robot_config(robot, world.resolve(), trips, self.seed + k), ideal)
+                for robot in robots for k in range(seeds)]
+        driven = iter(self.tasks.map(drive_job, jobs, progress=progress))
+        runs = {robot: [next(driven) for _ in range(seeds)] for robot in robots}
         half = trips // 2
         summary = {robot: self._summary(runs[robot], half) for robot in robots}
         paired = [float(np.mean(c["cost"][half:]) / np.mean(m["cost"][half:]))

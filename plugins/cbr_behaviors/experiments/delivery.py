@@ -22,11 +22,8 @@ delivery time per day, mean ± sd over seeds, and the ratios of ``adaptive`` to 
 
 from __future__ import annotations
 
-import concurrent.futures
 import csv
 import math
-import multiprocessing
-import os
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -36,8 +33,9 @@ from cbrcore.config import parse_config
 from cbrcore.context import Context
 from cbrcore.engine import Engine
 from cbrcore.experiment import ExperimentResult, Size, spread
-from cbrcore.plugins import current, load_plugins, use_plugins
+from cbrcore.plugins import current
 from cbrcore.run import run_workload
+from cbrcore.tasks import task_runner
 
 ARMS = ("fixed", "cbr", "adaptive", "learned-weights")
 MEASURES = ("delivered", "missed", "collisions", "contacts", "mean_delivery_time")
@@ -72,13 +70,14 @@ def arm_config(arm: str, seed: int, *, days: int, length: float,
 
 
 WORKERS = 2
-"""Processes the experiment's runs are spread over (at most the machine's cores)."""
+"""Processes the experiment's runs are spread over without a scheduler (at most the machine's
+cores; a Dask cluster uses its own workers)."""
 
 
-def _run_job(config: dict[str, Any], out_dir: Path) -> list[dict[str, float]]:
-    # a new process: the plugins load from their entry points, as for cbr itself
-    with use_plugins(load_plugins()):
-        return run_arm(config, out_dir)
+def run_job(job: tuple[dict[str, Any], Path]) -> list[dict[str, float]]:
+    """:func:`run_arm` with its arguments in one picklable tuple, as a task."""
+    config, out_dir = job
+    return run_arm(config, out_dir)
 
 
 def run_arm(config: dict[str, Any], out_dir: Path) -> list[dict[str, float]]:
@@ -101,24 +100,20 @@ class DeliveryExperiment:
 
     def __init__(self, options: object, ctx: Context) -> None:
         self.seed = ctx.seed
+        self.tasks = task_runner(ctx)
 
     def run(self, size: Size, out_dir: Path, progress: Any) -> ExperimentResult:
         plan = self.SIZES[size]
         seeds = [self.seed + k for k in range(int(plan["seeds"]))]
         days, length = int(plan["days"]), float(plan["length"])
         jobs = [(arm, seed) for seed in seeds for arm in ARMS]
-        found: dict[tuple[str, int], list[dict[str, float]]] = {}
         # every arm and seed is a run of its own: spread over processes, the results the same
         # as one after another (each run's randomness comes from its seed only)
-        workers = min(WORKERS, os.cpu_count() or 1, len(jobs))
-        with concurrent.futures.ProcessPoolExecutor(
-                max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            running = {pool.submit(_run_job, arm_config(arm, seed, days=days, length=length),
-                                   out_dir / arm / f"seed_{seed}"): (arm, seed)
-                       for arm, seed in jobs}
-            for done, future in enumerate(concurrent.futures.as_completed(running), start=1):
-                found[running[future]] = future.result()
-                progress(done, len(jobs))
+        runs = self.tasks.map(run_job, [
+            (arm_config(arm, seed, days=days, length=length),
+             out_dir.resolve() / arm / f"seed_{seed}") for arm, seed in jobs],
+            progress=progress, processes=WORKERS)
+        found = dict(zip(jobs, runs, strict=True))
         per_seed = {arm: [_per_day(found[arm, seed]) for seed in seeds] for arm in ARMS}
         # a seed that delivered nothing has no delivery time: the spread is over the others
         summary = {arm: {m: spread([s[m] for s in per_seed[arm] if math.isfinite(s[m])])

@@ -3,8 +3,9 @@ CBR path between them, timing, table formatting, figures and the base class of t
 
 from __future__ import annotations
 
+import copy
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -17,6 +18,7 @@ from cbr_grid.distances import octile
 from cbr_grid.generate import generate
 from cbr_grid.grid import Grid
 from cbrcore.context import Context
+from cbrcore.tasks import task_runner
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -30,6 +32,11 @@ MAX_RATIO = 1.5
 """The quality test's largest accepted ratio of path length to the octile distance."""
 
 METHODS = ("dijkstra", "astar", "aistar")
+
+CHUNK = 1000
+"""Queries per task when an experiment's queries are spread over processes: large enough that a
+task's own cost (shipping the case graph to its worker) is small beside its planning, small enough
+that the last tasks leave no worker idle for long."""
 
 REPEATS = 3
 """Runs per CBR query in the timing experiments: a query's time is the median of its runs, so
@@ -120,6 +127,15 @@ def cbr_tasks(graph: CaseGraph, region: np.ndarray, rng: np.random.Generator, co
     return tasks
 
 
+def chunked(graph: CaseGraph, tasks: Sequence[tuple[Cell, Cell]], size: int = CHUNK
+            ) -> Iterator[tuple[CaseGraph, list[tuple[Cell, Cell]]]]:
+    """``tasks`` in chunks of ``size``, each with a copy of ``graph`` as it is now: the tasks of
+    a chunk are planned on that copy, wherever they run, while the graph here grows on."""
+    frozen = copy.deepcopy(graph)
+    for first in range(0, len(tasks), size):
+        yield frozen, list(tasks[first:first + size])
+
+
 def region_mask(grid: Grid, cells: np.ndarray) -> np.ndarray:
     mask = np.zeros(grid.passable.shape, dtype=bool)
     mask[cells[:, 1], cells[:, 0]] = True
@@ -145,11 +161,13 @@ def new_figure() -> tuple[Figure, Any]:
 
 
 class GridExperiment:
-    """Keeps the run's seed: every map and task draw derives from it."""
+    """Keeps the run's seed (every map and task draw derives from it) and the runner of its
+    tasks."""
 
     def __init__(self, options: object, ctx: Context) -> None:
         self.seed = ctx.seed
         self.rng = ctx.spawn_rng()
+        self.tasks = task_runner(ctx)
 
     def prepare(self, size: int) -> tuple[Grid, np.ndarray]:
         """The test map of side ``size``, its reachable cells, and the searches compiled."""

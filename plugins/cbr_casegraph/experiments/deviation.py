@@ -4,6 +4,7 @@ Ai* against the best of the four in path cost, length and turns
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -14,8 +15,10 @@ from cbr_casegraph.experiments.common import (
     LABELS,
     MAX_RATIO,
     METHODS,
+    Cell,
     GridExperiment,
     Progress,
+    chunked,
     fmt,
     map_info,
     new_figure,
@@ -42,6 +45,10 @@ PAPER_TABLE = {
 }
 """Table 1: mean deviation (%) from the best cost, length and turns, by vertex count."""
 
+CHUNK = 100
+"""Tasks per chunk spread over processes: each measures four planners, so fewer than the
+cbr-share experiment's queries make a task of the same weight."""
+
 TIE = 1e-9
 """Relative difference under which two values count as equal: optimal paths found by different
 searches sum the same step costs in a different order."""
@@ -59,6 +66,30 @@ def deviations(values: dict[str, float]) -> dict[str, float]:
             for name, value in values.items()}
 
 
+def measure_chunk(job: tuple[CaseGraph, Settings, list[tuple[Cell, Cell]]]
+                  ) -> list[tuple[bool, dict[str, dict[str, float]]]]:
+    """Per task of a chunk: whether CBR planned it, and each method's deviation from the best
+    cost, length and turns."""
+    graph, settings, tasks = job
+    grid = graph.grid
+    measured = []
+    for start, goal in tasks:
+        paths = {m: solve(m, grid, start, goal).path for m in METHODS}
+        result = plan(graph, start, goal, settings)
+        by_cbr = isinstance(result, Plan) and outcome(result, start, goal) == "cbr"
+        # the hybrid planner falls back to its alternative method, Dijkstra
+        paths["cbr"] = result.path if isinstance(result, Plan) and by_cbr else (
+            paths["dijkstra"])
+        values = {
+            "cost": {m: path_cost(grid, p) for m, p in paths.items()},
+            "length": {m: path_length(p) for m, p in paths.items()},
+            "turns": {m: float(turns(p)) for m, p in paths.items()},
+        }
+        measured.append((by_cbr, {parameter: deviations(found)
+                                  for parameter, found in values.items()}))
+    return measured
+
+
 class DeviationTable(GridExperiment):
     """Table 1: deviation of CBR (with Dijkstra fallback), Dijkstra, A* and Ai* from the best."""
 
@@ -72,37 +103,40 @@ class DeviationTable(GridExperiment):
         graph = CaseGraph(grid)
         settings = Settings()
         rows: list[dict[str, Any]] = []
-        for step, vertices in enumerate(counts):
-            grow(graph, vertices, self.rng, cells=cells)
+        levels: list[int] = []
+
+        def jobs() -> Iterator[tuple[CaseGraph, Settings, list[tuple[Cell, Cell]]]]:
+            # drawn here in the order of a serial run; the graph grows on while the tasks of
+            # the count before are measured
+            for vertices in counts:
+                grow(graph, vertices, self.rng, cells=cells)
+                rows.append({"vertices": graph.vertex_count, "target_vertices": vertices,
+                             "coverage": graph.coverage(), "tasks": tasks})
+                drawn = [random_task(cells, self.rng) for _ in range(tasks)]
+                for frozen, chunk in chunked(graph, drawn, CHUNK):
+                    levels.append(len(rows) - 1)
+                    yield frozen, settings, chunk
+
+        results = self.tasks.map(measure_chunk, jobs(), progress=progress)
+        measured: list[list[tuple[bool, dict[str, dict[str, float]]]]] = [[] for _ in counts]
+        for level, chunk_result in zip(levels, results, strict=True):
+            measured[level].extend(chunk_result)
+        for row, level in zip(rows, measured, strict=True):
+            # summed here, task by task, so that the sums do not depend on the chunks
             sums = {(m, p): 0.0 for m in ("cbr", *METHODS) for p in self.PARAMETERS}
             alone: list[float] = []
-            planned = 0
-            for _ in range(tasks):
-                start, goal = random_task(cells, self.rng)
-                paths = {m: solve(m, grid, start, goal).path for m in METHODS}
-                result = plan(graph, start, goal, settings)
-                by_cbr = isinstance(result, Plan) and outcome(result, start, goal) == "cbr"
-                # the hybrid planner falls back to its alternative method, Dijkstra
-                paths["cbr"] = result.path if isinstance(result, Plan) and by_cbr else (
-                    paths["dijkstra"])
-                planned += by_cbr
-                measured = {
-                    "cost": {m: path_cost(grid, p) for m, p in paths.items()},
-                    "length": {m: path_length(p) for m, p in paths.items()},
-                    "turns": {m: float(turns(p)) for m, p in paths.items()},
-                }
-                for parameter, values in measured.items():
-                    for method, deviation in deviations(values).items():
+            for by_cbr, found in level:
+                for parameter, values in found.items():
+                    for method, deviation in values.items():
                         sums[method, parameter] += deviation
                 if by_cbr:
-                    alone.append(deviations(measured["cost"])["cbr"])
-            rows.append({
-                "vertices": graph.vertex_count, "target_vertices": vertices,
-                "coverage": graph.coverage(), "tasks": tasks, "cbr_share": planned / tasks,
+                    alone.append(found["cost"]["cbr"])
+            planned = sum(by_cbr for by_cbr, _ in level)
+            row.update({
+                "cbr_share": planned / tasks,
                 "cbr_only_cost_deviation": float(np.mean(alone)) if alone else None,
                 "deviation": {LABELS[m]: {p: sums[m, p] / tasks for p in self.PARAMETERS}
                               for m in ("cbr", *METHODS)}})
-            progress(step + 1, len(counts))
         return ExperimentResult(
             results={"map": map_info(side, self.seed), "delta": settings.delta,
                      "max_ratio": MAX_RATIO, "fallback": "dijkstra", "rows": rows},

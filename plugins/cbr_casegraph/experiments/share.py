@@ -3,14 +3,17 @@ the coverage of the map by graph vertices (``cbr experiment cbr-share``)."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, ClassVar
 
 from cbr_casegraph.build import grow, random_task
 from cbr_casegraph.experiments.common import (
     MAX_RATIO,
+    Cell,
     GridExperiment,
     Progress,
+    chunked,
     map_info,
     median_ms,
     new_figure,
@@ -25,6 +28,17 @@ PAPER_SHARE = {6: 0.50, 10: 0.75, 15: 0.90}
 """Section 6.2: share of tasks planned by CBR at a coverage (percent of cells that are vertices)."""
 
 
+def plan_chunk(job: tuple[CaseGraph, Settings, list[tuple[Cell, Cell]]]
+               ) -> list[tuple[str, float]]:
+    """Plan each task of a chunk on its graph: how the attempt ended and how long it took."""
+    graph, settings, tasks = job
+    planned = []
+    for start, goal in tasks:
+        result, took = timed(lambda s=start, g=goal: plan(graph, s, g, settings))
+        planned.append((outcome(result, start, goal), took))
+    return planned
+
+
 class Share(GridExperiment):
     """Fig. 3: share of random tasks planned by CBR against the map's coverage by vertices."""
 
@@ -37,24 +51,34 @@ class Share(GridExperiment):
         graph = CaseGraph(grid)
         settings = Settings()
         rows: list[dict[str, Any]] = []
-        paths = 0
-        for step, percent in enumerate(coverages):
-            paths += grow(graph, round(percent / 100 * grid.passable.size), self.rng,
-                          cells=cells)
+        levels: list[int] = []
+
+        def jobs() -> Iterator[tuple[CaseGraph, Settings, list[tuple[Cell, Cell]]]]:
+            # drawn here, in the order of a serial run, and read by the runner as it submits:
+            # the graph grows for the next coverage while the queries of this one are planned
+            paths = 0
+            for percent in coverages:
+                paths += grow(graph, round(percent / 100 * grid.passable.size), self.rng,
+                              cells=cells)
+                rows.append({"coverage_percent": percent,
+                             "measured_coverage": graph.coverage(),
+                             "vertices": graph.vertex_count, "edges": graph.edge_count,
+                             "paths_retained": paths, "queries": queries})
+                tasks = [random_task(cells, self.rng) for _ in range(queries)]
+                for frozen, chunk in chunked(graph, tasks):
+                    levels.append(len(rows) - 1)
+                    yield frozen, settings, chunk
+
+        results = self.tasks.map(plan_chunk, jobs(), progress=progress)
+        planned: list[list[tuple[str, float]]] = [[] for _ in coverages]
+        for level, chunk_result in zip(levels, results, strict=True):
+            planned[level].extend(chunk_result)
+        for row, outcomes in zip(rows, planned, strict=True):
             counts: dict[str, int] = {}
-            seconds: list[float] = []
-            for _ in range(queries):
-                start, goal = random_task(cells, self.rng)
-                result, took = timed(lambda s=start, g=goal: plan(graph, s, g, settings))
-                seconds.append(took)
-                kind = outcome(result, start, goal)
+            for kind, _ in outcomes:
                 counts[kind] = counts.get(kind, 0) + 1
-            rows.append({"coverage_percent": percent, "measured_coverage": graph.coverage(),
-                         "vertices": graph.vertex_count, "edges": graph.edge_count,
-                         "paths_retained": paths, "queries": queries,
-                         "share": counts.get("cbr", 0) / queries, "outcomes": counts,
-                         "median_plan_ms": median_ms(seconds)})
-            progress(step + 1, len(coverages))
+            row.update({"share": counts.get("cbr", 0) / queries, "outcomes": counts,
+                        "median_plan_ms": median_ms([took for _, took in outcomes])})
         table = ["| coverage (% of cells) | vertices | paths retained | CBR share (ours) "
                  "| CBR share (paper) | within delta | no case near | no local path "
                  "| not connected | rejected by quality |",

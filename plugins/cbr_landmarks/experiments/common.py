@@ -113,3 +113,9 @@ def drive(config: Mapping[str, Any], out_dir: Path) -> Driven:
         with np.load(out_dir / "trajectories.npz") as saved:
             paths = {name: saved[name] for name in saved.files}
     return Driven(rows, paths, cases)
+
+
+def drive_job(job: tuple[Mapping[str, Any], Path]) -> Driven:
+    """:func:`drive` with its arguments in one picklable tuple, as a task."""
+    config, out_dir = job
+    return drive(config, out_dir)

@@ -38,6 +38,7 @@ from cbr_landmarks.experiments.common import (
 )
 from cbrcore.context import Context
 from cbrcore.experiment import ExperimentResult, Size, spread
+from cbrcore.tasks import task_runner
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -66,6 +67,26 @@ def learning_config(robot: str, world_seed: int, trials: int, seed: int,
     return config
 
 
+def drive_worlds(job: tuple[str, int, int, int, Path]) -> dict[str, Any]:
+    """One robot of one seed through its worlds, given as (robot, seed, worlds, trials per
+    world, output folder): per trial its success, time, distance and the cases stored after."""
+    robot, seed, count, trials, out_dir = job
+    casebase = out_dir / f"seed{seed}" / f"{robot}.sqlite"
+    casebase.parent.mkdir(parents=True, exist_ok=True)
+    record: dict[str, Any] = {"seed": seed, "success": [], "time": [], "distance": [],
+                              "cases": []}
+    for w in range(count):
+        world_seed = count * seed + w
+        config = learning_config(robot, world_seed, trials, seed + w, casebase)
+        run = drive(config, out_dir / f"seed{seed}" / robot / f"world{world_seed}")
+        for row in run.rows:
+            record["success"].append(row["success"])
+            record["time"].append(row["time"])
+            record["distance"].append(row["distance"])
+            record["cases"].append(run.cases)
+    return record
+
+
 class Learning:
     """Success, time and distance of the four robots as they drive through worlds."""
 
@@ -75,34 +96,21 @@ class Learning:
 
     def __init__(self, options: object, ctx: Context) -> None:
         self.seed = ctx.seed
+        self.tasks = task_runner(ctx)
 
     def run(self, size: Size, out_dir: Path, progress: Progress) -> ExperimentResult:
         import matplotlib
 
         matplotlib.use("Agg")
         seeds, train, test, trials = self.SCALE[size]
-        total = seeds * len(ROBOTS) * (train + test)
-        done = 0
+        # a robot's worlds follow one another (its case base carries over); robots and seeds
+        # are independent, each a task of the run's task runner
+        jobs = [(robot, self.seed + k, train + test, trials, out_dir.resolve())
+                for k in range(seeds) for robot in ROBOTS]
         runs: dict[str, list[dict[str, Any]]] = {robot: [] for robot in ROBOTS}
-        for k in range(seeds):
-            seed = self.seed + k
-            worlds = [(train + test) * seed + w for w in range(train + test)]
-            for robot in ROBOTS:
-                casebase = out_dir / f"seed{seed}" / f"{robot}.sqlite"
-                casebase.parent.mkdir(parents=True, exist_ok=True)
-                record: dict[str, Any] = {"seed": seed, "success": [], "time": [],
-                                          "distance": [], "cases": []}
-                for w, world_seed in enumerate(worlds):
-                    config = learning_config(robot, world_seed, trials, seed + w, casebase)
-                    run = drive(config, out_dir / f"seed{seed}" / robot / f"world{world_seed}")
-                    for row in run.rows:
-                        record["success"].append(row["success"])
-                        record["time"].append(row["time"])
-                        record["distance"].append(row["distance"])
-                        record["cases"].append(run.cases)
-                    done += 1
-                    progress(done, total)
-                runs[robot].append(record)
+        for (robot, *_), record in zip(jobs, self.tasks.map(drive_worlds, jobs,
+                                                            progress=progress), strict=True):
+            runs[robot].append(record)
         unseen = train * trials
         summary = {robot: self._summary(runs[robot], unseen, trials) for robot in ROBOTS}
         gain = self._gain(runs, unseen)

@@ -19,11 +19,12 @@ from cbr_landmarks.experiments.common import (
     TIMEOUT,
     Driven,
     Progress,
-    drive,
+    drive_job,
     robot_config,
 )
 from cbrcore.context import Context
 from cbrcore.experiment import ExperimentResult, Size, spread
+from cbrcore.tasks import task_runner
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -53,26 +54,28 @@ class Scenarios:
 
     def __init__(self, options: object, ctx: Context) -> None:
         self.seed = ctx.seed
+        self.tasks = task_runner(ctx)
 
     def run(self, size: Size, out_dir: Path, progress: Progress) -> ExperimentResult:
         import matplotlib
 
         matplotlib.use("Agg")
         trials = self.TRIALS[size]
-        driven: dict[str, dict[str, Driven]] = {}
         configs: dict[str, dict[str, Any]] = {}
-        done = 0
+        workload = {"trials": [{"start": "start", "target": "target"}], "repeat": trials,
+                    "trajectories": True}
         for scenario in SCENARIOS:
             world = {"use": "world2d_file", "path": str(world_path(scenario))}
-            workload = {"trials": [{"start": "start", "target": "target"}], "repeat": trials,
-                        "trajectories": True}
             for robot in ROBOTS:
-                config = robot_config(robot, world, workload, self.seed)
-                configs[f"{scenario}/{robot}"] = config
-                driven.setdefault(scenario, {})[robot] = drive(
-                    config, out_dir / scenario / robot)
-                done += 1
-                progress(done, len(SCENARIOS) * len(ROBOTS))
+                configs[f"{scenario}/{robot}"] = robot_config(robot, world, workload, self.seed)
+        # each robot in each world is a run of its own, handed to the run's task runner
+        runs = self.tasks.map(drive_job, [
+            (configs[f"{scenario}/{robot}"], out_dir.resolve() / scenario / robot)
+            for scenario in SCENARIOS for robot in ROBOTS], progress=progress)
+        driven: dict[str, dict[str, Driven]] = {}
+        for (scenario, robot), run in zip(
+                [(s, r) for s in SCENARIOS for r in ROBOTS], runs, strict=True):
+            driven.setdefault(scenario, {})[robot] = run
         summary = {scenario: {robot: self._summary(driven[scenario][robot])
                               for robot in ROBOTS} for scenario in SCENARIOS}
         ratios = {scenario: self._ratios(summary[scenario]) for scenario in SCENARIOS}

@@ -1,0 +1,236 @@
+"""Running an experiment's independent tasks: in this process, on a pool of processes, or on a
+Dask distributed cluster.
+
+An experiment that has work to spread (seeds, arms, robots, chunks of queries) hands it to a
+:class:`TaskRunner` as a top-level function and a list of plain, picklable arguments::
+
+    for row in task_runner(ctx).map(plan_chunk, chunks, progress=progress):
+        ...
+
+``map`` submits every task before it returns, so the caller may go on working while they run,
+and yields their results in the order of the items, whatever order they finish in;
+``progress(done, total)`` is called as each task finishes. A task must depend on its argument
+alone (its randomness drawn from a seed it is given, or by the caller before submitting), which
+makes the results the same on every runner, and the same as a serial run's.
+
+The runner reaches the experiment through the run's :class:`~cbrcore.context.Context`: ``cbr
+experiment`` stores it under :data:`TASKS` in ``ctx.stash`` and :func:`task_runner` reads it,
+:class:`LocalTasks` when none is stored (an experiment run from Python, or by a test). An
+experiment that never asks keeps running its own way.
+
+Runners:
+
+:class:`LocalTasks`
+    Without ``--scheduler``: in this process one after another, or, where the experiment asks
+    for ``processes`` greater than 1, on a pool of that many spawned processes (at most the
+    machine's cores).
+:class:`DaskTasks`
+    ``--scheduler local`` (a ``LocalCluster`` of worker processes with one thread each, as many
+    as the machine has cores unless ``workers`` says otherwise) or ``--scheduler ADDRESS`` (a
+    running ``dask scheduler``). distributed is imported only then.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import contextlib
+import logging
+import multiprocessing
+import os
+import re
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
+
+from cbrcore.errors import CbrError
+from cbrcore.stash import StashKey
+
+if TYPE_CHECKING:
+    from cbrcore.context import Context
+
+T = TypeVar("T")
+R = TypeVar("R")
+Progress = Callable[[int, int], None]
+
+CONNECT_SECONDS = 10
+"""How long a scheduler address is tried before the run gives up on it."""
+
+_ADDRESS = re.compile(r"^(?:(?P<scheme>[a-z][a-z0-9+.-]*)://)?(?P<host>\[[^\]]+\]|[^:/\s]+)"
+                      r"(?::(?P<port>\d{1,5}))?$")
+
+
+class TaskRunner(Protocol):
+    """Runs independent tasks and gives their results back in order."""
+
+    @property
+    def description(self) -> str:
+        """Where the tasks run, as a run's manifest records it (``local``, ``dask tcp://...``)."""
+        ...
+
+    def map(self, function: Callable[[T], R], items: Iterable[T], *,
+            progress: Progress | None = None, processes: int = 1) -> Iterator[R]:
+        """Submit ``function(item)`` for every item now; yield the results in the items' order.
+
+        ``function`` is a top-level function and the items plain picklable values. ``progress``
+        is called with (tasks finished, tasks) as tasks finish. ``processes`` is how many
+        processes the caller would use on this machine when no scheduler is given (1: in this
+        process); a cluster decides for itself.
+        """
+        ...
+
+
+TASKS = StashKey["TaskRunner"]()
+"""Where ``cbr experiment`` puts the runner of the run's tasks in ``ctx.stash``."""
+
+
+def task_runner(ctx: Context) -> TaskRunner:
+    """The runner of the run of ``ctx``: the one ``cbr experiment`` chose, else
+    :class:`LocalTasks`."""
+    return ctx.stash.get(TASKS, LocalTasks())
+
+
+class LocalTasks:
+    """Tasks in this process, or on a pool of spawned processes when ``processes`` > 1."""
+
+    description = "local"
+
+    def map(self, function: Callable[[T], R], items: Iterable[T], *,
+            progress: Progress | None = None, processes: int = 1) -> Iterator[R]:
+        work = list(items)
+        workers = min(processes, os.cpu_count() or 1, len(work))
+        if workers <= 1:
+            return _serial(function, work, progress)
+        # spawn, not fork: a forked child would inherit the parent's threads' locks (numba's,
+        # the progress display's) in whatever state they were
+        pool = concurrent.futures.ProcessPoolExecutor(
+            max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+        try:
+            futures = [pool.submit(function, item) for item in work]
+        except BaseException:
+            pool.shutdown(cancel_futures=True)
+            raise
+        return _closing(_in_order(futures, concurrent.futures.as_completed, progress),
+                        lambda: pool.shutdown(cancel_futures=True))
+
+
+class DaskTasks:
+    """Tasks on a Dask distributed cluster, through ``client`` (a ``distributed.Client``)."""
+
+    def __init__(self, client: Any, description: str) -> None:
+        self.client = client
+        self.description = description
+
+    def map(self, function: Callable[[T], R], items: Iterable[T], *,
+            progress: Progress | None = None, processes: int = 1) -> Iterator[R]:
+        as_completed = _distributed().as_completed
+        # pure=False: the tasks' keys are not derived from hashing their arguments, which may
+        # be large (a case graph); equal items then also run twice, as they would serially
+        futures = [self.client.submit(_on_worker, (function, item), pure=False)
+                   for item in items]
+        return _closing(_in_order(futures, as_completed, progress),
+                        lambda: self.client.cancel(futures))
+
+
+def _serial(function: Callable[[T], R], work: Sequence[T], progress: Progress | None
+            ) -> Iterator[R]:
+    for done, item in enumerate(work, start=1):
+        result = function(item)
+        if progress is not None:
+            progress(done, len(work))
+        yield result
+
+
+def _in_order(futures: Sequence[Any], as_completed: Callable[[Sequence[Any]], Iterable[Any]],
+              progress: Progress | None) -> Iterator[Any]:
+    """The futures' results in submission order, ``progress`` told as each one finishes."""
+    index = {id(future): k for k, future in enumerate(futures)}
+    finished: dict[int, Any] = {}
+    following = 0
+    if progress is not None:
+        progress(0, len(futures))
+    for done, future in enumerate(as_completed(futures), start=1):
+        # result() raises the task's own exception, with its traceback from the worker
+        finished[index[id(future)]] = future.result()
+        if progress is not None:
+            progress(done, len(futures))
+        while following in finished:
+            yield finished.pop(following)
+            following += 1
+
+
+def _closing(results: Iterator[R], close: Callable[[], Any]) -> Iterator[R]:
+    """``results``, then ``close()`` however the caller stops reading them."""
+    try:
+        yield from results
+    finally:
+        close()
+
+
+def _distributed() -> Any:
+    """The ``distributed`` module, imported only when a sweep asks for Dask."""
+    import distributed
+
+    return distributed
+
+
+def _on_worker(job: tuple[Callable[[T], R], T]) -> R:
+    """Run one task on a Dask worker."""
+    function, item = job
+    return function(item)
+
+
+@contextlib.contextmanager
+def open_tasks(scheduler: str | None = None, *, workers: int | None = None,
+               option: str = "--scheduler") -> Iterator[TaskRunner]:
+    """The runner for ``scheduler``: None for :class:`LocalTasks`, ``"local"`` for a new
+    LocalCluster of ``workers`` processes (default: one per core), else the address of a
+    running Dask scheduler. The cluster is shut down, or the client disconnected, on leaving.
+
+    A scheduler that cannot be used raises :class:`CbrError` naming ``option``.
+    """
+    if workers is not None and workers < 1:
+        raise CbrError(f"--workers: {workers} is not a number of worker processes; expected "
+                       "1 or more")
+    if scheduler is None:
+        if workers is not None:
+            raise CbrError("--workers goes with --scheduler local")
+        yield LocalTasks()
+        return
+    if scheduler == "local":
+        with _local_cluster(workers or os.cpu_count() or 1) as runner:
+            yield runner
+        return
+    if workers is not None:
+        raise CbrError("--workers goes with --scheduler local; a remote scheduler has the "
+                       "workers started on its machines")
+    with _remote(scheduler, option) as runner:
+        yield runner
+
+
+@contextlib.contextmanager
+def _local_cluster(workers: int) -> Iterator[TaskRunner]:
+    distributed = _distributed()
+
+    # no dashboard: it would need a free port and bokeh, and nobody watches a run's cluster
+    with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                  dashboard_address=None, silence_logs=logging.ERROR
+                                  ) as cluster, distributed.Client(cluster) as client:
+        yield DaskTasks(client, f"dask LocalCluster of {workers} workers")
+
+
+@contextlib.contextmanager
+def _remote(address: str, option: str) -> Iterator[TaskRunner]:
+    if not _ADDRESS.match(address) or address.startswith("-"):
+        raise CbrError(f"{option} {address!r}: not a scheduler address; expected 'local' or "
+                       "the address of a running Dask scheduler, such as tcp://host:8786")
+    distributed = _distributed()
+    try:
+        client = distributed.Client(address, timeout=CONNECT_SECONDS)
+    except ValueError as exc:  # an address distributed cannot parse (an unknown scheme)
+        raise CbrError(f"{option} {address!r}: {exc}; expected 'local' or the address of a "
+                       "running Dask scheduler, such as tcp://host:8786") from exc
+    except (OSError, TimeoutError) as exc:
+        raise CbrError(f"{option} {address!r}: no Dask scheduler answered within "
+                       f"{CONNECT_SECONDS} s ({type(exc).__name__}: {exc}); expected 'local' or "
+                       "the address of a running scheduler (dask scheduler prints it)") from exc
+    with client:
+        yield DaskTasks(client, f"dask {address}")
