@@ -158,10 +158,11 @@ def _watched(store: Any) -> None:
     store.add, store.remove = watched_add, watched_remove
 
 
-def learner(family: str, path: str, seed: int, log: str, ready: Any, go: Any,
+def learner(family: str, path: str, seed: int, log: str, ready: Any, go: Any, first: Any,
             pause_at: int | None = None, inside: str | None = None) -> None:
     """Run ``STEPS`` trips of ``family`` with ``seed``, learning into the case base ``path``;
-    append each committed step to ``log`` as a JSON line."""
+    append each committed step to ``log`` as a JSON line. Every learner waits at ``first``
+    after its first step, so that the learners' steps interleave however busy the machine."""
     plugins = load_plugins(extra=[("marker", MarkerPlugin())], environ={})
     config = {"seed": seed, "casebase": {"use": "sqlite", "path": path, "busy_timeout": 30.0},
               "workload": TRIPS, "solver": "astar", **FAMILIES[family]}
@@ -182,6 +183,8 @@ def learner(family: str, path: str, seed: int, log: str, ready: Any, go: Any,
                                       "removed": STEP.removed, "path": STEP.path,
                                       "success": STEP.success, "report": STEP.report}) + "\n")
                 out.flush()
+                if STEP.count == 1:
+                    first.wait(TIMEOUT)
 
 
 def reader(path: str, stop: Any, result: str) -> None:
@@ -214,10 +217,13 @@ def run_learners(tmp_path: Path, family: str, learners: int, *, pause: int | Non
                  ) -> dict[str, Any]:
     """Run ``learners`` processes (seeds 1, 2, ...) and a reader on one case base.
 
-    With ``pause``, the first learner is killed inside its learn step number ``pause``. Returns
-    the exit codes, every committed step (in revision order) and what the reader found.
+    With ``pause`` (after the first step), the first learner is killed inside its learn step
+    number ``pause``. Returns the exit codes, every committed step (in revision order) and what
+    the reader found.
     """
+    assert pause is None or pause > 1, "every learner gets past its first step"
     spawn = multiprocessing.get_context("spawn")
+    first = spawn.Barrier(learners)
     path = tmp_path / "shared.sqlite"
     go, stop = spawn.Event(), spawn.Event()
     inside = tmp_path / "inside"
@@ -226,8 +232,8 @@ def run_learners(tmp_path: Path, family: str, learners: int, *, pause: int | Non
         ready = spawn.Event()
         paused = pause if seed == 1 else None
         process = spawn.Process(target=learner, args=(
-            family, str(path), seed, str(tmp_path / f"log{seed}.jsonl"), ready, go, paused,
-            str(inside)))
+            family, str(path), seed, str(tmp_path / f"log{seed}.jsonl"), ready, go, first,
+            paused, str(inside)))
         process.start()
         processes.append(process)
         readies.append(ready)
@@ -267,7 +273,8 @@ def assert_consistent(run: dict[str, Any]) -> None:
     sound; the reader never saw half a step."""
     revisions = [step["revision"] for step in run["steps"]]
     assert len(set(revisions)) == len(revisions), "two steps committed as one revision"
-    # the learners took turns, rather than one finishing before the next began
+    # the learners took turns (the barrier after every learner's first step sees to it), so the
+    # steps interleaved rather than one learner finishing before the next began
     turns = sum(a["seed"] != b["seed"] for a, b in itertools.pairwise(run["steps"]))
     assert turns >= len({step["seed"] for step in run["steps"]})
     expected: set[int] = set()

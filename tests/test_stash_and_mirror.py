@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -109,6 +111,66 @@ def test_another_writers_commit_drops_the_views_before_the_next_query_and_step(
     finally:
         ours.close()
         theirs.close()
+
+
+class Overtaken(SQLiteStore):
+    """A store whose next outermost transaction is followed at once by another's commit.
+
+    ``rival`` (another store object on the same file, standing for another process) writes the
+    moment the transaction has ended: the other process that was waiting for the write lock and
+    got it before this one could read the revision again.
+    """
+
+    def __init__(self, path: Path, rival: SQLiteStore) -> None:
+        super().__init__(path)
+        self.rival = rival
+        self.armed = False
+        self.depth = 0
+
+    @contextlib.contextmanager
+    def transaction(self) -> Iterator[None]:
+        self.depth += 1
+        try:
+            with super().transaction():
+                yield
+        finally:
+            self.depth -= 1
+            if self.depth == 0 and self.armed:
+                self.armed = False
+                self.rival.add(Case("theirs", None))
+
+
+@pytest.fixture
+def overtaken(tmp_path: Path) -> Iterator[Overtaken]:
+    theirs = SQLiteStore(tmp_path / "shared.sqlite")
+    ours = Overtaken(tmp_path / "shared.sqlite", theirs)
+    yield ours
+    ours.close()
+    theirs.close()
+
+
+def test_a_commit_right_after_a_learn_step_drops_the_views_it_kept(overtaken: Overtaken) -> None:
+    mirror, load = StoreMirror(overtaken), Loads()
+    overtaken.armed = True
+    with mirror.transaction():
+        add(mirror, load, "ours")
+    assert (overtaken.committed_revision, overtaken.revision) == (1, 2)
+    mirror.sync()  # the view holds revision 1, without the other writer's case of revision 2
+    assert mirror.view(LABELS, load) == ["ours", "theirs"] and load.count == 2
+    assert mirror.reloads == 1 and mirror.revision == 2
+
+
+def test_a_commit_right_after_a_failed_step_is_caught_up_with(overtaken: Overtaken) -> None:
+    overtaken.add(Case("kept", None))
+    mirror, load = StoreMirror(overtaken), Loads()
+    overtaken.armed = True
+    with pytest.raises(RuntimeError), mirror.transaction():
+        add(mirror, load, "lost")
+        raise RuntimeError("a retainer failed")
+    assert mirror.revision == 1  # what the step read under the lock, and left the store at
+    mirror.sync()
+    assert mirror.reloads == 1
+    assert mirror.view(LABELS, load) == ["kept", "theirs"] and load.count == 2
 
 
 def test_the_context_mirrors_its_case_base() -> None:

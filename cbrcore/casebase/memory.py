@@ -51,6 +51,15 @@ class MemoryStore:
         """The number of write transactions committed so far."""
         return self._revision
 
+    @property
+    def committed_revision(self) -> int:
+        """The revision this store's last outermost transaction committed at: its new revision
+        if it wrote, else the revision it read.
+
+        No other store object shares a memory case base, so that is always ``revision``.
+        """
+        return self._revision
+
     @contextlib.contextmanager
     def transaction(self) -> Iterator[None]:
         """Group writes; commits on normal exit, rolls back if the block raises.

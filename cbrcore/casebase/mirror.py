@@ -13,11 +13,13 @@ a typed key, and the engine runs every learn step inside :meth:`StoreMirror.tran
   store's write lock held), :meth:`StoreMirror.sync` compares the store's revision with the one
   the mirror last saw: when they differ another writer committed, and every view is dropped, to
   be loaded anew from the store the next time it is asked for;
-- when the learn step commits, a view asked for during the step is kept at the new revision: a
-  component that asks for a view in the learn step writes its changes through it, to the store
-  and to the view together (the case graph, the path index, the learned map do). A view nobody
-  asked for during a step that wrote is dropped, so an index that only reads (a retriever's
-  array of case features) is loaded anew after every step that changed the store;
+- when the learn step commits, a view asked for during the step is kept at the revision the
+  step committed at (the store's ``committed_revision``, not its ``revision`` read again, which
+  may already count another process's next commit that the view lacks): a component that asks
+  for a view in the learn step writes its changes through it, to the store and to the view
+  together (the case graph, the path index, the learned map do). A view nobody asked for during
+  a step that wrote is dropped, so an index that only reads (a retriever's array of case
+  features) is loaded anew after every step that changed the store;
 - when the step fails, the views may hold writes the store no longer has, so they are dropped.
 
 A family's view is what :meth:`StoreMirror.view` returns; it loads it with the family's own
@@ -88,10 +90,11 @@ class StoreMirror:
     def transaction(self) -> Iterator[None]:
         """One learn step: a store transaction whose writes the views follow, all or nothing.
 
-        The mirror catches up with other writers first (inside the transaction, so nobody can
-        commit in between). If the block raises, the transaction rolls back and the views,
-        which may hold its writes, are dropped; if it commits writes, the views nobody asked
-        for during the step are dropped, since nothing wrote through them.
+        It must be the store's outermost transaction. The mirror catches up with other writers
+        first (inside the transaction, so nobody can commit in between). If the block raises,
+        the transaction rolls back and the views, which may hold its writes, are dropped; if it
+        commits writes, the views nobody asked for during the step are dropped, since nothing
+        wrote through them.
         """
         self._asked = set()
         try:
@@ -100,11 +103,17 @@ class StoreMirror:
                 before = self.revision
                 yield
         except BaseException:
+            # Nothing of the step is in the store, and the views that might show it are gone.
+            # The revision stays the one read under the lock (or the last one seen, when the
+            # transaction never began): reading the store here could fail and hide the error,
+            # and the next sync compares against it and counts a move by another writer.
             self._views.clear()
-            self.revision = self.store.revision
             raise
         else:
-            self.revision = self.store.revision
+            # Not store.revision: another writer may have committed since our commit, and the
+            # kept views would then be labelled with a revision whose writes they lack, so
+            # the next sync would find nothing to catch up with.
+            self.revision = self.store.committed_revision
             if self.revision != before:
                 self._views = {key: view for key, view in self._views.items()
                                if key in self._asked}

@@ -108,6 +108,8 @@ class PostgresStore:
         self._pending = 0
         self._last_id = 0
         self._wrote = False
+        self._committed: int | None = None
+        """What ``committed_revision`` says; None before the first transaction."""
         self._closed = False
         self._s = quoted(schema)
         try:
@@ -224,6 +226,13 @@ class PostgresStore:
                                    f"and holds {len(rows)}")
         return int(rows[0][0])
 
+    @property
+    def committed_revision(self) -> int:
+        """The revision this store object's last outermost transaction committed at: its new
+        revision if it wrote, else the revision it read with the clock row locked (``revision``
+        before the first). Other processes' commits do not move it."""
+        return self.revision if self._committed is None else self._committed
+
     @contextlib.contextmanager
     def transaction(self) -> Iterator[None]:
         """Group writes; commits on normal exit, rolls back if the block raises.
@@ -247,7 +256,8 @@ class PostgresStore:
             if len(rows) != 1:
                 raise UnusableCaseBase(f"{self} is corrupt: its clock table should hold one "
                                        f"row, and holds {len(rows)}")
-            self._pending, self._last_id = rows[0][0] + 1, rows[0][1]
+            read, self._last_id = rows[0]
+            self._pending = read + 1
             self._wrote = False
             self._depth = 1
             try:
@@ -261,6 +271,7 @@ class PostgresStore:
                 self._run(f"UPDATE {self._s}.clock SET revision = %s, last_id = %s",
                           (self._pending, self._last_id))
             self._run("COMMIT")
+            self._committed = self._pending if self._wrote else read
         except BaseException:
             self._rollback()
             raise

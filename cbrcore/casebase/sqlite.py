@@ -74,6 +74,8 @@ class SQLiteStore:
         self._depth = 0
         self._pending = 0
         self._wrote = False
+        self._committed: int | None = None
+        """What ``committed_revision`` says; None before the first transaction."""
         self._aborted: str | None = None
         """Why SQLite rolled back the transaction under way, when it did so by itself."""
         self._immutable = False
@@ -223,6 +225,13 @@ class SQLiteStore:
                                    f"expected an integer from 0 to {MAX_ID}")
         return revision
 
+    @property
+    def committed_revision(self) -> int:
+        """The revision this store object's last outermost transaction committed at: its new
+        revision if it wrote, else the revision it read under the write lock (``revision`` before
+        the first). Other processes' commits do not move it."""
+        return self.revision if self._committed is None else self._committed
+
     @contextlib.contextmanager
     def transaction(self) -> Iterator[None]:
         """Group writes; commits on normal exit, rolls back if the block raises.
@@ -237,7 +246,8 @@ class SQLiteStore:
         # reading alone takes no lock: a deferred transaction is a consistent snapshot
         self._run("BEGIN" if self.read_only else "BEGIN IMMEDIATE")
         try:
-            self._pending = self.revision + 1
+            read = self.revision
+            self._pending = read + 1
             self._wrote = False
             self._aborted = None
             self._depth = 1
@@ -253,6 +263,7 @@ class SQLiteStore:
                 self._run("UPDATE meta SET value = ? WHERE key = ?",
                           (str(self._pending), REVISION_KEY))
             self._run("COMMIT")
+            self._committed = self._pending if self._wrote else read
         except BaseException:
             self._rollback()
             raise

@@ -40,6 +40,20 @@ class CaseStore(Protocol):
         """The number of write transactions committed so far."""
         ...
 
+    @property
+    def committed_revision(self) -> int:
+        """The revision the last outermost transaction of this store object committed at.
+
+        Its new revision if it wrote, else the revision it read (with the write lock held, where
+        the store takes one); before this store object's first transaction, ``revision``. A
+        write outside a transaction is such a transaction and one that rolls back changes
+        nothing. Once this object has committed a transaction, no other store object's commits
+        move it: ``revision`` read after a commit may already count another process's next
+        transaction, this says where this object's own one left the case base (the store
+        mirror labels its views with it).
+        """
+        ...
+
     def transaction(self) -> AbstractContextManager[None]:
         """Group writes; commits on normal exit, rolls back if the block raises. Re-entrant."""
         ...

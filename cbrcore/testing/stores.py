@@ -248,6 +248,24 @@ class StoreContract:
             pass
         assert store.revision == 1
 
+    def test_the_committed_revision_is_where_the_last_transaction_left_the_store(
+            self, store: CaseStore) -> None:
+        assert store.committed_revision == 0
+        store.add(Case(1, 1))
+        assert store.committed_revision == 1
+        with store.transaction():
+            store.add(Case(2, 2))
+            store.set_meta("k", 1)
+            assert store.committed_revision == 1  # nothing has committed yet
+        assert store.committed_revision == 2
+        with store.transaction(), store.transaction():
+            store.cases()
+        assert store.committed_revision == 2  # read, not written
+        with pytest.raises(Boom), store.transaction():
+            store.add(Case(3, 3))
+            raise Boom
+        assert store.committed_revision == 2 == store.revision
+
     def test_a_raising_transaction_leaves_no_trace(self, store: CaseStore) -> None:
         kept = store.add(Case("kept", 1))
         store.set_meta("k", "before")
@@ -396,6 +414,7 @@ class _PersistentTests:
         first.close()
         again = stores("casebase")
         assert state(again) == before
+        assert again.committed_revision == before[0]  # before its first transaction
         assert again.check() == []
 
     def test_ids_are_not_reused_after_reopening(self, stores: OpenStore) -> None:
@@ -417,6 +436,26 @@ class _SharedTests:
         assert second.get(1) == first.get(1)
         second.set_meta("k", "v")
         assert (first.revision, first.get_meta("k")) == (2, "v")
+
+    def test_the_committed_revision_is_this_stores_own(self, stores: OpenStore) -> None:
+        first, second = stores("casebase"), stores("casebase")
+        # a store may give out one object per case base; then second's commits are first's own
+        apart = first is not second
+        with first.transaction():
+            first.add(Case(1, 1))
+        second.add(Case(2, 2))
+        # first's transaction committed revision 1, whatever came after it
+        assert (first.committed_revision, first.revision) == (1 if apart else 2, 2)
+        assert second.committed_revision == 2
+        with first.transaction():
+            first.count()
+        second.set_meta("k", "v")
+        # the revision first read
+        assert (first.committed_revision, first.revision) == (2 if apart else 3, 3)
+        with pytest.raises(Boom), first.transaction():
+            first.add(Case(3, 3))
+            raise Boom
+        assert first.committed_revision == (2 if apart else 3)
 
 
 _PROMISES: dict[str, type] = {"persistent": _PersistentTests, "shared": _SharedTests}
