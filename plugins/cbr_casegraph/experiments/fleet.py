@@ -80,6 +80,10 @@ WINDOW = 10
 READY_SECONDS = 600.0
 """How long the robots may take to start (import, build and warm their engines)."""
 
+LOCK_SECONDS = 300.0
+"""How long a robot waits for the write lock of a shared case base: with 8 robots, each step
+catching up with the others', a turn can take seconds, longer than the stores' default."""
+
 PG_VARIABLES = ("PGHOST", "PGHOSTADDR", "PGPORT", "PGDATABASE", "PGUSER", "PGPASSWORD",
                 "PGSERVICE")
 """libpq's environment variables that name a PostgreSQL server and how to reach it."""
@@ -382,7 +386,8 @@ class Fleet:
         """SQLite, and PostgreSQL when the environment names a server; why it is left out
         when it is."""
         stores = [Store("sqlite", lambda label: {"use": "sqlite",
-                                                 "path": str(folder / f"{label}.sqlite")})]
+                                                 "path": str(folder / f"{label}.sqlite"),
+                                                 "busy_timeout": LOCK_SECONDS})]
         dsn = postgres_dsn(environ)
         if dsn is None:
             return stores, ("no PostgreSQL server named: set the libpq environment variables "
@@ -392,7 +397,8 @@ class Fleet:
         run = f"cbr_fleet_{os.getpid()}_{int(time.time())}"
         # a schema name is an identifier: no hyphens
         stores.append(Store("postgres", lambda label: {
-            "use": "postgres", "dsn": dsn, "schema": f"{run}_{label.replace('-', '_')}"}))
+            "use": "postgres", "dsn": dsn, "schema": f"{run}_{label.replace('-', '_')}",
+            "busy_timeout": LOCK_SECONDS}))
         return stores, None
 
     def grid(self, side: int) -> Any:
