@@ -121,11 +121,11 @@ class DaskTasks:
 
     def map(self, function: Callable[[T], R], items: Iterable[T], *,
             progress: Progress | None = None, processes: int = 1) -> Iterator[R]:
-        as_completed = _distributed().as_completed
+        from distributed import as_completed  # imported only when a sweep asks for Dask
+
         # pure=False: the tasks' keys are not derived from hashing their arguments, which may
         # be large (a case graph); equal items then also run twice, as they would serially
-        futures = [self.client.submit(_on_worker, (function, item), pure=False)
-                   for item in items]
+        futures = [self.client.submit(function, item, pure=False) for item in items]
         return _closing(_in_order(futures, as_completed, progress),
                         lambda: self.client.cancel(futures))
 
@@ -165,19 +165,6 @@ def _closing(results: Iterator[R], close: Callable[[], Any]) -> Iterator[R]:
         close()
 
 
-def _distributed() -> Any:
-    """The ``distributed`` module, imported only when a sweep asks for Dask."""
-    import distributed
-
-    return distributed
-
-
-def _on_worker(job: tuple[Callable[[T], R], T]) -> R:
-    """Run one task on a Dask worker."""
-    function, item = job
-    return function(item)
-
-
 @contextlib.contextmanager
 def open_tasks(scheduler: str | None = None, *, workers: int | None = None,
                option: str = "--scheduler") -> Iterator[TaskRunner]:
@@ -208,7 +195,7 @@ def open_tasks(scheduler: str | None = None, *, workers: int | None = None,
 
 @contextlib.contextmanager
 def _local_cluster(workers: int) -> Iterator[TaskRunner]:
-    distributed = _distributed()
+    import distributed
 
     # no dashboard: it would need a free port and bokeh, and nobody watches a run's cluster
     with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
@@ -222,7 +209,8 @@ def _remote(address: str, option: str) -> Iterator[TaskRunner]:
     if not _ADDRESS.match(address) or address.startswith("-"):
         raise CbrError(f"{option} {address!r}: not a scheduler address; expected 'local' or "
                        "the address of a running Dask scheduler, such as tcp://host:8786")
-    distributed = _distributed()
+    import distributed
+
     try:
         client = distributed.Client(address, timeout=CONNECT_SECONDS)
     except ValueError as exc:  # an address distributed cannot parse (an unknown scheme)
