@@ -27,7 +27,13 @@ from cbrcore.testing import CliResult
 if importlib.util.find_spec("distributed") is None:
     pytest.skip("distributed is not installed", allow_module_level=True)
 
-TIMED = {"median_plan_ms"}
+_SWEEP = importlib.util.spec_from_file_location(
+    "experiment_sweep", Path(__file__).resolve().parents[1] / "benchmarks" / "experiment_sweep.py")
+assert _SWEEP is not None and _SWEEP.loader is not None
+sweep = importlib.util.module_from_spec(_SWEEP)
+_SWEEP.loader.exec_module(sweep)
+untimed = sweep.untimed
+"""A results.json without its measured times, as the sweep benchmark compares them."""
 
 
 @pytest.fixture(autouse=True)
@@ -40,14 +46,6 @@ def cluster() -> Iterator[TaskRunner]:
     """A LocalCluster of two worker processes, shared by the tests of this module."""
     with open_tasks("local", workers=2) as runner:
         yield runner
-
-
-def untimed(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {k: untimed(v) for k, v in value.items() if k not in TIMED}
-    if isinstance(value, list):
-        return [untimed(v) for v in value]
-    return value
 
 
 def results(out: Path) -> dict[str, Any]:
