@@ -18,7 +18,7 @@ import pytest
 import cbrcore.builtins
 import cbrcore.files
 from cbrcore.casebase import SQLiteStore, UnusableCaseBase
-from cbrcore.casebase.sqlite_file import MAX_ID
+from cbrcore.casebase.sqlite_file import MAX_ID, SCHEMA_VERSION
 from cbrcore.errors import CaseBaseError
 from cbrcore.model import Case
 from cbrcore.plugins import Plugins
@@ -61,7 +61,7 @@ def damage(path: Path, *statements: str) -> None:
 def no_tables(path: Path) -> None:
     """A file marked as a case base, of this schema version, without any table."""
     path.unlink()
-    damage(path, "PRAGMA application_id = 1128419907", "PRAGMA user_version = 1")
+    damage(path, "PRAGMA application_id = 1128419907", f"PRAGMA user_version = {SCHEMA_VERSION}")
 
 
 def folder_state(folder: Path) -> dict[str, bytes]:
@@ -84,7 +84,8 @@ DAMAGES: dict[str, Callable[[Path], None]] = {
 }
 
 MISSING = "table cases is missing"
-SCHEMA = "a case base has the tables cases and meta, the index cases_kind and no other"
+SCHEMA = ("a case base has the tables cases, meta and removed, the indexes cases_kind, "
+          "cases_changed and removed_revision and no other")
 
 
 @pytest.mark.parametrize(("damaged", "command", "code", "message"), [
@@ -98,9 +99,9 @@ SCHEMA = "a case base has the tables cases and meta, the index cases_kind and no
                                           f"got '{2**63}'"),
     ("meta-not-json", "export", 2, "is corrupt: meta key 'grid' cannot be decoded"),
     ("meta-not-json", "check", 1, "meta key 'grid': not valid JSON"),
-    ("no-tables", "info", 2, f"is not a sound case base: {MISSING}; table meta is missing "
-                             f"({SCHEMA}"),
-    ("no-tables", "check", 1, f"{MISSING}; table meta is missing"),
+    ("no-tables", "info", 2, f"is not a sound case base: {MISSING}; table meta is missing; "
+                             f"table removed is missing ({SCHEMA}"),
+    ("no-tables", "check", 1, f"{MISSING}; table meta is missing; table removed is missing"),
     ("no-tables", "export", 2, MISSING),
     ("cases-dropped", "info", 2, f"is not a sound case base: {MISSING} ({SCHEMA}"),
     ("cases-dropped", "check", 1, MISSING),

@@ -17,7 +17,7 @@ import yaml
 
 import cbrcore.builtins
 import toy_domain
-from cbrcore.casebase import CaseStore, document_of, dump_document, postgres_schema
+from cbrcore.casebase import CaseStore, Changes, document_of, dump_document, postgres_schema
 from cbrcore.casebase import postgres as postgres_module
 from cbrcore.casebase.postgres import PostgresStore
 from cbrcore.config import parse_config
@@ -125,7 +125,7 @@ def test_describe_tells_where_the_case_base_is(store: PostgresStore,
     settings = dict(item.split("=", 1) for item in postgres_database.split())
     assert (facts["host"], facts["port"], facts["database"], facts["user"]) == (
         settings["host"], int(settings["port"]), settings["dbname"], settings["user"])
-    assert (facts["schema"], facts["schema_version"]) == ("cbrcore", 1)
+    assert (facts["schema"], facts["schema_version"]) == ("cbrcore", 2)
     assert str(facts["server_version"]).split(".")[0].isdigit()
     assert isinstance(facts["size_bytes"], int) and facts["size_bytes"] > 0
 
@@ -232,7 +232,7 @@ def test_a_newer_case_base_is_refused_untouched(postgres_database: str) -> None:
     PostgresStore(postgres_database).close()
     _sql(postgres_database, "UPDATE cbrcore.schema_version SET version = 7")
     with pytest.raises(UnusableCaseBase, match=r"schema version 7 \(from a newer cbrcore\); "
-                                               r"this cbrcore reads version 1"):
+                                               r"this cbrcore reads version 2"):
         PostgresStore(postgres_database)
     assert _sql(postgres_database, "SELECT version FROM cbrcore.schema_version") == [(7,)]
 
@@ -262,6 +262,10 @@ def test_an_empty_schema_prepared_for_the_store_is_used(postgres_database: str) 
      "view 'recent' does not belong"),
     ("ALTER TABLE cbrcore.cases ADD COLUMN extra int", "table cases is not defined as in a case"),
     ("DROP INDEX cbrcore.cases_kind", "index cases_kind is missing"),
+    ("DROP INDEX cbrcore.cases_changed", "index cases_changed is missing"),
+    ("DROP TABLE cbrcore.removed", "table removed is missing"),
+    ("ALTER TABLE cbrcore.cases ALTER COLUMN changed DROP NOT NULL",
+     "table cases is not defined as in a case"),
 ])
 def test_a_changed_schema_is_refused_and_reported_by_check(postgres_database: str,
                                                            change: str, expected: str) -> None:
@@ -272,31 +276,95 @@ def test_a_changed_schema_is_refused_and_reported_by_check(postgres_database: st
         PostgresStore(postgres_database)
 
 
+VERSION_1 = (
+    "CREATE SCHEMA old",
+    "CREATE TABLE old.clock (revision bigint NOT NULL, last_id bigint NOT NULL)",
+    "CREATE TABLE old.schema_version (version integer NOT NULL)",
+    "CREATE TABLE old.cases (id bigint NOT NULL, kind text NOT NULL, problem text NOT NULL, "
+    "solution text NOT NULL, meta text NOT NULL, uses bigint NOT NULL, created bigint NOT NULL, "
+    "last_used bigint, PRIMARY KEY (id))",
+    "CREATE TABLE old.meta (key text NOT NULL, value text NOT NULL, PRIMARY KEY (key))",
+    "CREATE INDEX cases_kind ON old.cases (kind)",
+    "INSERT INTO old.schema_version VALUES (1)",
+    # case 2 was removed and case 4 given to a transaction that rolled back; case 3 was used
+    # at revision 5, the last one
+    "INSERT INTO old.clock VALUES (5, 4)",
+    """INSERT INTO old.cases VALUES (1, '"segment"', '{"a":1}', '[1]', '{}', 0, 1, NULL),
+                                    (3, '"segment"', '{"a":3}', '[3]', '{}', 2, 3, 5)""",
+    """INSERT INTO old.meta VALUES ('"grid"', '{"width":3}')""",
+)
+"""A case base in schema ``old`` as cbrcore wrote schema version 1."""
+
+
+def _columns(dsn: str, table: str) -> list[object]:
+    return [row[0] for row in _sql(
+        dsn, f"SELECT column_name FROM information_schema.columns WHERE table_schema = 'old' "
+             f"AND table_name = '{table}' ORDER BY ordinal_position")]
+
+
+def test_a_case_base_of_schema_version_1_is_migrated(postgres_database: str) -> None:
+    _sql(postgres_database, *VERSION_1)
+    with PostgresStore(postgres_database, schema="old") as store:
+        assert store.schema_version == 2
+        assert store.check() == []
+        assert [(c.id, c.kind, c.uses, c.created, c.last_used) for c in store.cases()] == [
+            (1, "segment", 0, 1, None), (3, "segment", 2, 3, 5)]
+        assert (store.revision, store.get_meta("grid")) == (5, {"width": 3})
+        # a case changed last when it was created or last used, whichever came later: case 1
+        # at revision 1, case 3 at 5; no removal is known from before the migration
+        changed = {0: [1, 3], 1: [3], 2: [3], 3: [3], 4: [3], 5: []}
+        for since, ids in changed.items():
+            assert store.changes(since) == Changes(since, 5, tuple(map(store.get, ids)), ())
+        store.remove([1])
+        assert store.changes(5) == Changes(5, 6, (), (1,))
+        store.touch([3])
+        assert store.changes(5) == Changes(5, 7, (store.get(3),), (1,))
+        assert store.add(Case(5, 5)).id == 5  # ids are still never reused
+    # a writer of version 1 still running cannot add a case the changes would not show
+    with pytest.raises(psycopg.errors.NotNullViolation):
+        _sql(postgres_database, "INSERT INTO old.cases (id, kind, problem, solution, meta, uses, "
+                                """created) VALUES (6, '"segment"', '6', '6', '{}', 0, 8)""")
+    with PostgresStore(postgres_database, schema="old") as again:
+        assert again.check() == [] and again.schema_version == 2
+        assert [c.id for c in again.changes(6).cases] == [3, 5]
+
+
+def test_a_read_only_store_refuses_an_older_case_base_untouched(postgres_database: str) -> None:
+    _sql(postgres_database, *VERSION_1)
+    with pytest.raises(CaseBaseError, match=r"schema old of database .* has case base schema "
+                                            r"version 1, which must be migrated to version 2: "
+                                            r"open it once for writing"):
+        PostgresStore(postgres_database, schema="old", read_only=True)
+    assert _sql(postgres_database, "SELECT version FROM old.schema_version") == [(1,)]
+    assert _columns(postgres_database, "cases")[-1] == "last_used"
+    assert _columns(postgres_database, "removed") == []
+
+
 def test_an_older_case_base_is_migrated_in_one_transaction(
         postgres_database: str, monkeypatch: pytest.MonkeyPatch) -> None:
-    with PostgresStore(postgres_database) as store:
-        store.add(Case(1, 1))
-    monkeypatch.setattr(postgres_schema, "SCHEMA_VERSION", 2)
-    monkeypatch.setattr(postgres_module, "SCHEMA_VERSION", 2)
-    monkeypatch.setattr(postgres_schema, "MIGRATIONS", {1: (
+    _sql(postgres_database, *VERSION_1)
+    monkeypatch.setattr(postgres_schema, "SCHEMA_VERSION", 3)
+    monkeypatch.setattr(postgres_module, "SCHEMA_VERSION", 3)
+    version_2 = postgres_schema.MIGRATIONS[1]
+    monkeypatch.setattr(postgres_schema, "MIGRATIONS", {1: version_2, 2: (
         "COMMENT ON TABLE {schema}.cases IS 'migrated'",
         "SELECT no_such_function()",
     )})
-    with pytest.raises(UnusableCaseBase, match="migrating the case base from schema version 1 "
-                                               "to 2 failed, and nothing was changed: function "
+    with pytest.raises(UnusableCaseBase, match="migrating the case base from schema version 2 "
+                                               "to 3 failed, and nothing was changed: function "
                                                "no_such_function"):
-        PostgresStore(postgres_database)
-    comment = "SELECT obj_description('cbrcore.cases'::regclass, 'pg_class')"
+        PostgresStore(postgres_database, schema="old")
+    # the step from version 1 to 2, which succeeded, is undone too
+    comment = "SELECT obj_description('old.cases'::regclass, 'pg_class')"
     assert _sql(postgres_database, comment) == [(None,)]
-    assert _sql(postgres_database, "SELECT version FROM cbrcore.schema_version") == [(1,)]
-    with pytest.raises(CaseBaseError, match="must be migrated to version 2: open it once for "
-                                            "writing"):
-        PostgresStore(postgres_database, read_only=True)
-    monkeypatch.setattr(postgres_schema, "MIGRATIONS", {1: (
+    assert _sql(postgres_database, "SELECT version FROM old.schema_version") == [(1,)]
+    assert (_columns(postgres_database, "cases")[-1], _columns(postgres_database, "removed")) == (
+        "last_used", [])
+    monkeypatch.setattr(postgres_schema, "MIGRATIONS", {1: version_2, 2: (
         "COMMENT ON TABLE {schema}.cases IS 'migrated'",)})
-    with PostgresStore(postgres_database) as migrated:
-        assert migrated.schema_version == 2
-        assert migrated.get(1).problem == 1
+    with PostgresStore(postgres_database, schema="old") as migrated:
+        assert migrated.schema_version == 3
+        assert migrated.get(3).last_used == 5
         assert migrated.check() == []
     assert _sql(postgres_database, comment) == [("migrated",)]
 
@@ -324,6 +392,26 @@ def test_check_finds_what_was_changed_behind_the_stores_back(store: PostgresStor
                             "case 3: kind: expected a non-empty string, got 7",
                             "meta key 'index': not valid JSON (Expecting value: line 1 column "
                             "1 (char 0))"]
+
+
+def test_check_finds_a_change_or_removal_recorded_at_a_wrong_revision(
+        store: PostgresStore, postgres_database: str) -> None:
+    for n in range(4):
+        store.add(Case(n, n))  # case n + 1 at revision n + 1
+    store.touch([1])  # revision 5
+    store.remove([4])  # revision 6
+    assert store.check() == []
+    _sql(postgres_database,
+         "UPDATE cbrcore.cases SET changed = 4 WHERE id = 1",
+         "UPDATE cbrcore.cases SET changed = 7 WHERE id = 2",
+         "UPDATE cbrcore.cases SET changed = 2 WHERE id = 3",
+         "UPDATE cbrcore.removed SET revision = 9 WHERE id = 4")
+    expected = "expected a revision from {} (its creation or last use) to the case base's, 6"
+    assert store.check() == [
+        f"case 1: changed at revision 4; {expected.format(5)}",
+        f"case 2: changed at revision 7; {expected.format(2)}",
+        f"case 3: changed at revision 2; {expected.format(3)}",
+        "removed case 4: removed at revision 9; expected a revision from 1 to the case base's, 6"]
 
 
 # -- reading only ---------------------------------------------------------------------------
@@ -356,6 +444,7 @@ def test_a_writer_waits_for_the_lock_then_gives_up(postgres_database: str) -> No
                                                     r"after waiting 0\.2 s for it\)"):
                 second.add(Case(2, 2))
             assert second.count() == 0  # readers do not wait
+            assert second.changes(0) == Changes(0, 0, (), ())  # nor does catching up
         assert second.add(Case(2, 2)).id == 2
 
 
@@ -404,6 +493,10 @@ def test_processes_learning_at_once_lose_nothing_and_readers_see_whole_steps(
                 _whole_steps(reader.cases())
                 with reader.transaction():
                     assert reader.count() == 2 * reader.get_meta("steps", 0)
+                # the revision and the cases are read in one snapshot: two cases a step
+                changes = reader.changes(0)
+                assert len(changes.cases) == 2 * changes.revision
+                _whole_steps(list(changes.cases))
                 reads += 1
     finally:
         for process in writers:

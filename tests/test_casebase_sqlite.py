@@ -181,8 +181,64 @@ def test_another_schema_version_is_refused(casebase: Path,
     unchanged(casebase)
     with pytest.raises(UnusableCaseBase, match=named(
             casebase, r" has case base schema version 7 \(from a newer cbrcore\); "
-                      r"this cbrcore reads version 1")):
+                      rf"this cbrcore reads version {SCHEMA_VERSION}")):
         SQLiteStore(casebase)
+
+
+VERSION_1 = (
+    "PRAGMA application_id = 1128419907",
+    "PRAGMA user_version = 1",
+    """CREATE TABLE cases (
+        id INTEGER PRIMARY KEY AUTOINCREMENT, kind TEXT NOT NULL, problem TEXT NOT NULL,
+        solution TEXT NOT NULL, meta TEXT NOT NULL, uses INTEGER NOT NULL,
+        created INTEGER NOT NULL, last_used INTEGER)""",
+    "CREATE INDEX cases_kind ON cases (kind)",
+    "CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)",
+    "INSERT INTO meta VALUES ('cbrcore.revision', '5'), ('grid', '{\"width\":3}')",
+    # case 2 was removed (AUTOINCREMENT remembers it); case 3 was used at revision 5
+    """INSERT INTO cases VALUES (1, 'segment', '{"a":1}', '[1]', '{}', 0, 1, NULL),
+                               (3, 'segment', '{"a":3}', '[3]', '{}', 2, 3, 5)""",
+    "UPDATE sqlite_sequence SET seq = 4 WHERE name = 'cases'",
+)
+"""A case base as cbrcore wrote schema version 1."""
+
+
+def version_1(path: Path) -> None:
+    connection = sqlite3.connect(path, isolation_level=None)
+    try:
+        for statement in VERSION_1:
+            connection.execute(statement)
+    finally:
+        connection.close()
+
+
+def test_a_case_base_of_schema_version_1_is_migrated(tmp_path: Path) -> None:
+    path = tmp_path / "old.sqlite"
+    version_1(path)
+    with SQLiteStore(path) as store:
+        assert store.schema_version == SCHEMA_VERSION == 2
+        assert store.check() == []
+        assert [(c.id, c.uses, c.created, c.last_used) for c in store.cases()] == [
+            (1, 0, 1, None), (3, 2, 3, 5)]
+        assert (store.revision, store.get_meta("grid")) == (5, {"width": 3})
+        # what changed is known from each case's creation or last use on
+        assert [c.id for c in store.changes(2).cases] == [3]
+        store.remove([1])
+        assert store.changes(5).removed == (1,)
+        assert store.add(Case(5, 5)).id == 5  # ids of removed cases are still never reused
+    with SQLiteStore(path) as again:
+        assert again.check() == [] and again.schema_version == SCHEMA_VERSION
+
+
+def test_a_case_base_of_an_older_version_is_not_migrated_for_reading(
+        tmp_path: Path, unchanged: Callable[[Path], None]) -> None:
+    path = tmp_path / "old.sqlite"
+    version_1(path)
+    unchanged(path)
+    with pytest.raises(UnusableCaseBase, match=named(
+            path, r" has case base schema version 1 \(from an older cbrcore\); this cbrcore "
+                  r"reads version 2: open it once for writing to migrate it")):
+        SQLiteStore(path, read_only=True)
 
 
 def test_a_write_locked_case_base_times_out(casebase: Path,

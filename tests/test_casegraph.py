@@ -525,7 +525,7 @@ def test_the_graph_reloads_after_a_rolled_back_learn_step(store: Any) -> None:
     assert edge_set(graph) == stored_edges(store)
 
 
-def test_the_graph_reloads_when_another_writer_committed(store: Any) -> None:
+def test_the_graph_follows_another_writers_commits(store: Any) -> None:
     grid = free(20, 20)
     ctx = graph_context(grid, store)
     kept = graph_of(ctx)
@@ -534,13 +534,71 @@ def test_the_graph_reloads_when_another_writer_committed(store: Any) -> None:
         other.add_path(line((0, 0), (10, 10)))
     assert graph_of(ctx) is kept  # the engine syncs the mirror before each query
     ctx.mirror.sync()
-    assert edge_set(graph_of(ctx)) == stored_edges(store) == {seg((0, 0), (10, 10))}
+    assert graph_of(ctx) is kept
+    assert edge_set(kept) == stored_edges(store) == {seg((0, 0), (10, 10))}
     with store.transaction():
-        other.add_path(line((0, 15), (19, 15)))
+        # splits the other's diagonal at (5, 5): two segments removed, four added
+        other.add_path(line((5, 0), (5, 15), (19, 15)))
     with ctx.mirror.transaction():  # a learn step catches up before it writes
         graph_of(ctx).add_path(line((2, 19), (2, 17)))
-    assert edge_set(graph_of(ctx)) == stored_edges(store)
-    assert len(stored_edges(store)) == 3
+    assert graph_of(ctx) is kept and ctx.mirror.reloads == 0
+    assert edge_set(kept) == stored_edges(store)
+    assert len(stored_edges(store)) == 6
+    check_consistent(kept)
+
+
+def graph_state(graph: CaseGraph) -> dict[frozenset[Cell], tuple[int, float, int]]:
+    """Each edge's id, cost and use count, by its ends."""
+    ids = graph.edge_ids()
+    a, b = graph.ends(ids)
+    return {frozenset({tuple(p), tuple(q)}): (edge, cost, uses) for p, q, edge, cost, uses in zip(
+        a.tolist(), b.tolist(), ids.tolist(), graph.costs(ids).tolist(),
+        graph.uses(ids).tolist(), strict=True)}
+
+
+corner = st.tuples(st.integers(0, 11), st.integers(0, 11))
+
+
+@given(st.lists(st.tuples(st.sampled_from(["path", "path", "remove", "touch"]),
+                          st.lists(corner, min_size=2, max_size=3)), max_size=8),
+       st.integers(1, 3))
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_a_followed_graph_equals_one_loaded_anew(steps: list[tuple[str, list[Cell]]],
+                                                 every: int) -> None:
+    """Whatever another writer retains, splits, merges or forgets, the graph that followed its
+    commits (caught up every ``every`` commits) equals the graph loaded from the store."""
+    rng = np.random.default_rng(len(steps))
+    grid = Grid(np.where(rng.random((12, 12)) < 0.15, 0.5, 0.0))
+    store = MemoryStore()
+    ctx = graph_context(grid, store)
+    followed = graph_of(ctx)
+    other = CaseGraph(grid, store)
+    for n, (op, corners) in enumerate(steps):
+        with store.transaction():
+            ids = other.edge_ids().tolist()
+            if op == "path" or not ids:
+                # straight runs between the corners, bent to the 8 directions
+                cells = [corners[0]]
+                for (x0, y0), (x1, y1) in itertools.pairwise(corners):
+                    d = min(abs(x1 - x0), abs(y1 - y0))
+                    mid = (x0 + d * np.sign(x1 - x0), y0 + d * np.sign(y1 - y0))
+                    cells += [(int(mid[0]), int(mid[1])), (x1, y1)]
+                path = line(*dict.fromkeys(cells))
+                if len(path) > 1:
+                    other.add_path(path)
+            elif op == "remove":
+                other.remove([ids[corners[0][0] % len(ids)]])
+            else:
+                touched = [ids[x % len(ids)] for x, _ in corners]
+                store.touch(touched)
+                other.record_use(touched)
+            other.merge_redundant()
+        if n % every == 0:
+            ctx.mirror.sync()
+    ctx.mirror.sync()
+    assert graph_of(ctx) is followed
+    check_consistent(followed)
+    assert graph_state(followed) == graph_state(CaseGraph.load(grid, store))
 
 
 def test_a_stored_graph_loads_back_the_same(store: Any) -> None:

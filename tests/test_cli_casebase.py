@@ -15,7 +15,7 @@ from typer.testing import CliRunner, Result
 
 import cbrcore.builtins
 from cbrcore import hookimpl
-from cbrcore.casebase import CaseStore, MemoryStore, SQLiteStore, UnusableCaseBase
+from cbrcore.casebase import SCHEMA_VERSION, CaseStore, MemoryStore, SQLiteStore, UnusableCaseBase
 from cbrcore.cli.casebase import app as casebase_app
 from cbrcore.context import Context
 from cbrcore.errors import CaseBaseError
@@ -117,7 +117,7 @@ def test_info(casebase: Path) -> None:
     assert "journal mode  wal" in result.output
     facts = json.loads(run("info", casebase, "--json").output)
     assert facts["kinds"] == {"case": 1, "vertex": 2}
-    assert (facts["schema"], facts["revision"], facts["cases"]) == (1, 3, 3)
+    assert (facts["schema"], facts["revision"], facts["cases"]) == (SCHEMA_VERSION, 3, 3)
     assert facts["size_bytes"] == casebase.stat().st_size
 
 

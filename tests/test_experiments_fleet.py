@@ -31,8 +31,8 @@ from cbrcore.testing import CliResult
 PNG = b"\x89PNG\r\n\x1a\n"
 
 ROW_FIELDS = {"store", "mode", "robots", "trips_per_robot", "learn_steps", "wall_seconds",
-              "steps_per_second", "catch_ups", "conflicts_retried", "mean_learn_ms", "cbr_share",
-              "trips_to_share", "curve", "integrity", "seconds_with_start_and_audit"}
+              "steps_per_second", "catch_ups", "reloads", "conflicts_retried", "mean_learn_ms",
+              "cbr_share", "trips_to_share", "curve", "integrity", "seconds_with_start_and_audit"}
 INTEGRITY_FIELDS = {"case_bases", "lost_steps", "uncovered_steps", "check_problems",
                     "replay_equal", "serialised", "vertices", "segments"}
 
@@ -102,6 +102,8 @@ def check_fields(results: dict[str, Any]) -> None:
                                                   else 1)
     # one robot alone never finds the case base moved by another
     assert rows[0]["catch_ups"] == 0
+    # two robots sharing one do, and their case graphs follow each other's commits
+    assert rows[1]["catch_ups"] > 0 and rows[1]["reloads"] == 0
     assert set(results["targets"]) == {"integrity", "throughput"}
     assert results["targets"]["throughput"]["sqlite_2_over_1_robot"] == pytest.approx(
         rows[1]["steps_per_second"] / rows[0]["steps_per_second"])

@@ -15,6 +15,7 @@ from collections import Counter
 from collections.abc import Sequence
 from typing import Any
 
+import attrs
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -229,31 +230,63 @@ def test_the_path_base_reloads_after_a_rolled_back_learn_step(store: Any) -> Non
     assert base.ids.tolist() == stored_ids(store) == [first, second, third]
 
 
-def test_the_path_base_reloads_when_another_writer_committed(store: Any) -> None:
+def test_the_path_base_follows_another_writers_commits(store: Any) -> None:
     ctx = context(free(12, 8), store)
     base = base_of(ctx)
     with ctx.mirror.transaction():
         first = keep(ctx, run((0, 1), (9, 1)), 1.5)
+        second = keep(ctx, run((0, 5), (9, 5)), 2.0)
     next_query(ctx)
     assert base_of(ctx) is base
-    # the run's own learn step counting a use keeps the base
-    with ctx.mirror.transaction():
-        store.touch([first])
-        base_of(ctx).refresh([first])
-    next_query(ctx)
-    assert base_of(ctx) is base
-    # a commit of another writer, even one that only counts a use, reloads it
+    # another writer counts a use, adds a path, changes a cost and forgets a path: the base
+    # takes the changes instead of loading everything anew
     store.touch([first])
     next_query(ctx)
-    touched = base_of(ctx)
-    assert touched is not base and touched.uses.tolist() == [2]
-    store.add(path_case(run((0, 3), (9, 3)), {"cost": 1.0, "length": 9.0, "risk": 0.0,
-                                              "ideal": 9.0, "traversals": 1}))
+    assert base_of(ctx) is base and base.uses.tolist() == [1, 0]
+    with store.transaction():
+        third = store.add(path_case(run((0, 3), (9, 3)), {
+            "cost": 1.0, "length": 9.0, "risk": 0.0, "ideal": 9.0, "traversals": 1})).id
+        changed = store.get(first)
+        store.replace(attrs.evolve(changed, meta={**changed.meta, "cost": 4.0,
+                                                  "traversals": 3}))
+        store.remove([second])
     store.touch([first])
     with ctx.mirror.transaction():  # a learn step catches up before it writes
-        again = base_of(ctx)
-        assert again is not touched and again.ids.tolist() == stored_ids(store)
-        assert again.uses.tolist() == [3, 0]
+        assert base_of(ctx) is base
+        assert base.ids.tolist() == stored_ids(store) == [first, third]
+        assert_same_base(base, PathBase.load(store))
+    assert base.costs.tolist() == [4.0, 1.0] and base.uses.tolist() == [2, 0]
+    assert ctx.mirror.reloads == 0
+
+
+@given(st.lists(st.tuples(st.sampled_from(["add", "remove", "touch", "cost"]),
+                          st.integers(0, 7), st.integers(0, 7)), max_size=12),
+       st.integers(1, 4))
+@settings(max_examples=40, deadline=None)
+def test_a_followed_path_base_equals_one_loaded_anew(steps: list[tuple[str, int, int]],
+                                                       every: int) -> None:
+    """Whatever another writer does, the base that followed its commits (caught up every
+    ``every`` commits) equals the base loaded from the store."""
+    store = MemoryStore()
+    ctx = context(free(12, 8), store)
+    base = base_of(ctx)
+    for n, (op, a, b) in enumerate(steps):
+        ids = stored_ids(store)
+        if op == "add" or not ids:
+            store.add(path_case(run((0, a), (9, b)), {
+                "cost": float(a), "length": 9.0, "risk": 0.0, "ideal": 9.0, "traversals": 1}))
+        elif op == "remove":
+            store.remove([ids[a % len(ids)]])
+        elif op == "touch":
+            store.touch([ids[a % len(ids)], ids[b % len(ids)]])
+        else:
+            case = store.get(ids[a % len(ids)])
+            store.replace(attrs.evolve(case, meta={**case.meta, "cost": float(b)}))
+        if n % every == 0:
+            next_query(ctx)
+    next_query(ctx)
+    assert base_of(ctx) is base
+    assert_same_base(base, PathBase.load(store))
 
 
 @pytest.mark.parametrize(("solution", "meta", "message"), [

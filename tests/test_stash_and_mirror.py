@@ -10,9 +10,9 @@ from typing import Any
 import pytest
 
 from cbrcore.casebase.memory import MemoryStore
-from cbrcore.casebase.mirror import StoreMirror
+from cbrcore.casebase.mirror import FollowsChanges, StoreMirror
 from cbrcore.casebase.sqlite import SQLiteStore
-from cbrcore.casebase.store import CaseStore
+from cbrcore.casebase.store import CaseStore, Changes
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.model import Case
@@ -169,8 +169,49 @@ def test_a_commit_right_after_a_failed_step_is_caught_up_with(overtaken: Overtak
         raise RuntimeError("a retainer failed")
     assert mirror.revision == 1  # what the step read under the lock, and left the store at
     mirror.sync()
-    assert mirror.reloads == 1
+    assert (mirror.catch_ups, mirror.revision) == (1, 2)
     assert mirror.view(LABELS, load) == ["kept", "theirs"] and load.count == 2
+
+
+class Labels(dict[int, str]):
+    """A view that follows changes: the label of each stored case, by id."""
+
+    def __init__(self, store: CaseStore, *, follows: bool = True) -> None:
+        super().__init__((case.id, case.problem) for case in store.cases())
+        self.follows = follows
+        self.seen: list[Changes] = []
+
+    def catch_up(self, changes: Changes) -> bool:
+        self.seen.append(changes)
+        if not self.follows:
+            return False
+        for case_id in changes.removed:
+            self.pop(case_id, None)
+        self.update((case.id, case.problem) for case in changes.cases)
+        return True
+
+
+FOLLOWING = StashKey[Labels]()
+REFUSING = StashKey[Labels]()
+
+
+def test_a_view_that_follows_changes_takes_them_instead_of_a_reload(tmp_path: Path) -> None:
+    path = tmp_path / "shared.sqlite"
+    with SQLiteStore(path) as ours, SQLiteStore(path) as theirs:
+        ours.add(Case("a", None))
+        mirror = StoreMirror(ours)
+        following = mirror.view(FOLLOWING, Labels)
+        refusing = mirror.view(REFUSING, lambda store: Labels(store, follows=False))
+        with theirs.transaction():
+            theirs.add(Case("b", None))
+            theirs.remove([1])
+        mirror.sync()
+        assert following.seen == [Changes(1, 2, (theirs.get(2),), (1,))]
+        assert mirror.view(FOLLOWING, Labels) is following and following == {2: "b"}
+        assert isinstance(following, FollowsChanges)
+        # the view that could not follow was dropped and is loaded anew
+        assert mirror.view(REFUSING, Labels) is not refusing
+        assert (mirror.catch_ups, mirror.reloads, mirror.revision) == (1, 1, 2)
 
 
 def test_the_context_mirrors_its_case_base() -> None:

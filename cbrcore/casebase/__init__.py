@@ -19,7 +19,7 @@ from cbrcore.casebase.exchange import (
 from cbrcore.casebase.memory import MemoryStore
 from cbrcore.casebase.sqlite import SQLiteStore
 from cbrcore.casebase.sqlite_file import APPLICATION_ID, SCHEMA_VERSION
-from cbrcore.casebase.store import SUMMARY_KEYS, CaseStore, describe
+from cbrcore.casebase.store import SUMMARY_KEYS, CaseStore, Changes, describe
 from cbrcore.errors import UnusableCaseBase
 
 
@@ -36,6 +36,7 @@ __all__ = [
     "SCHEMA_VERSION",
     "SUMMARY_KEYS",
     "CaseStore",
+    "Changes",
     "Document",
     "MemoryStore",
     "SQLiteStore",

@@ -10,6 +10,7 @@ from collections.abc import Iterable, Iterator, Mapping
 import attrs
 
 from cbrcore.casebase.data import case_problems, check_case, check_meta, check_meta_key
+from cbrcore.casebase.store import Changes
 from cbrcore.model import JSON, Case
 
 
@@ -28,6 +29,10 @@ class MemoryStore:
     def __init__(self) -> None:
         self._cases: dict[int, Case] = {}
         self._meta: dict[str, str] = {}
+        self._changed: dict[int, int] = {}
+        """The revision each stored case was last written at."""
+        self._removed: dict[int, int] = {}
+        """The revision each removed case was removed at."""
         self._revision = 0
         self._next_id = 1
         self._depth = 0
@@ -67,7 +72,8 @@ class MemoryStore:
         A nested block joins the outer transaction (nothing commits before the outermost block
         ends); if a nested block raises, its own writes are undone and the outer block may go on.
         """
-        saved = (dict(self._cases), dict(self._meta), self._next_id, self._pending, self._wrote)
+        saved = (dict(self._cases), dict(self._meta), dict(self._changed), dict(self._removed),
+                 self._next_id, self._pending, self._wrote)
         outermost = self._depth == 0
         if outermost:
             self._pending = self._revision + 1
@@ -76,7 +82,8 @@ class MemoryStore:
         try:
             yield
         except BaseException:
-            self._cases, self._meta, self._next_id, self._pending, self._wrote = saved
+            (self._cases, self._meta, self._changed, self._removed, self._next_id, self._pending,
+             self._wrote) = saved
             raise
         finally:
             self._depth -= 1
@@ -104,6 +111,7 @@ class MemoryStore:
         stored = attrs.evolve(case, id=self._next_id, created=revision)
         check_case(stored, revision)
         self._cases[stored.id] = stored
+        self._changed[stored.id] = revision
         self._next_id += 1
         self._written()
         return stored
@@ -117,6 +125,7 @@ class MemoryStore:
         stored = case if case.created is not None else attrs.evolve(case, created=old.created)
         check_case(stored, self._stamp())
         self._cases[old.id] = attrs.evolve(stored, id=old.id)
+        self._changed[old.id] = self._stamp()
         self._written()
 
     def remove(self, ids: Iterable[int]) -> None:
@@ -125,6 +134,8 @@ class MemoryStore:
         if unique:
             for case_id in unique:
                 del self._cases[case_id]
+                del self._changed[case_id]
+                self._removed[case_id] = self._stamp()
             self._written()
 
     def touch(self, ids: Iterable[int]) -> None:
@@ -138,6 +149,7 @@ class MemoryStore:
             for case_id in unique:
                 case = self._cases[case_id]
                 self._cases[case_id] = attrs.evolve(case, uses=case.uses + 1, last_used=revision)
+                self._changed[case_id] = revision
             self._written()
 
     def _existing(self, ids: Iterable[int]) -> list[int]:
@@ -150,6 +162,17 @@ class MemoryStore:
     def get(self, case_id: int) -> Case:
         """The case with this id; KeyError if there is none."""
         return self._cases[operator.index(case_id)]
+
+    def changes(self, since: int) -> Changes:
+        """What the commits after revision ``since`` changed (:class:`Changes`)."""
+        if not 0 <= since <= self._revision:
+            raise ValueError(f"changes since revision {since}: expected a revision from 0 to "
+                             f"{self._revision}")
+        return Changes(since, self._revision,
+                       tuple(case for case_id, case in self._cases.items()
+                             if self._changed[case_id] > since),
+                       tuple(sorted(case_id for case_id, revision in self._removed.items()
+                                    if revision > since)))
 
     def cases(self, kind: str | None = None) -> list[Case]:
         """All cases (of one kind when given), ordered by id."""
@@ -218,6 +241,7 @@ class MemoryStore:
             if restored or self._meta:
                 self._wrote = True
             self._cases = dict(sorted((case.id, case) for case in restored))
+            self._changed = dict.fromkeys(self._cases, self._pending)
             self._meta = {}
             for key, value in meta.items():
                 self.set_meta(key, value)

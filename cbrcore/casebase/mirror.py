@@ -11,8 +11,11 @@ a typed key, and the engine runs every learn step inside :meth:`StoreMirror.tran
 
 - before each query, and at the start of each learn step inside its transaction (with the
   store's write lock held), :meth:`StoreMirror.sync` compares the store's revision with the one
-  the mirror last saw: when they differ another writer committed, and every view is dropped, to
-  be loaded anew from the store the next time it is asked for;
+  the mirror last saw: when they differ another writer committed. A view that can follow the
+  changes (it has a ``catch_up`` method, :class:`FollowsChanges`) is handed what changed since
+  (the store's :meth:`~cbrcore.casebase.store.CaseStore.changes`, which costs what changed, not
+  the case base) and brings itself up to date; every other view is dropped, to be loaded anew
+  from the store the next time it is asked for;
 - when the learn step commits, a view asked for during the step is kept at the revision the
   step committed at (the store's ``committed_revision``, not its ``revision`` read again, which
   may already count another process's next commit that the view lacks): a component that asks
@@ -31,12 +34,26 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Callable, Iterator
-from typing import Any, TypeVar
+from typing import Any, Protocol, TypeVar, runtime_checkable
 
-from cbrcore.casebase.store import CaseStore
+from cbrcore.casebase.store import CaseStore, Changes
 from cbrcore.stash import StashKey
 
 T = TypeVar("T")
+
+
+@runtime_checkable
+class FollowsChanges(Protocol):
+    """A view that brings itself up to date with another writer's commits.
+
+    ``catch_up`` applies ``changes`` (the cases written and the ids removed since the revision
+    the view matches) to the view, reading nothing else and writing nothing to the store, and
+    returns True; or returns False, having changed nothing, when it cannot (the mirror then
+    drops the view and loads it anew). A view that derives from meta values as well as cases
+    cannot follow changes, which do not cover meta values.
+    """
+
+    def catch_up(self, changes: Changes) -> bool: ...
 
 
 class StoreMirror:
@@ -46,8 +63,11 @@ class StoreMirror:
         self.store = store
         self.revision = store.revision
         """The store revision every view matches."""
+        self.catch_ups = 0
+        """How many times another writer had moved the store and the mirror caught up."""
         self.reloads = 0
-        """How many times the views were dropped because the store moved without them."""
+        """How many views were dropped, to be loaded anew, because the store moved without them
+        and they could not follow the changes."""
         self._views: dict[StashKey[Any], Any] = {}
         self._asked: set[StashKey[Any]] | None = None
         """The views asked for during the learn step under way; None outside one."""
@@ -79,12 +99,27 @@ class StoreMirror:
         return self._asked is not None
 
     def sync(self) -> None:
-        """Drop every view if another writer moved the store since the mirror last saw it."""
+        """Catch up with another writer that moved the store since the mirror last saw it: the
+        views that follow changes take them, the others are dropped."""
         now = self.store.revision
-        if now != self.revision:
+        if now == self.revision:
+            return
+        following = {key: view for key, view in self._views.items()
+                     if isinstance(view, FollowsChanges)}
+        try:
+            if following:
+                changes = self.store.changes(self.revision)
+                now = changes.revision
+                following = {key: view for key, view in following.items()
+                             if view.catch_up(changes)}
+        except BaseException:
+            # a view may be halfway through the changes
             self._views.clear()
-            self.revision = now
-            self.reloads += 1
+            raise
+        self.reloads += len(self._views) - len(following)
+        self._views = following
+        self.revision = now
+        self.catch_ups += 1
 
     @contextlib.contextmanager
     def transaction(self) -> Iterator[None]:

@@ -32,6 +32,7 @@ from cbrcore.casebase.postgres_schema import (
     schema_problems,
     stored_version,
 )
+from cbrcore.casebase.store import Changes
 from cbrcore.errors import CaseBaseError, UnusableCaseBase
 from cbrcore.model import JSON, Case
 
@@ -39,6 +40,8 @@ MAX_ID = MAX_INTEGER
 """The largest case id: PostgreSQL's largest bigint."""
 
 _COLUMNS = "id, kind, problem, solution, meta, uses, created, last_used"
+_WRITTEN = f"{_COLUMNS}, changed"
+"""The columns a write sets: a case's and the revision that last wrote it."""
 
 
 def _dumps(value: JSON) -> str:
@@ -93,6 +96,10 @@ class PostgresStore:
     ``read_only`` opens an existing case base for reading alone (a write raises CaseBaseError),
     also with a database role that may only read it; then a transaction is a consistent snapshot
     that takes no lock.
+
+    Every write records its revision: a case's ``changed`` column says which revision last
+    added, replaced, touched or restored it, and the ``removed`` table which revision removed an
+    id, so that :meth:`changes` finds what changed since a revision through their indexes.
     """
 
     def __init__(self, dsn: str = "", *, schema: str = "cbrcore", busy_timeout: float = 5.0,
@@ -297,8 +304,9 @@ class PostgresStore:
     # -- cases ------------------------------------------------------------------------------
 
     def _row(self, case: Case) -> tuple[Any, ...]:
+        """The written columns of ``case`` but its id, changed by the transaction under way."""
         return (_dumps(case.kind), _dumps(case.problem), _dumps(case.solution),
-                _dumps(dict(case.meta)), case.uses, case.created, case.last_used)
+                _dumps(dict(case.meta)), case.uses, case.created, case.last_used, self._pending)
 
     def _case(self, row: tuple[Any, ...]) -> Case:
         case_id, kind, problem, solution, meta, uses, created, last_used = row
@@ -329,8 +337,9 @@ class PostgresStore:
             stored = attrs.evolve(case, id=None, created=self._pending)
             check_case(stored, self._pending)
             stored = attrs.evolve(stored, id=self._new_id())
-            self._run(f"INSERT INTO {self._s}.cases ({_COLUMNS}) "
-                      f"VALUES (%s, %s, %s, %s, %s, %s, %s, %s)", (stored.id, *self._row(stored)))
+            self._run(f"INSERT INTO {self._s}.cases ({_WRITTEN}) "
+                      f"VALUES (%s, %s, %s, %s, %s, %s, %s, %s, %s)",
+                      (stored.id, *self._row(stored)))
             self._wrote = True
             return stored
 
@@ -346,7 +355,8 @@ class PostgresStore:
             stored = case if case.created is not None else attrs.evolve(case, created=old.created)
             check_case(stored, self._pending)
             self._run(f"UPDATE {self._s}.cases SET kind = %s, problem = %s, solution = %s, "
-                      f"meta = %s, uses = %s, created = %s, last_used = %s WHERE id = %s",
+                      f"meta = %s, uses = %s, created = %s, last_used = %s, changed = %s "
+                      f"WHERE id = %s",
                       (*self._row(stored), case_id))
             self._wrote = True
 
@@ -358,6 +368,10 @@ class PostgresStore:
             with self.transaction():
                 self._require(unique)
                 self._run(f"DELETE FROM {self._s}.cases WHERE id = ANY(%s::bigint[])", (unique,))
+                # an id restored after its removal may be removed again
+                self._run(f"INSERT INTO {self._s}.removed (id, revision) "
+                          f"SELECT unnest(%s::bigint[]), %s ON CONFLICT (id) "
+                          f"DO UPDATE SET revision = EXCLUDED.revision", (unique, self._pending))
                 self._wrote = True
 
     def touch(self, ids: Iterable[int]) -> None:
@@ -370,8 +384,9 @@ class PostgresStore:
             self._writable()
             with self.transaction():
                 self._require(unique)
-                self._run(f"UPDATE {self._s}.cases SET uses = uses + 1, last_used = %s "
-                          f"WHERE id = ANY(%s::bigint[])", (self._pending, unique))
+                self._run(f"UPDATE {self._s}.cases SET uses = uses + 1, last_used = %s, "
+                          f"changed = %s WHERE id = ANY(%s::bigint[])",
+                          (self._pending, self._pending, unique))
                 self._wrote = True
 
     def _require(self, ids: list[int]) -> None:
@@ -393,6 +408,37 @@ class PostgresStore:
         if not rows:
             raise KeyError(case_id)
         return self._case(rows[0])
+
+    def changes(self, since: int) -> Changes:
+        """What the commits after revision ``since`` changed (:class:`Changes`): the cases
+        whose ``changed`` revision is later and the removed ids recorded later, both found
+        through an index, in one snapshot."""
+        since = operator.index(since)
+        with self._snapshot():
+            revision = self.revision
+            if not 0 <= since <= revision:
+                raise ValueError(f"changes since revision {since}: expected a revision from 0 "
+                                 f"to {revision}")
+            rows = self._rows(f"SELECT {_COLUMNS} FROM {self._s}.cases WHERE changed > %s "
+                              f"ORDER BY id", (since,))
+            removed = self._rows(f"SELECT id FROM {self._s}.removed WHERE revision > %s "
+                                 f"ORDER BY id", (since,))
+        return Changes(since, revision, tuple(self._case(row) for row in rows),
+                       tuple(row[0] for row in removed))
+
+    @contextlib.contextmanager
+    def _snapshot(self) -> Iterator[None]:
+        """Reads that see one state of the case base: the transaction under way, or a
+        read-only snapshot transaction of their own, which takes no lock (the clock row's lock
+        is the write lock, and a process catching up must not wait for the writers)."""
+        if self._depth:
+            yield
+            return
+        self._run("BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY")
+        try:
+            yield
+        finally:
+            self._rollback()
 
     def cases(self, kind: str | None = None) -> list[Case]:
         """All cases (of one kind when given), ordered by id."""
@@ -487,8 +533,8 @@ class PostgresStore:
                     case, created=self._pending)
                 check_case(stored, self._pending)
                 case_id = self._new_id() if case.id is None else operator.index(case.id)
-                self._run(f"INSERT INTO {self._s}.cases ({_COLUMNS}) "
-                          f"VALUES (%s, %s, %s, %s, %s, %s, %s, %s)",
+                self._run(f"INSERT INTO {self._s}.cases ({_WRITTEN}) "
+                          f"VALUES (%s, %s, %s, %s, %s, %s, %s, %s, %s)",
                           (case_id, *self._row(stored)))
                 self._wrote = True
             if self._run(f"DELETE FROM {self._s}.meta"):
@@ -529,7 +575,9 @@ class PostgresStore:
 
         Checks the schema's tables, the clock and the schema version, and every case and meta
         value: JSON that decodes, sensible use counts, revision stamps no later than the
-        revision, and no id beyond the largest one given (a new case would take it again).
+        revision, no id beyond the largest one given (a new case would take it again), each
+        case's ``changed`` revision from its creation or last use to the revision, and each
+        removal's revision no later than the revision.
         """
         problems: list[str] = []
         try:
@@ -542,7 +590,8 @@ class PostgresStore:
             if versions != [(SCHEMA_VERSION,)]:
                 problems.append(f"schema version: expected one row holding {SCHEMA_VERSION}, "
                                 f"found {[row[0] for row in versions]}")
-            rows = self._rows(f"SELECT {_COLUMNS} FROM {self._s}.cases ORDER BY id")
+            rows = self._rows(f"SELECT {_WRITTEN} FROM {self._s}.cases ORDER BY id")
+            removed = self._rows(f"SELECT id, revision FROM {self._s}.removed ORDER BY id")
             meta = self._rows(f"SELECT key, value FROM {self._s}.meta ORDER BY key")
             # read after the cases: the revision only grows, so a sound case is never after it
             clock = self._rows(f"SELECT revision, last_id FROM {self._s}.clock")
@@ -567,6 +616,10 @@ class PostgresStore:
                                 f"given, {last_id}: new cases would take ids again")
         for row in rows:
             problems += self._row_problems(row, bound)
+        for case_id, revision in removed:
+            if revision < 1 or (bound is not None and revision > bound):
+                problems.append(f"removed case {case_id}: removed at revision {revision}; "
+                                f"expected a revision from 1 to the case base's, {bound}")
         for key, text in meta:
             try:
                 shown = self._text(key, "meta key")
@@ -582,7 +635,7 @@ class PostgresStore:
         return problems
 
     def _row_problems(self, row: tuple[Any, ...], revision: int | None) -> list[str]:
-        case_id, kind, problem, solution, meta, uses, created, last_used = row
+        case_id, kind, problem, solution, meta, uses, created, last_used, changed = row
         problems = []
         decoded = {}
         for field, text in (("kind", kind), ("problem", problem), ("solution", solution),
@@ -596,6 +649,14 @@ class PostgresStore:
         case = Case(decoded["problem"], decoded["solution"], decoded["kind"], decoded["meta"],
                     case_id, uses, created, last_used)
         problems += [f"case {case_id}: {p}" for p in case_problems(case, revision)]
+        written = max(created, last_used or 0)
+        if revision is not None and written > revision:
+            return problems  # said above: the stamps themselves are wrong
+        if changed < written or (revision is not None and changed > revision):
+            # a write that did not record its revision would hide from processes catching up
+            problems.append(f"case {case_id}: changed at revision {changed}; expected a "
+                            f"revision from {written} (its creation or last use) to the case "
+                            f"base's, {revision}")
         return problems
 
     def close(self) -> None:

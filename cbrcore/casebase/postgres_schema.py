@@ -8,9 +8,13 @@ Every text column holds JSON text made of ASCII characters only (kinds and meta 
 strings too): the case base then works in a database of any encoding, and keeps strings that
 PostgreSQL's ``text`` cannot hold (NUL characters, lone surrogates) exactly as SQLite does.
 
-The schema's version is the one row of ``schema_version``. Version 1 is the first; a later
-cbrcore that changes the tables adds the statements taking version ``n`` to ``n + 1`` to
-:data:`MIGRATIONS`, and opening an older case base runs them, all in one transaction.
+The schema's version is the one row of ``schema_version``. Version 1 had no record of when a case
+last changed nor of removed cases; version 2 adds the column ``cases.changed`` (the revision that
+last wrote the case) and the table ``removed`` (each removed id and the revision that removed
+it), both indexed by revision, from which the store tells what changed since a revision
+(``PostgresStore.changes``). A cbrcore that changes the tables adds the statements taking
+version ``n`` to ``n + 1`` to :data:`MIGRATIONS`, and opening an older case base runs them, all
+in one transaction.
 """
 
 from __future__ import annotations
@@ -24,10 +28,22 @@ if TYPE_CHECKING:
     # psycopg is imported when a store connects: checking a configuration must not need it
     import psycopg
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 """The version of the case bases this cbrcore reads and writes."""
 
-MIGRATIONS: Mapping[int, tuple[str, ...]] = {}
+MIGRATIONS: Mapping[int, tuple[str, ...]] = {
+    # A case's last change is at least its creation and its last use. Removals before the
+    # migration are not known, and need not be: a store asks what changed since a revision it
+    # read, which is never before its case base was migrated.
+    1: ("ALTER TABLE {schema}.cases ADD COLUMN changed bigint",
+        "UPDATE {schema}.cases SET changed = greatest(created, coalesce(last_used, 0))",
+        # a writer of version 1, still running, cannot then add a case hidden from the changes
+        "ALTER TABLE {schema}.cases ALTER COLUMN changed SET NOT NULL",
+        "CREATE INDEX cases_changed ON {schema}.cases (changed)",
+        "CREATE TABLE {schema}.removed (id bigint NOT NULL, revision bigint NOT NULL, "
+        "PRIMARY KEY (id))",
+        "CREATE INDEX removed_revision ON {schema}.removed (revision)"),
+}
 """The statements taking a case base from version ``n`` (the key) to ``n + 1``; ``{schema}``
 stands for the quoted schema name."""
 
@@ -41,18 +57,28 @@ TABLES: dict[str, tuple[tuple[str, str, bool], ...]] = {
     "schema_version": (("version", "integer", True),),
     "cases": (("id", "bigint", True), ("kind", "text", True), ("problem", "text", True),
               ("solution", "text", True), ("meta", "text", True), ("uses", "bigint", True),
-              ("created", "bigint", True), ("last_used", "bigint", False)),
+              ("created", "bigint", True), ("last_used", "bigint", False),
+              # the revision that last added, replaced, touched or restored the case
+              ("changed", "bigint", True)),
     "meta": (("key", "text", True), ("value", "text", True)),
+    # each removed id and the revision that removed it
+    "removed": (("id", "bigint", True), ("revision", "bigint", True)),
 }
 """Each table's columns: name, type and whether it is NOT NULL."""
 
-PRIMARY_KEYS = {"cases": "id", "meta": "key"}
-INDEXES = {"cases_pkey": "cases", "meta_pkey": "meta", "cases_kind": "cases"}
+PRIMARY_KEYS = {"cases": "id", "meta": "key", "removed": "id"}
+_SECONDARY_INDEXES = (("cases_kind", "cases", "kind"), ("cases_changed", "cases", "changed"),
+                      ("removed_revision", "removed", "revision"))
+"""The indexes besides the primary keys' (named ``<table>_pkey``): name, table and column."""
+
+INDEXES = {**{f"{table}_pkey": table for table in PRIMARY_KEYS},
+           **{name: table for name, table, _ in _SECONDARY_INDEXES}}
 """Every index of a case base, by name, and the table it belongs to."""
 
-SCHEMA_EXPECTED = ("a case base's schema has the tables clock, schema_version, cases and meta "
-                   "with their columns, the indexes cases_pkey, meta_pkey and cases_kind, and "
-                   "no other tables, views, sequences, triggers or rules")
+SCHEMA_EXPECTED = ("a case base's schema has the tables clock, schema_version, cases, meta and "
+                   "removed with their columns, the indexes cases_pkey, meta_pkey, "
+                   "removed_pkey, cases_kind, cases_changed and removed_revision, and no other "
+                   "tables, views, sequences, triggers or rules")
 
 
 def quoted(name: str) -> str:
@@ -83,7 +109,8 @@ def create_statements(schema: str) -> list[str]:
         if table in PRIMARY_KEYS:
             defined.append(f"PRIMARY KEY ({PRIMARY_KEYS[table]})")
         statements.append(f"CREATE TABLE {quoted(schema)}.{table} ({', '.join(defined)})")
-    statements.append(f"CREATE INDEX cases_kind ON {quoted(schema)}.cases (kind)")
+    statements += [f"CREATE INDEX {name} ON {quoted(schema)}.{table} ({column})"
+                   for name, table, column in _SECONDARY_INDEXES]
     statements.append(f"INSERT INTO {quoted(schema)}.clock (revision, last_id) VALUES (0, 0)")
     statements.append(f"INSERT INTO {quoted(schema)}.schema_version (version) "
                       f"VALUES ({SCHEMA_VERSION})")

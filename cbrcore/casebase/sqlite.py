@@ -8,6 +8,7 @@ import operator
 import os
 import sqlite3
 import sys
+import time
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
@@ -27,18 +28,31 @@ from cbrcore.casebase.sqlite_file import (
     WAL_VERSION_OFFSET,
     create_schema,
     inspect_file,
+    migrate,
     parse_revision,
     rollback,
     schema_problems,
     validate,
 )
+from cbrcore.casebase.store import Changes
 from cbrcore.errors import CaseBaseError, UnusableCaseBase
 from cbrcore.model import JSON, Case
 
+LOCK_RETRY = (0.0001, 0.001)
+"""The first and the longest pause, in seconds, between two tries for the write lock."""
+
 _COLUMNS = "id, kind, problem, solution, meta, uses, created, last_used"
+_WRITTEN = f"{_COLUMNS}, changed"
+"""The columns a write sets: a case's and the revision that last wrote it."""
 def _dumps(value: JSON) -> str:
     # ASCII escapes keep strings that are not valid Unicode (lone surrogates) storable as UTF-8
     return json.dumps(value, allow_nan=False, separators=(",", ":"))
+
+
+def _is_busy(exc: CaseBaseError) -> bool:
+    """Whether ``exc`` says another connection holds the lock."""
+    cause = exc.__cause__
+    return getattr(cause, "sqlite_errorname", "").startswith(("SQLITE_BUSY", "SQLITE_LOCKED"))
 
 
 class SQLiteStore:
@@ -57,7 +71,10 @@ class SQLiteStore:
     few learned cases on a power cut is harmless.
 
     Several processes may use one file: writers take turns, waiting up to ``busy_timeout``
-    seconds for the write lock before giving up with a CaseBaseError. Readers never wait.
+    seconds for the write lock before giving up with a CaseBaseError. Readers never wait. A
+    writer waiting for the lock tries again every millisecond at most (:data:`LOCK_RETRY`):
+    SQLite's own waiting sleeps up to 100 ms between tries, so a robot would miss turn after
+    turn of a lock that the others hold for a few milliseconds per learn step.
     Every transaction starts with the write lock held (``BEGIN IMMEDIATE``), so it never fails
     halfway for want of it.
 
@@ -87,6 +104,8 @@ class SQLiteStore:
             with self._errors():
                 if new:
                     create_schema(self._conn)
+                elif not read_only:
+                    migrate(self._conn, self.path)
                 validate(self._conn, self.path)
             if not read_only:
                 if self._value("PRAGMA journal_mode") != "wal":
@@ -244,7 +263,10 @@ class SQLiteStore:
                 yield
             return
         # reading alone takes no lock: a deferred transaction is a consistent snapshot
-        self._run("BEGIN" if self.read_only else "BEGIN IMMEDIATE")
+        if self.read_only:
+            self._run("BEGIN")
+        else:
+            self._lock()
         try:
             read = self.revision
             self._pending = read + 1
@@ -267,6 +289,26 @@ class SQLiteStore:
         except BaseException:
             self._rollback()
             raise
+
+    def _lock(self) -> None:
+        """Begin a transaction holding the write lock, trying again after short pauses until
+        ``busy_timeout`` has passed."""
+        deadline = time.monotonic() + self.busy_timeout
+        pause = LOCK_RETRY[0]
+        self._run("PRAGMA busy_timeout = 0")
+        try:
+            while True:
+                try:
+                    self._run("BEGIN IMMEDIATE")
+                    return
+                except CaseBaseError as exc:
+                    left = deadline - time.monotonic()
+                    if not _is_busy(exc) or left <= 0:
+                        raise
+                time.sleep(min(pause, left))
+                pause = min(2 * pause, LOCK_RETRY[1])
+        finally:
+            self._run(f"PRAGMA busy_timeout = {round(self.busy_timeout * 1000)}")
 
     @contextlib.contextmanager
     def _savepoint(self) -> Iterator[None]:
@@ -294,8 +336,9 @@ class SQLiteStore:
     # -- cases ------------------------------------------------------------------------------
 
     def _row(self, case: Case) -> tuple[Any, ...]:
+        """The written columns of ``case`` but its id, changed by the transaction under way."""
         return (case.kind, _dumps(case.problem), _dumps(case.solution), _dumps(dict(case.meta)),
-                case.uses, case.created, case.last_used)
+                case.uses, case.created, case.last_used, self._pending)
 
     def _case(self, row: tuple[Any, ...]) -> Case:
         case_id, kind, problem, solution, meta, uses, created, last_used = row
@@ -314,8 +357,8 @@ class SQLiteStore:
         with self.transaction():
             stored = attrs.evolve(case, id=None, created=self._pending)
             check_case(stored, self._pending)
-            cursor = self._run(f"INSERT INTO cases ({_COLUMNS}) VALUES (NULL, ?, ?, ?, ?, ?, ?, ?)",
-                               self._row(stored))
+            cursor = self._run(f"INSERT INTO cases ({_WRITTEN}) "
+                               "VALUES (NULL, ?, ?, ?, ?, ?, ?, ?, ?)", self._row(stored))
             self._wrote = True
             return attrs.evolve(stored, id=cursor.lastrowid)
 
@@ -330,7 +373,8 @@ class SQLiteStore:
             stored = case if case.created is not None else attrs.evolve(case, created=old.created)
             check_case(stored, self._pending)
             self._run("UPDATE cases SET kind = ?, problem = ?, solution = ?, meta = ?, uses = ?, "
-                      "created = ?, last_used = ? WHERE id = ?", (*self._row(stored), case_id))
+                      "created = ?, last_used = ?, changed = ? WHERE id = ?",
+                      (*self._row(stored), case_id))
             self._wrote = True
 
     def remove(self, ids: Iterable[int]) -> None:
@@ -342,6 +386,9 @@ class SQLiteStore:
                 with self._errors():
                     self._conn.executemany("DELETE FROM cases WHERE id = ?",
                                            [(i,) for i in unique])
+                    self._conn.executemany(
+                        "INSERT OR REPLACE INTO removed (id, revision) VALUES (?, ?)",
+                        [(i, self._pending) for i in unique])
                 self._wrote = True
 
     def touch(self, ids: Iterable[int]) -> None:
@@ -355,8 +402,8 @@ class SQLiteStore:
                 self._require(unique)
                 with self._errors():
                     self._conn.executemany(
-                        "UPDATE cases SET uses = uses + 1, last_used = ? WHERE id = ?",
-                        [(self._pending, i) for i in unique])
+                        "UPDATE cases SET uses = uses + 1, last_used = ?, changed = ? "
+                        "WHERE id = ?", [(self._pending, self._pending, i) for i in unique])
                 self._wrote = True
 
     def _require(self, ids: list[int]) -> None:
@@ -379,6 +426,36 @@ class SQLiteStore:
         if not rows:
             raise KeyError(case_id)
         return self._case(rows[0])
+
+    def changes(self, since: int) -> Changes:
+        """What the commits after revision ``since`` changed (:class:`Changes`): the cases
+        whose ``changed`` revision is later, and the removed ids recorded later, both found
+        through an index, in one read transaction."""
+        with self._snapshot():
+            revision = self.revision
+            if not 0 <= since <= revision:
+                raise ValueError(f"changes since revision {since}: expected a revision from 0 "
+                                 f"to {revision}")
+            rows = self._rows(f"SELECT {_COLUMNS} FROM cases WHERE changed > ? ORDER BY id",
+                              (since,))
+            removed = self._rows("SELECT id FROM removed WHERE revision > ? ORDER BY id",
+                                 (since,))
+        return Changes(since, revision, tuple(self._case(row) for row in rows),
+                       tuple(row[0] for row in removed))
+
+    @contextlib.contextmanager
+    def _snapshot(self) -> Iterator[None]:
+        """Reads that see one state of the case base: the transaction under way, or a read
+        transaction of their own, which takes no lock."""
+        if self._depth or self.read_only:
+            with self.transaction():
+                yield
+            return
+        self._run("BEGIN")
+        try:
+            yield
+        finally:
+            self._rollback()
 
     def cases(self, kind: str | None = None) -> list[Case]:
         """All cases (of one kind when given), ordered by id."""
@@ -453,8 +530,8 @@ class SQLiteStore:
                 check_case(stored, self._pending)
                 case_id = None if case.id is None else operator.index(case.id)
                 try:
-                    self._run(f"INSERT INTO cases ({_COLUMNS}) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
-                              (case_id, *self._row(stored)))
+                    self._run(f"INSERT INTO cases ({_WRITTEN}) "
+                              "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", (case_id, *self._row(stored)))
                 except sqlite3.IntegrityError as exc:
                     raise ValueError(f"restore got two cases with id {case_id}") from exc
                 self._wrote = True
@@ -507,7 +584,8 @@ class SQLiteStore:
             if schema:
                 # found when the file was opened, unless another program changed it since
                 return [*problems, *(f"schema: {p}" for p in schema)]
-            rows = self._rows(f"SELECT {_COLUMNS} FROM cases ORDER BY id")
+            rows = self._rows(f"SELECT {_WRITTEN} FROM cases ORDER BY id")
+            removed = self._rows("SELECT id, revision FROM removed ORDER BY id")
             problems += [f"case {row[0]}: id is used {row[1]} times" for row in self._rows(
                 "SELECT id, count(*) FROM cases GROUP BY id HAVING count(*) > 1")]
             # the revision record is checked on its own, below
@@ -518,6 +596,11 @@ class SQLiteStore:
             return [*problems, str(exc)]
         for row in rows:
             problems += self._row_problems(row, bound)
+        for case_id, revision in removed:
+            if not isinstance(revision, int) or revision < 1 or (
+                    bound is not None and revision > bound):
+                problems.append(f"removed case {case_id}: removed at revision {revision!r}; "
+                                f"expected a revision from 1 to the case base's, {bound}")
         for key, text in meta:
             try:
                 json.loads(text)
@@ -534,7 +617,7 @@ class SQLiteStore:
         return revision
 
     def _row_problems(self, row: tuple[Any, ...], revision: int | None) -> list[str]:
-        case_id, kind, problem, solution, meta, uses, created, last_used = row
+        case_id, kind, problem, solution, meta, uses, created, last_used, changed = row
         problems = []
         decoded = {}
         for field, text in (("problem", problem), ("solution", solution), ("meta", meta)):
@@ -549,6 +632,15 @@ class SQLiteStore:
         case = Case(decoded["problem"], decoded["solution"], kind, decoded["meta"], case_id,
                     uses, created, last_used)
         problems += [f"case {case_id}: {p}" for p in case_problems(case, revision)]
+        written = max(created or 0, last_used or 0)
+        if revision is not None and written > revision:
+            return problems  # said above: the stamps themselves are wrong
+        if not isinstance(changed, int) or changed < written or (
+                revision is not None and changed > revision):
+            # a write that did not record its revision would hide from processes catching up
+            problems.append(f"case {case_id}: changed at revision {changed!r}; expected a "
+                            f"revision from {written} (its creation or last use) to the case "
+                            f"base's, {revision}")
         return problems
 
     def close(self) -> None:

@@ -1,9 +1,15 @@
-"""What a sound case base file is, and how one is recognised, created and checked.
+"""What a sound case base file is, and how one is recognised, created, migrated and checked.
 
 A cbrcore case base is a SQLite file with its own ``application_id`` and schema version, the
-tables ``cases`` and ``meta`` and nothing else: a trigger or a view would act or answer behind
-the store's back. :class:`~cbrcore.casebase.sqlite.SQLiteStore` opens files through these
-checks and keeps to its operations.
+tables ``cases``, ``meta`` and ``removed`` and nothing else: a trigger or a view would act or
+answer behind the store's back. :class:`~cbrcore.casebase.sqlite.SQLiteStore` opens files through
+these checks and keeps to its operations.
+
+Schema versions: version 1 had no record of when a case last changed nor of removed cases;
+version 2 adds the column ``cases.changed`` (the revision that last wrote the case) and the table
+``removed`` (each removed id and the revision that removed it), from which the store tells what
+changed since a revision (``SQLiteStore.changes``). Opening a case base of an older version
+migrates it with the statements of :data:`MIGRATIONS`, all in one transaction.
 """
 
 from __future__ import annotations
@@ -11,17 +17,18 @@ from __future__ import annotations
 import contextlib
 import functools
 import json
+import re
 import sqlite3
+from collections.abc import Mapping
 from pathlib import Path
 
 from cbrcore.casebase.data import REVISION_KEY
-from cbrcore.casebase.exchange import SCHEMA
 from cbrcore.errors import CaseBaseError, UnusableCaseBase
 
 APPLICATION_ID = 0x43425243
 """``PRAGMA application_id`` of a cbrcore case base ("CBRC")."""
 
-SCHEMA_VERSION = SCHEMA
+SCHEMA_VERSION = 2
 """``PRAGMA user_version`` of the case bases this cbrcore reads and writes."""
 
 MAX_ID = 2**63 - 1
@@ -39,19 +46,43 @@ SCHEMA_STATEMENTS = (
         meta TEXT NOT NULL,
         uses INTEGER NOT NULL,
         created INTEGER NOT NULL,
-        last_used INTEGER
+        last_used INTEGER,
+        changed INTEGER NOT NULL DEFAULT 0
     )""",
     "CREATE INDEX cases_kind ON cases (kind)",
+    "CREATE INDEX cases_changed ON cases (changed)",
     "CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)",
+    "CREATE TABLE removed (id INTEGER PRIMARY KEY, revision INTEGER NOT NULL)",
+    "CREATE INDEX removed_revision ON removed (revision)",
 )
-SCHEMA_EXPECTED = ("a case base has the tables cases and meta, the index cases_kind and no other "
-                    "tables, indexes, views or triggers")
+MIGRATIONS: Mapping[int, tuple[str, ...]] = {
+    # a case's last change is at least its creation and its last use; removals before the
+    # migration are not known, and no view of the case base can be older than its opening
+    1: ("ALTER TABLE cases ADD COLUMN changed INTEGER NOT NULL DEFAULT 0",
+        "UPDATE cases SET changed = max(created, coalesce(last_used, 0))",
+        "CREATE INDEX cases_changed ON cases (changed)",
+        "CREATE TABLE removed (id INTEGER PRIMARY KEY, revision INTEGER NOT NULL)",
+        "CREATE INDEX removed_revision ON removed (revision)"),
+}
+"""The statements taking a case base from schema version ``n`` (the key) to ``n + 1``."""
+
+SCHEMA_EXPECTED = ("a case base has the tables cases, meta and removed, the indexes cases_kind, "
+                   "cases_changed and removed_revision and no other tables, indexes, views or "
+                   "triggers")
+
+_SPACED = re.compile(r"\s*([(),])\s*")
+
+
+def normalised(sql: str) -> str:
+    """``sql`` with its whitespace normalised, so that a table a migration altered (SQLite
+    appends the added column to its definition) reads as the same table created anew."""
+    return " ".join(_SPACED.sub(r"\1", sql).split())
 
 
 def schema_of(conn: sqlite3.Connection) -> dict[tuple[str, str], tuple[str, str | None]]:
     """Every schema object by type and name: its table and its SQL, whitespace normalised."""
     rows = conn.execute("SELECT type, name, tbl_name, sql FROM sqlite_master").fetchall()
-    return {(kind, name): (table, None if sql is None else " ".join(sql.split()))
+    return {(kind, name): (table, None if sql is None else normalised(sql))
             for kind, name, table, sql in rows}
 
 
@@ -126,6 +157,34 @@ def create_schema(conn: sqlite3.Connection) -> None:
         raise
 
 
+def migrate(conn: sqlite3.Connection, path: Path) -> None:
+    """Bring a case base of an older schema version to this one, in one transaction that holds
+    the write lock (of several processes opening it at once, one migrates, the others find it
+    done). Anything else is left to :func:`validate`; a migration that fails changes nothing."""
+    if conn.execute("PRAGMA application_id").fetchone()[0] != APPLICATION_ID:
+        return
+    if not 0 < conn.execute("PRAGMA user_version").fetchone()[0] < SCHEMA_VERSION:
+        return
+    conn.execute("BEGIN IMMEDIATE")
+    try:
+        version = conn.execute("PRAGMA user_version").fetchone()[0]
+        while 0 < version < SCHEMA_VERSION:
+            for statement in MIGRATIONS[version]:
+                try:
+                    conn.execute(statement)
+                except sqlite3.OperationalError as exc:
+                    raise UnusableCaseBase(
+                        f"{path}: migrating the case base from schema version {version} to "
+                        f"{version + 1} failed at {statement.split('(')[0].strip()!r}: {exc}; "
+                        "nothing was changed") from exc
+            version += 1
+            conn.execute(f"PRAGMA user_version = {version}")
+        conn.execute("COMMIT")
+    except BaseException:
+        rollback(conn)
+        raise
+
+
 def validate(conn: sqlite3.Connection, path: Path) -> None:
     """Refuse, with UnusableCaseBase naming ``path``, a file that is not a sound case base of
     this schema version."""
@@ -137,9 +196,11 @@ def validate(conn: sqlite3.Connection, path: Path) -> None:
     version = conn.execute("PRAGMA user_version").fetchone()[0]
     if version != SCHEMA_VERSION:
         which = "a newer" if version > SCHEMA_VERSION else "an older"
+        # a writing store migrated an older one before this check
+        how = ": open it once for writing to migrate it" if version < SCHEMA_VERSION else ""
         raise UnusableCaseBase(f"{path} has case base schema version {version} (from "
                                f"{which} cbrcore); this cbrcore reads version "
-                               f"{SCHEMA_VERSION}")
+                               f"{SCHEMA_VERSION}{how}")
     verdict = [row[0] for row in conn.execute("PRAGMA quick_check").fetchall()]
     if verdict != ["ok"]:
         raise UnusableCaseBase(f"{path} is corrupt: {'; '.join(verdict[:3])}")
@@ -167,7 +228,7 @@ def schema_problems(conn: sqlite3.Connection) -> list[str]:
                 problems.append(f"{kind} {name} is missing")
         elif found[kind, name][1] != sql:
             problems.append(f"{kind} {name} is not defined as in a case base")
-    problems[:0] = [f"table {name} is missing" for name in ("cases", "meta")
+    problems[:0] = [f"table {name} is missing" for name in ("cases", "meta", "removed")
                     if name not in tables]
     # ANALYZE's statistics only guide SQLite's query planner: they cannot act or answer
     problems += [f"{kind} {name!r} does not belong in a case base"

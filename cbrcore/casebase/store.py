@@ -14,6 +14,8 @@ from collections.abc import Iterable, Iterator, Mapping
 from contextlib import AbstractContextManager
 from typing import Protocol, runtime_checkable
 
+import attrs
+
 from cbrcore.casebase.data import is_json, json_problems
 from cbrcore.errors import PluginError
 from cbrcore.model import JSON, Case
@@ -21,6 +23,25 @@ from cbrcore.model import JSON, Case
 SUMMARY_KEYS = ("store", "revision", "cases", "kinds")
 """The facts ``cbr casebase info`` shows for every store: its registered name, its revision, the
 number of cases and the number of cases of each kind."""
+
+
+@attrs.frozen
+class Changes:
+    """What the commits after revision ``since`` did to the cases, up to ``revision``.
+
+    Brought to ``revision``, a copy of the cases as they stood at ``since`` drops the ``removed``
+    ids it holds and takes every case of ``cases`` in place of the one with its id (or as a new
+    one): it then equals the cases stored at ``revision``. Meta values are not covered.
+    """
+
+    since: int
+    revision: int
+    cases: tuple[Case, ...]
+    """Every case that those commits added, replaced or touched and that is still stored, as
+    stored at ``revision``, ordered by id."""
+    removed: tuple[int, ...]
+    """The ids of the cases those commits removed, ordered (a case added and removed again
+    after ``since`` may be among them)."""
 
 
 @runtime_checkable
@@ -76,6 +97,16 @@ class CaseStore(Protocol):
 
     def get(self, case_id: int) -> Case:
         """The case with this id; KeyError if there is none."""
+        ...
+
+    def changes(self, since: int) -> Changes:
+        """What the commits after revision ``since`` changed (:class:`Changes`), read in one
+        consistent snapshot (inside a transaction, before the transaction writes).
+
+        Costs time in proportion to what changed, not to the case base: the store mirror
+        brings its views up to date with it each time another process commits.
+        ValueError when ``since`` is negative or ahead of the revision.
+        """
         ...
 
     def cases(self, kind: str | None = None) -> list[Case]:

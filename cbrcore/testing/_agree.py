@@ -57,6 +57,8 @@ def run_against_memory(open_store: Callable[[str], CaseStore]) -> None:
         def __init__(self) -> None:
             super().__init__()
             self.stores = [MemoryStore(), open_store(next(names))]
+            self.seen: dict[int, dict[int, Case]] = {}
+            """The cases the tested store held at each revision the invariant saw."""
 
         def teardown(self) -> None:
             for store in self.stores:
@@ -96,6 +98,13 @@ def run_against_memory(open_store: Callable[[str], CaseStore]) -> None:
             memory, tested = (state(store) for store in self.stores)
             assert memory == tested
             assert self.stores[1].check() == []
+            store = self.stores[1]
+            self.seen[store.revision] = {case.id: case for case in store.cases()}
+            for since, cases in self.seen.items():
+                changes = store.changes(since)
+                copy = {k: v for k, v in cases.items() if k not in changes.removed}
+                copy.update((case.id, case) for case in changes.cases)
+                assert sorted(copy.values(), key=lambda case: case.id) == store.cases()
 
     run_state_machine_as_test(StoresAgree, settings=settings(
         max_examples=20, stateful_step_count=10, deadline=None,

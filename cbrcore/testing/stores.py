@@ -38,6 +38,7 @@ import pytest
 
 from cbrcore.casebase import (
     CaseStore,
+    Changes,
     Document,
     describe,
     document_of,
@@ -388,6 +389,54 @@ class StoreContract:
         if not hasattr(store, "describe"):
             assert facts == {}
 
+    # -- what changed -----------------------------------------------------------------------
+
+    def test_changes_name_every_case_written_and_every_id_removed(self,
+                                                                  store: CaseStore) -> None:
+        kept, touched, replaced, gone = (store.add(Case(n, n)) for n in range(4))
+        since = store.revision
+        assert store.changes(since) == Changes(since, since, (), ())
+        with store.transaction():
+            store.touch([touched.id])
+            store.replace(attrs.evolve(replaced, solution="new"))
+            store.remove([gone.id])
+            added = store.add(Case(5, 5))
+            store.set_meta("k", 1)  # meta values are not among the changes
+        with pytest.raises(Boom), store.transaction():
+            store.replace(attrs.evolve(kept, solution="rolled back"))
+            raise Boom
+        changes = store.changes(since)
+        assert changes.since == since and changes.revision == store.revision == since + 1
+        assert changes.cases == tuple(store.get(case.id)
+                                      for case in (touched, replaced, added))
+        assert changes.removed == (gone.id,)
+        assert store.changes(0).cases == tuple(store.cases())
+        assert store.changes(0).removed == (gone.id,)
+
+    def test_changes_bring_an_old_copy_up_to_date(self, store: CaseStore) -> None:
+        copies = {}
+        for n in range(6):
+            copies[store.revision] = {case.id: case for case in store.cases()}
+            with store.transaction():
+                store.add(Case(n, n, kind="odd" if n % 2 else "even"))
+                if n >= 2:
+                    store.touch([n - 1])
+                if n >= 3:
+                    store.remove([n - 2])
+        for since, copy in copies.items():
+            changes = store.changes(since)
+            for case_id in changes.removed:
+                copy.pop(case_id, None)
+            copy.update((case.id, case) for case in changes.cases)
+            assert sorted(copy.values(), key=lambda case: case.id) == store.cases()
+
+    @pytest.mark.parametrize("since", [-1, 2])
+    def test_changes_since_a_revision_the_store_has_not_reached_are_refused(
+            self, store: CaseStore, since: int) -> None:
+        store.add(Case(1, 1))
+        with pytest.raises(ValueError, match="expected a revision from 0 to 1"):
+            store.changes(since)
+
     # -- against the memory store -----------------------------------------------------------
 
     def test_random_operations_agree_with_the_memory_store(self, stores: OpenStore) -> None:
@@ -436,6 +485,15 @@ class _SharedTests:
         assert second.get(1) == first.get(1)
         second.set_meta("k", "v")
         assert (first.revision, first.get_meta("k")) == (2, "v")
+
+    def test_changes_show_another_stores_commits(self, stores: OpenStore) -> None:
+        first, second = stores("casebase"), stores("casebase")
+        old = first.add(Case(1, 1))
+        since = second.revision
+        with first.transaction():
+            first.remove([old.id])
+            new = first.add(Case(2, 2))
+        assert second.changes(since) == Changes(since, since + 1, (new,), (old.id,))
 
     def test_the_committed_revision_is_this_stores_own(self, stores: OpenStore) -> None:
         first, second = stores("casebase"), stores("casebase")

@@ -38,7 +38,7 @@ from cbr_casegraph.geometry import (
 from cbr_grid.distances import distance as distance_function
 from cbr_grid.grid import Grid
 from cbr_grid.query import without_loops
-from cbrcore.casebase.store import CaseStore
+from cbrcore.casebase.store import CaseStore, Changes
 from cbrcore.errors import CbrError
 from cbrcore.model import Case
 
@@ -135,21 +135,57 @@ class CaseGraph:
         map's case base) or two segments overlap.
         """
         graph = cls(grid, store)
-        cases = store.cases(SEGMENT)
-        for case in cases:
-            a, b = graph._segment_of(case)
-            cells = segment_cells(a, b)
-            taken = (graph.owner[cells[:, 1], cells[:, 0]] >= 0)
-            taken[1:-1] |= graph.vertex_at[cells[1:-1, 1], cells[1:-1, 0]] >= 0
-            if taken.any():
-                x, y = cells[np.flatnonzero(taken)[0]]
-                raise CbrError(f"case base {_name(store)}: segment case {case.id} overlaps another "
-                               f"segment at cell ({x}, {y}); the case graph is inconsistent")
-            graph._insert(case.id, graph._vertex(a), graph._vertex(b), uses=case.uses,
-                          created=case.created or 0, cost=0.0, risk=0.0)
+        graph._take(store.cases(SEGMENT))
         if priced:
             graph.refresh()
         return graph
+
+    def _take(self, cases: Iterable[Case]) -> list[int]:
+        """Insert stored segment cases, unpriced; return their edges. CbrError naming the case
+        when one overlaps another segment."""
+        edges = []
+        for case in cases:
+            a, b = self._segment_of(case)
+            cells = segment_cells(a, b)
+            taken = (self.owner[cells[:, 1], cells[:, 0]] >= 0)
+            taken[1:-1] |= self.vertex_at[cells[1:-1, 1], cells[1:-1, 0]] >= 0
+            if taken.any():
+                x, y = cells[np.flatnonzero(taken)[0]]
+                raise CbrError(f"case base {_name(self.store)}: segment case {case.id} overlaps "
+                               f"another segment at cell ({x}, {y}); the case graph is "
+                               "inconsistent")
+            edges.append(self._insert(case.id, self._vertex(a), self._vertex(b), uses=case.uses,
+                                      created=case.created or 0, cost=0.0, risk=0.0))
+        return edges
+
+    def catch_up(self, changes: Changes) -> bool:
+        """Follow another writer's commits (:class:`~cbrcore.casebase.mirror.FollowsChanges`):
+        drop the removed segments, then take the new ones and the new use counts, priced on
+        this graph's map. The store's segments meet only at vertices, so a segment removed by
+        a split is among the removed ones before its parts are taken. False, with nothing
+        changed, when a changed segment moved its ends (no learn step does that)."""
+        removed = [edge for edge in changes.removed if self._has(edge)]
+        written = [case for case in changes.cases if case.kind == SEGMENT]
+        kept = [case for case in written if self._has(case.id or 0)]
+        for case in kept:
+            a, b = self._segment_of(case)
+            ends = {(int(self._vx[v]), int(self._vy[v]))
+                    for v in (self._ea[case.id], self._eb[case.id])}
+            if ends != {a, b}:
+                return False
+        for edge in removed:
+            self._drop(edge)
+        for case in kept:
+            self._uses[case.id] = case.uses
+        new = self._take(case for case in written if not self._has(case.id or 0))
+        if new:
+            ids = np.asarray(new, dtype=np.int64)
+            a, b = self.ends(ids)
+            self._cost[ids], self._risk[ids] = segment_costs(self.grid, a, b)
+        return True
+
+    def _has(self, edge: int) -> bool:
+        return 0 <= edge < self._next_id and bool(self._alive[edge])
 
     def _segment_of(self, case: Case) -> tuple[Cell, Cell]:
         try:
@@ -319,7 +355,7 @@ class CaseGraph:
     def record_use(self, edges: Iterable[int]) -> None:
         """Count one more use of each edge still in the graph (the store counts its own)."""
         for edge in edges:
-            if 0 <= edge < self._next_id and self._alive[edge]:
+            if self._has(edge):
                 self._uses[edge] += 1
 
     def add_path(self, path: ArrayLike, *, similarity_delta: int = 0,

@@ -23,7 +23,7 @@ import numpy as np
 
 from cbr_grid.grid import grid_world
 from cbr_grid.risk import recorded_map
-from cbrcore.casebase.store import CaseStore
+from cbrcore.casebase.store import CaseStore, Changes
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.model import Case
@@ -68,18 +68,29 @@ class PathBase:
     @classmethod
     def load(cls, store: CaseStore) -> PathBase:
         """The path cases of ``store``; CbrError naming the case if one is malformed."""
-        cases = store.cases(PATH)
-        paths, metas = [], []
-        for case in cases:
-            paths.append(_cells(case, store))
-            metas.append(_meta(case, store))
-        ends = np.array([[p[0], p[-1]] for p in paths], dtype=np.int64).reshape(-1, 2, 2)
-        return cls(
-            store, _int_array(c.id or 0 for c in cases), ends[:, 0].copy(), ends[:, 1].copy(),
-            np.array([m["cost"] for m in metas], dtype=float),
-            _int_array(int(m["traversals"]) for m in metas),
-            _int_array(c.uses for c in cases), _int_array(c.created or 0 for c in cases),
-            _int_array(-1 if c.last_used is None else c.last_used for c in cases), paths)
+        return cls(store, *_columns(store.cases(PATH), store))
+
+    def catch_up(self, changes: Changes) -> bool:
+        """Follow another writer's commits (:class:`~cbrcore.casebase.mirror.FollowsChanges`):
+        drop the removed paths, take the written ones in place of their rows or as new rows.
+        CbrError naming the case if a written one is malformed."""
+        written = [case for case in changes.cases if case.kind == PATH]
+        gone = {*changes.removed, *(int(case.id or 0) for case in written)}
+        keep = ~np.isin(self.ids, _int_array(gone))
+        if keep.all() and not written:
+            return True
+        columns = _columns(written, self.store)
+        self._concatenated = None
+        for name, new in zip(_FIELDS, columns[:-1], strict=True):
+            setattr(self, name, np.concatenate((getattr(self, name)[keep], new)))
+        self.paths = [*(p for p, k in zip(self.paths, keep.tolist(), strict=True) if k),
+                      *columns[-1]]
+        # rows stay ordered by id, as loading orders them
+        order = np.argsort(self.ids, kind="stable")
+        for name in _FIELDS:
+            setattr(self, name, getattr(self, name)[order])
+        self.paths = [self.paths[i] for i in order.tolist()]
+        return True
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -123,8 +134,7 @@ class PathBase:
         self._concatenated = None
         keep = np.ones(len(self.ids), dtype=bool)
         keep[rows] = False
-        for name in ("ids", "starts", "goals", "costs", "traversals", "uses", "created",
-                     "last_used"):
+        for name in _FIELDS:
             setattr(self, name, getattr(self, name)[keep])
         self.paths = [p for p, k in zip(self.paths, keep.tolist(), strict=True) if k]
 
@@ -151,6 +161,24 @@ class PathBase:
             case = self.store.get(int(self.ids[row]))
             self.uses[row] = case.uses
             self.last_used[row] = -1 if case.last_used is None else case.last_used
+
+
+_FIELDS = ("ids", "starts", "goals", "costs", "traversals", "uses", "created", "last_used")
+"""The array fields of :class:`PathBase`, a row per case."""
+
+
+def _columns(cases: list[Case], store: CaseStore) -> tuple[Any, ...]:
+    """The :data:`_FIELDS` arrays of ``cases``, then their paths."""
+    paths, metas = [], []
+    for case in cases:
+        paths.append(_cells(case, store))
+        metas.append(_meta(case, store))
+    ends = np.array([[p[0], p[-1]] for p in paths], dtype=np.int64).reshape(-1, 2, 2)
+    return (_int_array(c.id or 0 for c in cases), ends[:, 0].copy(), ends[:, 1].copy(),
+            np.array([m["cost"] for m in metas], dtype=float),
+            _int_array(int(m["traversals"]) for m in metas),
+            _int_array(c.uses for c in cases), _int_array(c.created or 0 for c in cases),
+            _int_array(-1 if c.last_used is None else c.last_used for c in cases), paths)
 
 
 def _cells(case: Case, store: CaseStore) -> np.ndarray:

@@ -8,8 +8,9 @@ knows being the world it drives in, so that a trip's retained path is the path i
 experiment reports, for each store, fleet size and mode:
 
 - the CBR share and the cost deviation from A*'s optimum against the total trips the fleet drove;
-- the catch-ups (how often a robot's views of the case base were dropped because another robot
-  committed: the store mirror's ``reloads``) and the conflicts retried (none: a learn step holds
+- the catch-ups (how often a robot found that another robot had committed and brought its views
+  of the case base up to date: the store mirror's ``catch_ups``), the views reloaded in full
+  instead (the mirror's ``reloads``) and the conflicts retried (none: a learn step holds
   the store's write lock from its first read to its commit, so steps wait, never redo);
 - the throughput: learn steps per second of wall time from the moment every robot is ready to
   the moment the last one finishes;
@@ -204,6 +205,7 @@ def drive(job: RobotJob, ready: Any) -> None:
                               "path": (solution.value if outcome.success
                                        and solution is not None else None)})
             account = {"robot": job.robot, "started": started, "finished": time.time(),
+                       "catch_ups": engine.ctx.mirror.catch_ups,
                        "reloads": engine.ctx.mirror.reloads, "trips": trips}
     except BaseException as exc:
         account = {"robot": job.robot, "error": f"{type(exc).__name__}: {exc}",
@@ -476,7 +478,8 @@ class Fleet:
             "store": store.name, "mode": mode, "robots": n, "trips_per_robot": trips,
             "learn_steps": steps, "wall_seconds": wall,
             "steps_per_second": steps / wall if wall > 0 else None,
-            "catch_ups": sum(a["reloads"] for a in accounts),
+            "catch_ups": sum(a["catch_ups"] for a in accounts),
+            "reloads": sum(a["reloads"] for a in accounts),
             "conflicts_retried": 0,
             "mean_learn_ms": float(np.mean(learn) * 1000) if learn else None,
             "cbr_share": sum(t["cbr"] for t in ordered) / len(ordered) if ordered else None,
@@ -524,15 +527,15 @@ def targets(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
 
 
 def table(rows: Sequence[Mapping[str, Any]], absent: str | None) -> str:
-    lines = ["| store | robots | case base | learn steps | steps/s | catch-ups | conflicts "
-             "retried | learn ms | CBR share | trips to share "
+    lines = ["| store | robots | case base | learn steps | steps/s | catch-ups | reloads "
+             "| conflicts retried | learn ms | CBR share | trips to share "
              f"{SHARE_MARK:.1f} | lost | uncovered | check | replay equal |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for row in rows:
         integrity = row["integrity"]
         lines.append(
             f"| {row['store']} | {row['robots']} | {row['mode']} | {row['learn_steps']} "
-            f"| {fmt(row['steps_per_second'], 1)} | {row['catch_ups']} "
+            f"| {fmt(row['steps_per_second'], 1)} | {row['catch_ups']} | {row['reloads']} "
             f"| {row['conflicts_retried']} | {fmt(row['mean_learn_ms'])} "
             f"| {fmt(row['cbr_share'], 3)} | {row['trips_to_share'] or 'n/a'} "
             f"| {integrity['lost_steps']} | {integrity['uncovered_steps']} "
