@@ -6,7 +6,7 @@ import collections
 import contextlib
 import os
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any
@@ -426,7 +426,7 @@ class Engine:
                                "store in the 'casebase' slot"])
         with self.ctx.mirror.transaction():
             if proposal.from_casebase and proposal.solution is not None:
-                self.casebase.touch(_still_stored(self.casebase, proposal.solution.cases))
+                _touch_stored(self.casebase, proposal.solution.cases)
             if solution is not None:
                 self.hooks.retain(problem, solution, outcome, self.casebase, self.ctx, timings)
             self.hooks.forget(self.casebase, self.ctx, timings)
@@ -485,14 +485,18 @@ def _type_name(obj: Any) -> str:
     return f"{name} of shape {tuple(shape)}" if isinstance(shape, tuple) else name
 
 
-def _still_stored(casebase: CaseStore, ids: Iterable[int]) -> list[int]:
-    """The ``ids`` the case base still holds: a process sharing it may have forgotten a case
-    between the proposal that used it and the learn step."""
-    kept = []
-    for case_id in ids:
-        try:
-            casebase.get(case_id)
-        except KeyError:
-            continue
-        kept.append(case_id)
-    return kept
+def _touch_stored(casebase: CaseStore, ids: Sequence[int]) -> None:
+    """Count a use of each case of ``ids`` the case base still holds: a process sharing it may
+    have forgotten one between the proposal that used it and the learn step."""
+    try:
+        casebase.touch(ids)
+    except KeyError:
+        # a touch that finds an id missing writes nothing: count the uses of the others
+        kept = []
+        for case_id in ids:
+            try:
+                casebase.get(case_id)
+            except KeyError:
+                continue
+            kept.append(case_id)
+        casebase.touch(kept)

@@ -9,13 +9,13 @@ not another component writing cases the index does not know of.
 :class:`StoreMirror` is the one place that knows. It holds each family's index as a *view* under
 a typed key, and the engine runs every learn step inside :meth:`StoreMirror.transaction`:
 
-- before each query, and at the start of each learn step inside its transaction (with the
-  store's write lock held), :meth:`StoreMirror.sync` compares the store's revision with the one
-  the mirror last saw: when they differ another writer committed. A view that can follow the
-  changes (it has a ``catch_up`` method, :class:`FollowsChanges`) is handed what changed since
-  (the store's :meth:`~cbrcore.casebase.store.CaseStore.changes`, which costs what changed, not
-  the case base) and brings itself up to date; every other view is dropped, to be loaded anew
-  from the store the next time it is asked for;
+- before each query, and at the start of each learn step (before its transaction and again
+  inside it, with the store's write lock held), :meth:`StoreMirror.sync` compares the store's
+  revision with the one the mirror last saw: when they differ another writer committed. A view
+  that can follow the changes (it has a ``catch_up`` method, :class:`FollowsChanges`) is handed
+  what changed since (the store's :meth:`~cbrcore.casebase.store.CaseStore.changes`, which
+  costs what changed, not the case base) and brings itself up to date; every other view is
+  dropped, to be loaded anew from the store the next time it is asked for;
 - when the learn step commits, a view asked for during the step is kept at the revision the
   step committed at (the store's ``committed_revision``, not its ``revision`` read again, which
   may already count another process's next commit that the view lacks): a component that asks
@@ -126,13 +126,17 @@ class StoreMirror:
         """One learn step: a store transaction whose writes the views follow, all or nothing.
 
         It must be the store's outermost transaction. The mirror catches up with other writers
-        first (inside the transaction, so nobody can commit in between). If the block raises,
+        first: before the transaction, then inside it for what was committed in between (so
+        nobody can commit between the catch-up and the step). If the block raises,
         the transaction rolls back and the views, which may hold its writes, are dropped; if it
         commits writes, the views nobody asked for during the step are dropped, since nothing
         wrote through them.
         """
         self._asked = set()
         try:
+            # catching up before the write lock is taken leaves the lock held for the step
+            # itself: under it, only what was committed in between is left to catch up with
+            self.sync()
             with self.store.transaction():
                 self.sync()
                 before = self.revision

@@ -38,7 +38,7 @@ from cbrcore.casebase.store import Changes
 from cbrcore.errors import CaseBaseError, UnusableCaseBase
 from cbrcore.model import JSON, Case
 
-LOCK_RETRY = (0.0001, 0.001)
+LOCK_RETRY = (0.0001, 0.0005)
 """The first and the longest pause, in seconds, between two tries for the write lock."""
 
 _COLUMNS = "id, kind, problem, solution, meta, uses, created, last_used"
@@ -72,7 +72,7 @@ class SQLiteStore:
 
     Several processes may use one file: writers take turns, waiting up to ``busy_timeout``
     seconds for the write lock before giving up with a CaseBaseError. Readers never wait. A
-    writer waiting for the lock tries again every millisecond at most (:data:`LOCK_RETRY`):
+    writer waiting for the lock tries again every half millisecond at most (:data:`LOCK_RETRY`):
     SQLite's own waiting sleeps up to 100 ms between tries, so a robot would miss turn after
     turn of a lock that the others hold for a few milliseconds per learn step.
     Every transaction starts with the write lock held (``BEGIN IMMEDIATE``), so it never fails
@@ -436,12 +436,12 @@ class SQLiteStore:
             if not 0 <= since <= revision:
                 raise ValueError(f"changes since revision {since}: expected a revision from 0 "
                                  f"to {revision}")
-            rows = self._rows(f"SELECT {_COLUMNS} FROM cases WHERE changed > ? ORDER BY id",
-                              (since,))
-            removed = self._rows("SELECT id FROM removed WHERE revision > ? ORDER BY id",
-                                 (since,))
-        return Changes(since, revision, tuple(self._case(row) for row in rows),
-                       tuple(row[0] for row in removed))
+            # sorted here: ordered by id, SQLite would scan the table rather than the index
+            rows = sorted(self._rows(f"SELECT {_COLUMNS} FROM cases WHERE changed > ?",
+                                     (since,)))
+            removed = sorted(row[0] for row in self._rows(
+                "SELECT id FROM removed WHERE revision > ?", (since,)))
+        return Changes(since, revision, tuple(self._case(row) for row in rows), tuple(removed))
 
     @contextlib.contextmanager
     def _snapshot(self) -> Iterator[None]:

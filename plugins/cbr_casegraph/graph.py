@@ -168,10 +168,12 @@ class CaseGraph:
         written = [case for case in changes.cases if case.kind == SEGMENT]
         kept = [case for case in written if self._has(case.id or 0)]
         for case in kept:
-            a, b = self._segment_of(case)
+            # a use counted or a cost written: the ends, checked when the edge was taken, stay
             ends = {(int(self._vx[v]), int(self._vy[v]))
                     for v in (self._ea[case.id], self._eb[case.id])}
-            if ends != {a, b}:
+            problem = case.problem
+            if not (isinstance(problem, dict) and ends == {
+                    tuple(problem.get("a") or ()), tuple(problem.get("b") or ())}):
                 return False
         for edge in removed:
             self._drop(edge)
