@@ -1,18 +1,18 @@
 """The case graph's similarity radius δr (eq. 12) against CBR's cost deviation from the optimum.
 
-The setting of ``cbr experiment deviation-table``: its map, its graphs (grown step by step to
-its vertex counts from Dijkstra paths of random tasks) and its random tasks, drawn from the same
-seeded generator in the same order, so that at δr = 0 the figures are the experiment's own CBR
-cost column. Only the growth differs: each δr grows its own graph with
-``CaseGraph.add_path(path, similarity_delta=δr)``. Each task is planned by the hybrid planner
-(CBR, Dijkstra where CBR fails or its path is rejected by the quality test) and by Dijkstra.
+The setting of ``cbr experiment deviation-table`` (:mod:`cbr_casegraph.experiments.radius`):
+at δr = 0 the figures are the experiment's own CBR cost column; each δr grows its own graph.
 Dijkstra's cost is the optimum, so a method's deviation from the best of the experiment's four
 methods (A* and Ai* are optimal too) is its deviation from Dijkstra's cost.
 
     python benchmarks/casegraph_similarity_radius.py [--size ci|full] [--radii 0 1 2]
-                                                     [--seed 0] [--out benchmarks/results]
+                                                     [--seed 0] [--scheduler local|ADDRESS]
+                                                     [--workers N] [--out benchmarks/results]
 
-Writes ``casegraph_similarity_radius.json`` and ``.md``. ``--size full`` takes about two minutes.
+Each radius is a task of its own: ``--scheduler`` runs them on Dask distributed, as
+``cbr experiment --scheduler`` does, with the same figures. Writes
+``casegraph_similarity_radius.json`` and ``.md``. ``--size full`` takes about two minutes
+serially.
 """
 
 from __future__ import annotations
@@ -22,62 +22,14 @@ import json
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from cbr_casegraph.build import connected_cells, grow, random_task
-from cbr_casegraph.experiments.common import (
-    MAX_RATIO,
-    make_map,
-    map_info,
-    outcome,
-    solve,
-    warm_up,
-)
-from cbr_casegraph.experiments.deviation import DeviationTable, deviations
-from cbr_casegraph.graph import CaseGraph
-from cbr_casegraph.planner import Plan, Settings, plan
-from cbr_grid.costs import path_cost
+from cbr_casegraph.experiments.common import MAX_RATIO, map_info
+from cbr_casegraph.experiments.deviation import DeviationTable
+from cbr_casegraph.experiments.radius import RadiusTask, radius_rows
+from cbr_casegraph.planner import Settings
+from cbrcore.errors import CbrError
+from cbrcore.tasks import open_tasks
 
 RESULTS = Path(__file__).resolve().parent / "results"
-
-
-def experiment_rng(seed: int) -> np.random.Generator:
-    """The generator ``cbr experiment`` hands an experiment for ``--seed seed``."""
-    return np.random.default_rng(seed).spawn(1)[0]
-
-
-def radius_rows(side: int, counts: tuple[int, ...], tasks: int, radius: int, seed: int
-                ) -> list[dict[str, Any]]:
-    """One row per vertex count: CBR's share and mean cost deviation with ``radius``."""
-    rng = experiment_rng(seed)
-    grid = make_map(side, seed)
-    cells = connected_cells(grid, rng)
-    warm_up(grid, cells, rng)
-    graph = CaseGraph(grid)
-    settings = Settings()
-    rows = []
-    for vertices in counts:
-        paths = grow(graph, vertices, rng, cells=cells, similarity_delta=radius)
-        hybrid: list[float] = []
-        alone: list[float] = []
-        for _ in range(tasks):
-            start, goal = random_task(cells, rng)
-            optimal = solve("dijkstra", grid, start, goal).path
-            result = plan(graph, start, goal, settings)
-            by_cbr = isinstance(result, Plan) and outcome(result, start, goal) == "cbr"
-            path = result.path if isinstance(result, Plan) and by_cbr else optimal
-            deviation = deviations({"cbr": path_cost(grid, path),
-                                    "dijkstra": path_cost(grid, optimal)})["cbr"]
-            hybrid.append(deviation)
-            if by_cbr:
-                alone.append(deviation)
-        rows.append({"radius": radius, "target_vertices": vertices,
-                     "vertices": graph.vertex_count, "coverage": graph.coverage(),
-                     "paths_retained": paths, "tasks": tasks,
-                     "cbr_share": len(alone) / tasks,
-                     "cost_deviation": float(np.mean(hybrid)),
-                     "cbr_only_cost_deviation": float(np.mean(alone)) if alone else None})
-    return rows
 
 
 def markdown(result: dict[str, Any]) -> str:
@@ -92,9 +44,12 @@ def markdown(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def run(size: str, radii: list[int], seed: int) -> dict[str, Any]:
+def run(size: str, radii: list[int], seed: int, scheduler: str | None = None,
+        workers: int | None = None) -> dict[str, Any]:
     side, counts, tasks = DeviationTable.SCALE[size]
-    rows = [row for radius in radii for row in radius_rows(side, counts, tasks, radius, seed)]
+    jobs = [RadiusTask(side, counts, tasks, radius, seed) for radius in radii]
+    with open_tasks(scheduler, workers=workers) as runner:
+        rows = [row for found in runner.map(radius_rows, jobs) for row in found]
     return {"size": size, "seed": seed, "map": map_info(side, seed), "max_ratio": MAX_RATIO,
             "delta": Settings().delta, "tasks": tasks, "rows": rows}
 
@@ -104,11 +59,16 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--size", choices=sorted(DeviationTable.SCALE), default="full")
     parser.add_argument("--radii", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--scheduler", help="local, or the address of a Dask scheduler")
+    parser.add_argument("--workers", type=int, help="with --scheduler local: worker processes")
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     if any(radius < 0 for radius in args.radii):
         parser.error("--radii: a similarity radius is a cell distance, 0 or more")
-    result = run(args.size, args.radii, args.seed)
+    try:
+        result = run(args.size, args.radii, args.seed, args.scheduler, args.workers)
+    except CbrError as exc:
+        parser.error(str(exc))
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "casegraph_similarity_radius.json").write_text(
         json.dumps(result, indent=2) + "\n", encoding="utf-8")

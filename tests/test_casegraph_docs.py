@@ -59,6 +59,14 @@ def test_similarity_radius_zero_is_the_deviation_tables_cbr_column(tmp_path: Pat
     assert len(one) == len(zero) and all(row["tasks"] == table[0]["tasks"] for row in one)
 
 
+def test_the_radius_sweep_on_a_local_cluster_equals_the_serial_run(tmp_path: Path) -> None:
+    radius = _load("casegraph_similarity_radius")
+    serial = radius.main(["--size", "ci", "--radii", "0", "2", "--out", str(tmp_path / "a")])
+    swept = radius.main(["--size", "ci", "--radii", "0", "2", "--scheduler", "local",
+                         "--workers", "2", "--out", str(tmp_path / "b")])
+    assert swept == serial
+
+
 def test_the_radius_script_refuses_a_negative_radius(tmp_path: Path,
                                                      capsys: pytest.CaptureFixture[str]) -> None:
     radius = _load("casegraph_similarity_radius")
