@@ -17,6 +17,7 @@ import cbrcore
 from cbrcore.casebase import APPLICATION_ID, SCHEMA_VERSION, SQLiteStore, UnusableCaseBase
 from cbrcore.errors import CaseBaseError
 from cbrcore.model import Case
+from test_casebase_damage import damage
 
 REPO = Path(cbrcore.__file__).resolve().parent.parent
 
@@ -204,12 +205,7 @@ VERSION_1 = (
 
 
 def version_1(path: Path) -> None:
-    connection = sqlite3.connect(path, isolation_level=None)
-    try:
-        for statement in VERSION_1:
-            connection.execute(statement)
-    finally:
-        connection.close()
+    damage(path, *VERSION_1)
 
 
 def test_a_case_base_of_schema_version_1_is_migrated(tmp_path: Path) -> None:
