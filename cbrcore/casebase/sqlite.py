@@ -42,11 +42,17 @@ LOCK_RETRY = (0.0001, 0.0005)
 """The first and the longest pause, in seconds, between two tries for the write lock."""
 
 _COLUMNS = "id, kind, problem, solution, meta, uses, created, last_used"
+_CHUNK = 500
+"""Ids per statement: SQLite limits the parameters of one statement."""
 _WRITTEN = f"{_COLUMNS}, changed"
 """The columns a write sets: a case's and the revision that last wrote it."""
 def _dumps(value: JSON) -> str:
     # ASCII escapes keep strings that are not valid Unicode (lone surrogates) storable as UTF-8
     return json.dumps(value, allow_nan=False, separators=(",", ":"))
+
+
+class _Missing(Exception):
+    """A write found fewer of its cases than it was given."""
 
 
 def _is_busy(exc: CaseBaseError) -> bool:
@@ -382,10 +388,8 @@ class SQLiteStore:
         unique = list(dict.fromkeys(operator.index(i) for i in ids))
         if unique:
             with self.transaction():
-                self._require(unique)
+                self._each("DELETE FROM cases WHERE id IN ({})", (), unique)
                 with self._errors():
-                    self._conn.executemany("DELETE FROM cases WHERE id = ?",
-                                           [(i,) for i in unique])
                     self._conn.executemany(
                         "INSERT OR REPLACE INTO removed (id, revision) VALUES (?, ?)",
                         [(i, self._pending) for i in unique])
@@ -399,19 +403,31 @@ class SQLiteStore:
         unique = list(dict.fromkeys(operator.index(i) for i in ids))
         if unique:
             with self.transaction():
-                self._require(unique)
-                with self._errors():
-                    self._conn.executemany(
-                        "UPDATE cases SET uses = uses + 1, last_used = ?, changed = ? "
-                        "WHERE id = ?", [(self._pending, self._pending, i) for i in unique])
+                self._each("UPDATE cases SET uses = uses + 1, last_used = ?, changed = ? "
+                           "WHERE id IN ({})", (self._pending, self._pending), unique)
                 self._wrote = True
+
+    def _each(self, sql: str, params: tuple[Any, ...], ids: list[int]) -> None:
+        """Run ``sql`` on the cases ``ids`` (its ``{}`` takes their placeholders), a statement
+        per chunk of ids; if one is missing, undo it and raise KeyError for the first missing."""
+        try:
+            with self.transaction():
+                changed = 0
+                # SQLite limits the number of parameters of one statement
+                for start in range(0, len(ids), _CHUNK):
+                    chunk = ids[start:start + _CHUNK]
+                    changed += self._run(sql.format(", ".join("?" * len(chunk))),
+                                         (*params, *chunk)).rowcount
+                if changed != len(ids):
+                    raise _Missing
+        except _Missing:
+            self._require(ids)
 
     def _require(self, ids: list[int]) -> None:
         """Raise KeyError for the first of ``ids`` that is not stored."""
         found: set[int] = set()
-        # SQLite limits the number of parameters of one statement
-        for start in range(0, len(ids), 500):
-            chunk = ids[start:start + 500]
+        for start in range(0, len(ids), _CHUNK):
+            chunk = ids[start:start + _CHUNK]
             marks = ", ".join("?" * len(chunk))
             found.update(r[0] for r in self._rows(f"SELECT id FROM cases WHERE id IN ({marks})",
                                                   chunk))
