@@ -10,6 +10,7 @@ import attrs
 
 from . import case_benchmarks as cases
 from . import casegraph_experiments as casegraph
+from . import fleet_experiment as fleet
 from . import landmark_experiments as landmarks
 from . import pathcases_experiments as pathcases
 from . import ros2005_baseline as baseline
@@ -133,10 +134,12 @@ def _blocks() -> list[Block]:
         _experiment("cbr-share-failures", "cbr-share", casegraph.share_failures),
         _experiment("deviation-differences", "deviation-table", casegraph.deviation_differences),
         _experiment("cbr-share-against-paper", "cbr-share", casegraph.share_against_paper),
+        _experiment("fleet-reading", "fleet", fleet.fleet_reading),
         *[_experiment(f"{name}-table-{k + 1}", name, experiment_table(name, k))
           for name, count in (("cbr-share", 1), ("deviation-table", 2),
                               ("path-cases-learning", 2),
-                              ("time-vs-map-size", 1), ("time-vs-vertices", 1))
+                              ("time-vs-map-size", 1), ("time-vs-vertices", 1),
+                              ("fleet", 1))
           for k in range(count)],
     ]
 
