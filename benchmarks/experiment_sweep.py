@@ -9,7 +9,9 @@ writing the experiment's files into its own folder: the serial one with no task 
 ``cbr experiment cbr-share --size full``), the other with a LocalCluster of ``--workers``
 processes of one thread each (as ``--scheduler local``). A run's time includes everything
 ``cbr experiment`` would do, the cluster's start and shutdown included; the cluster's start alone
-is given too. The two results.json are then compared key by key: equal except for the fields
+is given too, and so is each run's CPU time over all its processes, which shows what the cluster
+costs beyond the serial run's work even where other work on the machine makes wall times
+unreliable. The two results.json are then compared key by key: equal except for the fields
 that hold measured times (:data:`TIMED`), which no two runs share.
 
     python benchmarks/experiment_sweep.py [--experiment cbr-share] [--size full] [--seed 0]
@@ -25,6 +27,7 @@ import argparse
 import json
 import os
 import platform
+import resource
 import tempfile
 import time
 from pathlib import Path
@@ -60,6 +63,14 @@ def differences(a: Any, b: Any, where: str = "") -> list[str]:
     return [] if a == b else [f"{where}: {a!r} != {b!r}"]
 
 
+def cpu_seconds() -> float:
+    """CPU time of this process and of its children that have ended (a LocalCluster's workers,
+    once it is shut down): unlike wall time, what other work on the machine barely changes."""
+    own, children = (resource.getrusage(who) for who in (resource.RUSAGE_SELF,
+                                                          resource.RUSAGE_CHILDREN))
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
 def timed_run(name: str, size: str, seed: int, out_dir: Path, tasks: TaskRunner | None
               ) -> tuple[float, dict[str, Any]]:
     began = time.perf_counter()
@@ -81,20 +92,25 @@ def main() -> None:
     args = parser.parse_args()
     name, size, seed = args.experiment, args.size, args.seed
     timings: dict[str, float] = {}
+    cpu_used: dict[str, float] = {}
     results: dict[str, dict[str, Any]] = {}
     # the machine may be shared: its load says how far the wall times can be trusted
     load_before = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as scratch:
         def serial() -> None:
+            cpu = cpu_seconds()
             timings["serial"], results["serial"] = timed_run(
                 name, size, seed, Path(scratch) / "serial", None)
+            cpu_used["serial"] = cpu_seconds() - cpu
 
         def dask() -> None:
+            cpu = cpu_seconds()
             began = time.perf_counter()
             with open_tasks("local", workers=args.workers) as tasks:
                 timings["cluster_start"] = time.perf_counter() - began
                 _, results["dask"] = timed_run(name, size, seed, Path(scratch) / "dask", tasks)
             timings["dask"] = time.perf_counter() - began
+            cpu_used["dask"] = cpu_seconds() - cpu
 
         for step in ((serial, dask) if args.order == "serial-first" else (dask, serial)):
             step()
@@ -106,6 +122,7 @@ def main() -> None:
         "cores": os.cpu_count(), "machine": platform.machine(), "python": platform.python_version(),
         "order": args.order, "serial_seconds": timings["serial"],
         "dask_seconds": timings["dask"], "cluster_start_seconds": timings["cluster_start"],
+        "serial_cpu_seconds": cpu_used["serial"], "dask_cpu_seconds": cpu_used["dask"],
         "load_average_before": load_before, "load_average_after": load_after,
         "speedup": speedup, "target_speedup": 1.7, "identical": not found,
         "differences": found[:20], "timed_fields_ignored": sorted(TIMED),
@@ -116,10 +133,11 @@ def main() -> None:
         f"`{name}` at size {size}, seed {seed}, on {os.cpu_count()} cores: serially, and on a "
         f"Dask LocalCluster of {args.workers} worker processes (one thread each; its start and "
         "shutdown included).", "",
-        "| run | seconds |", "|---|---|",
-        f"| serial | {timings['serial']:.1f} |",
-        f"| LocalCluster, {args.workers} workers | {timings['dask']:.1f} |",
-        f"| of which the cluster's start | {timings['cluster_start']:.1f} |", "",
+        "| run | seconds | CPU seconds (all processes) |", "|---|---|---|",
+        f"| serial | {timings['serial']:.1f} | {cpu_used['serial']:.1f} |",
+        f"| LocalCluster, {args.workers} workers | {timings['dask']:.1f} "
+        f"| {cpu_used['dask']:.1f} |",
+        f"| of which the cluster's start | {timings['cluster_start']:.1f} | |", "",
         f"Load average (1 min) before and after: {load_before:.1f}, {load_after:.1f}.", "",
         f"Speed-up: **{speedup:.2f}x** (target: at least 1.7x). Results identical "
         f"(results.json but for the measured times {', '.join(sorted(TIMED))}): "

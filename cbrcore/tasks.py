@@ -9,9 +9,12 @@ An experiment that has work to spread (seeds, arms, robots, chunks of queries) h
 
 ``map`` submits every task before it returns, so the caller may go on working while they run,
 and yields their results in the order of the items, whatever order they finish in;
-``progress(done, total)`` is called as each task finishes. A task must depend on its argument
-alone (its randomness drawn from a seed it is given, or by the caller before submitting), which
-makes the results the same on every runner, and the same as a serial run's.
+``progress(done, total)`` is called as each task finishes. A large value that many tasks take
+(a case graph planned on by every chunk of queries) goes into their items as
+``runner.share(value)``, which a cluster sends to each worker once rather than with every task;
+``priority`` lets the longest tasks start first. A task must depend on its argument alone (its
+randomness drawn from a seed it is given, or by the caller before submitting), which makes the
+results the same on every runner, and the same as a serial run's.
 
 The runner reaches the experiment through the run's :class:`~cbrcore.context.Context`: ``cbr
 experiment`` stores it under :data:`TASKS` in ``ctx.stash`` and :func:`task_runner` reads it,
@@ -26,8 +29,9 @@ Runners:
     machine's cores).
 :class:`DaskTasks`
     ``--scheduler local`` (a ``LocalCluster`` of worker processes with one thread each, as many
-    as the machine has cores unless ``workers`` says otherwise) or ``--scheduler ADDRESS`` (a
-    running ``dask scheduler``). distributed is imported only then.
+    as the machine has cores unless ``workers`` says otherwise, started with
+    :data:`LOCAL_CLUSTER_CONFIG`) or ``--scheduler ADDRESS`` (a running ``dask scheduler``).
+    distributed is imported only then.
 """
 
 from __future__ import annotations
@@ -67,13 +71,28 @@ class TaskRunner(Protocol):
         ...
 
     def map(self, function: Callable[[T], R], items: Iterable[T], *,
-            progress: Progress | None = None, processes: int = 1) -> Iterator[R]:
+            progress: Progress | None = None, processes: int = 1,
+            priority: Callable[[T], float] | None = None) -> Iterator[R]:
         """Submit ``function(item)`` for every item now; yield the results in the items' order.
 
         ``function`` is a top-level function and the items plain picklable values. ``progress``
         is called with (tasks finished, tasks) as tasks finish. ``processes`` is how many
         processes the caller would use on this machine when no scheduler is given (1: in this
-        process); a cluster decides for itself.
+        process); a cluster decides for itself. ``priority(item)`` says which tasks start first
+        where tasks run side by side: higher first, ties in the items' order. Giving the
+        longest tasks the highest keeps a worker from idling at the end while another finishes
+        a long one. It changes no result.
+        """
+        ...
+
+    def share(self, value: T) -> T:
+        """``value`` as the items of this runner's :meth:`map` should carry it when several
+        tasks take it: the value itself, or on a cluster a reference to one copy of it held by
+        every worker, which the worker replaces by the value before a task runs.
+
+        Tasks must leave a shared value as they found it (filling a cache of it is fine): on a
+        cluster the tasks of one worker see one copy of it, and a serial run's all see the
+        value itself.
         """
         ...
 
@@ -94,7 +113,8 @@ class LocalTasks:
     description = "local"
 
     def map(self, function: Callable[[T], R], items: Iterable[T], *,
-            progress: Progress | None = None, processes: int = 1) -> Iterator[R]:
+            progress: Progress | None = None, processes: int = 1,
+            priority: Callable[[T], float] | None = None) -> Iterator[R]:
         work = list(items)
         workers = min(processes, os.cpu_count() or 1, len(work))
         if workers <= 1:
@@ -103,13 +123,22 @@ class LocalTasks:
         # the progress display's) in whatever state they were
         pool = concurrent.futures.ProcessPoolExecutor(
             max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+        # the pool starts tasks in the order they are submitted; sorted() keeps ties in order
+        order = (range(len(work)) if priority is None else
+                 sorted(range(len(work)), key=lambda k: -priority(work[k])))
+        futures: list[Any] = [None] * len(work)
         try:
-            futures = [pool.submit(function, item) for item in work]
+            for k in order:
+                futures[k] = pool.submit(function, work[k])
         except BaseException:
             pool.shutdown(cancel_futures=True)
             raise
         return _closing(_in_order(futures, concurrent.futures.as_completed, progress),
                         lambda: pool.shutdown(cancel_futures=True))
+
+    def share(self, value: T) -> T:
+        # in this process the tasks take the value itself; a spawned pool pickles it per task
+        return value
 
 
 class DaskTasks:
@@ -120,14 +149,25 @@ class DaskTasks:
         self.description = description
 
     def map(self, function: Callable[[T], R], items: Iterable[T], *,
-            progress: Progress | None = None, processes: int = 1) -> Iterator[R]:
+            progress: Progress | None = None, processes: int = 1,
+            priority: Callable[[T], float] | None = None) -> Iterator[R]:
         from distributed import as_completed  # imported only when a sweep asks for Dask
 
         # pure=False: the tasks' keys are not derived from hashing their arguments, which may
-        # be large (a case graph); equal items then also run twice, as they would serially
-        futures = [self.client.submit(function, item, pure=False) for item in items]
+        # be large (a case graph); equal items then also run twice, as they would serially.
+        # The scheduler starts the waiting task of highest priority, earliest submitted first
+        futures = [self.client.submit(function, item, pure=False,
+                                      priority=0 if priority is None else priority(item))
+                   for item in items]
         return _closing(_in_order(futures, as_completed, progress),
                         lambda: self.client.cancel(futures))
+
+    def share(self, value: T) -> T:
+        # scattered in a list: a value that is itself a list or dict would otherwise be
+        # scattered element by element. hash=False: hashing a large object costs what
+        # sending it does. A future inside a task's item is replaced by its value on the worker.
+        [future] = self.client.scatter([value], broadcast=True, hash=False)
+        return future  # type: ignore[no-any-return]
 
 
 def _serial(function: Callable[[T], R], work: Sequence[T], progress: Progress | None
@@ -193,14 +233,39 @@ def open_tasks(scheduler: str | None = None, *, workers: int | None = None,
         yield runner
 
 
+LOCAL_CLUSTER_CONFIG: dict[str, Any] = {
+    # Dask starts its workers with glibc told to hand freed memory back at once, which turns
+    # every large numpy allocation of a task into fresh pages: about a tenth more CPU for the
+    # experiments' planning. A LocalCluster's workers allocate as a serial run does, and
+    # inherit the variable only where the user set it.
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+    # What follows watches a cluster for its dashboard, which a run's cluster does not have,
+    # and for a person at the console: the workers' sampling profiler, and the scheduler's,
+    # nannies' and workers' polls of their event loops, memory and machine. At Dask's
+    # intervals they take about a twentieth of a core in this process and in each worker,
+    # and wake a worker's event loop, which then takes the interpreter lock from its task,
+    # fifty times a second.
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.worker.memory.monitor-interval": "1s",
+}
+"""Dask configuration a :func:`open_tasks` LocalCluster is started with: its scheduler here,
+and through the nannies its workers."""
+
+
 @contextlib.contextmanager
 def _local_cluster(workers: int) -> Iterator[TaskRunner]:
+    import dask.config
     import distributed
 
-    # no dashboard: it would need a free port and bokeh, and nobody watches a run's cluster
-    with distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                  dashboard_address=None, silence_logs=logging.ERROR
-                                  ) as cluster, distributed.Client(cluster) as client:
+    # the nannies read the configuration as the cluster starts and pass it to their workers.
+    # No dashboard: it would need a free port and bokeh, and nobody watches a run's cluster
+    with dask.config.set(LOCAL_CLUSTER_CONFIG):
+        cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1,
+                                           processes=True, dashboard_address=None,
+                                           silence_logs=logging.ERROR)
+    with cluster, distributed.Client(cluster) as client:
         yield DaskTasks(client, f"dask LocalCluster of {workers} workers")
 
 

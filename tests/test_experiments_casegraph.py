@@ -7,8 +7,9 @@ docs/reproductions.md.
 
 from __future__ import annotations
 
+import copy
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +20,7 @@ from cbr_casegraph.build import grow
 from cbr_casegraph.experiments.common import make_map
 from cbr_casegraph.experiments.deviation import deviations
 from cbr_casegraph.graph import CaseGraph
+from cbrcore.experiment import run_experiment
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult
 
@@ -53,6 +55,44 @@ def test_share_grows_with_coverage_and_stays_a_share(cbr_cli: Callable[..., CliR
     vertices = [row["vertices"] for row in rows]
     assert vertices == sorted(vertices)
     assert rows[-1]["share"] > 0
+
+
+class ByPriority:
+    """Runs the tasks one by one, those of highest priority first (ties in reverse), and gives
+    each a copy of a shared value: as a cluster may, and as no serial run does."""
+
+    description = "by priority"
+
+    def __init__(self) -> None:
+        self.priorities: list[float] = []
+
+    def map(self, function: Callable[[Any], Any], items: Iterable[Any], *,
+            progress: Callable[[int, int], None] | None = None, processes: int = 1,
+            priority: Callable[[Any], float] | None = None) -> Iterator[Any]:
+        work = list(items)
+        self.priorities = [0.0 if priority is None else priority(item) for item in work]
+        order = sorted(range(len(work)), key=lambda k: (self.priorities[k], k), reverse=True)
+        done = {k: function(work[k]) for k in order}
+        return iter([done[k] for k in range(len(work))])
+
+    def share(self, value: Any) -> Any:
+        return copy.deepcopy(value)
+
+
+def test_share_is_the_same_whatever_order_its_chunks_run_in(
+        cbr_plugins: Callable[..., Plugins], tmp_path: Path) -> None:
+    plugins = cbr_plugins(entry_points=True)
+    run_experiment("cbr-share", plugins, size="ci", out_dir=tmp_path / "serial")
+    runner = ByPriority()
+    run_experiment("cbr-share", plugins, size="ci", out_dir=tmp_path / "reordered",
+                   tasks=runner)
+    serial, reordered = (json.loads((tmp_path / name / "results.json").read_text("utf-8"))
+                         for name in ("serial", "reordered"))
+    for row in serial["rows"] + reordered["rows"]:
+        del row["median_plan_ms"]  # a measured time: no two runs share it
+    assert reordered == serial
+    # ci: one chunk per coverage, larger coverages (larger graphs, slower queries) first
+    assert runner.priorities == sorted(runner.priorities) and len(set(runner.priorities)) == 3
 
 
 def test_deviation_table_is_relative_to_the_best(cbr_cli: Callable[..., CliResult],

@@ -76,6 +76,7 @@ def _blocks() -> list[Block]:
                bench_columns("kinematics_speed", 1,
                              ["model", "solved", "edge A* / A*", "edge Dijkstra / A*",
                               "exhaustive", "cost / optimum (median, max)"])),
+        _bench("experiment-sweep", "experiment_sweep.md", solvers.experiment_sweep),
         _bench("engine-overhead-reading", "engine_overhead.json", solvers.engine_overhead_reading),
         _bench("solvers-targets", "solvers.json", solvers.solvers_targets),
         _bench("genetic-reading", "genetic.json", solvers.genetic_reading),

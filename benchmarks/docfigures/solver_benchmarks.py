@@ -18,6 +18,19 @@ def engine_overhead_reading() -> str:
             "query, never per cell or per case pair.")
 
 
+def experiment_sweep() -> str:
+    """The sweep benchmark's table and verdict."""
+    data = bench("experiment_sweep")
+    verdict_line = (
+        f"Speed-up {data['speedup']:.2f}x on {data['cores']} cores: "
+        f"{verdict(data['speedup'] >= data['target_speedup'])} (target: at least "
+        f"{data['target_speedup']:g}x); results identical but for the measured "
+        f"`{'`, `'.join(data['timed_fields_ignored'])}`: {'yes' if data['identical'] else 'NO'}. "
+        f"Load average (1 min) {data['load_average_before']:.1f} before and "
+        f"{data['load_average_after']:.1f} after (the cluster's two workers included).")
+    return table(result_md("experiment_sweep"), 0) + "\n\n" + verdict_line
+
+
 def solvers_maps() -> str:
     text = result_md("solvers")
     return table(text, 0) + "\n\n" + paragraphs(text, "\\* pyastar2d")

@@ -35,8 +35,8 @@ METHODS = ("dijkstra", "astar", "aistar")
 
 CHUNK = 1000
 """Queries per task when an experiment's queries are spread over processes: large enough that a
-task's own cost (shipping the case graph to its worker) is small beside its planning, small enough
-that the last tasks leave no worker idle for long."""
+task's own cost (receiving its case graph, which :func:`chunked` copies into each chunk) is small
+beside its planning, small enough that the last tasks leave no worker idle for long."""
 
 REPEATS = 3
 """Runs per CBR query in the timing experiments: a query's time is the median of its runs, so

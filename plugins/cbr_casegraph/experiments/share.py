@@ -3,17 +3,18 @@ the coverage of the map by graph vertices (``cbr experiment cbr-share``)."""
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, ClassVar
 
 from cbr_casegraph.build import grow, random_task
 from cbr_casegraph.experiments.common import (
+    CHUNK,
     MAX_RATIO,
     Cell,
     GridExperiment,
     Progress,
-    chunked,
     map_info,
     median_ms,
     new_figure,
@@ -28,15 +29,26 @@ PAPER_SHARE = {6: 0.50, 10: 0.75, 15: 0.90}
 """Section 6.2: share of tasks planned by CBR at a coverage (percent of cells that are vertices)."""
 
 
-def plan_chunk(job: tuple[CaseGraph, Settings, list[tuple[Cell, Cell]]]
-               ) -> list[tuple[str, float]]:
-    """Plan each task of a chunk on its graph: how the attempt ended and how long it took."""
-    graph, settings, tasks = job
+Chunk = tuple[int, CaseGraph, Settings, list[tuple[Cell, Cell]]]
+"""A task: the index of its coverage, the graph grown to it, the planner's settings and a chunk
+of that coverage's queries."""
+
+
+def plan_chunk(job: Chunk) -> tuple[int, list[tuple[str, float]]]:
+    """Plan each query of a chunk on its graph: the chunk's coverage, and per query how the
+    attempt ended and how long it took."""
+    level, graph, settings, tasks = job
     planned = []
     for start, goal in tasks:
         result, took = timed(lambda s=start, g=goal: plan(graph, s, g, settings))
         planned.append((outcome(result, start, goal), took))
-    return planned
+    return level, planned
+
+
+def coverage_first(job: Chunk) -> float:
+    """Chunks of larger coverages start first: their graphs are larger and planning on them
+    is slower (about four times from 2% to 20%), so what is left for the end is short."""
+    return job[0]
 
 
 class Share(GridExperiment):
@@ -51,13 +63,12 @@ class Share(GridExperiment):
         graph = CaseGraph(grid)
         settings = Settings()
         rows: list[dict[str, Any]] = []
-        levels: list[int] = []
 
-        def jobs() -> Iterator[tuple[CaseGraph, Settings, list[tuple[Cell, Cell]]]]:
+        def jobs() -> Iterator[Chunk]:
             # drawn here, in the order of a serial run, and read by the runner as it submits:
             # the graph grows for the next coverage while the queries of this one are planned
             paths = 0
-            for percent in coverages:
+            for level, percent in enumerate(coverages):
                 paths += grow(graph, round(percent / 100 * grid.passable.size), self.rng,
                               cells=cells)
                 rows.append({"coverage_percent": percent,
@@ -65,13 +76,16 @@ class Share(GridExperiment):
                              "vertices": graph.vertex_count, "edges": graph.edge_count,
                              "paths_retained": paths, "queries": queries})
                 tasks = [random_task(cells, self.rng) for _ in range(queries)]
-                for frozen, chunk in chunked(graph, tasks):
-                    levels.append(len(rows) - 1)
-                    yield frozen, settings, chunk
+                # one copy of the graph as it is now, sent once to each worker (not with each
+                # chunk) and planned on there while the graph here grows on
+                frozen = self.tasks.share(copy.deepcopy(graph))
+                for first in range(0, queries, CHUNK):
+                    yield level, frozen, settings, tasks[first:first + CHUNK]
 
-        results = self.tasks.map(plan_chunk, jobs(), progress=progress)
         planned: list[list[tuple[str, float]]] = [[] for _ in coverages]
-        for level, chunk_result in zip(levels, results, strict=True):
+        # results come in the order of the chunks, so each coverage's outcomes keep theirs
+        for level, chunk_result in self.tasks.map(plan_chunk, jobs(), progress=progress,
+                                                  priority=coverage_first):
             planned[level].extend(chunk_result)
         for row, outcomes in zip(rows, planned, strict=True):
             counts: dict[str, int] = {}
