@@ -164,7 +164,11 @@ class MemoryStore:
         return self._cases[operator.index(case_id)]
 
     def changes(self, since: int) -> Changes:
-        """What the commits after revision ``since`` changed (:class:`Changes`)."""
+        """What the commits after revision ``since`` changed (:class:`Changes`).
+
+        A scan of the cases, not an index: no other process shares a memory case base, so its
+        mirror never has another writer's commits to catch up with.
+        """
         if not 0 <= since <= self._revision:
             raise ValueError(f"changes since revision {since}: expected a revision from 0 to "
                              f"{self._revision}")
