@@ -187,6 +187,20 @@ class StoreContract:
         store.touch([])
         assert store.revision == 4
 
+    def test_a_missing_id_undoes_only_its_own_write_and_is_named(self,
+                                                                 store: CaseStore) -> None:
+        a, b = store.add(Case("a", 1)), store.add(Case("b", 2))
+        with store.transaction():
+            store.touch([a.id])
+            with pytest.raises(KeyError) as missing:
+                store.remove([b.id, 99, 98])
+            assert missing.value.args == (99,)
+            with pytest.raises(KeyError) as missing:
+                store.touch([b.id, a.id, 98])
+            assert missing.value.args == (98,)
+        assert [(c.id, c.uses) for c in store.cases()] == [(a.id, 1), (b.id, 0)]
+        assert store.revision == 3
+
     def test_cases_and_counts_by_kind(self, store: CaseStore) -> None:
         for kind in ["vertex", "segment", "vertex"]:
             store.add(Case(kind, None, kind=kind))
