@@ -262,8 +262,11 @@ def _local_cluster(workers: int) -> Iterator[TaskRunner]:
     # the nannies read the configuration as the cluster starts and pass it to their workers.
     # No dashboard: it would need a free port and bokeh, and nobody watches a run's cluster
     with dask.config.set(LOCAL_CLUSTER_CONFIG):
+        # the scheduler serves its health checks over HTTP even without a dashboard: on any
+        # free port, since two clusters on one machine would both ask for 8787 and warn
         cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1,
                                            processes=True, dashboard_address=None,
+                                           scheduler_kwargs={"dashboard_address": ":0"},
                                            silence_logs=logging.ERROR)
     with cluster, distributed.Client(cluster) as client:
         yield DaskTasks(client, f"dask LocalCluster of {workers} workers")

@@ -7,6 +7,7 @@ from __future__ import annotations
 import importlib.util
 import math
 import os
+import warnings
 from collections.abc import Iterator
 from typing import Any
 
@@ -100,3 +101,11 @@ def test_a_variable_the_user_set_reaches_the_workers(monkeypatch: pytest.MonkeyP
         assert isinstance(runner, DaskTasks)
         found = runner.client.run(os.getenv, "MALLOC_TRIM_THRESHOLD_")
         assert set(found.values()) == {"131072"}
+
+
+def test_two_local_clusters_at_once_start_without_a_warning(cluster: TaskRunner) -> None:
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with open_tasks("local", workers=1) as second:
+            assert list(second.map(abs, [-1, 2])) == [1, 2]
+    assert list(cluster.map(abs, [-3])) == [3]
