@@ -676,6 +676,28 @@ def retained(grid: Grid, pairs: Sequence[tuple[Cell, Cell]], similarity: int,
     return graph
 
 
+@given(worlds())
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_at_similarity_radius_zero_no_new_segment_repeats_a_stored_ones_ends(
+        world: tuple[Grid, list[tuple[Cell, Cell]], list[tuple[Cell, Cell]], int | None]
+        ) -> None:
+    """Eq. (12) at δr = 0 skips a new segment whose two ends a stored segment has: add_path
+    leaves the test out, since a new segment never has them. Checked against the segments
+    stored before each path, as eq. (12) compares."""
+    grid, pairs, _, _ = world
+    graph = CaseGraph(grid)
+    for start, goal in pairs:
+        found = dijkstra(grid.factor, grid.passable, grid.corner_cutting, start, [goal])
+        if found is None or len(found.path) < 2:
+            continue
+        before = edge_set(graph)
+        added = graph.add_path(found.path)
+        a, b = graph.ends(np.asarray(added, dtype=np.int64))
+        new = {frozenset({tuple(p), tuple(q)}) for p, q in zip(a.tolist(), b.tolist(),
+                                                                strict=True)}
+        assert not new & before
+
+
 def optimal(grid: Grid, start: Cell, goal: Cell) -> float:
     found = dijkstra(grid.factor, grid.passable, grid.corner_cutting, start, [goal])
     return np.inf if found is None else found.cost

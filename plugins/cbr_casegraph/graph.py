@@ -382,8 +382,10 @@ class CaseGraph:
         forced[[i for i, _ in crossings]] = True
         # eq. (12) compares with the cases stored before this path: its own segments (the
         # steps of a staircase are within one cell of each other) are one new case, not
-        # duplicates, and skipping them would cut the path into unconnected pieces
-        stored = self.ends(self.edge_ids())
+        # duplicates, and skipping them would cut the path into unconnected pieces. At
+        # similarity_delta 0 no comparison is needed: a stored segment with the same two ends
+        # would be the same straight run of cells, whose steps are then not new
+        stored = self.ends(self.edge_ids()) if similarity_delta > 0 else None
         added: list[int] = []
         for first, last in _runs(new_steps):
             # the stretch of cells first..last (inclusive) consists of new steps only
@@ -394,7 +396,7 @@ class CaseGraph:
             for i, j in itertools.pairwise(points):
                 a = (int(stretch[i, 0]), int(stretch[i, 1]))
                 b = (int(stretch[j, 0]), int(stretch[j, 1]))
-                if _similar(stored, a, b, similarity_delta, distance):
+                if stored is not None and _similar(stored, a, b, similarity_delta, distance):
                     continue
                 edge = self._connect(a, b)
                 if edge is not None:
