@@ -10,6 +10,24 @@ from .results import FiguresError, bench
 from .wording import grouped, listed, span
 
 
+def retention_reading() -> str:
+    """What retaining a path costs as the case graph grows, and the target."""
+    data = bench("casegraph_retention")
+    rows = data["rows"]
+    first, last = rows[0], rows[-1]
+    target = data["target"]
+    return (f"From {grouped(first['vertices'])} to {grouped(last['vertices'])} vertices a "
+            f"path's retention at δr = 0 goes from {first['median_ms_radius_0']:.2f} to "
+            f"{last['median_ms_radius_0']:.2f} ms, while at δr = 1, which compares each new "
+            f"segment with every stored one, it goes from {first['median_ms_radius_1']:.2f} to "
+            f"{last['median_ms_radius_1']:.2f} ms (the more of the map the graph covers, the "
+            f"fewer new segments a path brings). The target of at most "
+            f"{target['ms_per_path']:g} ms per path at {grouped(target['at_vertices'])} "
+            f"vertices is {'met' if target['met'] else 'not met'}; what is left at δr = 0 is "
+            "the work on the path's own segments (cutting, splitting and pricing them), in "
+            "Python per segment.")
+
+
 def casegraph_speed_reading() -> str:
     data = bench("casegraph_speed")
     rows = {row["size"]: row for row in data["rows"]}
