@@ -300,6 +300,16 @@ def installed() -> Any:
 # -- the tests -------------------------------------------------------------------------------------
 
 
+def learned_together(tmp_path: Path, family: str, learners: int) -> dict[str, Any]:
+    """``learners`` processes learning ``family`` into one case base, every one of them having
+    finished and committed all its steps, and the case base consistent with their logs."""
+    run = run_learners(tmp_path, family, learners)
+    assert run["codes"] == [0] * learners
+    assert len(run["steps"]) == STEPS * learners
+    assert_consistent(run)
+    return run
+
+
 def replayed_graph(steps: list[dict[str, Any]]) -> CaseGraph:
     """The case graph one robot builds by retaining every successful trip in commit order."""
     graph = CaseGraph(the_map(), MemoryStore())
@@ -317,10 +327,7 @@ def structure(ends: tuple[np.ndarray, np.ndarray]) -> set[frozenset[tuple[int, i
 @pytest.mark.parametrize("learners", [2, 3])
 def test_the_case_graph_merges_every_robots_segments(tmp_path: Path, installed: Any,
                                                     learners: int) -> None:
-    run = run_learners(tmp_path, "casegraph", learners)
-    assert run["codes"] == [0] * learners
-    assert len(run["steps"]) == STEPS * learners
-    assert_consistent(run)
+    run = learned_together(tmp_path, "casegraph", learners)
     replay = replayed_graph(run["steps"])
     with SQLiteStore(run["path"], read_only=True) as store:
         shared = CaseGraph.load(the_map(), store, priced=False)
@@ -339,10 +346,7 @@ def test_the_case_graph_merges_every_robots_segments(tmp_path: Path, installed: 
 @pytest.mark.parametrize("learners", [2, 3])
 def test_path_cases_keep_every_robots_paths(tmp_path: Path, installed: Any,
                                             learners: int) -> None:
-    run = run_learners(tmp_path, "pathcases", learners)
-    assert run["codes"] == [0] * learners
-    assert len(run["steps"]) == STEPS * learners
-    assert_consistent(run)
+    run = learned_together(tmp_path, "pathcases", learners)
     with SQLiteStore(run["path"], read_only=True) as store:
         stored = {int(c.id): c.solution for c in store.cases("path")}
     # each path kept is the loop-free path of the step that added it
@@ -381,10 +385,7 @@ def replayed_risks(steps: list[dict[str, Any]]) -> dict[str, float]:
 @pytest.mark.parametrize("learners", [2, 3])
 def test_the_risk_map_loses_no_robots_update(tmp_path: Path, installed: Any,
                                              learners: int) -> None:
-    run = run_learners(tmp_path, "riskmap", learners)
-    assert run["codes"] == [0] * learners
-    assert len(run["steps"]) == STEPS * learners
-    assert_consistent(run)
+    run = learned_together(tmp_path, "riskmap", learners)
     with SQLiteStore(run["path"], read_only=True) as store:
         learned = store.get_meta(LEARNED_RISK)
     assert learned == pytest.approx(replayed_risks(run["steps"]))

@@ -29,7 +29,7 @@ from cbr_pathcases.components import PathRetriever, RetrieveOptions
 from cbr_pathcases.cost import Measure, ideal_length, measure
 from cbr_pathcases.selection import probabilities
 from cbrcore.casebase.memory import MemoryStore
-from cbrcore.casebase.store import CaseStore
+from cbrcore.casebase.store import CaseStore, Changes
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.model import Case, Retrieval
@@ -257,6 +257,20 @@ def test_the_path_base_follows_another_writers_commits(store: Any) -> None:
         assert_same_base(base, PathBase.load(store))
     assert base.costs.tolist() == [4.0, 1.0] and base.uses.tolist() == [2, 0]
     assert ctx.mirror.reloads == 0
+
+
+def test_a_followed_new_case_below_the_stored_ids_keeps_the_rows_ordered_by_id() -> None:
+    """The protocol promises ids never reused, not growing ones: a store may hand a new case an
+    id below the stored ones, and the rows stay ordered by id as loading orders them."""
+    store = MemoryStore()
+    meta = {"cost": 1.0, "length": 9.0, "risk": 0.0, "ideal": 9.0, "traversals": 1}
+    for y in (1, 3):
+        store.add(path_case(run((0, y), (9, y)), meta))
+    base = PathBase.load(store)
+    lower = attrs.evolve(path_case(run((0, 5), (9, 5)), meta), id=0, created=2)
+    assert base.catch_up(Changes(2, 2, (lower,), ()))
+    assert base.ids.tolist() == [0, 1, 2]
+    assert [int(p[0, 1]) for p in base.paths] == base.starts[:, 1].tolist() == [5, 1, 3]
 
 
 @given(st.lists(st.tuples(st.sampled_from(["add", "remove", "touch", "cost"]),

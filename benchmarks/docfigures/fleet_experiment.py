@@ -3,14 +3,8 @@ the fleet learns and whether anything was lost."""
 
 from __future__ import annotations
 
-from typing import Any
-
 from .results import kept_results
 from .wording import verdict
-
-
-def _rows() -> list[dict[str, Any]]:
-    return kept_results("fleet")["rows"]
 
 
 def fleet_reading() -> str:
@@ -18,8 +12,8 @@ def fleet_reading() -> str:
     results = kept_results("fleet")
     targets = results["targets"]
     integrity, throughput = targets["integrity"], targets["throughput"]
-    rows = _rows()
-    shared = {(row["store"], row["robots"]): row for row in rows if row["mode"] == "shared"}
+    shared = {(row["store"], row["robots"]): row for row in results["rows"]
+              if row["mode"] == "shared"}
     largest = integrity["robots"]
     steps = ", ".join(f"{row['learn_steps']:,} on {store}"
                       for (store, n), row in sorted(shared.items()) if n == largest)

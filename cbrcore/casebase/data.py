@@ -121,6 +121,40 @@ def case_problems(case: Case, revision: int | None) -> list[str]:
     return problems
 
 
+def check_since(since: int, revision: int) -> None:
+    """Raise ValueError when ``changes(since)`` asks about a revision the case base, at
+    ``revision``, has not reached (or a negative one)."""
+    if not 0 <= since <= revision:
+        raise ValueError(f"changes since revision {since}: expected a revision from 0 to "
+                         f"{revision}")
+
+
+def change_problems(case_id: int, created: int | None, last_used: int | None, changed: Any,
+                    revision: int | None) -> list[str]:
+    """What is wrong with the revision a store records as the last write of a case: it must lie
+    from the case's creation or last use to the case base's ``revision``. Stamps that are
+    themselves after the revision are left to :func:`case_problems`."""
+    written = max(created or 0, last_used or 0)
+    if revision is not None and written > revision:
+        return []
+    if not isinstance(changed, int) or changed < written or (
+            revision is not None and changed > revision):
+        # a write that did not record its revision would hide from processes catching up
+        return [f"case {case_id}: changed at revision {changed!r}; expected a revision from "
+                f"{written} (its creation or last use) to the case base's, {revision}"]
+    return []
+
+
+def removal_problems(removed: list[tuple[int, Any]], revision: int | None) -> list[str]:
+    """What is wrong with a store's record of removed cases, (id, revision removed at) pairs:
+    each removal is at a revision from 1 to the case base's."""
+    return [f"removed case {case_id}: removed at revision {removed_at!r}; expected a revision "
+            f"from 1 to the case base's, {revision}"
+            for case_id, removed_at in removed
+            if not isinstance(removed_at, int) or removed_at < 1
+            or (revision is not None and removed_at > revision)]
+
+
 def check_case(case: Case, revision: int) -> None:
     """Raise ValueError naming the case kind and the field when ``case`` cannot be stored."""
     problems = case_problems(case, revision)

@@ -9,7 +9,13 @@ from collections.abc import Iterable, Iterator, Mapping
 
 import attrs
 
-from cbrcore.casebase.data import case_problems, check_case, check_meta, check_meta_key
+from cbrcore.casebase.data import (
+    case_problems,
+    check_case,
+    check_meta,
+    check_meta_key,
+    check_since,
+)
 from cbrcore.casebase.store import Changes
 from cbrcore.model import JSON, Case
 
@@ -169,9 +175,7 @@ class MemoryStore:
         A scan of the cases, not an index: no other process shares a memory case base, so its
         mirror never has another writer's commits to catch up with.
         """
-        if not 0 <= since <= self._revision:
-            raise ValueError(f"changes since revision {since}: expected a revision from 0 to "
-                             f"{self._revision}")
+        check_since(since, self._revision)
         return Changes(since, self._revision,
                        tuple(case for case_id, case in self._cases.items()
                              if self._changed[case_id] > since),

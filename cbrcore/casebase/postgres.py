@@ -19,9 +19,12 @@ from cbrcore.casebase.data import (
     MAX_INTEGER,
     REVISION_KEY,
     case_problems,
+    change_problems,
     check_case,
     check_meta,
     check_meta_key,
+    check_since,
+    removal_problems,
 )
 from cbrcore.casebase.postgres_schema import (
     SCHEMA_EXPECTED,
@@ -416,9 +419,7 @@ class PostgresStore:
         since = operator.index(since)
         with self._snapshot():
             revision = self.revision
-            if not 0 <= since <= revision:
-                raise ValueError(f"changes since revision {since}: expected a revision from 0 "
-                                 f"to {revision}")
+            check_since(since, revision)
             # sorted here, as by the SQLite store: the few changed rows come through the index
             # whatever the planner's statistics say of the order by id
             rows = sorted(self._rows(f"SELECT {_COLUMNS} FROM {self._s}.cases "
@@ -617,10 +618,7 @@ class PostgresStore:
                                 f"given, {last_id}: new cases would take ids again")
         for row in rows:
             problems += self._row_problems(row, bound)
-        for case_id, revision in removed:
-            if revision < 1 or (bound is not None and revision > bound):
-                problems.append(f"removed case {case_id}: removed at revision {revision}; "
-                                f"expected a revision from 1 to the case base's, {bound}")
+        problems += removal_problems(removed, bound)
         for key, text in meta:
             try:
                 shown = self._text(key, "meta key")
@@ -650,15 +648,7 @@ class PostgresStore:
         case = Case(decoded["problem"], decoded["solution"], decoded["kind"], decoded["meta"],
                     case_id, uses, created, last_used)
         problems += [f"case {case_id}: {p}" for p in case_problems(case, revision)]
-        written = max(created, last_used or 0)
-        if revision is not None and written > revision:
-            return problems  # said above: the stamps themselves are wrong
-        if changed < written or (revision is not None and changed > revision):
-            # a write that did not record its revision would hide from processes catching up
-            problems.append(f"case {case_id}: changed at revision {changed}; expected a "
-                            f"revision from {written} (its creation or last use) to the case "
-                            f"base's, {revision}")
-        return problems
+        return problems + change_problems(case_id, created, last_used, changed, revision)
 
     def close(self) -> None:
         """Close the connection, rolling back a transaction left open; safe to call twice."""

@@ -18,9 +18,12 @@ import attrs
 from cbrcore.casebase.data import (
     REVISION_KEY,
     case_problems,
+    change_problems,
     check_case,
     check_meta,
     check_meta_key,
+    check_since,
+    removal_problems,
 )
 from cbrcore.casebase.sqlite_file import (
     MAX_ID,
@@ -449,9 +452,7 @@ class SQLiteStore:
         through an index, in one read transaction."""
         with self._snapshot():
             revision = self.revision
-            if not 0 <= since <= revision:
-                raise ValueError(f"changes since revision {since}: expected a revision from 0 "
-                                 f"to {revision}")
+            check_since(since, revision)
             # sorted here: ordered by id, SQLite would scan the table rather than the index
             rows = sorted(self._rows(f"SELECT {_COLUMNS} FROM cases WHERE changed > ?",
                                      (since,)))
@@ -612,11 +613,7 @@ class SQLiteStore:
             return [*problems, str(exc)]
         for row in rows:
             problems += self._row_problems(row, bound)
-        for case_id, revision in removed:
-            if not isinstance(revision, int) or revision < 1 or (
-                    bound is not None and revision > bound):
-                problems.append(f"removed case {case_id}: removed at revision {revision!r}; "
-                                f"expected a revision from 1 to the case base's, {bound}")
+        problems += removal_problems(removed, bound)
         for key, text in meta:
             try:
                 json.loads(text)
@@ -648,16 +645,7 @@ class SQLiteStore:
         case = Case(decoded["problem"], decoded["solution"], kind, decoded["meta"], case_id,
                     uses, created, last_used)
         problems += [f"case {case_id}: {p}" for p in case_problems(case, revision)]
-        written = max(created or 0, last_used or 0)
-        if revision is not None and written > revision:
-            return problems  # said above: the stamps themselves are wrong
-        if not isinstance(changed, int) or changed < written or (
-                revision is not None and changed > revision):
-            # a write that did not record its revision would hide from processes catching up
-            problems.append(f"case {case_id}: changed at revision {changed!r}; expected a "
-                            f"revision from {written} (its creation or last use) to the case "
-                            f"base's, {revision}")
-        return problems
+        return problems + change_problems(case_id, created, last_used, changed, revision)
 
     def close(self) -> None:
         """Close the connection; safe to call twice."""

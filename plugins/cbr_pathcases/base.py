@@ -72,25 +72,41 @@ class PathBase:
 
     def catch_up(self, changes: Changes) -> bool:
         """Follow another writer's commits (:class:`~cbrcore.casebase.mirror.FollowsChanges`):
-        drop the removed paths, take the written ones in place of their rows or as new rows.
-        CbrError naming the case if a written one is malformed."""
-        written = [case for case in changes.cases if case.kind == PATH]
-        gone = {*changes.removed, *(int(case.id or 0) for case in written)}
-        keep = ~np.isin(self.ids, _int_array(gone))
-        if keep.all() and not written:
-            return True
-        columns = _columns(written, self.store)
-        self._concatenated = None
-        for name, new in zip(_FIELDS, columns[:-1], strict=True):
-            setattr(self, name, np.concatenate((getattr(self, name)[keep], new)))
-        self.paths = [*(p for p, k in zip(self.paths, keep.tolist(), strict=True) if k),
-                      *columns[-1]]
-        # rows stay ordered by id, as loading orders them
+        drop the removed paths' rows, overwrite the rows of the written ones and append the new
+        ones, so that what is unchanged is not copied. CbrError naming the case if a written
+        one is malformed."""
+        self._drop(self.rows(changes.removed))
+        *fields, paths = _columns([case for case in changes.cases if case.kind == PATH],
+                                  self.store)
+        ids = fields[0]
+        at = np.searchsorted(self.ids, ids)
+        stored = at < len(self.ids)
+        stored[stored] = self.ids[at[stored]] == ids[stored]
+        for row, path in zip(at[stored].tolist(), np.flatnonzero(stored).tolist(), strict=True):
+            if not np.array_equal(self.paths[row], paths[path]):
+                self._concatenated = None
+            self.paths[row] = paths[path]
+        new = ~stored
+        ordered = not new.any() or not len(self.ids) or ids[new].min() > self.ids[-1]
+        for name, values in zip(_FIELDS, fields, strict=True):
+            column = getattr(self, name)
+            column[at[stored]] = values[stored]
+            if new.any():
+                setattr(self, name, np.concatenate((column, values[new])))
+        if new.any():
+            self._concatenated = None
+            self.paths += [paths[k] for k in np.flatnonzero(new).tolist()]
+            if not ordered:
+                # the protocol promises ids never reused, not ids that grow: rows stay ordered
+                # by id, as loading orders them, whatever id a store gives a new case
+                self._sort()
+        return True
+
+    def _sort(self) -> None:
         order = np.argsort(self.ids, kind="stable")
         for name in _FIELDS:
             setattr(self, name, getattr(self, name)[order])
         self.paths = [self.paths[i] for i in order.tolist()]
-        return True
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -131,6 +147,12 @@ class PathBase:
         if not len(rows):
             return
         self.store.remove(self.ids[rows].tolist())
+        self._drop(rows)
+
+    def _drop(self, rows: np.ndarray) -> None:
+        """Forget the rows ``rows`` of the arrays (the store is not written)."""
+        if not len(rows):
+            return
         self._concatenated = None
         keep = np.ones(len(self.ids), dtype=bool)
         keep[rows] = False
