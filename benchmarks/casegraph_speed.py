@@ -1,7 +1,8 @@
 """Case graph planning speed against the map size and against A*, with a 3000-vertex graph.
 
-Targets: the median CBR planning time grows less than 2x from a 100x100 to a 1000x1000 map, and
-on 600x600 and 1000x1000 maps CBR takes at most 1/20 of A*'s time on the same queries.
+Targets: the median CBR planning time grows less than 2x from a 100x100 to a 1000x1000 map and
+stays nearly constant up to 4000x4000 (less than 1.5x from 1000x1000), and on 600x600 and
+1000x1000 maps CBR takes at most 1/20 of A*'s time on the same queries.
 
 Maps are those of the reproductions (:func:`cbr_casegraph.experiments.common.make_map`: random
 obstacles 15%, terrain risk 0.5). On each, a graph is grown to 3000 vertices from Dijkstra paths
@@ -11,11 +12,16 @@ vertices, at least a third of the map side apart, CBR giving an accepted path;
 :func:`cbr_casegraph.experiments.common.cbr_tasks`). Each query is timed ``--repeats`` times per
 method and its median kept; the tables give medians over
 queries and the median over queries of the per-query ratio CBR / A*, and, for scale, A*'s
-median time on 20 tasks between random reachable cells. A cProfile of the CBR queries on the
-largest map shows where the planner's time goes.
+median time on 20 tasks between random reachable cells. Where the planner's time goes on the
+largest map: a cProfile of its CBR queries (the compiled query is one kernel call per step
+group, so the profile mostly shows those calls) and the median time of each compiled piece
+alone, in microseconds (``pieces_us``: the retrieval of the cases near start and goal, one
+local sweep with its links, and the whole adaptation).
 
-    python benchmarks/casegraph_speed.py [--sizes 100 600 1000] [--queries 100] [--repeats 3]
-                                         [--out benchmarks/results]
+    python benchmarks/casegraph_speed.py [--sizes 100 600 1000] [--large] [--queries 100]
+                                         [--repeats 3] [--out benchmarks/results]
+
+``--large`` adds a 4000x4000 map (a minute or more to build and to time A* on).
 
 Writes ``casegraph_speed.json`` and ``casegraph_speed.md``.
 """
@@ -38,13 +44,16 @@ import numpy as np
 from cbr_casegraph.build import connected_cells, grow, random_task
 from cbr_casegraph.experiments.common import cbr_tasks, make_map, region_mask, warm_up
 from cbr_casegraph.graph import CaseGraph
-from cbr_casegraph.planner import Settings, plan
+from cbr_casegraph.planner import Failure, Settings, adapt, edge_tables, neighbourhoods, plan
+from cbr_casegraph.query import local_links
 from cbr_grid.distances import octile
 from cbr_solvers.search import astar
 
 VERTICES = 3000
 SEED = 0
 RANDOM_TASKS = 20
+LARGE = 4000
+"""The side of the map ``--large`` adds."""
 
 
 def _median_time(call: Callable[[], Any], repeats: int) -> float:
@@ -66,6 +75,27 @@ def _profile(graph: CaseGraph, tasks: list[tuple[tuple[int, int], tuple[int, int
     out = io.StringIO()
     pstats.Stats(profiler, stream=out).sort_stats("tottime").print_stats(12)
     return out.getvalue()
+
+
+def _pieces(graph: CaseGraph, tasks: list[tuple[tuple[int, int], tuple[int, int]]],
+            settings: Settings) -> dict[str, float]:
+    """The median time of each compiled piece of a CBR query alone, in microseconds."""
+    times: dict[str, list[float]] = {"cases_near": [], "local_links": [], "adapt": []}
+    grid, tables = graph.grid, edge_tables(graph)
+    for start, goal in tasks:
+        found = neighbourhoods(graph, start, goal, settings)
+        if isinstance(found, Failure):
+            continue
+        times["cases_near"].append(_median_time(
+            lambda s=start, g=goal: neighbourhoods(graph, s, g, settings), 3) / 2)
+        times["local_links"].append(_median_time(
+            lambda s=start, f=found: local_links(
+                grid.factor, grid.passable, grid.corner_cutting, tables.a, tables.b,
+                tables.adjacency.xy, f.start, s[0], s[1], settings.delta,
+                settings.window_radius), 3))
+        times["adapt"].append(_median_time(
+            lambda s=start, g=goal, f=found: adapt(graph, s, g, f, settings), 3))
+    return {name: statistics.median(values) * 1e6 for name, values in times.items() if values}
 
 
 def run_size(side: int, queries: int, repeats: int) -> dict[str, Any]:
@@ -101,18 +131,20 @@ def run_size(side: int, queries: int, repeats: int) -> dict[str, Any]:
             "astar_ms": statistics.median(astar_s) * 1000,
             "astar_random_ms": statistics.median(random_s) * 1000,
             "cbr_over_astar": statistics.median(ratios),
-            "profile": _profile(graph, tasks, settings)}
+            "profile": _profile(graph, tasks, settings),
+            "pieces_us": _pieces(graph, tasks, settings)}
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[100, 600, 1000])
+    parser.add_argument("--large", action="store_true", help="add a 4000x4000 map")
     parser.add_argument("--queries", type=int, default=100)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results")
     args = parser.parse_args()
     rows = []
-    for side in args.sizes:
+    for side in args.sizes + [LARGE] * (args.large and LARGE not in args.sizes):
         row = run_size(side, args.queries, args.repeats)
         rows.append(row)
         print(f"{side}x{side}: CBR {row['cbr_ms']:.3f} ms, A* {row['astar_ms']:.3f} ms, "
@@ -123,6 +155,10 @@ def main() -> None:
         growth = by_size[1000]["cbr_ms"] / by_size[100]["cbr_ms"]
         targets["cbr_growth_100_to_1000"] = {"value": growth, "target": "< 2",
                                              "met": growth < 2}
+    if 1000 in by_size and LARGE in by_size:
+        growth = by_size[LARGE]["cbr_ms"] / by_size[1000]["cbr_ms"]
+        targets[f"cbr_growth_1000_to_{LARGE}"] = {"value": growth, "target": "< 1.5",
+                                                  "met": growth < 1.5}
     for side in (600, 1000):
         if side in by_size:
             ratio = by_size[side]["cbr_over_astar"]
@@ -147,6 +183,7 @@ def main() -> None:
     (args.out / "casegraph_speed.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     print(rows[-1]["profile"])
+    print("pieces (us):", rows[-1]["pieces_us"])
 
 
 if __name__ == "__main__":

@@ -1,19 +1,26 @@
-"""Our grid Dijkstra and A* against other shortest-path libraries, query by query.
+"""Our grid Dijkstra, A* and jump point search against other shortest-path libraries, query by
+query.
 
 Runs, side by side in one process, the same queries through ``cbr_solvers.search.astar`` and
-``dijkstra`` and through pyastar2d (C++ grid A*), tcod (``tcod.path.Pathfinder`` on a
-``CustomGraph``), scipy's ``csgraph.dijkstra`` and networkx's ``astar_path_length``. The maps are
-the shared Moving AI maps (scenarios sampled evenly over each file's buckets) and random square
-maps with about 20% obstacles, queried between random free cells of one connected component.
+``dijkstra``, our jump point search ``cbr_solvers.jps.jps``, and through pyastar2d (C++ grid
+A*), tcod (``tcod.path.Pathfinder`` on a ``CustomGraph``), scipy's ``csgraph.dijkstra`` and
+networkx's ``astar_path_length``. The maps are the shared Moving AI maps (scenarios sampled
+evenly over each file's buckets) and random square maps with about 20% obstacles, queried
+between random free cells of one connected component.
 Every answer is checked against our cost (and the Moving AI optimal length); per query each
 solver's time is the median of its repeats, and the table shows medians over the queries of a
-map and the ratios ours / other. One-time costs (loading or compiling our numba kernel, building
+map and the ratios ours / other. The maps are given to our searches as read-only arrays, as a
+``cbr_grid.grid.Grid`` gives them, so what they keep per grid is kept. Jump point search is
+also run over every scenario of every Moving AI file (``--jps-limit`` caps it per file) against
+the file's optimal length, and its target is checked: at most 1/3 of pyastar2d's median time
+on the pooled 512x512 maps. One-time costs (loading or compiling our numba kernel, building
 the scipy and networkx graphs) are reported apart. Libraries that are not installed are skipped
 with a note (``pip install -e '.[bench]'`` installs them).
 
     python benchmarks/solvers.py [--limit 10] [--sizes 200 600 1000] [--queries 20]
                                  [--repeats 5] [--nx-queries 5] [--nx-max-cells 1000000]
-                                 [--quick] [--data DIR] [--out benchmarks/results]
+                                 [--jps-limit N] [--quick] [--data DIR]
+                                 [--out benchmarks/results]
 
 Writes ``solvers.json`` and ``solvers.md`` into the output folder.
 
@@ -42,6 +49,7 @@ import numpy as np
 
 from cbr_grid.movingai import load_map, load_scen
 from cbr_solvers.genetic import genetic
+from cbr_solvers.jps import jps
 from cbr_solvers.search import astar, dijkstra
 
 DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "movingai"
@@ -51,7 +59,9 @@ SQRT2 = math.sqrt(2.0)
 ORTHO, DIAG = 100_000, 141_421
 # One (dx, dy) of each pair of opposite steps; a step is legal both ways or neither.
 FORWARD = ((1, 0), (0, 1), (1, 1), (-1, 1))
-SOLVERS = ("astar", "dijkstra", "pyastar2d", "tcod", "scipy", "networkx")
+SOLVERS = ("astar", "dijkstra", "pyastar2d", "tcod", "scipy", "networkx", "jps")
+JPS_TARGET = 1 / 3
+"""The most jps may take of pyastar2d's median time on the pooled 512x512 maps."""
 
 Cell = tuple[int, int]
 
@@ -129,8 +139,11 @@ class Map:
     def __init__(self, label: str, passable: np.ndarray, libs: dict[str, ModuleType | None],
                  networkx: bool) -> None:
         self.label = label
-        self.passable = np.ascontiguousarray(passable, dtype=np.bool_)
+        # read-only, as a Grid's: the searches keep what they derive from a grid that cannot change
+        self.passable = np.array(passable, dtype=np.bool_)
+        self.passable.setflags(write=False)
         self.factor = np.ones(passable.shape)
+        self.factor.setflags(write=False)
         self.setup: dict[str, float] = {}
         h, w = passable.shape
         started = time.perf_counter()
@@ -170,8 +183,8 @@ class Map:
             ) -> tuple[float, np.ndarray | None]:
         """One query: (cost, path of (x, y) rows or None when the solver gives none)."""
         w = self.passable.shape[1]
-        if solver in ("astar", "dijkstra"):
-            search = astar if solver == "astar" else dijkstra
+        if solver in ("astar", "dijkstra", "jps"):
+            search = {"astar": astar, "dijkstra": dijkstra, "jps": jps}[solver]
             result = search(self.factor, self.passable, False, start, [goal])
             return (math.inf, None) if result is None else (result.cost, result.path)
         if solver == "pyastar2d":
@@ -206,8 +219,9 @@ class Map:
         return float(cost), None
 
 
-def movingai_maps(data: Path, limit: int) -> list[tuple[str, np.ndarray, list[Any]]]:
-    """(label, passable, scenarios) of each shared map, ``limit`` scenarios spread over buckets."""
+def movingai_maps(data: Path, limit: int | None) -> list[tuple[str, np.ndarray, list[Any]]]:
+    """(label, passable, scenarios) of each shared map, ``limit`` scenarios spread over buckets
+    (every one when None)."""
     found = []
     for scen_path in sorted((data / "scenarios").glob("*/*.scen")):
         name = scen_path.name.removesuffix(".scen")
@@ -215,9 +229,11 @@ def movingai_maps(data: Path, limit: int) -> list[tuple[str, np.ndarray, list[An
             name = name.rsplit("-random-", 1)[0] + ".map"  # the MAPF scenario naming
         grid = load_map(data / "maps" / scen_path.parent.name / name)
         scenarios = sorted(load_scen(scen_path, grid), key=lambda s: s.bucket)
-        picks = np.unique(np.linspace(0, len(scenarios) - 1, limit).round().astype(int))
+        if limit is not None and limit < len(scenarios):
+            picks = np.unique(np.linspace(0, len(scenarios) - 1, limit).round().astype(int))
+            scenarios = [scenarios[i] for i in picks]
         found.append((f"{name.removesuffix('.map')} {grid.width}x{grid.height}", grid.passable,
-                      [scenarios[i] for i in picks]))
+                      scenarios))
     return found
 
 
@@ -250,7 +266,7 @@ def bench_map(prepared: Map, queries: list[tuple[Cell, Cell, Any]], libs: dict[s
     nx_subset = set(np.linspace(0, len(queries) - 1, nx_queries).round().astype(int).tolist()
                     if queries and nx_queries > 0 else [])
     mismatches = dict.fromkeys(solvers, 0)
-    longer = cuts = scen_mismatches = 0
+    longer = cuts = scen_mismatches = jps_scen_mismatches = 0
     excess: list[float] = []
     if queries:
         # one untimed run each first, so no solver pays first-touch costs in a timed run
@@ -275,6 +291,8 @@ def bench_map(prepared: Map, queries: list[tuple[Cell, Cell, Any]], libs: dict[s
         best = costs["astar"]
         if scenario is not None and not scenario.agrees(best):
             scen_mismatches += 1
+        if scenario is not None and "jps" in costs and not scenario.agrees(costs["jps"]):
+            jps_scen_mismatches += 1
         for solver, cost in costs.items():
             if solver == "pyastar2d":
                 # other movement rules: compare the octile length of its path with the optimum
@@ -292,10 +310,46 @@ def bench_map(prepared: Map, queries: list[tuple[Cell, Cell, Any]], libs: dict[s
         "setup_s": prepared.setup,
         "mismatches": mismatches,
         "scen_mismatches": scen_mismatches if queries and queries[0][2] is not None else None,
+        "jps_scen_mismatches": (jps_scen_mismatches if "jps" in solvers and queries
+                                and queries[0][2] is not None else None),
         "pyastar2d": {"longer_than_optimal": longer, "cutting_corners": cuts,
                       "min_excess": min(excess) if excess else None,
                       "max_excess": max(excess) if excess else None},
     }
+
+
+def jps_scenarios(data: Path, limit: int | None) -> list[dict[str, Any]]:
+    """Jump point search over the scenarios of every Moving AI file (``limit`` spread over each,
+    every one when None), one run each: how many miss the file's optimal length, and the times."""
+    rows = []
+    for label, passable, scenarios in movingai_maps(data, limit):
+        passable = np.array(passable, dtype=np.bool_)
+        passable.setflags(write=False)
+        factor = np.ones(passable.shape)
+        factor.setflags(write=False)
+        jps(factor, passable, False, scenarios[0].start, [scenarios[0].goal])
+        times, wrong = [], []
+        for scenario in scenarios:
+            started = time.perf_counter()
+            found = jps(factor, passable, False, scenario.start, [scenario.goal])
+            times.append((time.perf_counter() - started) * 1e3)
+            if found is None or found.search != "jps" or not scenario.agrees(found.cost):
+                wrong.append(scenario.line)
+        rows.append({"map": label, "scenarios": len(scenarios), "mismatches": len(wrong),
+                     "mismatched_lines": wrong[:20], "median_ms": statistics.median(times),
+                     "max_ms": max(times)})
+        print(f"{label}: jps over {len(scenarios)} scenarios, {len(wrong)} mismatches",
+              flush=True)
+    return rows
+
+
+def jps_scenarios_table(rows: list[dict[str, Any]]) -> str:
+    lines = ["| map | scenarios | jps mismatches | jps median ms | jps max ms |",
+             "|---|---|---|---|---|"]
+    for row in rows:
+        lines.append(f"| {row['map']} | {row['scenarios']} | {row['mismatches']} | "
+                     f"{row['median_ms']:.3f} | {row['max_ms']:.2f} |")
+    return "\n".join(lines)
 
 
 def _medians(samples: dict[str, list[float | None]]) -> dict[str, float]:
@@ -334,8 +388,9 @@ def pooled(rows: list[dict[str, Any]], label: str) -> dict[str, Any]:
 def table(rows: list[dict[str, Any]]) -> str:
     lines = [
         "| map | queries (nx) | A* ms | Dijkstra ms | pyastar2d ms* | tcod ms | scipy ms | "
-        "networkx ms | A*/pyastar2d* | A*/tcod | A*/networkx | Dijkstra/scipy | mismatches |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "networkx ms | jps ms | A*/pyastar2d* | A*/tcod | A*/networkx | Dijkstra/scipy | "
+        "jps/pyastar2d* | jps/A* | mismatches |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for row in rows:
         median = row["median_ms"]
@@ -345,6 +400,8 @@ def table(rows: list[dict[str, Any]]) -> str:
             checks = ", ".join(f"{s} {n}" for s, n in bad.items()) or "0"
             if row["scen_mismatches"] is not None:
                 checks += f"; vs scen {row['scen_mismatches']}"
+            if row.get("jps_scen_mismatches") is not None:
+                checks += f"; jps vs scen {row['jps_scen_mismatches']}"
             pya = row["pyastar2d"]
             if pya["max_excess"] is not None:
                 checks += (f"; pyastar2d* cuts corners {pya['cutting_corners']}, longer "
@@ -355,7 +412,7 @@ def table(rows: list[dict[str, Any]]) -> str:
             + " | ".join(_cell(median.get(s)) for s in SOLVERS) + " | "
             + " | ".join(_cell(_ratio(row["samples_ms"], ours, other)) for ours, other in (
                 ("astar", "pyastar2d"), ("astar", "tcod"), ("astar", "networkx"),
-                ("dijkstra", "scipy")))
+                ("dijkstra", "scipy"), ("jps", "pyastar2d"), ("jps", "astar")))
             + f" | {checks} |")
     return "\n".join(lines)
 
@@ -452,6 +509,9 @@ def main() -> None:
                         help="queries per map for networkx (timed once each)")
     parser.add_argument("--nx-max-cells", type=int, default=1000 * 1000,
                         help="largest map (in cells) networkx gets a graph for")
+    parser.add_argument("--jps-limit", type=int, default=None,
+                        help="scenarios per Moving AI file for the jps check against the optimal "
+                        "lengths (default: every one)")
     parser.add_argument("--data", type=Path, default=DATA, help="the Moving AI data folder")
     parser.add_argument("--quick", action="store_true",
                         help="a smoke run: 2 scenarios per file, one 200 map, 3 queries, 2 repeats")
@@ -468,6 +528,7 @@ def main() -> None:
         return
     if args.quick:
         args.limit, args.sizes, args.queries, args.repeats, args.nx_queries = 2, [200], 3, 2, 2
+        args.jps_limit = 20
 
     notes: list[str] = []
     libs = {name: _optional(name, notes) for name in ("pyastar2d", "tcod", "scipy", "networkx")}
@@ -497,9 +558,14 @@ def main() -> None:
     summary = [pooled([r for r in rows if r["map"].endswith(" 512x512")],
                       "all 512x512 Moving AI maps (pooled)")]
     summary += [pooled([r], r["map"]) for r in rows if r["map"].startswith("random 1000x")]
+    every = jps_scenarios(args.data, args.jps_limit)
+    ratio = _ratio(summary[0]["samples_ms"], "jps", "pyastar2d")
+    jps_target = {"ratio": ratio, "target": JPS_TARGET,
+                  "met": None if ratio is None else ratio <= JPS_TARGET}
     result = {"limit": args.limit, "sizes": args.sizes, "queries": args.queries,
               "repeats": args.repeats, "nx_queries": args.nx_queries, "notes": notes,
-              "first_call_s": first_call, "maps": rows, "targets": summary}
+              "first_call_s": first_call, "maps": rows, "targets": summary,
+              "jps_target": jps_target, "jps_limit": args.jps_limit, "jps_scenarios": every}
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "solvers.json").write_text(json.dumps(result, indent=2) + "\n")
 
@@ -512,8 +578,17 @@ def main() -> None:
                 + "; ".join(f"{r['map']}: " + ", ".join(f"{k} {v:.2f} s"
                                                         for k, v in r["setup_s"].items())
                             for r in shown if r is not None) + ".")
-    text = "\n\n".join([table(rows), RULES, "Targets (pooled medians):", table(summary), one_time]
-                       + (["; ".join(notes) + "."] if notes else []))
+    verdict = "-" if ratio is None else ("met" if ratio <= JPS_TARGET else "NOT met")
+    shown_ratio = "-" if ratio is None else f"{ratio:.2f}"
+    checked = sum(r["scenarios"] for r in every)
+    jps_text = (f"jps target: jps/pyastar2d* on the pooled 512x512 maps at most "
+                f"{JPS_TARGET:.2f}: {shown_ratio}, {verdict}. Jump point search against the "
+                f"optimal lengths of {checked} Moving AI scenarios "
+                f"({'every one' if args.jps_limit is None else f'up to {args.jps_limit} a file'}, "
+                f"one run each): {sum(r['mismatches'] for r in every)} mismatches.")
+    text = "\n\n".join([table(rows), RULES, "Targets (pooled medians):", table(summary), one_time,
+                         jps_text, jps_scenarios_table(every)]
+                        + (["; ".join(notes) + "."] if notes else []))
     (args.out / "solvers.md").write_text(text + "\n")
     print(text)
 

@@ -88,7 +88,7 @@ def retrieve(ctx: Context, start: Cell, goal: Cell, **options: Any) -> Retrieval
 
 def assert_same_base(base: PathBase, other: PathBase) -> None:
     for name in ("ids", "starts", "goals", "costs", "traversals", "uses", "created",
-                 "last_used"):
+                 "last_used", "boxes"):
         assert np.array_equal(getattr(base, name), getattr(other, name)), name
     assert len(base.paths) == len(other.paths)
     for path, again in zip(base.paths, other.paths, strict=True):
@@ -184,9 +184,14 @@ def test_the_path_base_follows_the_store_and_loads_back_the_same(store: Any) -> 
     assert base.goals.tolist() == [[4, 1], [11, 7]]
     assert store.get(second).meta["cost"] == 1.125
     assert_same_base(base, PathBase.load(store))
-    cells, offsets = base.concatenated()
-    assert offsets.tolist() == [0, 5, 15]
-    assert np.array_equal(cells, np.concatenate([run((0, 5), (4, 1)), run((2, 7), (11, 7))]))
+    assert base.boxes.tolist() == [[0, 1, 4, 5], [2, 7, 11, 7]]
+    # a path along part of row 7 lies along the third path only, and one row off, within 1
+    assert base.near(run((3, 7), (8, 7)), 0.0).tolist() == base.rows([third]).tolist()
+    assert base.near(run((3, 6), (8, 6)), 0.0).tolist() == []
+    rows, forward, _ = base.hausdorff(run((3, 6), (8, 6)), distance="chebyshev",
+                                      limit=1.0)
+    assert rows[forward <= 1.0].tolist() == base.rows([third]).tolist()
+    assert forward[rows == base.rows([third])[0]].tolist() == [1.0]
 
 
 def next_query(ctx: Context) -> None:

@@ -30,7 +30,8 @@ from cbrcore.testing import CliResult
 
 RIVAL_MODULE = "cbr_test_rival"
 RIVAL = ("cbr-rival", "1.0")
-SOLVERS = ["aistar", "astar", "dijkstra", "genetic", "landmark_detour", "randomized", "rescuer"]
+SOLVERS = ["aistar", "astar", "dijkstra", "genetic", "jps", "landmark_detour", "randomized",
+           "rescuer"]
 TAKES_ASTAR = 'registry.add("solver", "astar", Impostor)'
 
 # what a rival registers, and the error that fails it

@@ -370,7 +370,7 @@ def test_working_arrays_survive_interleaved_searches_and_wraparound() -> None:
     workspace = search_module._WORKSPACE
     for round_ in range(3):
         if round_ == 2:
-            workspace.generation = np.iinfo(np.int32).max - 6  # wraps within this round
+            workspace.generation = np.iinfo(np.uint8).max - 7  # wraps within this round
         for factor, passable in grids * 2:
             h, w = passable.shape
             start = tuple(int(v) for v in rng.integers(0, (w, h)))
@@ -385,7 +385,7 @@ def test_working_arrays_survive_interleaved_searches_and_wraparound() -> None:
                     assert result is not None
                     assert math.isclose(result.cost, expected, rel_tol=1e-9)
                     check_path(result, factor, passable, False, start, goals, window)
-    assert 0 < workspace.generation < np.iinfo(np.int32).max - 6
+    assert 0 < workspace.generation < np.iinfo(np.uint8).max - 7
 
 
 @pytest.mark.parametrize("bad", [0.0, -1.0, math.nan, math.inf])

@@ -100,6 +100,7 @@ def _warmed(config: dict[str, Any], *kernels: str) -> int:
     ("aistar", "cbr_solvers.aistar._propagate"),
     ({"use": "genetic", "generations": 200}, "cbr_solvers.genetic._evolve"),
     ("randomized", "cbr_solvers.search._search"),
+    ("jps", "cbr_solvers.jps._search"),
 ])
 def test_a_built_engine_has_its_solvers_kernels_compiled(solver: Any, kernel: str) -> None:
     _warmed({"solver": solver}, kernel)
@@ -113,8 +114,13 @@ def test_a_built_engine_has_the_kinematic_search_compiled() -> None:
 def test_a_built_engine_has_the_case_graphs_kernels_compiled() -> None:
     config = {"retrieve": "casegraph", "reuse": "casegraph", "solver": "astar",
               "retain": ["casegraph"]}
-    cases = _warmed(config, "cbr_casegraph.search.graph_search", "cbr_casegraph.search.path_cost")
+    cases = _warmed(config, "cbr_casegraph.query.cases_near", "cbr_casegraph.query.adapt_swept")
     assert cases == 0  # the warm-up learned into a case base of its own
+
+
+def test_a_built_engine_has_the_experience_graph_kernel_compiled() -> None:
+    _warmed({"retrieve": "casegraph", "reuse": "experience_graph", "solver": "astar"},
+            "cbr_casegraph.experience._search")
 
 
 def test_a_built_engine_has_the_path_cases_kernels_compiled() -> None:

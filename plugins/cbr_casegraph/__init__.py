@@ -3,7 +3,9 @@
 A traversed path is cut at its turns and at its crossings with stored paths into straight
 segments, the cases, which form one graph (:mod:`cbr_casegraph.graph`). Retrieval takes the
 segments near start and goal, reuse joins start and goal to them by local searches and finds the
-best path through the graph (:mod:`cbr_casegraph.planner`), retention adds the new segments and
+best path through the graph (:mod:`cbr_casegraph.planner`) or, as reuser ``experience_graph``,
+an experience-graph search on the map drawn along the segments, whose paths cost at most a stated
+factor above the optimum (:mod:`cbr_casegraph.experience`); retention adds the new segments and
 forgetting keeps the graph small (:mod:`cbr_casegraph.components`). Revision is the
 ``path_quality`` reviser (:mod:`cbr_pathquality.reviser`), shared with the other grid CBR
 families.
@@ -28,6 +30,7 @@ from cbr_casegraph.components import (
     RiskySegments,
     VertexLimit,
 )
+from cbr_casegraph.experience_reuser import ExperienceGraphReuser, ExperienceOptions
 from cbr_casegraph.invariants import graph_problems
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
@@ -72,6 +75,7 @@ def cbr_check_casebase(casebase: CaseStore) -> list[str]:
 def cbr_register(registry: Registry) -> None:
     registry.add("retriever", "casegraph", CaseGraphRetriever, options=RetrieveOptions)
     registry.add("reuser", "casegraph", CaseGraphReuser, options=ReuseOptions)
+    registry.add("reuser", "experience_graph", ExperienceGraphReuser, options=ExperienceOptions)
     registry.add("retainer", "casegraph", CaseGraphRetainer, options=RetainOptions)
     registry.add("forgetter", "redundant_vertices", RedundantVertices)
     registry.add("forgetter", "risky_segments", RiskySegments, options=RiskyOptions)

@@ -4,7 +4,16 @@ Vertices are cells; an edge is a straight segment (see :mod:`cbr_casegraph.geome
 two vertices whose interior cells belong to no other edge and are no vertex. Two grids of the map's
 size index it: ``vertex_at`` (the vertex on each cell, or -1) and ``owner`` (the edge whose
 interior covers each cell, or -1), so "which cases does this cell touch" costs one lookup and a
-path is cut into new segments with array operations.
+path is cut into new segments with array operations; a table of the edge leaving each vertex in
+each of the 8 directions answers "which cases meet at this vertex". Together they are the spatial
+index of the segments' ends that eq. (12) needs: the stored segments similar to a new one have an
+end in a small square around the new one's first end, so retaining a path costs in proportion to
+the path, not to the graph.
+
+Ids are int32 (vertices, edges, cell coordinates): a map of up to 2^31 cells has fewer vertices
+and live edges than cells, and an edge id from a store that ran past 2^31 - 1 is refused with a
+CbrError rather than wrapped. The graph keeps 8 bytes per map cell, 40 per vertex and 41 per
+edge id (see docs/casegraph.md, "Memory").
 
 A segment is never stored twice over the same cells: where a retained path runs along a stored
 edge it reuses that edge, where it crosses or leaves one the edge is split there, and the path's
@@ -35,6 +44,7 @@ from cbr_casegraph.geometry import (
     segment_cells,
     segments_cells,
 )
+from cbr_grid.distances import Distance
 from cbr_grid.distances import distance as distance_function
 from cbr_grid.grid import Grid
 from cbr_grid.query import without_loops
@@ -47,14 +57,25 @@ SEGMENT = "segment"
 
 Cell = tuple[int, int]
 
+ID = np.int32
+"""The dtype of vertex and edge ids and of vertex coordinates in the graph's arrays."""
+_ID_LIMIT = int(np.iinfo(ID).max)
+
 
 def _grown(array: np.ndarray, size: int, fill: float | int | bool) -> np.ndarray:
-    """``array`` with room for at least ``size`` entries, new ones set to ``fill``."""
+    """``array`` with room for at least ``size`` rows, new ones set to ``fill``."""
     if size <= len(array):
         return array
-    bigger = np.full(max(size, 2 * len(array), 64), fill, dtype=array.dtype)
+    bigger = np.full((max(size, 2 * len(array), 64), *array.shape[1:]), fill, dtype=array.dtype)
     bigger[:len(array)] = array
     return bigger
+
+
+def _slot(dx: ArrayLike, dy: ArrayLike) -> np.ndarray:
+    """The column of the leaving-edge table for the direction of the steps (dx, dy) (any
+    lengths, not both 0): 0..7 for the 8 directions."""
+    code = (np.sign(dy) + 1) * 3 + np.sign(dx) + 1
+    return code - (code > 4)
 
 
 def segment_costs(grid: Grid, starts: ArrayLike, ends: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
@@ -101,18 +122,23 @@ class CaseGraph:
         self.grid = grid
         self.store = store
         shape = grid.risk.shape
-        self.vertex_at = np.full(shape, -1, dtype=np.int64)
-        self.owner = np.full(shape, -1, dtype=np.int64)
-        self._vx = np.zeros(0, dtype=np.int64)
-        self._vy = np.zeros(0, dtype=np.int64)
+        if grid.risk.size > _ID_LIMIT:
+            raise CbrError(f"the case graph indexes maps of up to {_ID_LIMIT} cells; this map "
+                           f"is {grid.width}x{grid.height}")
+        self.vertex_at = np.full(shape, -1, dtype=ID)
+        self.owner = np.full(shape, -1, dtype=ID)
+        self._vx = np.zeros(0, dtype=ID)
+        self._vy = np.zeros(0, dtype=ID)
         self._vertices = 0
         self._free_vertices: list[int] = []
-        self._incident: dict[int, set[int]] = {}
+        # the edge leaving each vertex in each of the 8 directions, or -1: two edges cannot
+        # leave a vertex the same way, as they would share the next cell
+        self._leaving = np.full((0, 8), -1, dtype=ID)
         # vertices whose edges changed since the last merge_redundant: the only candidates
         self._changed: set[int] = set()
         # edges by id: end vertices, cost, risk, uses, creation stamp, liveness
-        self._ea = np.zeros(0, dtype=np.int64)
-        self._eb = np.zeros(0, dtype=np.int64)
+        self._ea = np.zeros(0, dtype=ID)
+        self._eb = np.zeros(0, dtype=ID)
         self._cost = np.zeros(0)
         self._risk = np.zeros(0)
         self._uses = np.zeros(0, dtype=np.int64)
@@ -122,6 +148,10 @@ class CaseGraph:
         self._clock = 0
         self._adjacency: Adjacency | None = None
         self._scale: float | None = None
+        # while add_path compares with the segments stored before it (eq. 12): the edges it
+        # inserted, and the ends of the earlier edges it split away
+        self._fresh: set[int] | None = None
+        self._replaced: list[tuple[Cell, Cell]] = []
 
     # -- loading ---------------------------------------------------------------------------
 
@@ -229,8 +259,8 @@ class CaseGraph:
         """The (n, 2) end cells a and b of the given edges."""
         edges = np.asarray(edges, dtype=np.int64)
         a, b = self._ea[edges], self._eb[edges]
-        return (np.stack([self._vx[a], self._vy[a]], axis=1),
-                np.stack([self._vx[b], self._vy[b]], axis=1))
+        return (np.stack([self._vx[a], self._vy[a]], axis=1).astype(np.int64),
+                np.stack([self._vx[b], self._vy[b]], axis=1).astype(np.int64))
 
     def costs(self, edges: ArrayLike) -> np.ndarray:
         return self._cost[np.asarray(edges, dtype=np.int64)]
@@ -251,16 +281,21 @@ class CaseGraph:
         if inside >= 0:
             return [inside]
         vertex = int(self.vertex_at[y, x])
-        return sorted(self._incident.get(vertex, ())) if vertex >= 0 else []
+        return self._incident(vertex).tolist() if vertex >= 0 else []
+
+    def _incident(self, vertex: int) -> np.ndarray:
+        """The edges meeting at ``vertex``, ascending."""
+        row = self._leaving[vertex]
+        return np.sort(row[row >= 0])
 
     def vertices(self) -> np.ndarray:
         """The (n, 2) cells of the vertices."""
         live = self.vertex_at[self.vertex_at >= 0]
-        return np.stack([self._vx[live], self._vy[live]], axis=1)
+        return np.stack([self._vx[live], self._vy[live]], axis=1).astype(np.int64)
 
     def degree(self, cell: Cell) -> int:
         vertex = int(self.vertex_at[cell[1], cell[0]])
-        return len(self._incident.get(vertex, ())) if vertex >= 0 else 0
+        return int((self._leaving[vertex] >= 0).sum()) if vertex >= 0 else 0
 
     def meeting(self, cell: Cell, delta: int, *, selective: bool = False) -> np.ndarray:
         """The edges that meet the neighbourhood N(cell, delta), eqs. (9)-(11).
@@ -274,10 +309,9 @@ class CaseGraph:
         x0, y0, x1, y1 = self._square(cell, delta)
         inside = self.owner[y0:y1 + 1, x0:x1 + 1]
         corners = self.vertex_at[y0:y1 + 1, x0:x1 + 1]
-        found = set(np.unique(inside[inside >= 0]).tolist())
-        for vertex in corners[corners >= 0].tolist():
-            found.update(self._incident[vertex])
-        edges = np.array(sorted(found), dtype=np.int64)
+        leaving = self._leaving[corners[corners >= 0]]
+        edges = np.unique(np.concatenate([inside[inside >= 0], leaving[leaving >= 0]])
+                          ).astype(np.int64)
         if selective and len(edges):
             a, b = self.ends(edges)
             reach = 3 * delta
@@ -295,7 +329,8 @@ class CaseGraph:
         """The graph in CSR form, cached until the graph changes."""
         if self._adjacency is None:
             edges = self.edge_ids()
-            a, b = self._ea[edges], self._eb[edges]
+            a = self._ea[edges].astype(np.int64)
+            b = self._eb[edges].astype(np.int64)
             source = np.concatenate([a, b])
             order = np.argsort(source, kind="stable")
             indptr = np.zeros(self._vertices + 1, dtype=np.int64)
@@ -303,7 +338,8 @@ class CaseGraph:
             self._adjacency = Adjacency(
                 indptr, np.concatenate([b, a])[order], np.tile(self._cost[edges], 2)[order],
                 np.tile(edges, 2)[order],
-                np.stack([self._vx[:self._vertices], self._vy[:self._vertices]], axis=1))
+                np.stack([self._vx[:self._vertices], self._vy[:self._vertices]],
+                         axis=1).astype(np.int64))
         return self._adjacency
 
     def vertex_index(self, cell: Cell) -> int:
@@ -385,7 +421,20 @@ class CaseGraph:
         # duplicates, and skipping them would cut the path into unconnected pieces. At
         # similarity_delta 0 no comparison is needed: a stored segment with the same two ends
         # would be the same straight run of cells, whose steps are then not new
-        stored = self.ends(self.edge_ids()) if similarity_delta > 0 else None
+        similarity = ((similarity_delta, distance_function(distance)) if similarity_delta > 0
+                      else None)
+        if similarity is not None:
+            self._fresh, self._replaced = set(), []
+        try:
+            return self._add_stretches(cells, new_steps, crossings, forced, similarity)
+        finally:
+            self._fresh, self._replaced = None, []
+
+    def _add_stretches(self, cells: np.ndarray, new_steps: np.ndarray,
+                       crossings: list[tuple[int, Cell]], forced: np.ndarray,
+                       similarity: tuple[int, Distance] | None) -> list[int]:
+        """The body of :meth:`add_path`: connect the new stretches' segments, then the
+        crossings; ``similarity`` is (δr, distance) of eq. (12), None to skip none."""
         added: list[int] = []
         for first, last in _runs(new_steps):
             # the stretch of cells first..last (inclusive) consists of new steps only
@@ -396,7 +445,7 @@ class CaseGraph:
             for i, j in itertools.pairwise(points):
                 a = (int(stretch[i, 0]), int(stretch[i, 1]))
                 b = (int(stretch[j, 0]), int(stretch[j, 1]))
-                if stored is not None and _similar(stored, a, b, similarity_delta, distance):
+                if similarity is not None and self._similar(a, b, *similarity):
                     continue
                 edge = self._connect(a, b)
                 if edge is not None:
@@ -437,6 +486,48 @@ class CaseGraph:
                 found.append((int(index[k]), r))
         return found
 
+    def similar(self, a: Cell, b: Cell, delta: int, distance: str = "chebyshev") -> bool:
+        """Eq. (12): whether a stored segment has its ends within ``delta`` of a and b (either
+        way round) under the named distance. Costs in proportion to the square N(a, delta),
+        not to the graph."""
+        return self._similar(a, b, delta, distance_function(distance))
+
+    def _similar(self, a: Cell, b: Cell, delta: int, measure: Distance) -> bool:
+        """Eq. (12): a segment stored before the current :meth:`add_path` has its ends within
+        ``delta`` of a and b (either way round) under ``measure``.
+
+        Every distance of :mod:`cbr_grid.distances` is at least the Chebyshev distance, so one
+        end of such a segment is a vertex in the square N(a, delta): the vertices there and
+        their edges are every candidate. The edges this add_path inserted are left out and the
+        earlier edges it split away are compared as they were.
+        """
+        x0, y0, x1, y1 = self._square(a, delta)
+        near = self.vertex_at[y0:y1 + 1, x0:x1 + 1]
+        vertices = near[near >= 0]
+        if len(vertices) and self._similar_at(vertices, a, b, delta, measure):
+            return True
+        for p, q in self._replaced:
+            if ((measure(p, a) <= delta and measure(q, b) <= delta)
+                    or (measure(q, a) <= delta and measure(p, b) <= delta)):
+                return True
+        return False
+
+    def _similar_at(self, vertices: np.ndarray, a: Cell, b: Cell, delta: int,
+                    measure: Distance) -> bool:
+        """Whether a segment leaving one of ``vertices`` within ``delta`` of a, stored before
+        the current :meth:`add_path`, ends within ``delta`` of b."""
+        vertices = vertices[measure(np.stack([self._vx[vertices], self._vy[vertices]], axis=1),
+                                    a) <= delta]
+        leaving = self._leaving[vertices]
+        mine = leaving >= 0
+        edges, here = leaving[mine], np.repeat(vertices, mine.sum(axis=1))
+        if self._fresh:
+            old = ~np.isin(edges, list(self._fresh))
+            edges, here = edges[old], here[old]
+        others = np.where(self._ea[edges] == here, self._eb[edges], self._ea[edges])
+        return bool((measure(np.stack([self._vx[others], self._vy[others]], axis=1), b)
+                     <= delta).any())
+
     def remove(self, edges: Iterable[int]) -> None:
         """Forget these edges; vertices left without edges disappear."""
         ids = sorted(set(int(e) for e in edges))
@@ -456,10 +547,10 @@ class CaseGraph:
         merged = 0
         candidates, self._changed = self._changed, set()
         for vertex in sorted(candidates):
-            edges = self._incident.get(vertex)
-            if edges is None or len(edges) != 2:
+            edges = self._incident(vertex).tolist()
+            if len(edges) != 2:
                 continue
-            e1, e2 = sorted(edges)
+            e1, e2 = edges
             far1 = self._other(e1, vertex)
             far2 = self._other(e2, vertex)
             here = (self._vx[vertex], self._vy[vertex])
@@ -486,18 +577,24 @@ class CaseGraph:
         new = np.ones(len(cells) - 1, dtype=bool)
         both = (inside[:-1] >= 0) & (inside[1:] >= 0)
         new[both] = inside[:-1][both] != inside[1:][both]
-        # steps touching a vertex: along an edge when that edge holds both cells
-        for i in np.flatnonzero((vertex[:-1] >= 0) | (vertex[1:] >= 0)).tolist():
-            first = self.edges_at((int(x[i]), int(y[i])))
-            second = self.edges_at((int(x[i + 1]), int(y[i + 1])))
-            new[i] = not set(first) & set(second)
+        # a vertex and a cell inside an edge: along that edge when the vertex is one of its ends
+        for at_vertex, at_edge in ((vertex[:-1], inside[1:]), (vertex[1:], inside[:-1])):
+            mixed = (at_vertex >= 0) & (at_edge >= 0)
+            edge, ends_at = at_edge[mixed], at_vertex[mixed]
+            new[mixed] = (self._ea[edge] != ends_at) & (self._eb[edge] != ends_at)
+        # two vertices side by side: along the edge leaving the first towards the second, which
+        # can only be a one-step edge between them
+        pairs = (vertex[:-1] >= 0) & (vertex[1:] >= 0)
+        step = np.diff(cells[pairs.nonzero()[0][:, None] + [0, 1]], axis=1)[:, 0]
+        new[pairs] = self._leaving[vertex[:-1][pairs], _slot(step[:, 0], step[:, 1])] < 0
         return new
 
     def _connect(self, a: Cell, b: Cell, *, uses: int = 0, created: int | None = None
                  ) -> int | None:
         """Add the straight edge a-b (splitting edges at its ends); None if it exists."""
         va, vb = self._vertex(a), self._vertex(b)
-        if self._incident.get(va, set()) & self._incident.get(vb, set()):
+        joined = int(self._leaving[va, _slot(b[0] - a[0], b[1] - a[1])])
+        if joined >= 0 and self._other(joined, va) == vb:
             return None
         cost, risk = segment_costs(self.grid, [a], [b])
         if created is None:
@@ -529,6 +626,9 @@ class CaseGraph:
     def _insert(self, case_id: int | None, va: int, vb: int, *, uses: int, created: int,
                 cost: float, risk: float) -> int:
         edge = self._next_id if case_id is None else case_id
+        if not 0 <= edge < _ID_LIMIT:
+            raise CbrError(f"case base {_name(self.store)}: segment case id {edge} is outside "
+                           f"the case graph's ids 0..{_ID_LIMIT - 1}")
         size = edge + 1
         self._ea = _grown(self._ea, size, -1)
         self._eb = _grown(self._eb, size, -1)
@@ -542,9 +642,12 @@ class CaseGraph:
         self._uses[edge], self._created[edge] = uses, created
         self._alive[edge] = True
         self._next_id = max(self._next_id, size)
-        self._incident.setdefault(va, set()).add(edge)
-        self._incident.setdefault(vb, set()).add(edge)
+        dx, dy = int(self._vx[vb] - self._vx[va]), int(self._vy[vb] - self._vy[va])
+        self._leaving[va, _slot(dx, dy)] = edge
+        self._leaving[vb, _slot(-dx, -dy)] = edge
         self._changed.update((va, vb))
+        if self._fresh is not None:
+            self._fresh.add(edge)
         cells = segment_cells((self._vx[va], self._vy[va]), (self._vx[vb], self._vy[vb]))[1:-1]
         self.owner[cells[:, 1], cells[:, 0]] = edge
         self._adjacency = None
@@ -552,15 +655,18 @@ class CaseGraph:
 
     def _drop(self, edge: int, *, keep_vertices: bool = False) -> None:
         va, vb = int(self._ea[edge]), int(self._eb[edge])
-        cells = segment_cells((self._vx[va], self._vy[va]), (self._vx[vb], self._vy[vb]))[1:-1]
+        a = (int(self._vx[va]), int(self._vy[va]))
+        b = (int(self._vx[vb]), int(self._vy[vb]))
+        if self._fresh is not None and edge not in self._fresh:
+            self._replaced.append((a, b))
+        cells = segment_cells(a, b)[1:-1]
         self.owner[cells[:, 1], cells[:, 0]] = -1
         self._alive[edge] = False
         self._changed.update((va, vb))
+        self._leaving[va, _slot(b[0] - a[0], b[1] - a[1])] = -1
+        self._leaving[vb, _slot(a[0] - b[0], a[1] - b[1])] = -1
         for vertex in (va, vb):
-            incident = self._incident[vertex]
-            incident.discard(edge)
-            if not incident and not keep_vertices:
-                del self._incident[vertex]
+            if not keep_vertices and (self._leaving[vertex] < 0).all():
                 self.vertex_at[self._vy[vertex], self._vx[vertex]] = -1
                 self._free_vertices.append(vertex)
         self._adjacency = None
@@ -583,6 +689,7 @@ class CaseGraph:
             self._vertices += 1
             self._vx = _grown(self._vx, self._vertices, 0)
             self._vy = _grown(self._vy, self._vertices, 0)
+            self._leaving = _grown(self._leaving, self._vertices, -1)
         self._vx[vertex], self._vy[vertex] = x, y
         self.vertex_at[y, x] = vertex
         self._adjacency = None
@@ -620,19 +727,6 @@ class CaseGraph:
             solution["cost"] = cost if math.isfinite(cost) else None
             solution["risk"] = float(self._risk[edge])
             self._written().replace(attrs.evolve(case, solution=solution))
-
-
-def _similar(stored: tuple[np.ndarray, np.ndarray], a: Cell, b: Cell, delta: int,
-             distance: str) -> bool:
-    """Eq. (12): one of the ``stored`` segments (their end cells) has its ends within
-    ``delta`` of a and b."""
-    ka, kb = stored
-    if len(ka) == 0:
-        return False
-    d = distance_function(distance)
-    forward = (d(ka, a) <= delta) & (d(kb, b) <= delta)
-    backward = (d(kb, a) <= delta) & (d(ka, b) <= delta)
-    return bool((forward | backward).any())
 
 
 def _runs(flags: np.ndarray) -> list[tuple[int, int]]:

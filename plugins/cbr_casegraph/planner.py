@@ -17,26 +17,32 @@ For a start s and goal g on the current map:
 The quality test of step 7 is the reviser's (``cbr_pathquality.reviser.QualityTest``). The
 virtual split keeps the stored edge in the search as well: its parts cost exactly what it
 costs, since a step's cost depends only on its two cells.
+
+Steps 3-6 and the path are compiled (:mod:`cbr_casegraph.query`): a query is a constant number
+of kernel calls, whatever the number of cases, links and vertices it meets. A connector that
+searches once per case (``astar``, ``jps``, ``genetic``) makes its temporary edges here, one
+search per case, and hands them to the same kernel. The overlay classes below serve the planner
+for a robot with kinematic constraints (:mod:`cbr_casegraph.kinematic`).
 """
 
 from __future__ import annotations
 
 import itertools
+import weakref
 from collections.abc import Callable
 from typing import Any, Literal
 
 import attrs
 import numpy as np
 
+from cbr_casegraph import query
 from cbr_casegraph.geometry import segments_cells
-from cbr_casegraph.graph import CaseGraph
-from cbr_casegraph.search import descend, graph_search, path_cost, run_costs
+from cbr_casegraph.graph import Adjacency, CaseGraph
+from cbr_casegraph.search import run_costs
 from cbr_grid.grid import Grid
-from cbr_grid.query import without_loops
-from cbr_solvers.aistar import cost_map
 
 Cell = tuple[int, int]
-Connector = Literal["dijkstra", "astar", "genetic"]
+Connector = Literal["dijkstra", "astar", "jps", "genetic"]
 Trace = Callable[[], np.ndarray]
 
 
@@ -112,6 +118,39 @@ class _Overlay:
 
 
 @attrs.frozen
+class EdgeTables:
+    """The stored graph as the compiled query reads it: the CSR adjacency and, by edge id, the
+    vertices at the edge's ends a and b and its cost (infinite for an id not in use)."""
+
+    adjacency: Adjacency
+    a: np.ndarray
+    b: np.ndarray
+    cost: np.ndarray
+
+
+_TABLES: weakref.WeakKeyDictionary[CaseGraph, EdgeTables] = weakref.WeakKeyDictionary()
+"""Each graph's tables, kept while its adjacency is the one they were made from."""
+
+
+def edge_tables(graph: CaseGraph) -> EdgeTables:
+    """The graph's tables for the compiled query, made again only when its adjacency changed."""
+    adjacency = graph.adjacency()
+    known = _TABLES.get(graph)
+    if known is not None and known.adjacency is adjacency:
+        return known
+    ids = graph.edge_ids()
+    size = int(ids[-1]) + 1 if len(ids) else 0
+    ends = [np.full(size, -1, dtype=np.int64) for _ in range(2)]
+    for table, cells in zip(ends, graph.ends(ids), strict=True):
+        table[ids] = graph.vertex_at[cells[:, 1], cells[:, 0]]
+    cost = np.full(size, np.inf)
+    cost[ids] = graph.costs(ids)
+    made = EdgeTables(adjacency, ends[0], ends[1], cost)
+    _TABLES[graph] = made
+    return made
+
+
+@attrs.frozen
 class Neighbourhoods:
     """Retrieval: the cases meeting N(start, delta) and N(goal, delta) (eq. 11).
 
@@ -131,17 +170,25 @@ def neighbourhoods(graph: CaseGraph, start: Cell, goal: Cell, settings: Settings
     delta = settings.delta
     if max(abs(start[0] - goal[0]), abs(start[1] - goal[1])) <= delta:
         return Failure("start and goal within delta: plan directly")
+    tables = edge_tables(graph)
+    adjacency = tables.adjacency
     found: list[np.ndarray] = []
     on_graph: list[bool] = []
     for name, cell in (("start", start), ("goal", goal)):
-        through = graph.edges_at(cell)
-        cases = graph.meeting(cell, delta, selective=settings.selective)
-        cases = cases[np.isfinite(graph.costs(cases))]
+        cases, on = query.cases_near(graph.vertex_at, graph.owner, adjacency.indptr,
+                                     adjacency.edge, tables.a, tables.b, tables.cost,
+                                     adjacency.xy, int(cell[0]), int(cell[1]), delta,
+                                     settings.selective)
         if len(cases) == 0:
             return Failure(f"no case meets the {name}'s neighbourhood")
         found.append(cases)
-        on_graph.append(bool(through))
+        on_graph.append(bool(on))
     return Neighbourhoods(found[0], found[1], on_graph[0], on_graph[1])
+
+
+_FAILURES = {query.NO_START_LINK: "no local path from the start to a case",
+             query.NO_GOAL_LINK: "no local path from the goal to a case",
+             query.NOT_CONNECTED: "the extended case graph does not connect start and goal"}
 
 
 def adapt(graph: CaseGraph, start: Cell, goal: Cell, cases: Neighbourhoods, settings: Settings,
@@ -151,32 +198,36 @@ def adapt(graph: CaseGraph, start: Cell, goal: Cell, cases: Neighbourhoods, sett
     ``search`` is the local search for temporary edges when the connector is not Dijkstra (a
     function with the signature of ``cbr_solvers.search.astar``).
     """
-    adjacency = graph.adjacency()
-    overlay = _Overlay(base=len(adjacency.indptr) - 1)
+    grid = graph.grid
+    tables = edge_tables(graph)
+    adj = tables.adjacency
+    informed = settings.graph_search == "astar"
+    scale = graph.heuristic_scale() if informed else 0.0
+    (sx, sy), (gx, gy) = (int(v) for v in start), (int(v) for v in goal)
+    if settings.connector == "dijkstra":
+        status, path, cost, hops, temporary, settled = query.adapt_swept(
+            grid.factor, grid.passable, grid.corner_cutting, graph.vertex_at, graph.owner,
+            adj.indptr, adj.target, adj.weight, adj.edge, adj.xy, tables.a, tables.b,
+            cases.start, cases.goal, cases.start_on_graph, cases.goal_on_graph, sx, sy, gx, gy,
+            settings.delta, settings.window_radius, informed, scale)
+    else:
+        if search is None:
+            raise ValueError(f"connector {settings.connector!r} needs a search function")
+        s_links = _searched_links(graph, start, cases.start, settings, search)
+        g_links = _searched_links(graph, goal, cases.goal, settings, search)
+        no_box, no_dist = np.zeros(4, dtype=np.int64), np.zeros(0)
+        status, path, cost, hops, temporary, settled = query.extend(
+            grid.factor, grid.passable, grid.corner_cutting, graph.vertex_at, graph.owner,
+            adj.indptr, adj.target, adj.weight, adj.edge, adj.xy, tables.a, tables.b,
+            cases.start_on_graph, cases.goal_on_graph, sx, sy, gx, gy,
+            *s_links[:2], no_box, no_dist, *s_links[2:],
+            *g_links[:2], no_box, no_dist, *g_links[2:], informed, scale)
     detail: dict[str, Any] = {"start_cases": len(cases.start), "goal_cases": len(cases.goal)}
-    ends = {}
-    for name, cell, near, on_graph in (("start", start, cases.start, cases.start_on_graph),
-                                       ("goal", goal, cases.goal, cases.goal_on_graph)):
-        ends[name] = overlay.vertex(graph, cell)
-        # A terminal on the graph is linked to the other cases near it too: the segment
-        # through it may be a fragment that leads nowhere (a similar segment was not stored,
-        # or a part was forgotten).
-        links = [link for link in _connect(graph, cell, near, settings, search)
-                 if link[0] != cell]
-        if not links and not on_graph:
-            return Failure(f"no local path from the {name} to a case", detail)
-        for target, path, cost in links:
-            overlay.edges.append((ends[name], overlay.vertex(graph, target), cost, path, -1))
-    _split_edges(graph, overlay)
-    found = _search(graph, adjacency, overlay, ends["start"], ends["goal"], settings)
-    if found is None:
-        return Failure("the extended case graph does not connect start and goal", detail)
-    vertices, codes, settled = found
-    path, edges = _expand(graph, adjacency, overlay, vertices, codes)
-    path = without_loops(path)
-    cost = path_cost(graph.grid.factor, path)
-    detail.update(temporary_edges=len(overlay.edges), settled=settled)
-    return Plan(path, cost, edges, detail)
+    if status != query.OK:
+        return Failure(_FAILURES[status], detail)
+    detail.update(temporary_edges=int(temporary), settled=int(settled))
+    used = dict.fromkeys(hops[hops >= 0].tolist())
+    return Plan(path, float(cost), tuple(used), detail)
 
 
 def plan(graph: CaseGraph, start: Cell, goal: Cell, settings: Settings,
@@ -188,52 +239,29 @@ def plan(graph: CaseGraph, start: Cell, goal: Cell, settings: Settings,
     return adapt(graph, start, goal, cases, settings, search)
 
 
-def _connect(graph: CaseGraph, cell: Cell, cases: np.ndarray, settings: Settings,
-             search: Callable[..., Any] | None) -> list[tuple[Cell, Trace, float]]:
-    """Temporary edges from ``cell`` to the nearest cell of each case inside N(cell, delta).
-
-    Returns (case cell reached, a function giving the path from ``cell`` to it, cost) per case
-    that can be reached; cases sharing their nearest cell share one edge.
-    """
+def _searched_links(graph: CaseGraph, cell: Cell, cases: np.ndarray, settings: Settings,
+                    search: Callable[..., Any]
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Temporary edges by one search per case, from ``cell`` to the case's cells inside
+    N(cell, delta): (target cells, costs, path offsets, the paths' cells from ``cell``)."""
     grid = graph.grid
     a, b = graph.ends(cases)
     cells, offsets = segments_cells(a, b)
-    delta = settings.delta
-    near = np.abs(cells - np.asarray(cell)).max(axis=1) <= delta
+    near = np.abs(cells - np.asarray(cell)).max(axis=1) <= settings.delta
     box = _box(cell, settings.window_radius, grid)
-    x0, y0, x1, y1 = box
-    links: list[tuple[Cell, Trace, float]] = []
-    if settings.connector == "dijkstra":
-        width = x1 - x0 + 1
-        # one sweep from the cell, stopped once every case cell in N(cell, delta) is settled
-        costs = cost_map(grid.factor, grid.passable, grid.corner_cutting, [cell], box,
-                         wanted=cells[near])
-        reach = np.full(len(cells), np.inf)
-        reach[near] = costs[cells[near, 1] - y0, cells[near, 0] - x0]
-        # the cheapest cells of each case; ties all get an edge, since which of them the best
-        # path should use depends on where it goes next
-        best = np.minimum.reduceat(reach, offsets[:-1])
-        chosen = np.flatnonzero((reach == np.repeat(best, np.diff(offsets))) & np.isfinite(reach))
-        # distinct cells, by flat index (np.unique along an axis is far slower)
-        flat_chosen = np.unique((cells[chosen, 1] - y0) * width + (cells[chosen, 0] - x0))
-        for y, x in zip((flat_chosen // width + y0).tolist(), (flat_chosen % width + x0).tolist(),
-                        strict=True):
-            # the path is traced only if the search uses this edge
-            def trace(x: int = x, y: int = y) -> np.ndarray:
-                return descend(costs, grid.factor, grid.passable, grid.corner_cutting,
-                               x0, y0, x1, y1, x, y)
-            links.append(((x, y), trace, float(costs[y - y0, x - x0])))
-        return links
-    if search is None:
-        raise ValueError(f"connector {settings.connector!r} needs a search function")
+    paths: list[np.ndarray] = []
+    costs: list[float] = []
     for k in range(len(cases)):
         goals = cells[offsets[k]:offsets[k + 1]][near[offsets[k]:offsets[k + 1]]]
         result = search(grid.factor, grid.passable, grid.corner_cutting, cell, goals, box)
-        if result is None:
-            continue
-        target = (int(result.path[-1, 0]), int(result.path[-1, 1]))
-        links.append((target, lambda path=result.path: path, float(result.cost)))
-    return links
+        if result is not None:
+            paths.append(np.asarray(result.path, dtype=np.int64).reshape(-1, 2))
+            costs.append(float(result.cost))
+    bounds = np.zeros(len(paths) + 1, dtype=np.int64)
+    np.cumsum([len(p) for p in paths], out=bounds[1:])
+    joined = np.concatenate(paths) if paths else np.zeros((0, 2), dtype=np.int64)
+    targets = np.array([p[-1] for p in paths], dtype=np.int64).reshape(-1, 2)
+    return targets, np.array(costs, dtype=np.float64), bounds, joined
 
 
 def _split_edges(graph: CaseGraph, overlay: _Overlay) -> None:
@@ -259,72 +287,3 @@ def _split_edges(graph: CaseGraph, overlay: _Overlay) -> None:
                       np.asarray(parts_to, dtype=np.int64).reshape(-1, 2))
     for (u, v, edge), cost in zip(chains, costs.tolist(), strict=True):
         overlay.edges.append((u, v, cost, None, edge))
-
-
-def _search(graph: CaseGraph, adjacency: Any, overlay: _Overlay, source: int, goal: int,
-            settings: Settings) -> tuple[np.ndarray, np.ndarray, int] | None:
-    n = overlay.base + len(overlay.cells)
-    if overlay.edges:
-        u = np.array([e[0] for e in overlay.edges] + [e[1] for e in overlay.edges])
-        v = np.array([e[1] for e in overlay.edges] + [e[0] for e in overlay.edges])
-        w = np.array([e[2] for e in overlay.edges] * 2)
-        order = np.argsort(u, kind="stable")
-        o_ptr = np.zeros(n + 1, dtype=np.int64)
-        np.cumsum(np.bincount(u, minlength=n), out=o_ptr[1:])
-        o_target, o_weight = v[order].astype(np.int64), w[order].astype(np.float64)
-        # overlay index k of a CSR entry: which temporary edge it came from
-        o_edge = np.concatenate([np.arange(len(overlay.edges))] * 2)[order]
-    else:
-        o_ptr = np.zeros(n + 1, dtype=np.int64)
-        o_target = np.zeros(0, dtype=np.int64)
-        o_weight = np.zeros(0)
-        o_edge = np.zeros(0, dtype=np.int64)
-    xy = adjacency.xy
-    if overlay.cells:
-        xy = np.concatenate([xy, np.asarray(overlay.cells, dtype=np.int64).reshape(-1, 2)])
-    informed = settings.graph_search == "astar"
-    found, _, vertices, codes, settled = graph_search(
-        adjacency.indptr, adjacency.target, adjacency.weight, adjacency.edge, o_ptr, o_target,
-        o_weight, xy, source, goal, informed, graph.heuristic_scale() if informed else 0.0)
-    if not found:
-        return None
-    # translate overlay CSR positions into temporary edge indices
-    overlay_codes = codes < 0
-    codes = codes.copy()
-    codes[overlay_codes] = -(o_edge[-codes[overlay_codes] - 1] + 1)
-    return vertices, codes, int(settled)
-
-
-def _expand(graph: CaseGraph, adjacency: Any, overlay: _Overlay, vertices: np.ndarray,
-            codes: np.ndarray) -> tuple[np.ndarray, tuple[int, ...]]:
-    """The cell path along the found vertices, and the stored edges it uses."""
-    base = overlay.base
-    extra = np.asarray(overlay.cells, dtype=np.int64).reshape(-1, 2)
-    xy = np.where((vertices < base)[:, None], adjacency.xy[np.minimum(vertices, base - 1)],
-                  extra[np.maximum(vertices - base, 0)] if len(extra) else 0)
-    edges = codes.copy()
-    traced: dict[int, np.ndarray] = {}
-    for i in np.flatnonzero(codes < 0).tolist():
-        u, _, _, trace, edge = overlay.edges[-int(codes[i]) - 1]
-        edges[i] = edge
-        if trace is not None:
-            cells = trace()
-            traced[i] = cells if int(vertices[i]) == u else cells[::-1]
-    # every other hop is a straight run between its two vertices: runs of them are cut in one
-    # go, each hop's first cell dropped where the previous hop ended on it
-    pieces: list[np.ndarray] = []
-    bounds = [-1, *sorted(traced), len(codes)]
-    for before, after in itertools.pairwise(bounds):
-        if before >= 0:
-            pieces.append(traced[before] if not pieces else traced[before][1:])
-        hops = np.arange(before + 1, after)
-        if len(hops) == 0:
-            continue
-        cells, offsets = segments_cells(xy[hops], xy[hops + 1])
-        keep = np.ones(len(cells), dtype=bool)
-        keep[offsets[1:-1]] = False
-        if pieces:
-            keep[0] = False
-        pieces.append(cells[keep])
-    used = edges[edges >= 0].tolist()
-    return np.concatenate(pieces), tuple(dict.fromkeys(used))

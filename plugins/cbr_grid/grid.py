@@ -38,8 +38,9 @@ def _risk_array(value: ArrayLike) -> np.ndarray:
         raise CbrError(f"grid risk must be 2-D (height, width), got shape {risk.shape}")
     if risk.size == 0:
         raise CbrError(f"grid risk must have at least one cell, got shape {risk.shape}")
-    bad = ~np.isfinite(risk) | (risk < 0) | (risk > 1)
-    if bad.any():
+    # min and max find any bad value (NaN fails both tests) without a mask the size of the map
+    if not (risk.min() >= 0 and risk.max() <= 1):
+        bad = ~np.isfinite(risk) | (risk < 0) | (risk > 1)
         y, x = (int(i) for i in np.argwhere(bad)[0])
         raise CbrError(f"grid risk must be finite and within [0, 1]; {int(bad.sum())} cell(s) "
                        f"are not, the first is ({x}, {y}) with {float(risk[y, x])!r}")
@@ -134,7 +135,8 @@ class Grid:
             raise CbrError(f"expected 0 <= free_thresh <= occupied_thresh <= 1, got "
                            f"free_thresh={free_thresh!r}, occupied_thresh={occupied_thresh!r}")
         if values.dtype == bool:
-            risk, unknown = values.astype(np.float64), None
+            # The risk converter copies the booleans into float64 itself: no second copy.
+            risk, unknown = values, None
         elif values.dtype == np.int8:
             bad = (values < -1) | (values > 100)
             if bad.any():

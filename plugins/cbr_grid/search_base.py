@@ -11,6 +11,11 @@ caller holding its size: :func:`push` into arrays with room, :func:`push_grown` 
 when full, :func:`pop`. A search pushes a cell again when it improves and skips the stale entries
 it pops (lazy deletion).
 
+**The 4-ary heap** (:func:`push4`, :func:`pop4`, :func:`push4_grown`) holds the same pairs with
+four children to a node: half the levels, and a node's children side by side in memory. The
+first two are inlined into the kernel that calls them. The cell searches use it; on their
+frontiers it takes 10-25% less time than the binary heap.
+
 **The moves** are numbered 0-7 in the order the searches try them: the four orthogonal ones
 (E, W, S, N), then the diagonals (SE, NE, SW, NW), so ``d >= 4`` is a diagonal move. The
 order decides which of two equally cheap paths a search returns, so every search shares it.
@@ -21,6 +26,16 @@ of steps :data:`DX` and :data:`DY` are read from; :data:`MOVE_OF_DIRECTION` goes
 Without corner cutting both must be passable, with corner cutting one, so a path never squeezes
 between two obstacles (the rule of :class:`cbr_grid.grid.Grid`). Each kernel is compiled with
 numba, cached on disk.
+
+**The working arrays** are kept per thread and reused: :class:`Workspace` for searches over
+states (the edge-based searches: an int32 stamp, a float64 cost, an int64 parent state and an
+int32 goal mark per state) and :class:`CellWorkspace` for searches over cells (a uint8 stamp,
+a float64 cost and the uint8 move that reached the cell: 10 bytes a cell).
+
+**Move masks** (:func:`move_masks`, :func:`cell_moves`) hold the corner rule's verdict for all
+eight moves of a cell in one byte, bit ``d`` set when move ``d`` is allowed on the whole grid:
+a search reads one byte per expansion instead of up to sixteen cells, and a window clips the
+byte with :data:`LEAVING` on its border.
 """
 
 from __future__ import annotations
@@ -115,6 +130,92 @@ def move(passable: np.ndarray, corner_cutting: bool, cx: int, cy: int, d: int, x
     return (beside_x or beside_y) if corner_cutting else (beside_x and beside_y)
 
 
+@njit(inline="always")
+def push4(keys: np.ndarray, items: np.ndarray, size: int, key: float, item: int) -> None:
+    """Add (key, item) to the 4-ary heap of ``size`` entries; the arrays have room for it."""
+    i = size
+    while i > 0:
+        parent = (i - 1) >> 2
+        if keys[parent] <= key:
+            break
+        keys[i] = keys[parent]
+        items[i] = items[parent]
+        i = parent
+    keys[i] = key
+    items[i] = item
+
+
+@njit(inline="always")
+def pop4(keys: np.ndarray, items: np.ndarray, size: int) -> int:
+    """Remove the entry with the smallest key from the 4-ary heap of ``size`` entries; its item."""
+    top = items[0]
+    size -= 1
+    key, item = keys[size], items[size]
+    i = 0
+    while True:
+        first = 4 * i + 1
+        if first >= size:
+            break
+        child, least = first, keys[first]
+        for other in range(first + 1, min(first + 4, size)):
+            if keys[other] < least:
+                child, least = other, keys[other]
+        if key <= least:
+            break
+        keys[i] = least
+        items[i] = items[child]
+        i = child
+    keys[i] = key
+    items[i] = item
+    return top
+
+
+@njit
+def push4_grown(keys: np.ndarray, items: np.ndarray, size: int, key: float, item: int
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Add (key, item) to the 4-ary heap of ``size`` entries, doubling its arrays when they are
+    full; the arrays, new or not."""
+    if size == keys.shape[0]:
+        keys = np.concatenate((keys, np.empty_like(keys)))
+        items = np.concatenate((items, np.empty_like(items)))
+    push4(keys, items, size, key, item)
+    return keys, items
+
+
+def _leaving(axis: np.ndarray, sign: int) -> int:
+    return int(sum(1 << d for d in range(8) if axis[d] == sign))
+
+
+LEAVING = np.array([_leaving(DX, -1), _leaving(DX, 1), _leaving(DY, -1), _leaving(DY, 1)],
+                   dtype=np.int64)
+"""The bits of the moves that step west, east, north and south (decreasing x, increasing x,
+decreasing y, increasing y): cleared from a cell's move mask on a window's border."""
+
+
+@njit(inline="always")
+def cell_moves(passable: np.ndarray, corner_cutting: bool, x: int, y: int) -> int:
+    """The move mask of (x, y) on the whole grid: bit ``d`` set when :func:`move` allows ``d``."""
+    h, w = passable.shape
+    mask = 0
+    for d in range(8):
+        if move(passable, corner_cutting, x, y, d, 0, 0, w - 1, h - 1):
+            mask |= 1 << d
+    return mask
+
+
+@njit
+def move_masks(passable: np.ndarray, corner_cutting: bool) -> np.ndarray:
+    """The move mask (:func:`cell_moves`) of every cell, row-major, one uint8 each; 0 on blocked
+    cells."""
+    h, w = passable.shape
+    masks = np.zeros(h * w, dtype=np.uint8)
+    for y in range(h):
+        for x in range(w):
+            if passable[y, x]:
+                masks[y * w + x] = cell_moves(passable, corner_cutting, x, y)
+    return masks
+
+
 def checked_arguments(factor: np.ndarray, passable: np.ndarray, start: Sequence[int],
                       goals: object, window: Sequence[int] | None
                       ) -> tuple[np.ndarray, np.ndarray, tuple[int, int], np.ndarray,
@@ -176,3 +277,39 @@ class Workspace(threading.local):
             self.goal_mark[:] = 0
             self.generation = 2
         return self.stamp, self.dist, self.parent, self.goal_mark, self.generation
+
+
+
+class CellWorkspace(threading.local):
+    """A cell search's working arrays, kept per thread and reused across its calls.
+
+    ``stamp`` (uint8), ``dist`` (float64) and ``parent`` (uint8, the move that reached a cell)
+    grow to the largest window asked for, 10 bytes a cell. As in :class:`Workspace` a search
+    marks a cell reached with its generation and settled with the generation + 1; a byte holds
+    126 generations, after which the stamps used since the last clearing are cleared (only as
+    many as the largest window since, so small searches clear little).
+    """
+
+    def __init__(self) -> None:
+        self.stamp = np.zeros(0, dtype=np.uint8)
+        self.dist = np.empty(0, dtype=np.float64)
+        self.parent = np.empty(0, dtype=np.uint8)
+        self.generation = 0
+        self.used = 0
+
+    def take(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """(stamp, dist, parent, generation): arrays of at least ``n`` cells and a fresh
+        generation for one search."""
+        if self.stamp.shape[0] < n:
+            # Drop the old arrays first, so the old and new ones are never held together.
+            self.stamp = self.dist = self.parent = None  # type: ignore[assignment]
+            self.stamp = np.zeros(n, dtype=np.uint8)
+            self.dist = np.empty(n, dtype=np.float64)
+            self.parent = np.empty(n, dtype=np.uint8)
+            self.generation = self.used = 0
+        self.generation += 2
+        if self.generation >= np.iinfo(np.uint8).max - 1:
+            self.stamp[:self.used] = 0
+            self.generation, self.used = 2, 0
+        self.used = max(self.used, n)
+        return self.stamp, self.dist, self.parent, self.generation

@@ -2,9 +2,10 @@
 
 Each phase hook runs once per query over the arrays of :mod:`cbr_pathcases.base`: retrieval
 compares the query with every stored end point at once, retention compares the new path with
-every stored path in one compiled call (:mod:`cbr_pathcases.hausdorff`). The reuser and the
-retainer warm up when the engine is built (``cbr_warm``): each runs its compiled code once on a
-small grid of its own, so that it is ready before the first query is timed.
+the stored paths the spatial index finds near it in one compiled call
+(:meth:`cbr_pathcases.base.PathBase.hausdorff`). The reuser and the retainer warm up when the
+engine is built (``cbr_warm``): each runs its compiled code once on a small grid of its own, so
+that it is ready before the first query is timed.
 """
 
 from __future__ import annotations
@@ -304,8 +305,6 @@ class PathRetainer:
 
     def retain(self, solution: Solution, outcome: Outcome, ctx: Context) -> None:
         """Learn from the driven ``solution`` into the path base of ``ctx``."""
-        from cbr_pathcases.hausdorff import hausdorff  # compiled: loaded with the first retain
-
         base = base_of(ctx)
         grid: Grid = ctx.world
         reused = base.ids[base.rows(solution.cases)].tolist()
@@ -324,11 +323,11 @@ class PathRetainer:
             self._traversed(base, case_id, trip.cost(self.options.combine,
                                                      self.options.risk_weight))
         cost = measured.cost(self.options.combine, self.options.risk_weight)
-        cells, offsets = base.concatenated()
         threshold = self.options.threshold
-        forward, backward = hausdorff(path, cells, offsets, distance=self.options.distance,
-                                      limit=threshold)
-        same = np.flatnonzero(np.maximum(forward, backward) == 0)
+        # the stored paths that can be within the threshold; all others are farther
+        rows, forward, backward = base.hausdorff(path, distance=self.options.distance,
+                                                 limit=threshold)
+        same = rows[np.maximum(forward, backward) == 0]
         if len(same):
             # the very cells of a stored path, driven again (reused or planned anew, in either
             # direction): one more traversal of that case, not a new case
@@ -338,7 +337,7 @@ class PathRetainer:
                     base.touch([case_id])
             return
         apart = forward if self.options.hausdorff == "directed" else np.maximum(forward, backward)
-        similar = np.flatnonzero(apart <= threshold)
+        similar = rows[apart <= threshold]
         if len(similar) and base.costs[similar].min() <= cost:
             # a duplicate: not stored twice, the best similar path's use count grows instead
             best = int(base.ids[similar[np.argmin(base.costs[similar])]])

@@ -56,9 +56,8 @@ class CapacityForgetter(abc.ABC):
     def cbr_forget(self, ctx: Context) -> None:
         base = base_of(ctx)
         while len(base) > self.capacity:
-            key = self.rank(base)
-            # lexsort's last key is the primary one; ids break ties toward the older case
-            base.remove([int(base.ids[np.lexsort((base.ids, key))[0]])])
+            # rows are ordered by id: the first of the lowest keys is the older case
+            base.remove([int(base.ids[np.argmin(self.rank(base))])])
 
 
 class WorstPaths(CapacityForgetter):
@@ -151,18 +150,14 @@ class NearDuplicatePaths:
 
     @hookimpl
     def cbr_forget(self, ctx: Context) -> None:
-        from cbr_pathcases.hausdorff import hausdorff  # compiled: loaded with the first check
-
         base = base_of(ctx)
         new = base.ids[~np.isin(base.ids, self.known)]
         for case_id in new.tolist():
             row = int(base.rows([case_id])[0])
-            others = np.flatnonzero(base.ids != case_id)
-            cells, offsets = base.concatenated()
-            forward, backward = hausdorff(base.paths[row], cells, offsets,
-                                          distance=self.options.distance,
-                                          limit=self.options.radius)
-            near = np.maximum(forward, backward)[others] <= self.options.radius
+            rows, forward, backward = base.hausdorff(base.paths[row],
+                                                     distance=self.options.distance,
+                                                     limit=self.options.radius)
+            near = (np.maximum(forward, backward) <= self.options.radius) & (rows != row)
             if int(near.sum()) > self.options.count:
                 base.remove([case_id])
         self.known = base.ids.copy()

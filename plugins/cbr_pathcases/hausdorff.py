@@ -1,4 +1,4 @@
-"""Hausdorff distances between one new path and every stored path, in one compiled call.
+"""Hausdorff distances between one new path and many stored paths, in one compiled call.
 
 A path is an ordered (n, 2) integer array of (x, y) grid cells. Whole-path case bases (Kruusmaa
 & Svensson; Šeda & Dvořák, eq. 8) compare a path about to be retained with every stored path by
@@ -9,6 +9,9 @@ or chebyshev cell distance.
 Hand-written because ``scipy.spatial.distance.directed_hausdorff`` takes one pair per call and
 measures euclidean distance only, while the case base needs four metrics against thousands of
 stored paths per retained one: a Python loop over the pairs would dominate the retain step.
+The stored paths are spans of one cell array: :func:`hausdorff` takes them back to back
+(offsets), :func:`hausdorff_spans` anywhere in it (the case base's store of cells, which keeps
+the paths it forgot until it compacts, and compares only the paths its index finds near).
 
 The kernel is the early-break algorithm of Taha & Hanbury (2015): for each cell of A it scans B
 and stops as soon as a cell no farther than the running maximum turns up, since that cell of A
@@ -105,9 +108,10 @@ def _box(cells: np.ndarray, s: int, e: int) -> tuple[int, int, int, int]:
 
 
 @njit
-def _all(path: np.ndarray, cells: np.ndarray, offsets: np.ndarray, metric: int, limit: float,
-         forward: np.ndarray, backward: np.ndarray) -> None:
-    """Fill ``forward[i] = D(path, P_i)`` and ``backward[i] = D(P_i, path)`` for each stored path.
+def _all(path: np.ndarray, cells: np.ndarray, begins: np.ndarray, ends: np.ndarray,
+         metric: int, limit: float, forward: np.ndarray, backward: np.ndarray) -> None:
+    """Fill ``forward[i] = D(path, P_i)`` and ``backward[i] = D(P_i, path)`` for each stored path
+    P_i = ``cells[begins[i]:ends[i]]``.
 
     Any two cells of two paths are at least the gaps between the paths' bounding boxes apart on
     each axis, and all four metrics grow with ``|dx|`` and with ``|dy|``: the metric of the gaps
@@ -115,8 +119,8 @@ def _all(path: np.ndarray, cells: np.ndarray, offsets: np.ndarray, metric: int, 
     """
     n = path.shape[0]
     px0, py0, px1, py1 = _box(path, 0, n)
-    for i in range(offsets.shape[0] - 1):
-        s, e = offsets[i], offsets[i + 1]
+    for i in range(begins.shape[0]):
+        s, e = begins[i], ends[i]
         x0, y0, x1, y1 = _box(cells, s, e)
         gx = max(0, x0 - px1, px0 - x1)
         gy = max(0, y0 - py1, py0 - y1)
@@ -138,6 +142,31 @@ def _cells(array: npt.ArrayLike, name: str, at_least: int) -> np.ndarray:
     return np.ascontiguousarray(cells, dtype=np.int64)
 
 
+def _metric(distance: str, limit: float) -> tuple[int, float]:
+    """The kernel's metric code and the limit as a float; ValueError naming a bad one."""
+    metric = METRICS.get(distance)
+    if metric is None:
+        raise ValueError(f"distance must be one of {', '.join(map(repr, METRICS))};"
+                         f" got {distance!r}")
+    limit = float(limit)
+    if math.isnan(limit):
+        raise ValueError("limit must be a number or inf; got nan")
+    return metric, limit
+
+
+def hausdorff_spans(path: np.ndarray, cells: np.ndarray, begins: np.ndarray, ends: np.ndarray,
+                    *, distance: str = "euclidean", limit: float = math.inf
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`hausdorff` for the stored paths ``cells[begins[i]:ends[i]]``, anywhere in
+    ``cells``: contiguous int64 arrays, ``path`` (n, 2) with n >= 1, ``cells`` (M, 2), and
+    ``0 <= begins[i] < ends[i] <= M`` (the caller's own layout, which is not checked)."""
+    metric, limit = _metric(distance, limit)
+    forward = np.empty(len(begins), dtype=np.float64)
+    backward = np.empty(len(begins), dtype=np.float64)
+    _all(path, cells, begins, ends, metric, limit, forward, backward)
+    return forward, backward
+
+
 def hausdorff(path: npt.ArrayLike, cells: npt.ArrayLike, offsets: npt.ArrayLike, *,
               distance: str = "euclidean", limit: float = math.inf
               ) -> tuple[np.ndarray, np.ndarray]:
@@ -155,13 +184,7 @@ def hausdorff(path: npt.ArrayLike, cells: npt.ArrayLike, offsets: npt.ArrayLike,
     as inf (that lets the computation stop early); entries up to ``limit`` are exact. Raises
     ValueError for malformed arguments, naming what was expected.
     """
-    metric = METRICS.get(distance)
-    if metric is None:
-        raise ValueError(f"distance must be one of {', '.join(map(repr, METRICS))};"
-                         f" got {distance!r}")
-    limit = float(limit)
-    if math.isnan(limit):
-        raise ValueError("limit must be a number or inf; got nan")
+    _metric(distance, limit)  # a bad distance or limit is named before the arrays
     path = _cells(path, "path", 1)
     cells = _cells(cells, "cells", 0)
     bounds = np.asarray(offsets)
@@ -178,9 +201,5 @@ def hausdorff(path: npt.ArrayLike, cells: npt.ArrayLike, offsets: npt.ArrayLike,
     if (steps == 0).any():
         raise ValueError(f"stored path {int(np.argmax(steps == 0))} is empty"
                          " (offsets repeat a value)")
-    k = bounds.shape[0] - 1
-    forward = np.empty(k, dtype=np.float64)
-    backward = np.empty(k, dtype=np.float64)
-    _all(path, cells, np.ascontiguousarray(bounds, dtype=np.int64), metric, limit, forward,
-         backward)
-    return forward, backward
+    bounds = np.ascontiguousarray(bounds, dtype=np.int64)
+    return hausdorff_spans(path, cells, bounds[:-1], bounds[1:], distance=distance, limit=limit)

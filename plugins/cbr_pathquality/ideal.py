@@ -9,9 +9,20 @@ three times the octile distance, so a test against it rejects good paths and bad
 path lengths from a few landmark cells to every cell are computed once, and by the triangle
 inequality |d(L, s) - d(L, g)| never exceeds d(s, g) for any landmark L. The landmarks are
 picked farthest first (each the reachable cell farthest from those chosen), which spreads them
-to the map's extremes, where the bound is tightest. The tables are built on the first map seen;
-they stay lower bounds when cells later become obstacles, since blocking cells only lengthens
-paths.
+to the map's extremes, where the bound is tightest.
+
+How tight it is, on the Moving AI maps of ``benchmarks/casegraph_movingai.py`` (the longer half
+of each scenario file): with 8 landmarks the bound is within 3% of the optimal length for the
+median query on every map (dao, city, maze, room, random), and at least 0.92 of it for nine
+queries in ten on the dao and city maps; the 512x512 maze's worst tenth is the loosest (0.78),
+and 16 and 32 landmarks raise it to 0.91 and 0.97 at about two and four times the building
+time (0.6 and 1.2 s there). Against the octile distance, whose median is 0.11 of the optimum on that
+maze and 0.5-0.7 on the 128x128 maze and the larger dao maps, a 1.5 test accepts CBR's path on
+92% of that maze's queries instead of none, on 97% instead of 26% on the 128x128 maze and on 85%
+instead of 37% on den520d.
+
+The tables are built on the first map seen; they stay lower bounds when cells later become
+obstacles, since blocking cells only lengthens paths.
 """
 
 from __future__ import annotations
@@ -50,7 +61,8 @@ class Landmarks:
         a = self.tables[:, start[1], start[0]].astype(np.float64)
         b = self.tables[:, goal[1], goal[0]].astype(np.float64)
         both = np.isfinite(a) & np.isfinite(b)
+        a, b = a[both], b[both]
         # the tables hold float32: take off their rounding, so the bound stays below the truth
         slack = np.abs(a - b) - (a + b) * 1e-7
-        best = float(slack[both].max(initial=0.0))
+        best = float(slack.max(initial=0.0))
         return max(best, float(np.ravel(octile(start, goal))[0]))

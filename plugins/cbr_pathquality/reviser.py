@@ -5,6 +5,12 @@ when it is valid on the robot's current map, joins start and goal, and is not mu
 the ideal length between them (step 7 of the case graph planner; Kruusmaa's "if the proposed
 path is not good enough" test). The ideal length is a lower bound of any path's length: a
 straight-line distance, or the landmark bound of :mod:`cbr_pathquality.ideal`.
+
+A reuser that guarantees its paths' quality (the case graph's ``experience_graph``: cost at most
+epsilon · eps_E times the cheapest path's, by construction) states the factor in
+``Solution.detail["bound"]``. When that bound is at most ``max_ratio``, a valid path joining start
+and goal is accepted without the comparison with the ideal length, which as a lower bound can
+only be looser than the optimum the guarantee refers to.
 """
 
 from __future__ import annotations
@@ -28,7 +34,12 @@ from cbrcore.options import option
 @attrs.frozen
 class QualityOptions:
     max_ratio: float = option(
-        1.5, "Largest accepted ratio of the path's length to the ideal length (step 7).",
+        1.5, "Largest accepted ratio of the path's length to the ideal length (step 7). A "
+        "solution whose reuser guarantees a bound on its cost (detail 'bound': its cost is at "
+        "most bound times the cheapest path's on the map, e.g. reuse 'experience_graph') is "
+        "accepted, when valid and joining start and goal, if that bound is at most max_ratio: "
+        "max_ratio is then the largest accepted ratio to the optimal cost (length on a "
+        "risk-free map), held by proof; a larger bound is tested like any other path.",
         validator=attrs.validators.ge(1.0))
     ideal: Literal["euclidean", "manhattan", "octile", "chebyshev", "landmarks"] = option(
         "octile", "The ideal length between start and goal, a lower bound of any path's "
@@ -41,7 +52,8 @@ class QualityOptions:
 
 
 class QualityTest:
-    """Step 7: accept a valid path whose length is within max_ratio of the ideal length."""
+    """Step 7: accept a valid path whose length is within max_ratio of the ideal length, or
+    whose cost its reuser guarantees to be within max_ratio of the optimum."""
 
     def __init__(self, options: QualityOptions, ctx: Context) -> None:
         self.options = options
@@ -63,6 +75,12 @@ class QualityTest:
         if self.options.ideal == "landmarks" and isinstance(ctx.world, Grid):
             self.landmarks = Landmarks(ctx.world, self.options.landmarks)
 
+    def guaranteed(self, solution: Solution) -> bool:
+        """Whether the solution's reuser guarantees its cost within max_ratio of the optimum."""
+        bound = solution.detail.get("bound")
+        return (isinstance(bound, int | float) and not isinstance(bound, bool)
+                and 1.0 <= bound <= self.options.max_ratio)
+
     @hookimpl
     def cbr_revise(self, problem: GridQuery, solution: Solution, ctx: Context) -> Revision:
         grid: Grid = ctx.world
@@ -72,6 +90,8 @@ class QualityTest:
         path = np.asarray(solution.value)
         if tuple(path[0]) != tuple(problem.start) or tuple(path[-1]) != tuple(problem.goal):
             return Revision(False, "does not connect start and goal")
+        if self.guaranteed(solution):
+            return Revision(True)
         ideal = self._ideal(grid, tuple(problem.start), tuple(problem.goal))
         ratio = path_length(path) / ideal if ideal > 0 else 1.0
         if ratio > self.options.max_ratio:

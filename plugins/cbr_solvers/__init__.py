@@ -1,12 +1,13 @@
-"""Model-based path planners on grids: the ``dijkstra``, ``astar``, ``aistar``, ``genetic`` and
-``randomized`` solvers.
+"""Model-based path planners on grids: the ``dijkstra``, ``astar``, ``aistar``, ``jps``,
+``genetic`` and ``randomized`` solvers.
 
 Each answers a :class:`cbr_grid.query.GridQuery` on the run's grid world
 (:class:`cbr_grid.grid.Grid`) with the compiled searches of :mod:`cbr_solvers.search`,
-:mod:`cbr_solvers.aistar`, :mod:`cbr_solvers.genetic` and :mod:`cbr_solvers.randomized`, under
-the grid's step cost contract (its ``factor``, ``passable`` and ``corner_cutting``). The first
-three give a cheapest path; ``genetic`` and ``randomized`` give plausible ones that vary with
-their seed, so that a case base can gather alternative routes.
+:mod:`cbr_solvers.aistar`, :mod:`cbr_solvers.jps`, :mod:`cbr_solvers.genetic` and
+:mod:`cbr_solvers.randomized`, under the grid's step cost contract (its ``factor``, ``passable``
+and ``corner_cutting``). The first four give a cheapest path (``jps``, jump point search, hands
+a grid with unequal costs or corner cutting over to A*); ``genetic`` and ``randomized`` give
+plausible ones that vary with their seed, so that a case base can gather alternative routes.
 
 For a robot whose kinematic model (:mod:`cbr_kinematics.models`) limits its turns, ``dijkstra``,
 ``astar``, ``aistar`` and ``randomized`` plan with the edge-based searches of section 5 of the
@@ -41,7 +42,8 @@ from cbrcore.options import configured, option
 from cbrcore.registry import Registry
 
 SEARCH_MODULES = {"dijkstra": "cbr_solvers.search", "astar": "cbr_solvers.search",
-                  "aistar": "cbr_solvers.aistar", "genetic": "cbr_solvers.genetic",
+                  "aistar": "cbr_solvers.aistar", "jps": "cbr_solvers.jps",
+                  "genetic": "cbr_solvers.genetic",
                   "randomized": "cbr_solvers.randomized"}
 """Each grid search by name, and the module that holds its function."""
 
@@ -141,11 +143,15 @@ class GridSolver:
                              **options)
         if result is None:
             return None
+        return Solution(result.path.tolist(), cost=result.cost, detail=self.detail(result))
+
+    def detail(self, result: Any) -> dict[str, Any]:
+        """The detail of the solution of a search's ``result``."""
         detail: dict[str, Any] = {"expanded": result.expanded, "solver": self.name}
         if self.kinematics is not None:
             detail.update(headings=result.headings.tolist(),
                           reversing=result.reversing.tolist())
-        return Solution(result.path.tolist(), cost=result.cost, detail=detail)
+        return detail
 
 
 class Dijkstra(GridSolver):
@@ -164,6 +170,17 @@ class AiStar(GridSolver):
     """The cheapest path by Ai*: A* guided by an integer distance map from the goal."""
 
     name = "aistar"
+
+
+class JumpPointSearch(GridSolver):
+    """The cheapest path by jump point search on a grid of equal costs without corner cutting;
+    A* answers on other grids, and the solution's detail names the search that planned
+    (``search``: ``jps`` or ``astar``)."""
+
+    name = "jps"
+
+    def detail(self, result: Any) -> dict[str, Any]:
+        return {**super().detail(result), "search": result.search}
 
 
 @attrs.frozen
@@ -251,6 +268,7 @@ def cbr_register(registry: Registry) -> None:
     registry.add("solver", "dijkstra", Dijkstra)
     registry.add("solver", "astar", AStar)
     registry.add("solver", "aistar", AiStar)
+    registry.add("solver", "jps", JumpPointSearch)
     registry.add("solver", "genetic", Genetic, options=GeneticOptions)
     registry.add("solver", "randomized", Randomized, options=RandomizedOptions)
 

@@ -30,7 +30,7 @@ import numpy as np
 
 from cbr_grid.costs import SQRT2
 from cbr_grid.search_base import DX, DY, INITIAL_HEAP, move, pop, push_grown
-from cbr_solvers.search import SearchResult, _min_factor, _run
+from cbr_solvers.search import SearchResult, _profile, _run
 from cbrcore.compiled import njit
 
 # Integer step lengths of the distance map: orthogonal and diagonal.
@@ -142,7 +142,7 @@ def heuristic_table(factor: np.ndarray, passable: np.ndarray, corner_cutting: bo
     h, w = passable.shape
     # Refuses a factor <= 0 or NaN; an empty window has no start to search from, so any finite
     # scale serves.
-    fmin = _min_factor(factor, passable, window, window == (0, 0, w - 1, h - 1))
+    fmin = _profile(factor, passable, window, window == (0, 0, w - 1, h - 1))[0]
     if fmin < 0.0:  # a small window, left to scan
         inside = factor[y0:y1 + 1, x0:x1 + 1][passable[y0:y1 + 1, x0:x1 + 1]]
         fmin = float(inside.min()) if inside.size else np.inf

@@ -39,6 +39,7 @@ class SolverName(enum.StrEnum):
     dijkstra = "dijkstra"
     astar = "astar"
     aistar = "aistar"
+    jps = "jps"
     genetic = "genetic"
 
 
@@ -196,6 +197,8 @@ def _plan(search: Search, solver: SolverName, grid: Grid, start: Cell,
               "path": result.path.tolist()}
     if hasattr(result, "headings"):
         record.update(headings=result.headings.tolist(), reversing=result.reversing.tolist())
+    if hasattr(result, "search"):
+        record["search"] = result.search  # jps: the search that planned, itself or A*
     if grid.frame is not None:
         record.update(length_m=record["length"] * grid.frame.resolution,
                       path_m=grid.to_map(result.path).tolist())
@@ -380,7 +383,7 @@ def plan(
     if as_json:
         typer.echo(json.dumps(record))
         return
-    for key in ("length", "cost", "turns", "time_ms", "expanded", "length_m"):
+    for key in ("length", "cost", "turns", "time_ms", "expanded", "search", "length_m"):
         value = record.get(key)
         if value is not None:
             typer.echo(f"{key:<9} {value:.6g}" if isinstance(value, float)

@@ -9,14 +9,23 @@ between two obstacles, the rule of ``cbr_grid.grid.Grid``). With every factor 1 
 octile lengths.
 
 Both searches share one numba kernel (compiled once per process, cached on disk) over flat cell
-indices, built on :mod:`cbr_grid.search_base`: its binary heap with lazy deletion (an improved
-cell is pushed again and its stale entries are skipped when popped), its moves and corner rule,
-its argument checks and its per-thread working arrays, where a generation stamp, not a fill,
-marks what one search has seen, so a call costs in proportion to the cells it touches rather than
-to the grid. The search may be limited to a window, an inclusive bounding box of cells. A*'s
-heuristic scale (the least passable factor) is a vectorised reduction over the window,
-remembered for whole grids given as read-only arrays (those of ``cbr_grid.grid.Grid``);
-Dijkstra needs none.
+indices, built on :mod:`cbr_grid.search_base`: its 4-ary heap with lazy deletion (an improved
+cell is pushed again and its stale entries are skipped when popped), its moves, corner rule and
+move masks, its argument checks and its per-thread working arrays, where a generation stamp, not
+a fill, marks what one search has seen, so a call costs in proportion to the cells it touches
+rather than to the grid. The search may be limited to a window, an inclusive bounding box of
+cells. Both stay exact and save work four ways:
+
+- the eight moves of a cell are one byte of the grid's move masks, built once for read-only
+  arrays (those of ``cbr_grid.grid.Grid``) and clipped by the window on its border;
+- when every passable factor in the window is equal, a cell's cost is counted in orthogonal and
+  diagonal steps (integers) and no factor is read, so equal costs are equal floats;
+- A* breaks ties in f toward the cell nearer the goal, by a bias too small to reorder different
+  costs (see :func:`_search`);
+- a successor that would be the next cell popped skips the heap.
+
+The least and greatest passable factor of the window (A*'s heuristic scale, and whether costs
+are uniform) are remembered for whole read-only grids.
 """
 
 from __future__ import annotations
@@ -32,11 +41,14 @@ from cbr_grid.search_base import (
     DX,
     DY,
     INITIAL_HEAP,
-    Workspace,
+    LEAVING,
+    CellWorkspace,
+    cell_moves,
     checked_arguments,
-    move,
-    pop,
-    push_grown,
+    move_masks,
+    pop4,
+    push4,
+    push4_grown,
 )
 from cbrcore.compiled import njit
 
@@ -66,12 +78,11 @@ def _heuristic(x: int, y: int, goals: np.ndarray, scale: float) -> float:
 
 
 @njit
-def window_min_factor(factor: np.ndarray, passable: np.ndarray, x0: int, y0: int, x1: int,
-                      y1: int) -> float:
-    """The least factor of a passable cell in the window (inf if none); ValueError for one that
-    is not finite and positive. Left to the kernels on small windows, where numpy's call
-    overhead would dominate."""
-    least = np.inf
+def factor_range(factor: np.ndarray, passable: np.ndarray, x0: int, y0: int, x1: int, y1: int
+                 ) -> tuple[float, float]:
+    """The least and the greatest factor of a passable cell in the window (inf, -inf if none);
+    ValueError for one that is not finite and positive."""
+    least, most = np.inf, -np.inf
     for y in range(y0, y1 + 1):
         for x in range(x0, x1 + 1):
             if passable[y, x]:
@@ -79,136 +90,249 @@ def window_min_factor(factor: np.ndarray, passable: np.ndarray, x0: int, y0: int
                 if not (f > 0.0 and f < np.inf):
                     raise ValueError("factor must be finite and positive on passable cells")
                 least = min(least, f)
-    return least
+                most = max(most, f)
+    return least, most
 
 
 @njit
-def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: int, sy: int,
-            goals: np.ndarray, x0: int, y0: int, x1: int, y1: int, informed: bool, scale: float,
-            table: np.ndarray, stamp: np.ndarray, dist: np.ndarray, parent: np.ndarray,
-            goal_mark: np.ndarray, generation: int) -> tuple[bool, np.ndarray, float, int]:
+def window_min_factor(factor: np.ndarray, passable: np.ndarray, x0: int, y0: int, x1: int,
+                      y1: int) -> float:
+    """The least factor of a passable cell in the window (inf if none); ValueError for one that
+    is not finite and positive. Left to the kernels on small windows, where numpy's call
+    overhead would dominate."""
+    return factor_range(factor, passable, x0, y0, x1, y1)[0]
+
+
+_LOW = (1 << 32) - 1
+# A uniform search counts a cell's steps in one int64: orthogonal ones above bit 32, diagonal
+# ones below, so its cost a + b·sqrt(2) is computed afresh from integers wherever it is needed.
+_ORTHOGONAL_STEP = 1 << 32
+
+
+@njit(inline="always")
+def _octile_steps(x: int, y: int, targets: np.ndarray) -> tuple[int, int]:
+    """The octile distance from (x, y) to the nearest target as (orthogonal, diagonal) steps."""
+    best, straight, slanted = np.inf, 0, 0
+    for k in range(targets.shape[0]):
+        dx = abs(targets[k, 0] - x)
+        dy = abs(targets[k, 1] - y)
+        low, high = min(dx, dy), max(dx, dy)
+        length = (high - low) + low * SQRT2
+        if length < best:
+            best, straight, slanted = length, high - low, low
+    return straight, slanted
+
+
+@njit(inline="always")
+def _length(steps: int) -> float:
+    """The length a + b·sqrt(2) of a uniform search's step count (see ``_ORTHOGONAL_STEP``)."""
+    return (steps >> 32) + (steps & _LOW) * SQRT2
+
+
+@njit
+def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_cutting: bool,
+            sx: int, sy: int, goals: np.ndarray, x0: int, y0: int, x1: int, y1: int,
+            informed: bool, least: float, most: float, table: np.ndarray, stamp: np.ndarray,
+            dist: np.ndarray, steps: np.ndarray, parent: np.ndarray, generation: int
+            ) -> tuple[bool, np.ndarray, float, int]:
     """Search from (sx, sy) to the nearest goal inside the window [x0, x1] x [y0, y1].
 
-    Returns (found, path, cost, expanded). ``informed`` selects A* (octile heuristic times
-    ``scale``, at most the smallest passable factor in the window, or that factor found here
-    when ``scale`` is negative) over Dijkstra; a non-empty
-    ``table`` gives A* its heuristic instead, one value per window cell in the window's
-    row-major order. The caller guarantees that the window lies inside the grid, the start inside
-    the window and the goals on the grid. The cells a diagonal step passes beside it are judged
-    on the whole grid, window or not. A factor that is not finite and positive raises ValueError
-    when the search meets its cell.
+    Returns (found, path, cost, expanded). ``factor`` is the grid's factor array raveled,
+    ``passable`` the (h, w) mask and ``moves`` the grid's move masks
+    (:func:`cbr_grid.search_base.move_masks`), or empty to work them out per cell. ``least``
+    and ``most`` are the least and greatest passable factor in the window, both negative to
+    find them here (which also refuses a factor that is not finite and positive). When they are
+    equal every step costs its length times that factor: the search then counts steps in
+    integers (``steps``) instead of summing costs (``dist``), so equal costs are equal floats and
+    A*'s tie rule works on them. ``informed`` selects A* over Dijkstra; its heuristic is
+    ``table`` when not empty (one value per window cell in row-major order), else the octile
+    distance to the nearest goal times ``least``; with uniform costs, among cells of equal f the
+    one of lower heuristic pops first (see ``tie`` below). The caller guarantees that the window
+    lies inside the grid, the start inside the window and the goals on the grid.
 
-    ``stamp``, ``dist``, ``parent`` and ``goal_mark`` are reused working arrays of at least the
-    window's size, indexed like ``table``. Nothing is cleared between searches: a cell has been
-    reached in this search iff ``stamp == generation`` (then ``dist`` and ``parent`` are its
-    own), settled iff ``stamp == generation + 1``, and is a goal iff ``goal_mark == generation``;
-    older stamps are below ``generation``.
+    ``stamp``, ``dist`` and ``parent`` are reused working arrays of at least the window's size,
+    indexed like ``table``; ``steps`` is ``dist`` viewed as int64. Nothing is cleared between
+    searches: a cell has been reached in this search iff ``stamp == generation`` (then its
+    ``dist`` or ``steps`` and ``parent``, the move that reached it, are its own), settled iff
+    ``stamp == generation + 1``; older stamps are below ``generation``.
     """
+    w = passable.shape[1]
     ww = x1 - x0 + 1
     settled = generation + 1
+    empty = np.empty((0, 2), dtype=np.int64)
 
-    if informed and scale < 0.0:
-        scale = window_min_factor(factor, passable, x0, y0, x1, y1)
+    if least < 0.0:
+        least, most = factor_range(factor.reshape(passable.shape), passable, x0, y0, x1, y1)
+    uniform = least == most
 
     inside = np.zeros(goals.shape[0], dtype=np.bool_)
     for k in range(goals.shape[0]):
-        gx, gy = goals[k, 0], goals[k, 1]
-        if x0 <= gx <= x1 and y0 <= gy <= y1 and passable[gy, gx]:
-            goal_mark[(gy - y0) * ww + (gx - x0)] = generation
-            inside[k] = True
+        x, y = goals[k, 0], goals[k, 1]
+        inside[k] = x0 <= x <= x1 and y0 <= y <= y1 and passable[y, x]
     targets = goals[inside]
-    empty = np.empty((0, 2), dtype=np.int64)
     if targets.shape[0] == 0 or not passable[sy, sx]:
         return False, empty, np.inf, 0
-    fs = factor[sy, sx]
-    if not (fs > 0.0 and fs < np.inf):
-        raise ValueError("factor must be finite and positive on passable cells")
+    # The goals as sorted window cells: one comparison for one goal, a bisection for several.
+    ends = np.sort((targets[:, 1] - y0) * ww + (targets[:, 0] - x0))
+    single = ends.shape[0] == 1
+    gx, gy = targets[0, 0], targets[0, 1]
+    # A uniform A* breaks ties in f toward the cell nearer the goal (larger g) by adding
+    # tie·h to f. Two different f = a + b·sqrt(2) of the window's cells differ by more than
+    # 0.26 / |b - b'| > 0.26 / (cells + span), and tie·h stays below 0.1 / (cells + span):
+    # the bias orders equal f only, so the search stays exact (as long as the floats resolve
+    # that gap, i.e. for any f below about 10^7 on such a window).
+    span = ww + (y1 - y0 + 1)
+    tie = 0.1 / ((ww * (y1 - y0 + 1) + span) * span)
+
+    window_step = DY * ww + DX
+    grid_step = DY * w + DX
+    tabled = table.shape[0] > 0
+    masked = moves.shape[0] > 0
 
     keys = np.empty(INITIAL_HEAP, dtype=np.float64)
     items = np.empty(INITIAL_HEAP, dtype=np.int64)
-
     start = (sy - y0) * ww + (sx - x0)
     stamp[start] = generation
-    dist[start] = 0.0
-    tabled = table.shape[0] > 0
-    if not informed:
-        keys[0] = 0.0
-    elif tabled:
-        keys[0] = table[start]
-    else:
-        keys[0] = _heuristic(sx, sy, targets, scale)
+    steps[start] = 0  # also dist 0.0: both are all-zero bits
+    keys[0] = 0.0
     items[0] = start
     size = 1
     expanded = 0
     reached = -1
 
-    while size > 0:
-        cell = pop(keys, items, size)
-        size -= 1
+    # A successor whose key is at most that of the cell being expanded would be the next pop:
+    # it is held aside instead of pushed (a straight run toward the goal keeps f, so most of a
+    # path's cells on open ground never enter the heap).
+    held = -1
+    held_key = 0.0
+    while size > 0 or held >= 0:
+        if held >= 0:
+            cell, current = held, held_key
+            held = -1
+        else:
+            cell, current = items[0], keys[0]
+            pop4(keys, items, size)
+            size -= 1
         if stamp[cell] == settled:
             continue  # a stale entry of a cell settled through a cheaper push
         stamp[cell] = settled
         expanded += 1
-        if goal_mark[cell] == generation:
-            reached = cell
-            break
+        if single:
+            if cell == ends[0]:
+                reached = cell
+                break
+        else:
+            at = np.searchsorted(ends, cell)
+            if at < ends.shape[0] and ends[at] == cell:
+                reached = cell
+                break
 
-        cx = x0 + cell % ww
-        cy = y0 + cell // ww
-        here = dist[cell]
-        fc = factor[cy, cx]
+        row = cell // ww
+        cx = x0 + cell - row * ww
+        cy = y0 + row
+        here = cy * w + cx
+        mask = np.int64(moves[here]) if masked else cell_moves(passable, corner_cutting, cx, cy)
+        if cx == x0:
+            mask &= ~LEAVING[0]
+        if cx == x1:
+            mask &= ~LEAVING[1]
+        if cy == y0:
+            mask &= ~LEAVING[2]
+        if cy == y1:
+            mask &= ~LEAVING[3]
+        counted = steps[cell]
+        cost = dist[cell]
+        fc = 0.0 if uniform else factor[here]  # a uniform search reads no factor
         for d in range(8):
-            if not move(passable, corner_cutting, cx, cy, d, x0, y0, x1, y1):
+            if not (mask >> d) & 1:
                 continue
-            nx, ny = cx + DX[d], cy + DY[d]
-            diagonal = d >= 4
-            other = (ny - y0) * ww + (nx - x0)
+            other = cell + window_step[d]
             mark = stamp[other]
             if mark == settled:
                 continue
-            fn = factor[ny, nx]
-            if not (fn > 0.0 and fn < np.inf):
-                raise ValueError("factor must be finite and positive on passable cells")
-            length = SQRT2 if diagonal else 1.0
-            g = here + length * (fc + fn) * 0.5
-            if mark == generation and g >= dist[other]:
-                continue
+            diagonal = d >= 4
+            count = counted + (1 if diagonal else _ORTHOGONAL_STEP)
+            if uniform:
+                g = _length(count)
+                if mark == generation and g >= _length(steps[other]):
+                    continue
+                steps[other] = count
+            else:
+                length = SQRT2 if diagonal else 1.0
+                g = cost + length * (fc + factor[here + grid_step[d]]) * 0.5
+                if mark == generation and g >= dist[other]:
+                    continue
+                dist[other] = g
             stamp[other] = generation
-            dist[other] = g
-            parent[other] = cell
+            parent[other] = d
             key = g
             if tabled:
-                key += table[other]
+                estimate = table[other]
+                if estimate == np.inf:
+                    continue  # no goal can be reached from there
+                key = (g * least if uniform else g) + estimate
             elif informed:
-                key += _heuristic(nx, ny, targets, scale)
-            keys, items = push_grown(keys, items, size, key, other)
+                if single:
+                    dx = abs(gx - cx - DX[d])
+                    dy = abs(gy - cy - DY[d])
+                    straight, slanted = max(dx, dy) - min(dx, dy), min(dx, dy)
+                else:
+                    straight, slanted = _octile_steps(cx + DX[d], cy + DY[d], targets)
+                estimate = straight + slanted * SQRT2
+                if uniform:
+                    key = _length(count + (straight << 32) + slanted) + tie * estimate
+                else:
+                    key = g + estimate * least
+            if key <= current and (held < 0 or key < held_key):
+                held, held_key, key, other = other, key, held_key, held
+                if other < 0:
+                    continue
+            if size < keys.shape[0]:
+                push4(keys, items, size, key, other)  # inlined, no arrays returned
+            else:
+                keys, items = push4_grown(keys, items, size, key, other)
             size += 1
 
     if reached < 0:
         return False, empty, np.inf, expanded
 
-    steps = 1
+    n = 1
     cell = reached
     while cell != start:
-        cell = parent[cell]
-        steps += 1
-    path = np.empty((steps, 2), dtype=np.int64)
+        cell -= window_step[parent[cell]]
+        n += 1
+    path = np.empty((n, 2), dtype=np.int64)
     cell = reached
-    for i in range(steps - 1, -1, -1):
-        path[i, 0] = x0 + cell % ww
-        path[i, 1] = y0 + cell // ww
-        cell = parent[cell]
-    return True, path, dist[reached], expanded
+    for i in range(n - 1, -1, -1):
+        row = cell // ww
+        path[i, 0] = x0 + cell - row * ww
+        path[i, 1] = y0 + row
+        if i:
+            cell -= window_step[parent[cell]]
+    total = _length(steps[reached]) * least if uniform else dist[reached]
+    return True, path, total, expanded
 
 
-_WORKSPACE = Workspace()
+_WORKSPACE = CellWorkspace()
 
-# The smallest passable factor of whole read-only grids: (id(factor), id(passable)) -> (weak
-# references to both, value). The references tell a live array from a new one at a reused id.
-_SCALES: dict[tuple[int, int], tuple[weakref.ref, weakref.ref, float]] = {}
+# The least and greatest passable factor of whole read-only grids: (id(factor), id(passable))
+# -> (weak references to both, least, greatest). The references tell a live array from a new
+# one at a reused id.
+_SCALES: dict[tuple[int, int], tuple[weakref.ref, weakref.ref, float, float]] = {}
 _SCALES_KEPT = 8
+# The move masks of read-only grids: (id(passable), corner_cutting) -> (weak reference, masks).
+# One byte a cell, so few are kept.
+_MASKS: dict[tuple[int, bool], tuple[weakref.ref, np.ndarray]] = {}
+_MASKS_KEPT = 2
 # Windows of at most this many cells that cannot be remembered are scanned by the kernel.
 _SMALL_WINDOW = 4096
+# A search builds a grid's move masks when its window covers at least this share of the grid;
+# smaller windows use masks already built or work each cell's moves out. Grids of more cells
+# than _MASKED_MAX keep no masks: a byte a cell is then worth more than the time it saves.
+_MASKED_SHARE = 0.25
+_MASKED_MAX = 1 << 24
+
+_NO_MOVES = np.empty(0, dtype=np.uint8)
 
 
 def _frozen(array: np.ndarray) -> bool:
@@ -220,13 +344,24 @@ def _frozen(array: np.ndarray) -> bool:
     return array is None
 
 
-def _min_factor(factor: np.ndarray, passable: np.ndarray, window: tuple[int, int, int, int],
-                whole: bool) -> float:
-    """The smallest factor of a passable cell in the window (inf if none); ValueError if not > 0.
+def _remember(cache: dict, kept: int, key: object, entry: tuple) -> None:
+    """Keep ``entry`` (weak references first) in ``cache``, dropping the entries of arrays that
+    are gone, then the oldest beyond ``kept``."""
+    for old in [k for k, value in cache.items() if value[0]() is None]:
+        del cache[old]
+    if len(cache) >= kept:
+        cache.pop(next(iter(cache)))
+    cache[key] = entry
 
-    For the whole grid of read-only arrays (a :class:`cbr_grid.grid.Grid`'s) the value is
-    remembered per pair of arrays. Returns -1 for a small window that is not remembered: the
-    kernel then finds the value itself.
+
+def _profile(factor: np.ndarray, passable: np.ndarray, window: tuple[int, int, int, int],
+             whole: bool) -> tuple[float, float]:
+    """The least and greatest factor of a passable cell in the window (inf, -inf if none);
+    ValueError for one that is not finite and positive.
+
+    For the whole grid of read-only arrays (a :class:`cbr_grid.grid.Grid`'s) the values are
+    remembered per pair of arrays. Returns (-1, -1) for a small window that is not remembered:
+    the kernel then finds the values itself.
     """
     # Read-only now, the arrays may be made writable again later: check at every call.
     whole = whole and _frozen(factor) and _frozen(passable)
@@ -234,28 +369,54 @@ def _min_factor(factor: np.ndarray, passable: np.ndarray, window: tuple[int, int
     if whole:
         known = _SCALES.get(key)
         if known is not None and known[0]() is factor and known[1]() is passable:
-            return known[2]
+            return known[2], known[3]
     x0, y0, x1, y1 = window
     if not whole and (x1 - x0 + 1) * (y1 - y0 + 1) <= _SMALL_WINDOW:
-        return -1.0
-    region, open_ = factor[y0:y1 + 1, x0:x1 + 1], passable[y0:y1 + 1, x0:x1 + 1]
-    value = np.inf
-    if region.size:
-        # Fast path: the least factor of the window, if a passable cell has it (NaN fails here).
-        value = float(region.min())
-        attained = region == value
-        attained &= open_
-        if not (value > 0.0 and attained.any()):
-            value = float(np.where(open_, region, np.inf).min())
-    # Also NaN, and only infinite factors; other infinite ones are refused when the search meets
-    # them.
-    if not value > 0.0 or (value == np.inf and open_.any()):
-        raise ValueError("factor must be finite and positive on passable cells")
+        return -1.0, -1.0
+    # Fast path for arrays that cannot be remembered: numpy's vectorised reductions over all the
+    # window's cells settle the common case of one factor everywhere (NaN fails the test).
+    region = factor[y0:y1 + 1, x0:x1 + 1]
+    least = float(region.min()) if region.size else np.inf
+    if not (least > 0.0 and least < np.inf and least == float(region.max())):
+        least, most = factor_range(factor, passable, x0, y0, x1, y1)
+    else:
+        most = least
     if whole:
-        if len(_SCALES) >= _SCALES_KEPT:
-            _SCALES.pop(next(iter(_SCALES)))
-        _SCALES[key] = (weakref.ref(factor), weakref.ref(passable), value)
-    return value
+        _remember(_SCALES, _SCALES_KEPT, key,
+                  (weakref.ref(factor), weakref.ref(passable), least, most))
+    return least, most
+
+
+def _moves(passable: np.ndarray, corner_cutting: bool, window: tuple[int, int, int, int]
+           ) -> np.ndarray:
+    """The grid's move masks for a search of ``window``: remembered for read-only grids, built
+    when the window is a large share of the grid; empty (each cell worked out) otherwise."""
+    if passable.size > _MASKED_MAX or not _frozen(passable):
+        return _NO_MOVES
+    key = (id(passable), corner_cutting)
+    known = _MASKS.get(key)
+    if known is not None and known[0]() is passable:
+        return known[1]
+    x0, y0, x1, y1 = window
+    if (x1 - x0 + 1) * (y1 - y0 + 1) < _MASKED_SHARE * passable.size:
+        return _NO_MOVES
+    masks = move_masks(passable, corner_cutting)
+    _remember(_MASKS, _MASKS_KEPT, key, (weakref.ref(passable), masks))
+    return masks
+
+
+def least_factor(factor: np.ndarray, passable: np.ndarray,
+                 window: Sequence[int] | None = None) -> float:
+    """The least factor of a passable cell of the grid, or of the inclusive window (x0, y0, x1,
+    y1) clipped to it; inf if there is none. No step costs less per unit of length, so it
+    scales admissible heuristics. Remembered for a whole grid of read-only arrays (a
+    :class:`cbr_grid.grid.Grid`'s) and found without temporary arrays the size of the map.
+    ValueError for a factor that is not finite and positive on a passable cell."""
+    factor, passable, _, _, box = checked_arguments(factor, passable, (0, 0), np.empty((0, 2)),
+                                                    window)
+    h, w = passable.shape
+    least = _profile(factor, passable, box, box == (0, 0, w - 1, h - 1))[0]
+    return window_min_factor(factor, passable, *box) if least < 0.0 else least
 
 
 # Builds an A* heuristic table for (factor, passable, corner_cutting, goals, (x0, y0, x1, y1)).
@@ -280,7 +441,7 @@ def guidance(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
     if not informed:
         return _NO_TABLE, 1.0
     h, w = passable.shape
-    scale = _min_factor(factor, passable, box, box == (0, 0, w - 1, h - 1))
+    scale = _profile(factor, passable, box, box == (0, 0, w - 1, h - 1))[0]
     return None if scale == np.inf else (_NO_TABLE, scale)
 
 
@@ -292,19 +453,25 @@ def _run(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, start: 
     ``heuristic``, given, builds the A* heuristic table from the checked arrays, the goals and
     the clipped window (see :func:`_search`).
     """
-    factor, passable, (sx, sy), targets, (x0, y0, x1, y1) = checked_arguments(
+    factor, passable, (sx, sy), targets, box = checked_arguments(
         factor, passable, start, goals, window)
+    x0, y0, x1, y1 = box
     if not (x0 <= sx <= x1 and y0 <= sy <= y1):
         return None
-    box = (x0, y0, x1, y1)
-    guide = guidance(factor, passable, corner_cutting, targets, box, informed, heuristic)
-    if guide is None:
+    h, w = passable.shape
+    least, most = _profile(factor, passable, box, box == (0, 0, w - 1, h - 1))
+    if least == np.inf:
         return None
-    table, scale = guide
-    stamp, dist, parent, goal_mark, generation = _WORKSPACE.take((x1 - x0 + 1) * (y1 - y0 + 1))
-    found, path, cost, expanded = _search(factor, passable, bool(corner_cutting), sx, sy, targets,
-                                          x0, y0, x1, y1, informed, scale, table, stamp, dist,
-                                          parent, goal_mark, generation)
+    table = _NO_TABLE
+    if heuristic is not None:
+        table = np.ascontiguousarray(heuristic(factor, passable, bool(corner_cutting), targets,
+                                               box), dtype=np.float64).reshape(-1)
+    moves = _moves(passable, bool(corner_cutting), box)
+    stamp, dist, parent, generation = _WORKSPACE.take((x1 - x0 + 1) * (y1 - y0 + 1))
+    found, path, cost, expanded = _search(
+        factor.reshape(-1), passable, moves, bool(corner_cutting), sx, sy, targets, x0, y0, x1,
+        y1, informed or heuristic is not None, least, most, table, stamp, dist,
+        dist.view(np.int64), parent, generation)
     return SearchResult(path, float(cost), int(expanded)) if found else None
 
 
@@ -317,7 +484,7 @@ def dijkstra(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sta
     (x0, y0, x1, y1), clipped to the grid, that the path must stay in. Returns None when no goal
     can be reached (also when the start is blocked or outside the window). Raises ValueError for
     cells outside the grid and for a factor that is not finite and positive on a passable cell
-    the search meets.
+    of the window (every one is read to tell whether the costs are uniform).
     """
     return _run(factor, passable, corner_cutting, start, goals, window, informed=False)
 
@@ -328,7 +495,7 @@ def astar(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, start:
 
     Arguments and result as for :func:`dijkstra`. The heuristic is the octile distance to the
     nearest goal times the smallest factor of a passable cell in the window, which no step can
-    undercut, so it is admissible and consistent and the cost is optimal. Besides the cells it
-    meets, a factor that is NaN or not positive on any passable cell of the window is refused.
+    undercut, so it is admissible and consistent and the cost is optimal. Among cells of equal
+    f it expands the one nearer the goal first.
     """
     return _run(factor, passable, corner_cutting, start, goals, window, informed=True)
