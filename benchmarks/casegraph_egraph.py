@@ -183,7 +183,8 @@ def run_map(map_path: Path, scen_path: Path, limit: int | None) -> tuple[dict[st
 
 
 def _fmt(value: float | None, digits: int = 2) -> str:
-    return "n/a" if value is None else f"{value:.{digits}f}"
+    # + 0.0 turns a rounding -0.0 into 0.0, so an exact method does not read "-0.00"
+    return "n/a" if value is None else f"{round(value, digits) + 0.0:.{digits}f}"
 
 
 def _table(methods: dict[str, dict[str, Any]]) -> list[str]:

@@ -15,10 +15,12 @@ cells, made a band of rows at a time so that no N x N float temporary is needed)
 - ``engine_octile``: the same with the reviser's default octile bound, which keeps no
   per-cell landmark tables.
 
-Each reports its peak RSS, the RSS after the imports (the interpreter, numpy, numba and the
-kernels loaded), the bytes the Grid's arrays, the search's working arrays and move masks, and
-the case graph's per-cell and per-vertex arrays hold, and its time. Bytes per cell divide by
-N². The target: an 8000 x 8000 map plans (A* and the engine) within 2 GB of peak RSS.
+Each reports its peak RSS, its RSS at the end, the RSS after the imports (the interpreter,
+numpy, numba and the kernels loaded), the bytes the Grid's arrays, the search's working arrays
+and move masks, and the case graph's per-cell and per-vertex arrays hold, and its time; the
+engine also its peak and present RSS once built (warm: the landmark tables built), before its
+first trip. Bytes per cell divide by N². The target: an 8000 x 8000 map plans (A* and the
+engine) within 2 GB of peak RSS.
 
     python benchmarks/memory.py [--side 8000] [--trips 3] [--out benchmarks/results]
                                 [--kinds grid astar dijkstra engine engine_octile]
@@ -66,6 +68,12 @@ OCTILE = {**ENGINE, "revise": {"use": "path_quality", "max_ratio": 1.5}}
 def _peak_rss() -> int:
     """This process's peak resident set size in bytes (Linux reports kilobytes)."""
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+
+
+def _rss() -> int:
+    """This process's resident set size now, in bytes (Linux's /proc/self/statm, in pages)."""
+    pages = int(Path("/proc/self/statm").read_text().split()[1])
+    return pages * resource.getpagesize()
 
 
 def obstacles(side: int, seed: int) -> np.ndarray:
@@ -154,6 +162,8 @@ def child(kind: str, side: int, trips: int) -> dict[str, Any]:
 
         sources = []
         with Engine.from_dict(ENGINE if kind == "engine" else OCTILE, world=grid) as engine:
+            # the engine is warm: the landmark tables, if any, are built
+            result["built_peak_rss"], result["built_rss"] = _peak_rss(), _rss()
             for number in range(trips):
                 problem = GridQuery(*_trip(grid.passable, number))
                 proposal = engine.solve(problem)
@@ -168,7 +178,7 @@ def child(kind: str, side: int, trips: int) -> dict[str, Any]:
         "stamp": int(workspace.stamp.nbytes), "dist": int(workspace.dist.nbytes),
         "parent": int(workspace.parent.nbytes),
         "move_masks": sum(int(entry[1].nbytes) for entry in search._MASKS.values())}
-    result["peak_rss"] = _peak_rss()
+    result["peak_rss"], result["final_rss"] = _peak_rss(), _rss()
     return result
 
 
@@ -186,14 +196,15 @@ def _mb(value: float | None) -> str:
 
 
 def table(rows: list[dict[str, Any]]) -> str:
-    lines = ["| measurement | map | peak RSS MB | after imports MB | peak - imports, B/cell | "
+    lines = ["| measurement | map | peak RSS MB | peak once built MB | after imports MB | "
+             "peak - imports, B/cell | "
              "grid B/cell | search B/cell | case graph B/cell | landmarks B/cell | "
              "case graph vertices | B/vertex | time s | within 2 GB |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for row in rows:
         if "error" in row:
             lines.append(f"| {row['kind']} | {row['side']}² | failed: {' '.join(row['error'])} "
-                         "| | | | | | | | | | |")
+                         "| | | | | | | | | | | |")
             continue
         cells = row["cells"]
         search = sum(row.get("search_bytes", {}).values())
@@ -204,7 +215,7 @@ def table(rows: list[dict[str, Any]]) -> str:
                       if vertices else None)
         lines.append(
             f"| {row['kind']} | {row['side']}² | {_mb(row['peak_rss'])} | "
-            f"{_mb(row['baseline_rss'])} | "
+            f"{_mb(row.get('built_peak_rss'))} | {_mb(row['baseline_rss'])} | "
             f"{(row['peak_rss'] - row['baseline_rss']) / cells:.1f} | "
             f"{sum(row['grid_bytes'].values()) / cells:.1f} | "
             f"{search / cells:.1f} | {graph / cells:.1f} | "
@@ -237,13 +248,15 @@ def main() -> None:
     text = "\n\n".join([
         table(rows),
         f"A {args.side}x{args.side} map with {DENSITY:.0%} random obstacles, one fresh process "
-        "per row. Peak RSS is the process's `ru_maxrss`; after imports is the same before the "
-        "map is built (Python, numpy, numba and the loaded kernels). Grid, search and case "
-        "graph bytes are those of their arrays: the Grid's risk, factor and passable arrays; "
-        "the search's working arrays (stamp, cost, parent move) and remembered move masks; the "
-        "case graph's cell-indexed arrays; the path quality reviser's landmark distance tables. "
-        "B/vertex is the case graph's vertex and edge arrays (with their spare capacity) per "
-        "vertex; its Python sets of incident edges and the case base's records come on top."])
+        "per row. Peak RSS is the process's `ru_maxrss`; once built is the same when the "
+        "engine is built and warm (its landmark tables made), before its first trip; after "
+        "imports is the same before the map is built (Python, numpy, numba and the loaded "
+        "kernels). Grid, search and case graph bytes are those of their arrays: the Grid's "
+        "risk, factor and passable arrays; the search's working arrays (stamp, cost, parent "
+        "move) and remembered move masks; the case graph's cell-indexed arrays; the path "
+        "quality reviser's landmark distance tables. B/vertex is the case graph's vertex and "
+        "edge arrays (with their spare capacity) per vertex; the case base's records come on "
+        "top."])
     (args.out / "memory.md").write_text(text + "\n")
     print(text)
 

@@ -388,17 +388,6 @@ def test_ranges_and_lists_read_as_prose(figures: ModuleType) -> None:
     assert wording.pm({"mean": None, "std": None}) == "-"
 
 
-def test_the_profile_gives_a_function_its_own_time_per_call(figures: ModuleType) -> None:
-    profile = ("   ncalls  tottime  percall  cumtime  percall filename:lineno(function)\n"
-               "      200    0.033    0.000    0.033    0.000 /x/aistar.py:58(_propagate)\n"
-               "    40/20    0.010    0.000    0.020    0.001 /x/search.py:23(graph_search)\n")
-    per_call = figures.case_benchmarks.profile_per_call
-    assert per_call(profile, "_propagate") == (200, pytest.approx(0.165))
-    assert per_call(profile, "graph_search") == (40, pytest.approx(0.25))
-    with pytest.raises(figures.results.FiguresError, match="no line for adapt"):
-        per_call(profile, "adapt")
-
-
 def _delivery(arms: dict[str, tuple[float, float, float, float]]) -> dict[str, Any]:
     """Results of rupart-delivery whose arms have (delivered, missed, collisions, contacts)."""
     def spread(mean: float) -> dict[str, float]:

@@ -4,14 +4,15 @@
 the kept bounding boxes find near it. The property: after any sequence of paths added,
 forgotten, and added, replaced or forgotten by another writer and followed through the store,
 it finds exactly the stored paths that the kernel run over every stored path finds within the
-limit, by the directed and by the symmetric distance, with the same distances, under each cell
-distance.
+limit, by the directed and by the symmetric distance (also when only the symmetric one is asked
+for), with the same distances, under each cell distance.
 """
 
 from __future__ import annotations
 
 import attrs
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -86,6 +87,15 @@ def test_the_index_finds_what_the_kernel_over_every_stored_path_finds(
                 assert set(rows[both].tolist()) == set(np.flatnonzero(symmetric <= limit)
                                                        .tolist())
                 assert np.allclose(theirs[both], backward[rows[both]])
+                # wanting only the symmetric distance changes nothing within the limit
+                again, ours, theirs = base.hausdorff(path, distance=name, limit=limit,
+                                                     symmetric=True)
+                assert np.array_equal(again, rows)
+                both = np.maximum(ours, theirs) <= limit
+                assert set(rows[both].tolist()) == set(np.flatnonzero(symmetric <= limit)
+                                                       .tolist())
+                assert np.allclose(ours[both], forward[rows[both]])
+                assert np.allclose(theirs[both], backward[rows[both]])
 
 
 def test_a_path_along_another_is_found_across_the_squares_of_the_index() -> None:
@@ -117,3 +127,39 @@ def test_the_store_of_cells_grows_and_compacts_keeping_every_path() -> None:
     rows, forward, _ = base.hausdorff(paths[5], distance="chebyshev", limit=0.0)
     assert base.ids[rows[forward == 0]].tolist() == [
         case_id for case_id in kept if np.array_equal(paths[ids.index(case_id)], paths[5])]
+
+
+@pytest.mark.parametrize("drops", [[0], [4], [11], [1, 2], [0, 5, 6, 11], list(range(0, 12, 2))])
+def test_forgetting_a_few_rows_moves_the_others_up_as_loading_anew_orders_them(
+        drops: list[int]) -> None:
+    ctx = context(free(SIDE, SIDE))
+    base = base_of(ctx)
+    ids = [base.add(run((0, k), (SIDE - 1, SIDE - 1 - k)), {**META, "cost": 1.0 + k})
+           for k in range(12)]
+    base.touch(ids[3:5])
+    base.remove([ids[k] for k in drops])
+    assert base.ids.tolist() == [i for k, i in enumerate(ids) if k not in drops]
+    assert_same_base(base, PathBase.load(ctx.casebase))
+
+
+def euclidean_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.hypot(*(a[:, None, :] - b[None, :, :]).transpose(2, 0, 1))
+
+
+def test_paths_driven_against_the_new_one_get_their_exact_distances() -> None:
+    # stored paths between the new path's ends, most of them driven the other way: the
+    # kernel's scans must find each cell's nearest cell whichever way the stored path runs
+    ctx = context(free(SIDE, SIDE))
+    base = base_of(ctx)
+    new = run((1, 1), (12, 20), (22, 22))
+    stored = [new[::-1], run((22, 21), (13, 20), (1, 2)), run((22, 22), (10, 20), (1, 1)),
+              run((1, 1), (13, 19), (22, 22)), run((21, 22), (12, 21), (2, 1))]
+    for path in stored:
+        base.add(path, META)
+    rows, forward, backward = base.hausdorff(new, distance="euclidean", limit=np.inf)
+    assert rows.tolist() == list(range(len(stored)))
+    for path, ours, theirs in zip(stored, forward, backward, strict=True):
+        matrix = euclidean_matrix(new, path)
+        assert ours == pytest.approx(matrix.min(axis=1).max())
+        assert theirs == pytest.approx(matrix.min(axis=0).max())
+    assert forward[0] == backward[0] == 0.0

@@ -11,21 +11,24 @@ from .wording import grouped, listed, span
 
 
 def retention_reading() -> str:
-    """What retaining a path costs as the case graph grows, and the target."""
+    """What retaining a path costs as the case graph grows, at each similarity radius, and the
+    target."""
     data = bench("casegraph_retention")
     rows = data["rows"]
     first, last = rows[0], rows[-1]
     target = data["target"]
+    radii = sorted(int(r) for r in target["measured_ms_by_radius"])
+    growth = listed([f"δr = {r}: {first[f'median_ms_radius_{r}']:.2f} to "
+                     f"{last[f'median_ms_radius_{r}']:.2f} ms" for r in radii])
     return (f"From {grouped(first['vertices'])} to {grouped(last['vertices'])} vertices a "
-            f"path's retention at δr = 0 goes from {first['median_ms_radius_0']:.2f} to "
-            f"{last['median_ms_radius_0']:.2f} ms, while at δr = 1, which compares each new "
-            f"segment with every stored one, it goes from {first['median_ms_radius_1']:.2f} to "
-            f"{last['median_ms_radius_1']:.2f} ms (the more of the map the graph covers, the "
-            f"fewer new segments a path brings). The target of at most "
+            f"path's retention goes from {growth} (the more of the map the graph covers, the "
+            "fewer new segments a path brings). The target of at most "
             f"{target['ms_per_path']:g} ms per path at {grouped(target['at_vertices'])} "
-            f"vertices is {'met' if target['met'] else 'not met'}; what is left at δr = 0 is "
-            "the work on the path's own segments (cutting, splitting and pricing them), in "
-            "Python per segment.")
+            f"vertices is {'met' if target['met_every_radius'] else 'not met'} at every radius. "
+            "At δr > 0 eq. 12 looks only at the vertices near each new segment's first end, so "
+            "no radius costs in proportion to the graph; what is left is the work on the path's "
+            "own segments (cutting, splitting and pricing them), which on a small graph, where a "
+            "path brings many new segments, costs the most.")
 
 
 def casegraph_speed_reading() -> str:
@@ -35,79 +38,121 @@ def casegraph_speed_reading() -> str:
     met = sum(target["met"] for target in targets.values())
     small, mid, large = rows[min(rows)], rows[600], rows[max(rows)]
     coverage = small["vertices"] / small["size"] ** 2
-    mid_target = targets["cbr_over_astar_600"]
-    goal = float(mid_target["target"].split()[-1])
-    verdicts = {0: "None of the three targets is met", 1: "One of the three targets is met",
-                2: "Two of the three targets are met", 3: "All three targets are met"}
-    sweep = profile_per_call(large["profile"], "_propagate")[1]
-    search = profile_per_call(large["profile"], "graph_search")[1]
-    adapt = [line for line in large["profile"].splitlines() if line.rstrip().endswith("(adapt)")]
-    if not adapt:
-        raise FiguresError("casegraph_speed.json: the profile has no line for adapt")
-    fields = adapt[0].split()
-    per_query = float(fields[3]) * 1000 / int(fields[0])
-    return (f"{verdicts[met]}. CBR's time does not grow with the "
-            f"map ({small['cbr_ms']:.1f} ms on {small['size']}x{small['size']}, where "
+    ratios = listed([f"1/{1 / rows[size]['cbr_over_astar']:.0f} on {size}x{size}"
+                     for size in sorted(rows) if size >= 600])
+    pieces = large["pieces_us"]
+    verdict_text = ("All" if met == len(targets) else f"{met} of the") + (
+        f" {len(targets)} targets are met" if met != 1 else f" {len(targets)} targets is met")
+    return (f"{verdict_text}. CBR's time hardly grows with the map "
+            f"({small['cbr_ms']:.2f} ms on {small['size']}x{small['size']}, where "
             f"{data['vertices']} vertices cover {coverage * 100:.0f}% of the map and many cases "
-            f"meet each neighbourhood, {large['cbr_ms']:.1f} ms on "
-            f"{large['size']}x{large['size']}), and on {large['size']}x{large['size']} CBR "
-            f"takes 1/{1 / large['cbr_over_astar']:.0f} of A*'s time on the same queries. On "
-            f"600x600 it takes 1/{1 / mid['cbr_over_astar']:.0f}, "
-            + (f"short of the 1/{1 / goal:.0f} target" if not mid_target["met"]
-               else f"within the 1/{1 / goal:.0f} target")
-            + f": A* needs {mid['astar_ms']:.0f} ms there, CBR {mid['cbr_ms']:.1f} ms.\n\n"
-            "Where CBR's time goes (the profile in the JSON, "
-            f"{large['size']}x{large['size']}: {per_query:.1f} ms per query under the "
-            "profiler): the two local Dijkstra sweeps that make the temporary edges (compiled, "
-            "stopped once every case cell in the neighbourhood is settled, about "
-            f"{sweep:.2f} ms each), the compiled search of the extended graph ({search:.2f} ms), "
-            "and the NumPy and Python around them (finding the cases, building the per-query "
-            "overlay, tracing and joining the path). No part depends on the map's size"
-            + ("; reaching the target on 600x600 would need the whole query in compiled code."
-               if not mid_target["met"] else "."))
-
-
-def profile_per_call(profile: str, function: str) -> tuple[int, float]:
-    """Calls and milliseconds per call of ``function`` (its own time) in a cProfile listing."""
-    for line in profile.splitlines():
-        fields = line.split()
-        if len(fields) >= 6 and fields[-1].endswith(f"({function})"):
-            calls = int(fields[0].split("/")[0])
-            return calls, float(fields[1]) * 1000 / calls
-    raise FiguresError(f"casegraph_speed.json: the profile has no line for {function}")
+            f"meet each neighbourhood, {mid['cbr_ms']:.2f} ms on 600x600, "
+            f"{large['cbr_ms']:.2f} ms on {large['size']}x{large['size']}), while A*'s grows "
+            f"with the cells it settles: CBR takes {ratios} of A*'s time on the same "
+            "queries.\n\n"
+            f"Where CBR's time goes ({large['size']}x{large['size']}, medians per query): "
+            f"finding the cases near a terminal {pieces['cases_near']:.0f} µs, one local sweep "
+            f"and its temporary edges {pieces['local_links']:.0f} µs, the whole adaptation "
+            f"(both sweeps, the splits, the search of the extended graph and the path) "
+            f"{pieces['adapt']:.0f} µs: a constant number of compiled calls per query, none "
+            "of them in proportion to the map.")
 
 
 def movingai_reading() -> str:
-    rows = bench("casegraph_movingai")["maps"]
-    settings = bench("casegraph_movingai")["settings"]
+    results = bench("casegraph_movingai")
+    rows, settings = results["maps"], results["settings"]
 
     def name(row: dict[str, Any]) -> str:
         return Path(row["map"]).stem
 
-    most = [row for row in rows if row["cbr_share"] >= 0.5]
-    fewer = sorted((row for row in rows if row["cbr_share"] < 0.5), key=lambda r: r["cbr_share"])
-    timed = [row for row in rows if row["cbr_over_astar_median"] is not None]
-    faster = sorted((row for row in timed if row["cbr_over_astar_median"] < 1),
-                    key=lambda r: r["cbr_over_astar_median"])
-    slower = [row for row in timed if row["cbr_over_astar_median"] >= 1]
-    text = ("Scenario files list problems by growing length, so the retained half holds the "
-            "shorter paths and the planned half the longer ones. CBR answers "
-            f"{span([r['cbr_share'] * 100 for r in most], 0)}% of the queries on "
-            f"{len(most)} of the {len(rows)} maps ({listed([name(r) for r in most])}), at a "
-            "mean cost deviation from the optimal length of "
-            f"{span([r['cbr_deviation_mean_pct'] for r in most], 1)}% (median "
-            f"{span([r['cbr_deviation_median_pct'] for r in most], 1)}%). On the others it "
-            "answers fewer: "
-            + listed([f"{name(r)} {r['cbr_share'] * 100:.0f}%" for r in fewer])
-            + ". The quality test of the papers, made for open maps, accepts a path of at most "
-            f"{settings['max_ratio']} times the octile distance, and in mazes and narrow caves "
-            "the optimal paths of the longer problems are themselves longer than that, so the "
-            "test rejects them whoever plans them. CBR is faster than A* where A* is slow ("
-            + ", ".join(f"{name(r)}: {r['cbr_over_astar_median']:.2f}" for r in faster)
-            + "); where A* takes "
-            f"{span([r['astar_ms_median'] for r in slower], 1)} ms, CBR's "
-            f"{span([r['cbr_ms_median'] for r in slower], 1)} ms of fixed cost dominates.")
-    return text
+    recovered = sorted((row for row in rows
+                        if row["cbr_share_landmarks"] - row["cbr_share"] >= 0.05),
+                       key=lambda r: r["cbr_share"] - r["cbr_share_landmarks"])
+    decided = [row["decided_over_astar_median"] for row in rows]
+    saving = sorted((row for row in rows if row["decided_over_astar_median"] < 0.95),
+                    key=lambda r: r["decided_over_astar_median"])
+    skipped = [row for row in rows if row["decided_tried_share"] == 0]
+    papers = max(rows, key=lambda r: r["hybrid_over_astar_median"])
+    worst = max((r for r in rows if r["cbr_deviation_max_pct"] is not None),
+                key=lambda r: r["cbr_deviation_max_pct"])
+    payoff = settings["payoff"]
+    loosest = min(rows, key=lambda r: r["octile_tightness_median"])
+    return ("Scenario files list problems by growing length, so the retained half holds the "
+            "shorter paths and the planned half the longer ones. The papers' quality test, a "
+            f"path of at most {settings['max_ratio']} times the octile distance, was made for "
+            "open maps: in mazes and caves the optimal paths of the longer problems are "
+            "themselves longer than that (the octile distance is a median "
+            f"{span([r['octile_tightness_median'] for r in rows], 2)} of the optimum, "
+            f"{loosest['octile_tightness_median']:.2f} on {name(loosest)}). The landmark "
+            f"bound of {settings['landmarks']} landmarks is a median "
+            f"{span([r['landmark_tightness_median'] for r in rows], 2)} of the optimum on every "
+            "map, and the same test against it accepts "
+            + listed([f"{r['cbr_share_landmarks'] * 100:.0f}% of {name(r)}'s queries where the "
+                      f"octile test accepts {r['cbr_share'] * 100:.0f}%" for r in recovered])
+            + ". Accepted paths are good on average, but the octile test bounds nothing: up to "
+            f"{worst['cbr_deviation_max_pct']:.0f}% above the optimum on {name(worst)} (the "
+            "experience-graph reuser below bounds every path it returns).\n\n"
+            "The papers' hybrid, which tries CBR on every query and tests against the octile "
+            f"distance, takes up to {papers['hybrid_over_astar_median']:.1f} times A*'s median "
+            f"time ({name(papers)}). With the per-query choice (`min_cells: "
+            f"{payoff['min_cells']}`, `min_distance: {payoff['min_distance']}`) and the "
+            "landmark test, the hybrid's median time is at most "
+            f"{max(decided):.3f} times A*'s on every map: the target of 1.1 is "
+            f"{'met' if max(decided) <= 1.1 else 'not met'}. It leaves every query of the "
+            f"{len(skipped)} small maps to A*, and saves time where A* is slow: "
+            + ", ".join(f"{name(r)} {r['decided_over_astar_median']:.2f}" for r in saving)
+            + " of A*'s time.")
+
+
+def egraph_maps() -> str:
+    """One row per map for the experience-graph reuser at its default bound, beside the 9-step
+    planner: share, deviation, time and whether the bound held on every query."""
+    from cbr_casegraph.experience_reuser import ExperienceOptions
+
+    defaults = ExperienceOptions()
+    method = f"egraph {defaults.epsilon:g}x{defaults.experience_factor:g}"
+    lines = [f"| map | queries | 9-step share | {method} share | dev. mean / max % | 9-step dev. "
+             "max % | time / A* | hybrid / A* | worst ratio (bound) | bound held |",
+             "|---" * 10 + "|"]
+    for row in bench("casegraph_egraph")["maps"]:
+        ours, nine = row["methods"][method], row["methods"]["9-step"]
+        nine_max = ("n/a" if nine["deviation_max_pct"] is None
+                    else f"{nine['deviation_max_pct']:.1f}")
+        dev = ("n/a" if ours["deviation_mean_pct"] is None else
+               f"{ours['deviation_mean_pct'] + 0.0:.2f} / {ours['deviation_max_pct']:.1f}")
+        time = ("n/a" if ours["over_astar_median"] is None
+                else f"{ours['over_astar_median']:.2f}")
+        worst = "n/a" if ours["worst_ratio"] is None else f"{ours['worst_ratio']:.3f}"
+        lines.append(f"| {Path(row['map']).stem} | {row['queries']} | {nine['share']:.3f} "
+                     f"| {ours['share']:.3f} | {dev} | {nine_max} | {time} "
+                     f"| {ours['hybrid_over_astar_median']:.3f} | {worst} ({ours['bound']:.3f}) "
+                     f"| {'yes' if ours['bound_held'] else '**no**'} |")
+    return "\n".join(lines)
+
+
+def egraph_reading() -> str:
+    data = bench("casegraph_egraph")
+    pooled = data["pooled"]
+    nine = pooled["9-step"]
+    graphs = {name: m for name, m in pooled.items() if name != "9-step"}
+    held = all(m["bound_held"] for row in data["maps"] for name, m in row["methods"].items()
+               if name != "9-step")
+    from cbr_casegraph.experience_reuser import ExperienceOptions
+
+    defaults = ExperienceOptions()
+    ours = graphs[f"egraph {defaults.epsilon:g}x{defaults.experience_factor:g}"]
+    return (("The bound held on every query of every map for every (ε, ε^E) measured. "
+             if held else "**The bound failed on some query.** ")
+            + f"At the default ε = {defaults.epsilon:g}, ε^E = {defaults.experience_factor:g} "
+            f"(bound {ours['bound']:.3f}) the experience graph answers "
+            f"{ours['share'] * 100:.0f}% of the queries against the 9-step planner's "
+            f"{nine['share'] * 100:.0f}% behind the same retriever, every path accepted on its "
+            f"guarantee, with a largest deviation of {ours['deviation_max_pct']:.1f}% against "
+            f"{nine['deviation_max_pct']:.1f}% (mean {ours['deviation_mean_pct']:.2f}% against "
+            f"{nine['deviation_mean_pct']:.2f}%), in a median {ours['over_astar_median']:.2f} of "
+            f"A*'s time against {nine['over_astar_median']:.2f}. At ε = ε^E = 1 every path is "
+            f"optimal, in {graphs['egraph 1x1']['over_astar_median']:.2f} of A*'s time; looser "
+            "bounds than max_ratio fall back to the octile test and answer fewer.")
 
 
 def pathcases_speed_reading() -> str:
@@ -146,16 +191,34 @@ def pathcases_speed_reading() -> str:
             f"and pruning by boxes saves the brute force only {span(pruning, 0)}%. "
             f"{similar_text} a stored path within the limit, which is the common case while "
             "the robot still meets new tasks; a pair within the limit cannot stop at it, so "
-            "near-duplicates cost more per pair. Two costs outside the kernel grow too: "
-            "concatenating the stored paths again after a step that added or forgot one takes "
-            f"{largest['concatenate_ms']:.0f} ms at {grouped(largest['size'])} paths, "
-            f"{largest['concatenate_ms'] / largest['ms']['ours'] * 100:.0f}% of the comparison "
-            f"itself, and retrieval, from {grouped(mid['size'])} paths on, grows about "
-            f"{per_path:.0f} ns per stored path (four numpy distance calls over the end points), "
-            f"{big['retrieve_us'] / 1000:.2f} ms at {grouped(big['size'])} paths, beside "
-            f"{data['astar_ms_mean']:.1f} ms for one A* query on this map (mean). The papers' "
-            "case bases are far smaller (a capacity of tens of paths); a spatial index of the "
-            "end points is left for case bases of tens of thousands.")
+            "near-duplicates cost more per pair. Retrieval, from "
+            f"{grouped(mid['size'])} paths on, grows about {per_path:.0f} ns per stored path "
+            f"(four numpy distance calls over the end points), {big['retrieve_us'] / 1000:.2f} ms "
+            f"at {grouped(big['size'])} paths, beside {data['astar_ms_mean']:.1f} ms for one A* "
+            "query on this map (mean).\n\n" + _pathcases_retention(data))
+
+
+def _pathcases_retention(data: dict[str, Any]) -> str:
+    """The retainer's own comparison through the index of stored cells, and the target."""
+    rows = sorted(data["retention"], key=lambda row: row["size"])
+    largest = rows[-1]
+    target = data["retention_target"]
+    mismatches = sum(row["mismatches"] for row in rows)
+    return ("The retainer does not run that kernel over every stored path: an index of the "
+            "8x8-cell squares each stored path passes through hands it only the paths near both "
+            "ends of the new path (a median of "
+            f"{span([row['candidates_median'] for row in rows], 0)} candidates from "
+            f"{grouped(rows[0]['size'])} to {grouped(largest['size'])} stored paths), and "
+            + ("finds exactly what the kernel over every path finds" if mismatches == 0 else
+               f"disagrees with the kernel over every path {mismatches} times")
+            + f". The comparison then takes {span([row['indexed_ms'] for row in rows], 2)} ms "
+            f"against {span([row['every_path_ms'] for row in rows], 1)} ms over every path (plus "
+            f"{largest['concatenate_ms']:.0f} ms at {grouped(largest['size'])} paths for the "
+            "concatenation of all stored cells it no longer redoes after each write). The whole "
+            "retain hook, one learn step per path without the A* of the path's ideal cost, takes "
+            f"{span([row['retain_without_ideal_ms'] for row in rows], 2)} ms: the target of at "
+            f"most {target['ms_per_path']:g} ms per path at {grouped(target['at_paths'])} paths "
+            f"is {'met' if target['met'] else 'not met'} ({target['measured_ms']:.2f} ms).")
 
 
 def _radius_row(radius: int, coverage: float) -> dict[str, Any]:

@@ -6,6 +6,7 @@ import contextlib
 import json
 import operator
 from collections.abc import Iterable, Iterator, Mapping
+from typing import Any
 
 import attrs
 
@@ -18,6 +19,9 @@ from cbrcore.casebase.data import (
 )
 from cbrcore.casebase.store import Changes
 from cbrcore.model import JSON, Case
+
+_ABSENT = object()
+"""In the undo log: the key was not in the dictionary before the write."""
 
 
 class MemoryStore:
@@ -44,6 +48,9 @@ class MemoryStore:
         self._depth = 0
         self._pending = 0
         self._wrote = False
+        self._undo: list[tuple[dict[Any, Any], Any, Any]] = []
+        """What the open transaction's writes overwrote, in order: (dictionary, key, old value
+        or :data:`_ABSENT`); a rollback puts the old values back, newest first."""
 
     def __str__(self) -> str:
         return "the in-memory case base"
@@ -77,9 +84,11 @@ class MemoryStore:
 
         A nested block joins the outer transaction (nothing commits before the outermost block
         ends); if a nested block raises, its own writes are undone and the outer block may go on.
+        Each write records what it overwrites in an undo log, so a transaction costs what it
+        writes, not what the store holds.
         """
-        saved = (dict(self._cases), dict(self._meta), dict(self._changed), dict(self._removed),
-                 self._next_id, self._pending, self._wrote)
+        mark = len(self._undo)
+        saved = (self._next_id, self._pending, self._wrote)
         outermost = self._depth == 0
         if outermost:
             self._pending = self._revision + 1
@@ -88,13 +97,43 @@ class MemoryStore:
         try:
             yield
         except BaseException:
-            (self._cases, self._meta, self._changed, self._removed, self._next_id, self._pending,
-             self._wrote) = saved
+            self._roll_back(mark)
+            self._next_id, self._pending, self._wrote = saved
             raise
         finally:
             self._depth -= 1
+            if outermost:
+                self._undo.clear()
         if outermost and self._wrote:
             self._revision = self._pending
+
+    def _roll_back(self, mark: int) -> None:
+        """Undo the writes logged after ``mark``, newest first."""
+        returned = False
+        while len(self._undo) > mark:
+            table, key, old = self._undo.pop()
+            if old is _ABSENT:
+                del table[key]
+            else:
+                returned |= table is self._cases and key not in table
+                table[key] = old
+        if returned:
+            # a case put back after its removal went to the end: cases are listed by id
+            ordered = sorted(self._cases.items())
+            self._cases.clear()
+            self._cases.update(ordered)
+
+    def _set(self, table: dict[Any, Any], key: Any, value: Any) -> None:
+        """``table[key] = value``, logged for a rollback inside a transaction."""
+        if self._depth:
+            self._undo.append((table, key, table.get(key, _ABSENT)))
+        table[key] = value
+
+    def _delete(self, table: dict[Any, Any], key: Any) -> None:
+        """``del table[key]``, logged for a rollback inside a transaction."""
+        if self._depth:
+            self._undo.append((table, key, table[key]))
+        del table[key]
 
     def _stamp(self) -> int:
         """The revision the write being made commits as."""
@@ -116,8 +155,8 @@ class MemoryStore:
         revision = self._stamp()
         stored = attrs.evolve(case, id=self._next_id, created=revision)
         check_case(stored, revision)
-        self._cases[stored.id] = stored
-        self._changed[stored.id] = revision
+        self._set(self._cases, stored.id, stored)
+        self._set(self._changed, stored.id, revision)
         self._next_id += 1
         self._written()
         return stored
@@ -130,8 +169,8 @@ class MemoryStore:
         old = self.get(case.id)
         stored = case if case.created is not None else attrs.evolve(case, created=old.created)
         check_case(stored, self._stamp())
-        self._cases[old.id] = attrs.evolve(stored, id=old.id)
-        self._changed[old.id] = self._stamp()
+        self._set(self._cases, old.id, attrs.evolve(stored, id=old.id))
+        self._set(self._changed, old.id, self._stamp())
         self._written()
 
     def remove(self, ids: Iterable[int]) -> None:
@@ -139,9 +178,9 @@ class MemoryStore:
         unique = self._existing(ids)
         if unique:
             for case_id in unique:
-                del self._cases[case_id]
-                del self._changed[case_id]
-                self._removed[case_id] = self._stamp()
+                self._delete(self._cases, case_id)
+                self._delete(self._changed, case_id)
+                self._set(self._removed, case_id, self._stamp())
             self._written()
 
     def touch(self, ids: Iterable[int]) -> None:
@@ -154,8 +193,9 @@ class MemoryStore:
             revision = self._stamp()
             for case_id in unique:
                 case = self._cases[case_id]
-                self._cases[case_id] = attrs.evolve(case, uses=case.uses + 1, last_used=revision)
-                self._changed[case_id] = revision
+                self._set(self._cases, case_id,
+                          attrs.evolve(case, uses=case.uses + 1, last_used=revision))
+                self._set(self._changed, case_id, revision)
             self._written()
 
     def _existing(self, ids: Iterable[int]) -> list[int]:
@@ -210,7 +250,7 @@ class MemoryStore:
     def set_meta(self, key: str, value: JSON) -> None:
         """Store a plugin's value under ``key``; it commits with the surrounding transaction."""
         check_meta(key, value)
-        self._meta[key] = json.dumps(value)
+        self._set(self._meta, key, json.dumps(value))
         self._written()
 
     def meta_items(self) -> dict[str, JSON]:
@@ -248,9 +288,11 @@ class MemoryStore:
                 restored.append(stored)
             if restored or self._meta:
                 self._wrote = True
-            self._cases = dict(sorted((case.id, case) for case in restored))
-            self._changed = dict.fromkeys(self._cases, self._pending)
-            self._meta = {}
+            for case in sorted(restored, key=operator.attrgetter("id")):
+                self._set(self._cases, case.id, case)
+                self._set(self._changed, case.id, self._pending)
+            for key in list(self._meta):
+                self._delete(self._meta, key)
             for key, value in meta.items():
                 self.set_meta(key, value)
 

@@ -349,8 +349,10 @@ class CaseGraph:
     def heuristic_scale(self) -> float:
         """The least cost factor of a passable cell: no step costs less per unit of length."""
         if self._scale is None:
-            factors = self.grid.factor[self.grid.passable]
-            self._scale = float(factors.min()) if factors.size else 1.0
+            from cbr_solvers.search import least_factor  # compiled: loaded with the first query
+
+            least = least_factor(self.grid.factor, self.grid.passable)
+            self._scale = least if np.isfinite(least) else 1.0
         return self._scale
 
     # -- changes ---------------------------------------------------------------------------

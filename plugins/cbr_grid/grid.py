@@ -145,9 +145,10 @@ class Grid:
                                f"{int(bad.sum())} cell(s) are not, the first is ({x}, {y}) "
                                f"with {int(values[y, x])}")
             unknown = values == -1
-            occupancy = values / 100.0
-            risk = np.where(occupancy > occupied_thresh, 1.0,
-                            np.where(occupancy < free_thresh, 0.0, occupancy))
+            # thresholded in place: one float map besides the risk converter's private copy
+            risk = values / 100.0
+            risk[risk > occupied_thresh] = 1.0
+            risk[risk < free_thresh] = 0.0  # never a cell just set to 1: free_thresh <= 1
             risk[unknown] = unknown_risk
         elif np.issubdtype(values.dtype, np.floating):
             unknown = np.isnan(values)

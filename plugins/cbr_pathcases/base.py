@@ -21,6 +21,7 @@ index follows every change in place (adding, forgetting, catching up with anothe
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterable, Mapping
 from typing import Any
@@ -45,6 +46,11 @@ enough that a path is listed in few squares (a 250-cell path in about 35), small
 squares near a new path's ends hold few of the paths that are not near it."""
 
 _META = ("cost", "length", "risk", "ideal", "traversals")
+
+_SHIFTED_DROPS = 16
+"""Up to this many rows dropped at once, the rows between them are moved up slice by slice (a
+retain replaces a few similar paths); more (forgetting, another writer's removals), the kept
+rows are gathered through a mask in one pass."""
 
 
 def _int_array(values: Iterable[int]) -> np.ndarray:
@@ -189,13 +195,14 @@ class PathBase:
         gap = np.maximum(np.maximum(box[:, :2] - high, low - box[:, 2:]), 0).max(axis=1)
         return rows[gap <= radius]
 
-    def hausdorff(self, path: np.ndarray, *, distance: str, limit: float
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def hausdorff(self, path: np.ndarray, *, distance: str, limit: float,
+                  symmetric: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(rows, forward, backward)``: the rows of :meth:`near` (``path``, ``limit``) and
         the directed Hausdorff distances D(path, P) and D(P, path) of their paths
         (:func:`cbr_pathcases.hausdorff.hausdorff`: exact up to ``limit``, inf beyond). Every
         stored path with D(path, P) <= ``limit`` is among the rows, and with it every path
-        within ``limit`` by the symmetric distance."""
+        within ``limit`` by the symmetric distance. ``symmetric``: only their maximum is
+        wanted, so both are inf for a pair beyond ``limit`` either way."""
         from cbr_pathcases.hausdorff import hausdorff_spans  # compiled: with the first call
 
         rows = self.near(path, limit)
@@ -203,7 +210,7 @@ class PathBase:
         forward, backward = hausdorff_spans(
             np.ascontiguousarray(path, dtype=np.int64), self._cells,
             np.ascontiguousarray(spans[:, 0]), np.ascontiguousarray(spans[:, 1]),
-            distance=distance, limit=limit)
+            distance=distance, limit=limit, symmetric=symmetric)
         return rows, forward, backward
 
     def add(self, path: np.ndarray, meta: Mapping[str, Any]) -> int:
@@ -273,18 +280,30 @@ class PathBase:
         self._drop(rows)
 
     def _drop(self, rows: np.ndarray) -> None:
-        """Forget the rows ``rows`` of the arrays and the index (the store is not written)."""
+        """Forget the rows ``rows`` (ascending, distinct) of the arrays and the index (the store
+        is not written)."""
         if not len(rows):
             return
         for row in sorted(rows.tolist(), reverse=True):
             self._leave(int(self.ids[row]), self.paths[row])
             self._garbage += len(self.paths[row])
             del self.paths[row]
-        keep = np.ones(self._size, dtype=bool)
-        keep[rows] = False
-        for column in self._columns.values():
-            kept = column[:self._size][keep]
-            column[:len(kept)] = kept
+        first = int(rows[0])
+        if len(rows) <= _SHIFTED_DROPS:
+            # the rows between dropped ones move up in place: memory moves of the rows after
+            # the first dropped one, many times cheaper than a gather through a mask
+            bounds = [*rows.tolist(), self._size]
+            for column in self._columns.values():
+                to = first
+                for row, following in itertools.pairwise(bounds):
+                    column[to:to + following - row - 1] = column[row + 1:following]
+                    to += following - row - 1
+        else:
+            keep = np.ones(self._size - first, dtype=bool)
+            keep[rows - first] = False
+            for column in self._columns.values():
+                kept = column[first:self._size][keep]
+                column[first:first + len(kept)] = kept
         self._size = len(self.paths)
         self._compact_if_half_garbage()
 

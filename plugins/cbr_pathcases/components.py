@@ -279,6 +279,9 @@ class PathRetainer:
             cells = {(int(x), int(y)) for x, y in path.tolist()}
             kept = lost * sum((int(x), int(y)) in cells for x, y in stops) / len(stops)
         trip = measure(grid, driven, lost)
+        if len(path) == len(driven) and kept == lost:
+            # no loop was cut (a cut drops cells) and all the time lost stays: the same measure
+            return trip, trip
         return trip, measure(grid, path, kept, trip.ideal)
 
     def _traversed(self, base: PathBase, case_id: int, cost: float) -> None:
@@ -325,8 +328,9 @@ class PathRetainer:
         cost = measured.cost(self.options.combine, self.options.risk_weight)
         threshold = self.options.threshold
         # the stored paths that can be within the threshold; all others are farther
-        rows, forward, backward = base.hausdorff(path, distance=self.options.distance,
-                                                 limit=threshold)
+        rows, forward, backward = base.hausdorff(
+            path, distance=self.options.distance, limit=threshold,
+            symmetric=self.options.hausdorff == "symmetric")
         same = rows[np.maximum(forward, backward) == 0]
         if len(same):
             # the very cells of a stored path, driven again (reused or planned anew, in either

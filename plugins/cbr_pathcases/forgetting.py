@@ -156,7 +156,7 @@ class NearDuplicatePaths:
             row = int(base.rows([case_id])[0])
             rows, forward, backward = base.hausdorff(base.paths[row],
                                                      distance=self.options.distance,
-                                                     limit=self.options.radius)
+                                                     limit=self.options.radius, symmetric=True)
             near = (np.maximum(forward, backward) <= self.options.radius) & (rows != row)
             if int(near.sum()) > self.options.count:
                 base.remove([case_id])

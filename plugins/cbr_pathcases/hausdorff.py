@@ -13,14 +13,16 @@ The stored paths are spans of one cell array: :func:`hausdorff` takes them back 
 (offsets), :func:`hausdorff_spans` anywhere in it (the case base's store of cells, which keeps
 the paths it forgot until it compacts, and compares only the paths its index finds near).
 
-The kernel is the early-break algorithm of Taha & Hanbury (2015): for each cell of A it scans B
-and stops as soon as a cell no farther than the running maximum turns up, since that cell of A
-can no longer raise the maximum. Two orderings make early breaks come soon on paths: the cells
-of A are visited coarse first (every s-th cell, s = floor(sqrt(n)), then the rest), so the running
-maximum grows large early, and each scan of B starts where the previous one stopped, since
-consecutive cells of a path have nearby nearest neighbours. Distances above ``limit`` are not
-needed by the caller, so a pair stops as soon as its running maximum exceeds ``limit``, and a pair
-whose bounding boxes are already farther apart than ``limit`` is not scanned at all.
+The kernel is the early-break algorithm of Taha & Hanbury (2015): for each cell of A it scans B and
+stops as soon as a cell no farther than the running maximum turns up, since that cell of A can no
+longer raise the maximum. Two orderings make early breaks come soon on paths: the cells of A are
+visited coarse first (every s-th cell, s = floor(sqrt(n)), then the rest), so the running maximum
+grows large early, and each scan of B starts where the previous one stopped and works outwards on
+both sides of it in turn, since consecutive cells of a path have nearby nearest neighbours, after
+or before the previous one as B runs along A or against it (a stored path between the same ends as
+a new one is as likely to have been driven the other way). Distances above ``limit`` are not needed
+by the caller, so a pair stops as soon as its running maximum exceeds ``limit``, and a pair whose
+bounding boxes are already farther apart than ``limit`` is not scanned at all.
 
 The kernel runs serially (no ``parallel=True``): the engine may call it from several threads,
 and numba's default threading layer does not allow concurrent parallel launches.
@@ -79,14 +81,21 @@ def _directed(a: np.ndarray, a0: int, a1: int, b: np.ndarray, b0: int, b1: int, 
                 continue
             ax, ay = a[i, 0], a[i, 1]
             nearest, at = math.inf, start
-            j = start
-            for _ in range(m):
+            # outwards from start, one cell after it and one before it in turn (wrapping
+            # round): b may run either way along a, so the next nearest cell lies on either side
+            after, before = start, start - 1 if start > b0 else b1 - 1
+            for step in range(m):
+                if step % 2 == 0:
+                    j = after
+                    after = after + 1 if after + 1 < b1 else b0
+                else:
+                    j = before
+                    before = before - 1 if before > b0 else b1 - 1
                 key = _key(abs(ax - b[j, 0]), abs(ay - b[j, 1]), metric)
                 if key < nearest:
                     nearest, at = key, j
                 if key <= worst:
                     break  # this cell of a cannot raise the maximum
-                j = j + 1 if j + 1 < b1 else b0
             start = at
             if nearest > worst:
                 worst = nearest
@@ -109,9 +118,10 @@ def _box(cells: np.ndarray, s: int, e: int) -> tuple[int, int, int, int]:
 
 @njit
 def _all(path: np.ndarray, cells: np.ndarray, begins: np.ndarray, ends: np.ndarray,
-         metric: int, limit: float, forward: np.ndarray, backward: np.ndarray) -> None:
+         metric: int, limit: float, symmetric: bool, forward: np.ndarray,
+         backward: np.ndarray) -> None:
     """Fill ``forward[i] = D(path, P_i)`` and ``backward[i] = D(P_i, path)`` for each stored path
-    P_i = ``cells[begins[i]:ends[i]]``.
+    P_i = ``cells[begins[i]:ends[i]]``; with ``symmetric``, both are inf as soon as one is.
 
     Any two cells of two paths are at least the gaps between the paths' bounding boxes apart on
     each axis, and all four metrics grow with ``|dx|`` and with ``|dy|``: the metric of the gaps
@@ -127,8 +137,13 @@ def _all(path: np.ndarray, cells: np.ndarray, begins: np.ndarray, ends: np.ndarr
         if _value(_key(gx, gy, metric), metric) > limit:
             forward[i] = backward[i] = math.inf
             continue
-        forward[i] = _directed(path, 0, n, cells, s, e, metric, limit)
         backward[i] = _directed(cells, s, e, path, 0, n, metric, limit)
+        if symmetric and backward[i] == math.inf:
+            # a stored path running on past the new one's ends, along it: the way back
+            # finds that at the first cell beyond, the way out would scan every cell
+            forward[i] = math.inf
+            continue
+        forward[i] = _directed(path, 0, n, cells, s, e, metric, limit)
 
 
 def _cells(array: npt.ArrayLike, name: str, at_least: int) -> np.ndarray:
@@ -155,15 +170,19 @@ def _metric(distance: str, limit: float) -> tuple[int, float]:
 
 
 def hausdorff_spans(path: np.ndarray, cells: np.ndarray, begins: np.ndarray, ends: np.ndarray,
-                    *, distance: str = "euclidean", limit: float = math.inf
-                    ) -> tuple[np.ndarray, np.ndarray]:
+                    *, distance: str = "euclidean", limit: float = math.inf,
+                    symmetric: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """:func:`hausdorff` for the stored paths ``cells[begins[i]:ends[i]]``, anywhere in
     ``cells``: contiguous int64 arrays, ``path`` (n, 2) with n >= 1, ``cells`` (M, 2), and
-    ``0 <= begins[i] < ends[i] <= M`` (the caller's own layout, which is not checked)."""
+    ``0 <= begins[i] < ends[i] <= M`` (the caller's own layout, which is not checked).
+
+    ``symmetric``: only the symmetric distance is wanted, so a pair found beyond ``limit`` one
+    way is reported inf both ways without scanning the other way.
+    """
     metric, limit = _metric(distance, limit)
     forward = np.empty(len(begins), dtype=np.float64)
     backward = np.empty(len(begins), dtype=np.float64)
-    _all(path, cells, begins, ends, metric, limit, forward, backward)
+    _all(path, cells, begins, ends, metric, limit, symmetric, forward, backward)
     return forward, backward
 
 

@@ -35,26 +35,38 @@ from cbr_grid.query import Cell
 
 
 class Landmarks:
-    """Landmark distance tables of a grid, and the lower bound they give."""
+    """Landmark distance tables of a grid, and the lower bound they give.
+
+    ``tables`` is one float32 array (count, height, width): 4 bytes per cell and landmark, 2 GB
+    for 8 landmarks on an 8000 x 8000 map. Building them needs, besides, two float64 maps (the
+    distances to the landmarks chosen so far, which picks the next, and the wavefront's own)
+    and the wavefront's byte per cell: 17 bytes per cell.
+    """
 
     def __init__(self, grid: Grid, count: int) -> None:
         from cbr_solvers.aistar import cost_map  # compiled: loaded when a bound is first needed
 
-        ones = np.ones(grid.passable.shape)
-        reachable = np.argwhere(grid.passable)
-        tables: list[np.ndarray] = []
-        if len(reachable):
-            # the first landmark: the cell farthest from an arbitrary passable cell
-            y, x = reachable[0]
-            nearest = cost_map(ones, grid.passable, grid.corner_cutting, [(x, y)])
-            for _ in range(count):
-                far = np.where(np.isfinite(nearest), nearest, -1.0)
-                y, x = np.unravel_index(int(np.argmax(far)), far.shape)
-                table = cost_map(ones, grid.passable, grid.corner_cutting, [(int(x), int(y))])
-                tables.append(table.astype(np.float32))
-                nearest = table if len(tables) == 1 else np.minimum(nearest, table)
-        self.tables = (np.stack(tables) if tables
-                       else np.zeros((0, *grid.passable.shape), dtype=np.float32))
+        passable = grid.passable
+        first = int(np.argmax(passable))  # the first passable cell in row-major order
+        if not passable.flat[first]:
+            self.tables = np.zeros((0, *passable.shape), dtype=np.float32)
+            return
+        self.tables = np.empty((count, *passable.shape), dtype=np.float32)
+        # the first landmark: the cell farthest from an arbitrary passable cell
+        y, x = divmod(first, passable.shape[1])
+        nearest = cost_map(None, passable, grid.corner_cutting, [(x, y)])
+        for k in range(count):
+            # Cells the first cell does not reach no landmark reaches: marked -1 once, they
+            # stay below every distance in the minimum and are never picked.
+            nearest[np.isinf(nearest)] = -1.0
+            y, x = divmod(int(np.argmax(nearest)), passable.shape[1])
+            table = cost_map(None, passable, grid.corner_cutting, [(x, y)])
+            self.tables[k] = table
+            if k == 0:
+                nearest = table
+            else:
+                np.minimum(nearest, table, out=nearest)
+            del table  # before the next wavefront allocates its own
 
     def bound(self, start: Cell, goal: Cell) -> float:
         """A lower bound of the length of any path from ``start`` to ``goal``."""

@@ -44,25 +44,40 @@ RISK_FREE_ERROR_BOUND = 1.0 - DIAGONAL_STEPS / (ORTHOGONAL_STEPS * math.sqrt(2.0
 _ALL = np.zeros(0, dtype=np.int64)
 """No wanted cells: propagate over the whole window."""
 
+# What a step adds in the wavefront of ``_propagate``.
+INTEGER_STEPS = 0
+"""The integer ``ORTHOGONAL_STEPS`` or ``DIAGONAL_STEPS``: Ai*'s distance map."""
+COST_STEPS = 1
+"""The step's cost under the cost contract, from the cell factors."""
+LENGTH_STEPS = 2
+"""The step's length, 1 or sqrt(2): a step's cost with every factor 1, without a map of ones."""
+
+_NO_FACTOR = np.ones((1, 1))
+"""The factor argument of the wavefronts that do not read factors (integer or length steps)."""
+# read-only like a Grid's factor, so that both share one compiled variant of the wavefront
+_NO_FACTOR.setflags(write=False)
+
 
 @njit
 def _propagate(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
-               goals: np.ndarray, x0: int, y0: int, x1: int, y1: int, exact: bool,
+               goals: np.ndarray, x0: int, y0: int, x1: int, y1: int, steps: int,
                wanted: np.ndarray) -> np.ndarray:
     """Distances from the goals to every cell of the window [x0, x1] x [y0, y1], row-major.
 
-    ``exact`` selects the step costs of the cost contract; otherwise a step adds the integer
-    ``ORTHOGONAL_STEPS`` or ``DIAGONAL_STEPS``. Goals off the window or blocked are ignored; cells
-    that no goal reaches inside the window stay infinite. Step costs are symmetric, so the
-    distance from the goals is the cost to reach them. A non-empty ``wanted`` (row-major window
-    indices) stops the wavefront once all of them are settled; the cells not settled by then
-    are left infinite.
+    ``steps`` says what a step adds: ``COST_STEPS`` its cost under the cost contract,
+    ``LENGTH_STEPS`` its length (``factor`` is then not read), ``INTEGER_STEPS`` the integer
+    ``ORTHOGONAL_STEPS`` or ``DIAGONAL_STEPS`` (nor is ``factor`` read then). Goals off the
+    window or blocked are ignored; cells that no goal reaches inside the window stay infinite.
+    Step costs are symmetric, so the distance from the goals is the cost to reach them. A
+    non-empty ``wanted`` (row-major window indices) stops the wavefront once all of them are
+    settled; the cells not settled by then are left infinite.
     """
     ww = x1 - x0 + 1
     n = ww * (y1 - y0 + 1)
     dist = np.full(n, np.inf)
     closed = np.zeros(n, dtype=np.bool_)
-    want = np.zeros(n, dtype=np.bool_)
+    # a byte per cell only when there are wanted cells to look up
+    want = np.zeros(n if wanted.shape[0] else 0, dtype=np.bool_)
     left = 0
     for k in range(wanted.shape[0]):
         if not want[wanted[k]]:
@@ -90,7 +105,7 @@ def _propagate(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
         if closed[cell]:
             continue  # a stale entry of a cell reached again more cheaply
         closed[cell] = True
-        if want[cell]:
+        if stop_early and want[cell]:
             left -= 1
             if left == 0:
                 break
@@ -105,8 +120,10 @@ def _propagate(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
             other = (ny - y0) * ww + (nx - x0)
             if closed[other]:
                 continue
-            if exact:
+            if steps == COST_STEPS:
                 step = (SQRT2 if diagonal else 1.0) * (factor[cy, cx] + factor[ny, nx]) * 0.5
+            elif steps == LENGTH_STEPS:
+                step = SQRT2 if diagonal else 1.0
             else:
                 step = float(DIAGONAL_STEPS if diagonal else ORTHOGONAL_STEPS)
             g = here + step
@@ -150,8 +167,10 @@ def heuristic_table(factor: np.ndarray, passable: np.ndarray, corner_cutting: bo
             raise ValueError("factor must be finite and positive on passable cells")
     if fmin == np.inf:
         fmin = 1.0
-    steps = _propagate(factor, passable, corner_cutting, goals, x0, y0, x1, y1, False, _ALL)
-    return steps * (fmin / ORTHOGONAL_STEPS)
+    steps = _propagate(_NO_FACTOR, passable, corner_cutting, goals, x0, y0, x1, y1,
+                       INTEGER_STEPS, _ALL)
+    steps *= fmin / ORTHOGONAL_STEPS
+    return steps
 
 
 def distance_map(passable: np.ndarray, corner_cutting: bool, goals: object,
@@ -163,8 +182,8 @@ def distance_map(passable: np.ndarray, corner_cutting: bool, goals: object,
     """
     passable = np.ascontiguousarray(passable, dtype=np.bool_)
     x0, y0, x1, y1 = _window(passable, window)
-    dist = _propagate(np.ones(passable.shape), passable, bool(corner_cutting),
-                      _goal_array(goals), x0, y0, x1, y1, False, _ALL)
+    dist = _propagate(_NO_FACTOR, passable, bool(corner_cutting), _goal_array(goals),
+                      x0, y0, x1, y1, INTEGER_STEPS, _ALL)
     steps = np.where(np.isinf(dist), -1, dist).astype(np.int64)
     return steps.reshape(y1 - y0 + 1, x1 - x0 + 1)
 
@@ -179,14 +198,22 @@ def heuristic_map(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool
     return table.reshape(box[3] - box[1] + 1, box[2] - box[0] + 1)
 
 
-def cost_map(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, goals: object,
-             window: Sequence[int] | None = None, wanted: object = None) -> np.ndarray:
+def cost_map(factor: np.ndarray | None, passable: np.ndarray, corner_cutting: bool,
+             goals: object, window: Sequence[int] | None = None,
+             wanted: object = None) -> np.ndarray:
     """The exact cheapest cost from each cell of the window to the goals (Dijkstra from them).
+
+    A ``factor`` of None stands for every factor 1: the costs are then the shortest path
+    lengths, computed without a map of ones. Besides the float64 result the wavefront holds a
+    byte per cell of the window (two with ``wanted``) and its frontier.
 
     With ``wanted`` cells ((k, 2) of (x, y), inside the window) the wavefront stops once they
     are all settled: their costs and those of every cell cheaper than the dearest of them are
     exact, the rest is left infinite.
     """
+    steps = COST_STEPS
+    if factor is None:
+        factor, steps = _NO_FACTOR, LENGTH_STEPS
     factor = np.ascontiguousarray(factor, dtype=np.float64)
     passable = np.ascontiguousarray(passable, dtype=np.bool_)
     x0, y0, x1, y1 = _window(passable, window)
@@ -195,7 +222,7 @@ def cost_map(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, goa
         xy = _goal_array(wanted)
         cells = np.ascontiguousarray((xy[:, 1] - y0) * (x1 - x0 + 1) + (xy[:, 0] - x0))
     dist = _propagate(factor, passable, bool(corner_cutting), _goal_array(goals),
-                      x0, y0, x1, y1, True, cells)
+                      x0, y0, x1, y1, steps, cells)
     return dist.reshape(y1 - y0 + 1, x1 - x0 + 1)
 
 
