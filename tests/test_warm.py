@@ -97,7 +97,7 @@ def _warmed(config: dict[str, Any], *kernels: str) -> int:
 @pytest.mark.parametrize(("solver", "kernel"), [
     ("dijkstra", "cbr_solvers.search._search"),
     ("astar", "cbr_solvers.search._search"),
-    ("aistar", "cbr_solvers.aistar._propagate"),
+    ("aistar", "cbr_solvers.aistar.wavefront"),
     ({"use": "genetic", "generations": 200}, "cbr_solvers.genetic._evolve"),
     ("randomized", "cbr_solvers.search._search"),
     ("jps", "cbr_solvers.jps._search"),

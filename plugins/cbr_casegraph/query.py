@@ -20,8 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from cbr_casegraph.search import descend, graph_search, path_cost, run_costs
-from cbr_grid.costs import SQRT2
-from cbr_grid.search_base import DX, DY, INITIAL_HEAP, move, pop, push_grown
+from cbr_solvers.aistar import COST_STEPS, wavefront
 from cbrcore.compiled import njit
 
 OK = 0
@@ -97,57 +96,6 @@ def _span(a: int, d: int, length: int, c: int, delta: int) -> tuple[int, int]:
 
 
 @njit
-def _sweep(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, cx: int, cy: int,
-           x0: int, y0: int, x1: int, y1: int, want: np.ndarray, left: int) -> np.ndarray:
-    """The exact cost from (cx, cy) to each cell of the window, row-major; once the ``left``
-    cells marked in ``want`` are all settled the sweep stops and the cells not settled by then
-    stay infinite (so that a descent only walks settled cells)."""
-    ww = x1 - x0 + 1
-    n = ww * (y1 - y0 + 1)
-    dist = np.full(n, np.inf)
-    closed = np.zeros(n, dtype=np.bool_)
-    keys = np.empty(INITIAL_HEAP, dtype=np.float64)
-    items = np.empty(INITIAL_HEAP, dtype=np.int64)
-    size = 0
-    if passable[cy, cx]:
-        dist[(cy - y0) * ww + (cx - x0)] = 0.0
-        keys, items = push_grown(keys, items, size, 0.0, (cy - y0) * ww + (cx - x0))
-        size = 1
-    stop_early = left > 0
-    while size > 0:
-        cell = pop(keys, items, size)
-        size -= 1
-        if closed[cell]:
-            continue
-        closed[cell] = True
-        if want[cell]:
-            left -= 1
-            if left == 0:
-                break
-        px = x0 + cell % ww
-        py = y0 + cell // ww
-        here = dist[cell]
-        for d in range(8):
-            if not move(passable, corner_cutting, px, py, d, x0, y0, x1, y1):
-                continue
-            nx, ny = px + DX[d], py + DY[d]
-            other = (ny - y0) * ww + (nx - x0)
-            if closed[other]:
-                continue
-            g = here + (SQRT2 if d >= 4 else 1.0) * (factor[py, px] + factor[ny, nx]) * 0.5
-            if g >= dist[other]:
-                continue
-            dist[other] = g
-            keys, items = push_grown(keys, items, size, g, other)
-            size += 1
-    if stop_early:
-        for cell in range(n):
-            if not closed[cell]:
-                dist[cell] = np.inf
-    return dist
-
-
-@njit
 def local_links(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
                 e_a: np.ndarray, e_b: np.ndarray, xy: np.ndarray, cases: np.ndarray,
                 cx: int, cy: int, delta: int, radius: int
@@ -168,7 +116,6 @@ def local_links(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
     count = cases.shape[0]
     spans = np.empty((count, 2), dtype=np.int64)
     want = np.zeros(n, dtype=np.bool_)
-    left = 0
     for k in range(count):
         a, b = e_a[cases[k]], e_b[cases[k]]
         ax, ay = xy[a, 0], xy[a, 1]
@@ -180,10 +127,10 @@ def local_links(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
         spans[k, 0], spans[k, 1] = lo, hi
         for i in range(lo, hi + 1):
             cell = (ay + i * dy - y0) * ww + (ax + i * dx - x0)
-            if not want[cell]:
-                want[cell] = True
-                left += 1
-    dist = _sweep(factor, passable, corner_cutting, cx, cy, x0, y0, x1, y1, want, left)
+            want[cell] = True
+    source = np.array([[cx, cy]], dtype=np.int64)
+    dist = wavefront(factor, passable, corner_cutting, source, x0, y0, x1, y1, COST_STEPS,
+                     np.flatnonzero(want))
     chosen = np.zeros(n, dtype=np.bool_)
     for k in range(count):
         a, b = e_a[cases[k]], e_b[cases[k]]

@@ -44,7 +44,7 @@ RISK_FREE_ERROR_BOUND = 1.0 - DIAGONAL_STEPS / (ORTHOGONAL_STEPS * math.sqrt(2.0
 _ALL = np.zeros(0, dtype=np.int64)
 """No wanted cells: propagate over the whole window."""
 
-# What a step adds in the wavefront of ``_propagate``.
+# What a step adds in the wavefront of ``wavefront``.
 INTEGER_STEPS = 0
 """The integer ``ORTHOGONAL_STEPS`` or ``DIAGONAL_STEPS``: Ai*'s distance map."""
 COST_STEPS = 1
@@ -59,7 +59,7 @@ _NO_FACTOR.setflags(write=False)
 
 
 @njit
-def _propagate(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
+def wavefront(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
                goals: np.ndarray, x0: int, y0: int, x1: int, y1: int, steps: int,
                wanted: np.ndarray) -> np.ndarray:
     """Distances from the goals to every cell of the window [x0, x1] x [y0, y1], row-major.
@@ -167,7 +167,7 @@ def heuristic_table(factor: np.ndarray, passable: np.ndarray, corner_cutting: bo
             raise ValueError("factor must be finite and positive on passable cells")
     if fmin == np.inf:
         fmin = 1.0
-    steps = _propagate(_NO_FACTOR, passable, corner_cutting, goals, x0, y0, x1, y1,
+    steps = wavefront(_NO_FACTOR, passable, corner_cutting, goals, x0, y0, x1, y1,
                        INTEGER_STEPS, _ALL)
     steps *= fmin / ORTHOGONAL_STEPS
     return steps
@@ -182,7 +182,7 @@ def distance_map(passable: np.ndarray, corner_cutting: bool, goals: object,
     """
     passable = np.ascontiguousarray(passable, dtype=np.bool_)
     x0, y0, x1, y1 = _window(passable, window)
-    dist = _propagate(_NO_FACTOR, passable, bool(corner_cutting), _goal_array(goals),
+    dist = wavefront(_NO_FACTOR, passable, bool(corner_cutting), _goal_array(goals),
                       x0, y0, x1, y1, INTEGER_STEPS, _ALL)
     steps = np.where(np.isinf(dist), -1, dist).astype(np.int64)
     return steps.reshape(y1 - y0 + 1, x1 - x0 + 1)
@@ -221,7 +221,7 @@ def cost_map(factor: np.ndarray | None, passable: np.ndarray, corner_cutting: bo
     if wanted is not None:
         xy = _goal_array(wanted)
         cells = np.ascontiguousarray((xy[:, 1] - y0) * (x1 - x0 + 1) + (xy[:, 0] - x0))
-    dist = _propagate(factor, passable, bool(corner_cutting), _goal_array(goals),
+    dist = wavefront(factor, passable, bool(corner_cutting), _goal_array(goals),
                       x0, y0, x1, y1, steps, cells)
     return dist.reshape(y1 - y0 + 1, x1 - x0 + 1)
 
