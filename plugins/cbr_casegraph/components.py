@@ -77,7 +77,7 @@ class RetrieveOptions:
         "smaller map A* settles so few cells that it is cheaper than a CBR query, and the "
         "query is left to the solver with the reason 'A* is cheaper here: the map is small'. "
         "0 tries every map; 20000 (with min_distance 64 and the reviser's ideal: landmarks) "
-        "kept the hybrid within 2% of A*'s median time on every Moving AI map of the "
+        "keeps the hybrid within 1.1 times A*'s median time on every Moving AI map of the "
         "benchmark (cbr_casegraph.payoff.MEASURED).",
         validator=attrs.validators.ge(0))
     min_distance: int = option(

@@ -50,12 +50,12 @@ class Payoff:
 
 MEASURED = Payoff(min_cells=20000, min_distance=64)
 """Thresholds that, with the landmark quality test (``revise: path_quality`` with ``ideal:
-landmarks``), kept the hybrid's median time within 2% of A*'s on every Moving AI map of the
-benchmark, while it stayed 0.23-0.81 of A*'s on the maps where CBR saves time (rooms, city,
-random, the dao den520d and the 512x512 maze): the small maps (32x32 to 161x63, the smaller dao
-maps) leave every query to A*, the large ones their short queries. With the octile test no
-threshold of this kind helps on a maze, where the test rejects every path (the optimum itself
-is several times the octile distance) and every attempt is lost."""
+landmarks``), keep the hybrid's median time within the target of 1.1 times A*'s on every Moving
+AI map of the benchmark, while CBR still saves time where A* is slow (the rendered figures are on
+the benchmarks page): the small maps (32x32 to 161x63, the smaller dao maps) leave every query
+to A*, the large ones their short queries. With the octile test no threshold of this kind helps
+on a maze, where the test rejects every path (the optimum itself is several times the octile
+distance) and every attempt is lost."""
 
 
 class PassableCells:
