@@ -42,7 +42,6 @@ from cbr_casegraph.geometry import (
     direction,
     is_straight,
     segment_cells,
-    segments_cells,
 )
 from cbr_grid.distances import Distance
 from cbr_grid.distances import distance as distance_function
@@ -86,17 +85,14 @@ def segment_costs(grid: Grid, starts: ArrayLike, ends: ArrayLike) -> tuple[np.nd
     (:func:`cbr_casegraph.search.run_costs`).
     """
     # compiled: imported here so that loading the plugin does not load numba
-    from cbr_casegraph.search import run_costs
+    from cbr_casegraph.search import run_costs, run_risks
 
     starts = np.ascontiguousarray(np.asarray(starts, dtype=np.int64).reshape(-1, 2))
     ends = np.ascontiguousarray(np.asarray(ends, dtype=np.int64).reshape(-1, 2))
     if len(starts) == 0:
         return np.zeros(0), np.zeros(0)
-    cost = run_costs(grid.factor, grid.passable, grid.corner_cutting, starts, ends)
-    cells, offsets = segments_cells(starts, ends)
-    owner = np.repeat(np.arange(len(starts)), np.diff(offsets))
-    risk = grid.risk[cells[:, 1], cells[:, 0]]
-    return cost, np.bincount(owner, weights=risk, minlength=len(starts)) / np.diff(offsets)
+    return (run_costs(grid.factor, grid.passable, grid.corner_cutting, starts, ends),
+            run_risks(grid.risk, starts, ends))
 
 
 @attrs.frozen

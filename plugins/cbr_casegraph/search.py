@@ -169,6 +169,24 @@ def run_costs(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
 
 
 @njit
+def run_risks(risk: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """The mean risk of the cells of each straight run starts[k] -> ends[k], both ends
+    included."""
+    count = starts.shape[0]
+    means = np.zeros(count)
+    for k in range(count):
+        x, y = starts[k, 0], starts[k, 1]
+        dx, dy = np.sign(ends[k, 0] - x), np.sign(ends[k, 1] - y)
+        steps = max(abs(ends[k, 0] - x), abs(ends[k, 1] - y))
+        total = 0.0
+        for _ in range(steps + 1):
+            total += risk[y, x]
+            x, y = x + dx, y + dy
+        means[k] = total / (steps + 1)
+    return means
+
+
+@njit
 def path_cost(factor: np.ndarray, path: np.ndarray) -> float:
     """The cost of a path of 8-neighbour steps under the step cost contract."""
     total = 0.0
