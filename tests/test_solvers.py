@@ -370,7 +370,9 @@ def test_working_arrays_survive_interleaved_searches_and_wraparound() -> None:
     workspace = search_module._WORKSPACE
     for round_ in range(3):
         if round_ == 2:
-            workspace.generation = np.iinfo(np.uint8).max - 7  # wraps within this round
+            # wraps within this round; only ever forward, since stamps of later generations
+            # may be left by earlier searches of this thread
+            workspace.generation = max(workspace.generation, np.iinfo(np.uint8).max - 7)
         for factor, passable in grids * 2:
             h, w = passable.shape
             start = tuple(int(v) for v in rng.integers(0, (w, h)))
