@@ -1,4 +1,5 @@
-"""The experience-graph reuser against the 9-step planner on the shared Moving AI maps.
+"""The experience-graph reuser against the 9-step planner on the Moving AI maps the
+repository ships.
 
 The protocol of ``benchmarks/casegraph_movingai.py``: per map, the A* paths of the first half of
 the scenario file's problems are retained in an empty case graph; the second half is planned.

@@ -1,4 +1,5 @@
-"""The case graph planner on the shared Moving AI maps: how often CBR answers, how good, how fast.
+"""The case graph planner on the Moving AI maps the repository ships: how often CBR answers,
+how good, how fast.
 
 Per map, the A* paths of the first half of the scenario file's problems are retained in an
 empty case graph (``CaseGraph.add_path``, similar segments skipped as in the experiments); the

@@ -1,9 +1,9 @@
 """The edge-based (nonholonomic) Dijkstra and A* of section 5 against the ordinary grid A*.
 
-On a few shared Moving AI maps of different character (a small Dragon Age arena, a MAPF room
-map, a MAPF maze of wide corridors, a larger Dragon Age map, a city, a 512x512 room map and a
-512x512 maze of one-cell corridors), the scenario problems spread evenly over each file's
-buckets are planned, side by side in one process, by the ordinary A*
+On a few of the Moving AI maps the repository ships, of different character (a small Dragon
+Age arena, a MAPF room map, a MAPF maze of wide corridors, a larger Dragon Age map, a city, a
+512x512 room map and a 512x512 maze of one-cell corridors), the scenario problems spread
+evenly over each file's buckets are planned, side by side in one process, by the ordinary A*
 (``cbr_solvers.search.astar``) and, for each kinematic model (``holonomic``, ``forward``,
 ``forward_backward``; :mod:`cbr_kinematics.models`), by the edge-based A* and Dijkstra
 (:mod:`cbr_solvers.kinematic_search`), the robot starting in a random initial heading (seeded, the

@@ -4,9 +4,9 @@ query.
 Runs, side by side in one process, the same queries through ``cbr_solvers.search.astar`` and
 ``dijkstra``, our jump point search ``cbr_solvers.jps.jps``, and through pyastar2d (C++ grid
 A*), tcod (``tcod.path.Pathfinder`` on a ``CustomGraph``), scipy's ``csgraph.dijkstra`` and
-networkx's ``astar_path_length``. The maps are the shared Moving AI maps (scenarios sampled
-evenly over each file's buckets) and random square maps with about 20% obstacles, queried
-between random free cells of one connected component.
+networkx's ``astar_path_length``. The maps are the Moving AI maps the repository ships
+(scenarios sampled evenly over each file's buckets) and random square maps with about 20%
+obstacles, queried between random free cells of one connected component.
 Every answer is checked against our cost (and the Moving AI optimal length); per query each
 solver's time is the median of its repeats, and the table shows medians over the queries of a
 map and the ratios ours / other. The maps are given to our searches as read-only arrays, as a

@@ -66,7 +66,7 @@ from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 
 from cbr_grid.costs import SQRT2
 from cbr_grid.search_base import INITIAL_HEAP, Workspace, checked_arguments, pop, push
-from cbr_solvers.search import SearchResult, _frozen, astar
+from cbr_solvers.search import SearchResult, _frozen, _heuristic, astar
 from cbrcore.compiled import njit
 
 
@@ -197,7 +197,7 @@ def _reach(stamp: np.ndarray, dist: np.ndarray, parent: np.ndarray, keys: np.nda
     stamp[other] = generation
     dist[other] = g
     parent[other] = cell
-    push(keys, items, size, g + tilt * _heuristic(c, r, targets), other)
+    push(keys, items, size, g + tilt * _heuristic(c, r, targets, 1.0), other)
     return size + 1
 
 
@@ -211,16 +211,6 @@ def _grown(keys: np.ndarray, items: np.ndarray, least: int) -> tuple[np.ndarray,
     more_keys[:keys.shape[0]] = keys
     more_items[:items.shape[0]] = items
     return more_keys, more_items
-
-
-@njit(inline="always")
-def _heuristic(c: int, r: int, goals: np.ndarray) -> float:
-    best = np.inf
-    for k in range(goals.shape[0]):
-        dx = abs(goals[k, 0] - c)
-        dy = abs(goals[k, 1] - r)
-        best = min(best, max(dx, dy) + (SQRT2 - 1.0) * min(dx, dy))
-    return best
 
 
 @njit
@@ -277,7 +267,7 @@ def _search(rows: np.ndarray, cols: np.ndarray, scale: float, sx: int, sy: int,
     # search stays exact.
     span = ww + y1 - y0 + 1
     tilt = 1.0 + 0.1 / ((ww * (y1 - y0 + 1) + span) * span)
-    keys[0] = tilt * _heuristic(sc, sr, targets)
+    keys[0] = tilt * _heuristic(sc, sr, targets, 1.0)
     items[0] = start
     size = 1
     expanded = 0
@@ -329,15 +319,15 @@ def _search(rows: np.ndarray, cols: np.ndarray, scale: float, sx: int, sy: int,
                 q = _scan(rows, goal_rows, r, c, mx)
                 if q >= 0:
                     size = _reach(stamp, dist, parent, keys, items, size,
-                                               generation, cell, q, r, ww,
-                                               here + abs(q - c), targets, tilt)
+                                  generation, cell, q, r, ww,
+                                  here + abs(q - c), targets, tilt)
                 continue
             if mx == 0:
                 q = _scan(cols, goal_cols, c, r, my)
                 if q >= 0:
                     size = _reach(stamp, dist, parent, keys, items, size,
-                                               generation, cell, c, q, ww,
-                                               here + abs(q - r), targets, tilt)
+                                  generation, cell, c, q, ww,
+                                  here + abs(q - r), targets, tilt)
                 continue
             # Along the diagonal, the points the straight jumps find are offered at once through
             # this point (the path runs diagonally first, then straight); the diagonal cells
@@ -350,17 +340,17 @@ def _search(rows: np.ndarray, cols: np.ndarray, scale: float, sx: int, sy: int,
                 g += SQRT2
                 if _goal(goal_rows, dr, dc):
                     size = _reach(stamp, dist, parent, keys, items, size,
-                                               generation, cell, dc, dr, ww, g, targets, tilt)
+                                  generation, cell, dc, dr, ww, g, targets, tilt)
                     break  # anything beyond is reached through this goal
                 q = _scan(rows, goal_rows, dr, dc, mx)
                 if q >= 0:
                     size = _reach(stamp, dist, parent, keys, items, size,
-                                               generation, cell, q, dr, ww,
+                                  generation, cell, q, dr, ww,
                                                g + abs(q - dc), targets, tilt)
                 q = _scan(cols, goal_cols, dc, dr, my)
                 if q >= 0:
                     size = _reach(stamp, dist, parent, keys, items, size,
-                                               generation, cell, dc, q, ww,
+                                  generation, cell, dc, q, ww,
                                                g + abs(q - dr), targets, tilt)
 
     if reached < 0:

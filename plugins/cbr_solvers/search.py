@@ -66,8 +66,9 @@ class SearchResult:
     expanded: int
 
 
-@njit
+@njit(inline="always")
 def _heuristic(x: int, y: int, goals: np.ndarray, scale: float) -> float:
+    """The octile distance from (x, y) to the nearest of ``goals``, times ``scale``."""
     best = np.inf
     for k in range(goals.shape[0]):
         dx = abs(goals[k, 0] - x)
