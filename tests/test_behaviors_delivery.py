@@ -13,6 +13,7 @@ import pytest
 
 from cbr_behaviors.globalmap import GlobalMap, MapChange
 from cbr_behaviors.goals import GoalManager
+from cbr_behaviors.index import SITUATION
 from cbr_behaviors.messages import (
     PRIORITIES,
     PRIORITY_CHANCES,
@@ -338,7 +339,7 @@ def snap(t: float = 1.0, x: float = 0.0, **fields: Any) -> Snapshot:
 
 def monitor(**baseline: Any) -> ReplanMonitor:
     # every event counts and nothing waits, so each test sees one trigger alone
-    replan = ReplanMonitor(TriggerOptions(map_cells=1, pause=0.0))
+    replan = ReplanMonitor(TriggerOptions(map_cells=1, hold=0.0))
     replan.retrieved(snap(t=0.0, **baseline))
     return replan
 
@@ -348,10 +349,15 @@ def test_before_any_retrieval_the_period_has_passed() -> None:
     assert ReplanMonitor().check(snap(critical=1)) == ["message"]
 
 
-def test_sonar_fires_on_an_rms_change_over_the_threshold() -> None:
-    # four beams 2 m nearer: RMS sqrt(4 * 4 / 16) = 1.0 > 0.5; one beam 1 m: 0.25
-    assert monitor().check(snap(sonar=[0.0] * 4 + [2.0] * 12)) == ["sonar"]
-    assert monitor().check(snap(sonar=[3.0] + [2.0] * 15)) == []
+def test_situation_fires_when_a_feature_moved_over_the_threshold() -> None:
+    calm = np.full(len(SITUATION), 0.5)
+    person = calm.copy()
+    person[SITUATION.index("person")] = 0.1  # a person 0.4 nearer: over the 0.35
+    drift = calm + 0.3  # every feature 0.3 off: none over it
+    assert monitor(situation=calm).check(snap(situation=person)) == ["situation"]
+    assert monitor(situation=calm).check(snap(situation=drift)) == []
+    # the raw sonar alone fires nothing: a flicker is no change of situation
+    assert monitor(situation=calm).check(snap(situation=calm, sonar=[0.0] * 16)) == []
 
 
 @pytest.mark.parametrize(("event", "name"), [
@@ -372,10 +378,10 @@ def test_impasse_fires_without_progress_over_a_window_or_when_the_robot_gets_stu
     assert replan.check(snap(t=10.0, x=0.1, target=TARGET)) == ["impasse"]
     moving = monitor(target=TARGET)
     moving.check(snap(t=5.0, x=0.1, target=TARGET))
-    assert moving.check(snap(t=10.0, x=0.3, target=TARGET)) == ["period"]
+    assert moving.check(snap(t=10.0, x=0.3, target=TARGET)) == []
     # a new target starts a new window
     turned = monitor(target=TARGET)
-    assert turned.check(snap(t=10.0, target=(0.0, 10.0))) == ["period"]
+    assert turned.check(snap(t=10.0, target=(0.0, 10.0))) == []
     assert monitor().check(snap(status="blocked")) == ["impasse"]
     assert monitor(status="oscillating").check(snap(status="blocked")) == []
 
@@ -388,25 +394,39 @@ def test_location_fires_below_the_floor_or_on_a_drop() -> None:
 
 
 def test_period_fires_on_time_or_distance_only_when_nothing_else_does() -> None:
-    assert monitor().check(snap(t=9.9, distance=2.9)) == []
-    assert monitor().check(snap(t=10.0)) == ["period"]
-    assert monitor().check(snap(distance=3.0)) == ["period"]
-    assert monitor().check(snap(t=10.0, sonar=[0.0] * 16)) == ["sonar"]
+    assert monitor().check(snap(t=19.9, distance=5.9)) == []
+    assert monitor().check(snap(t=20.0)) == ["period"]
+    assert monitor().check(snap(distance=6.0)) == ["period"]
+    assert monitor().check(snap(t=20.0, added=1)) == ["map"]
 
 
 def test_map_fires_once_enough_cells_changed() -> None:
-    replan = ReplanMonitor(TriggerOptions(map_cells=4, pause=0.0))
+    replan = ReplanMonitor(TriggerOptions(map_cells=4, hold=0.0))
     replan.retrieved(snap(t=0.0))
     assert "map" not in replan.check(snap(t=0.1, added=2))
     assert "map" not in replan.check(snap(t=0.2, removed=1))
     assert "map" in replan.check(snap(t=0.3, added=1))  # 2 + 1 + 1 = 4 cells
 
 
-def test_within_the_pause_only_messages_and_plans_fire() -> None:
-    replan = ReplanMonitor(TriggerOptions(map_cells=1, pause=1.0))
+def test_within_the_hold_only_messages_and_impasses_fire() -> None:
+    replan = ReplanMonitor(TriggerOptions(map_cells=1, hold=5.0))
     replan.retrieved(snap(t=0.0))
-    assert replan.check(snap(t=0.5, added=3, critical=1)) == ["message"]
-    assert "map" in replan.check(snap(t=1.0))  # remembered until the pause is over
+    assert replan.check(snap(t=0.5, added=3, critical=1, plan_installed=True)) == ["message"]
+    # an event fires until the next retrieval
+    assert replan.check(snap(t=1.0, status="blocked")) == ["message", "impasse"]
+    assert replan.check(snap(t=4.9)) == ["message"]
+    # the others are remembered until the hold is over
+    assert replan.check(snap(t=5.0)) == ["map", "message", "plan"]
+
+
+def test_no_impasse_while_waiting_before_a_shut_door() -> None:
+    replan = monitor(target=TARGET)
+    for t in (2.0, 5.0, 8.0, 10.0, 12.0):
+        assert "impasse" not in replan.check(snap(t=t, target=TARGET, waiting=True))
+    assert replan.check(snap(t=12.0, target=TARGET, status="blocked", waiting=True)) == []
+    # the window starts when the waiting ends
+    assert "impasse" not in replan.check(snap(t=21.0, target=TARGET))
+    assert "impasse" in replan.check(snap(t=22.0, target=TARGET))
 
 
 def test_a_retrieval_does_not_restart_the_impasse_window_and_an_impasse_does() -> None:

@@ -420,13 +420,13 @@ def test_malformed_counters_count_as_none() -> None:
 # open's per-feature distances to QUERY are sonar 0.1, motors 0.5, behaviors 0, their mean
 # m = 0.2; after a good spell each becomes w_f * exp(rate * (m - d_f)):
 #   rate 0.5: sonar e^0.05 = 1.051271, motors e^-0.15 = 0.860708, behaviors e^0.1 = 1.105171,
-#             the other 11 stay 1; mean (11 + 3.017150) / 14 = 1.001225
+#             the other 22 stay 1; mean (22 + 3.017150) / 25 = 1.000686
 #   rate 10:  sonar e^1 = 2.718282, motors e^-3 = 0.049787 clipped to 0.05, behaviors
-#             e^2 = 7.389056; mean (11 + 10.157338) / 14 = 1.511238
-WORKED = {0.5: {"sonar": 1.051271 / 1.001225, "motors": 0.860708 / 1.001225,
-                "behaviors": 1.105171 / 1.001225, "other": 1 / 1.001225},
-          10.0: {"sonar": 2.718282 / 1.511238, "motors": 0.05 / 1.511238,
-                 "behaviors": 7.389056 / 1.511238, "other": 1 / 1.511238}}
+#             e^2 = 7.389056; mean (22 + 10.157338) / 25 = 1.286294
+WORKED = {0.5: {"sonar": 1.051271 / 1.000686, "motors": 0.860708 / 1.000686,
+                "behaviors": 1.105171 / 1.000686, "other": 1 / 1.000686},
+          10.0: {"sonar": 2.718282 / 1.286294, "motors": 0.05 / 1.286294,
+                 "behaviors": 7.389056 / 1.286294, "other": 1 / 1.286294}}
 
 
 @pytest.mark.parametrize("rate", sorted(WORKED))

@@ -9,8 +9,10 @@ ranks them by how well their index matches the distance profile, by their *fit*:
 - an ``alter`` strategy holds when both sides specify its feature, ``D_f >= min`` and its sense
   holds: for ``sonar``, ``closer`` when the query's mean range is shorter than the case's
   (``farther``: longer); for ``map``, ``closer`` when the query has more names near the robot
-  than the case (``farther``: fewer); ``any`` always. Its fit is ``D_f - min``, how far past its
-  threshold the situation lies;
+  than the case (``farther``: fewer); for ``closing``, ``closer`` when the person closes in
+  faster; for the other distances of :data:`~cbr_behaviors.cases.SENSED` (the sectors, the
+  width, the person, the doorway), ``closer`` when the query's is shorter; ``any`` always.
+  Its fit is ``D_f - min``, how far past its threshold the situation lies;
 - a ``merge`` strategy holds when some shared features match very badly (``D_f >= high``) and
   the other shared features, there being at least one, match well on average (their mean
   ``D_f <= low``). Its fit is the mean ``D_f`` of the bad features less the mean of the others,
@@ -48,7 +50,7 @@ from typing import TYPE_CHECKING, Any
 import attrs
 import numpy as np
 
-from cbr_behaviors.cases import BEHAVIOR, BehaviorCase, Item, Strategy, params_of
+from cbr_behaviors.cases import BEHAVIOR, SENSED, BehaviorCase, Item, Strategy, params_of
 from cbr_behaviors.index import FEATURES, SONAR_MAX, Index, Scales, overall
 from cbr_world2d.pilots.behaviors import (
     LENGTH_UNITS,
@@ -124,6 +126,12 @@ def _senses(feature: str, query: Index, case: Index) -> str | None:
     elif feature == "map" and query.map is not None and case.map is not None:
         # more names near the robot is more around it: closer
         q, c = -len(query.map), -len(case.map)
+    elif feature == "closing" and query.closing is not None and case.closing is not None:
+        # closing in faster brings the person closer
+        q, c = -query.closing, -case.closing
+    elif feature in SENSED and query.value(feature) is not None \
+            and case.value(feature) is not None:
+        q, c = query.value(feature), case.value(feature)
     else:
         return None
     return "closer" if q < c else "farther" if q > c else None

@@ -48,8 +48,11 @@ TARGETS = ("speed", "distance", "turn_rate", "priority")
 SENSES = ("closer", "farther", "any")
 """When an alter strategy holds: the query's objects closer than the case's, farther, or
 either way."""
-SENSED = ("sonar", "map")
-"""The features whose closeness a sense other than ``any`` compares."""
+SENSED = ("sonar", "map", "front", "left", "right", "rear", "width", "person", "closing",
+          "door")
+"""The features whose closeness a sense other than ``any`` compares: the sonar's ranges, the
+names near the robot, the sectors' nearest readings, the free width, the nearest person's
+distance and closing speed, the doorway's distance."""
 ALL = "*"
 """A change's behaviors meaning every behavior of the set."""
 

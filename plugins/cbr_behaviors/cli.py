@@ -1,18 +1,25 @@
-"""``cbr rupart``: add case files to a case base and show case files.
+"""``cbr rupart``: add case files to a case base, show case files, draw a delivery day.
 
 ``cbr rupart add FILE... --store STORE`` (or ``--config CONFIG``) reads and validates every
 file first (``.sexp`` or ``.yaml``, :mod:`cbr_behaviors.casefiles`), then stores all their cases
 in one transaction: a bad file stores nothing and exits with code 2, its message naming the
 file, the line and the item. ``cbr rupart show FILE`` prints a case file's cases in either
 form. The store is named as for ``cbr casebase``; the case modules load when a command runs.
+
+``cbr rupart day RUN_DIR`` draws a day of a ``delivery`` run made with ``workload.log: true``
+(:mod:`cbr_behaviors.dayplot`): it rebuilds the run's world from the configuration its
+``manifest.json`` records, through the registry as the engine builds it (:func:`run_world`),
+and reads the day's log ``day_N.npz``.
 """
 
 from __future__ import annotations
 
 import enum
+import json
+import math
 from collections import Counter
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -20,10 +27,12 @@ from cbrcore.errors import CbrError, ConfigError
 
 if TYPE_CHECKING:
     from cbr_behaviors.cases import AnyCase
+    from cbr_world2d.world import World
     from cbrcore.config import Config
 
 app = typer.Typer(name="rupart", no_args_is_help=True,
-                  help="RUPART's case files (004): add them to a case base, show them.")
+                  help="RUPART's case files (004): add them to a case base, show them; draw "
+                  "a day of a delivery run.")
 
 
 class CaseFormat(enum.StrEnum):
@@ -123,6 +132,121 @@ def show(file: Annotated[Path, typer.Argument(metavar="FILE", show_default=False
 
     cases = read_cases(file)
     typer.echo(to_sexp(cases) if fmt is CaseFormat.sexp else to_yaml(cases), nl=False)
+
+
+DELIVERY = "delivery"
+"""The workload whose runs record days."""
+
+
+def _manifest(run_dir: Path) -> dict[str, Any]:
+    """The configuration ``cbr run`` recorded in ``run_dir``, checked to be a delivery run's."""
+    if not run_dir.is_dir():
+        raise CbrError(f"{run_dir}: no such run folder; expected the output folder of "
+                       f"'cbr run' with the {DELIVERY} workload")
+    path = run_dir / "manifest.json"
+    try:
+        manifest = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise CbrError(f"{path}: no such file; expected the manifest 'cbr run' writes into a "
+                       f"run folder") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise CbrError(f"{path}: not a run's manifest ({exc}); expected the JSON file 'cbr "
+                       f"run' writes") from None
+    config = manifest.get("config") if isinstance(manifest, dict) else None
+    if not isinstance(config, dict) or not isinstance(config.get("world"), dict):
+        raise CbrError(f"{path}: records no configuration with a world; expected the "
+                       f"manifest of a 'cbr run' of the {DELIVERY} workload")
+    workload = config.get("workload")
+    used = workload.get("use") if isinstance(workload, dict) else None
+    if used != DELIVERY:
+        raise CbrError(f"{path}: a run of the workload {used!r}, not {DELIVERY!r}; only "
+                       f"{DELIVERY} runs record days")
+    return config
+
+
+def run_world(run_dir: Path) -> World:
+    """The world of the delivery run in ``run_dir``, rebuilt from the resolved configuration
+    its ``manifest.json`` records: the world slot and the seed checked against the registry
+    and built by an engine, as the run built them (a generated world depends on the seed);
+    a CbrError naming the file when the folder holds no delivery run."""
+    from cbr_world2d.world import World
+    from cbrcore.config import Config, config_from_data
+    from cbrcore.engine import Engine
+    from cbrcore.plugins import current
+
+    config = _manifest(run_dir)
+    path = run_dir / "manifest.json"
+    registry = current().registry
+    try:
+        checked = config_from_data({"seed": config.get("seed", 0), "world": config["world"]},
+                                   registry)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: the recorded configuration", exc.problems) from None
+    # only the world: the run's case base, pilot and workload stay untouched
+    with Engine(Config(seed=checked.seed, world=checked.world)) as engine:
+        world = engine.world
+    if not isinstance(world, World):
+        raise CbrError(f"{path}: the run's world is a {type(world).__name__}, not a 2D world "
+                       f"(cbr_world2d) that the {DELIVERY} workload runs on")
+    return world
+
+
+def _day_file(run_dir: Path, day: int) -> Path:
+    path = run_dir / f"day_{day}.npz"
+    if path.is_file():
+        return path
+    recorded = sorted(run_dir.glob("day_*.npz"), key=lambda p: (len(p.name), p.name))
+    have = (f"the days recorded there: {', '.join(p.name for p in recorded)}" if recorded
+            else "it records none: run with --set workload.log=true")
+    raise CbrError(f"{path}: no such day log; expected the day_N.npz the {DELIVERY} workload "
+                   f"writes with workload.log: true ({have})")
+
+
+@app.command()
+def day(
+    run_dir: Annotated[Path, typer.Argument(
+        metavar="RUN_DIR", show_default=False,
+        help="The output folder of 'cbr run' with the delivery workload and workload.log: "
+        "true.")],
+    day_: Annotated[int, typer.Option("--day", min=0, metavar="N",
+                                      help="The day to draw (0 is the first).")] = 0,
+    out: Annotated[Path | None, typer.Option(
+        "--out", "-o", metavar="DIR", show_default=False,
+        help="Where the pictures go (default: RUN_DIR).")] = None,
+    gif: Annotated[bool, typer.Option("--gif/--no-gif",
+                                      help="Also animate the day into day_N.gif.")] = True,
+    fps: Annotated[int, typer.Option("--fps", min=1, metavar="N",
+                                     help="Frames a second of the GIF.")] = 10,
+    speedup: Annotated[float, typer.Option(
+        "--speedup", metavar="FACTOR",
+        help="Seconds of the day a second of the GIF shows.")] = 20.0,
+) -> None:
+    """Draw a delivery day: the floor with the path coloured by case, a timeline, a GIF."""
+    from cbr_behaviors.daylog import DayLog
+    from cbr_behaviors.dayplot import animate_day, plot_day, plot_timeline
+    from cbrcore.engine import output_folder
+
+    if not (math.isfinite(speedup) and speedup > 0.0):
+        raise typer.BadParameter(f"expected a finite number > 0, got {speedup!r}",
+                                 param_hint="'--speedup'")
+    _manifest(run_dir)  # a folder of another run fails before its day files are looked at
+    path = _day_file(run_dir, day_)
+    log = DayLog.load(path)
+    if len(log.track()) == 0:
+        raise CbrError(f"{path}: the day log holds no steps; expected a day the delivery "
+                       "workload ran")
+    world = run_world(run_dir)
+    out_dir = run_dir if out is None else out
+    output_folder(out_dir)
+    picture, timeline = out_dir / f"day_{day_}.png", out_dir / f"day_{day_}_timeline.png"
+    plot_day(world, log, picture)
+    typer.echo(f"wrote {picture}")
+    plot_timeline(log, timeline)
+    typer.echo(f"wrote {timeline}")
+    if gif:
+        animation = out_dir / f"day_{day_}.gif"
+        frames = animate_day(world, log, animation, fps=fps, speedup=speedup)
+        typer.echo(f"wrote {animation} ({frames} frames, {frames / fps:.0f} s)")
 
 
 def add_commands(app_: typer.Typer) -> None:

@@ -112,9 +112,11 @@ class RupartRetriever:
         memory = memory_of(ctx)
         weights = weights_of(o, ctx)
         scales = o.scales
-        # at an impasse the behaviors in force are the ones that failed: not retrieved again
-        failed = (memory.ids_with(problem.behaviors) if "impasse" in problem.triggers
-                  else ())
+        # at an impasse the behaviors in force are the ones that failed: not retrieved again,
+        # nor those that failed lately (the workload keeps them out for a while)
+        failed = tuple(i for behaviors in problem.excluded for i in memory.ids_with(behaviors))
+        if "impasse" in problem.triggers:
+            failed += memory.ids_with(problem.behaviors)
         found = memory.nearest(problem.index, weights, (BEHAVIOR, PLAN), o.candidates, scales,
                                exclude=failed)
         if found and all(f.case.kind == PLAN for f in found):

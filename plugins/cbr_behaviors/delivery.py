@@ -31,7 +31,7 @@ from __future__ import annotations
 import csv
 import itertools
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import attrs
@@ -52,9 +52,12 @@ from cbrcore.options import option, reference
 from cbrcore.workload import Decision, Session
 
 if TYPE_CHECKING:
+    from cbr_behaviors.daylog import DayLog
+    from cbr_behaviors.eta import RouteEta
     from cbr_behaviors.globalmap import GlobalMap
     from cbr_behaviors.goals import GoalManager
     from cbr_behaviors.index import Index
+    from cbr_behaviors.situation import PersonSeen
     from cbr_world2d.sensors import Observation
     from cbr_world2d.simulation import Simulation
 
@@ -102,6 +105,12 @@ class DeliveryOptions:
                              validator=_POSITIVE)
     trajectories: bool = option(False, "Also write each day's true path into "
                                        "trajectories.npz.")
+    exclude: float = option(
+        30.0, "Seconds a behavior set that reached an impasse stays out of retrieval: the "
+        "retrievals that follow (the re-route the impasse causes among them) do not install "
+        "it again.", validator=attrs.validators.ge(0.0))
+    log: bool = option(False, "Also write each day's log, every step and decision, into "
+                              "day_N.npz, which `cbr rupart day` draws.")
 
 
 @attrs.frozen
@@ -111,7 +120,11 @@ class DayRow:
     day: int
     messages: int
     delivered: int
+    """Messages delivered before their deadline."""
     missed: int
+    """Messages whose deadline passed (or was given up) during the day."""
+    unfinished: int
+    """Messages still pending at the day's end, their deadline later."""
     collisions: int
     contacts: int
     mean_delivery_time: float
@@ -120,6 +133,17 @@ class DayRow:
     adapted: int
     plans: int
     meta_plans: int
+    busy_speed: float
+    """Mean true speed while the robot had a message to deliver, m/s."""
+    retrievals_per_minute: float
+    """Consultations per minute of the day."""
+    median_install: float
+    """Median seconds a retrieved behavior set stayed installed (nan with none)."""
+    longest_stall: float
+    """The longest time, seconds, the robot stayed within :data:`STALL_RADIUS` of one spot
+    while busy, not counting waits before a shut door on its route."""
+    door_wait: float
+    """Seconds spent waiting before shut doors on the route."""
 
 
 @attrs.define
@@ -140,18 +164,22 @@ class Delivery:
         self.ctx = ctx
         self.world: World = world_of(ctx, "workload 'delivery'")
         pilot = ctx.stash.get(PILOT, None)
-        if not isinstance(pilot, BehaviorPilot):
+        if pilot is None or (options.consult and not isinstance(pilot, BehaviorPilot)):
             raise CbrError("workload 'delivery' installs behavior sets: name the 'behaviors' "
                            "pilot in the configuration's 'pilot' slot"
-                           + ("" if pilot is None else f", not a {type(pilot).__name__}"))
+                           + ("" if pilot is None else f", not a {type(pilot).__name__}")
+                           + " (another pilot drives only with 'consult: false')")
         self.pilot = pilot
-        self.default = tuple(a.data for a in pilot.behaviors)
+        self.default = (tuple(a.data for a in pilot.behaviors)
+                        if isinstance(pilot, BehaviorPilot) else ())
         self.home = self.world.point(options.start, "workload.start")
         self.planner: Any = None
         self.rng = ctx.spawn_rng()
         self.paths: dict[str, np.ndarray] = {}
         self.records: list[dict[str, Any]] = []
         """The goal manager's records of the last day (:data:`DELIVERY_COLUMNS`)."""
+        self.fields: dict[str, np.ndarray] | None = None
+        self._installed_name = DEFAULT_SET
 
     def __len__(self) -> int:
         return 0  # decisions are made as the day unfolds: no count is known before
@@ -188,6 +216,8 @@ class Delivery:
     # --- one day --------------------------------------------------------------------------
 
     def _day(self, session: Session, day: int) -> DayRow:
+        from cbr_behaviors.daylog import DayLog
+        from cbr_behaviors.eta import RouteEta, route_fields
         from cbr_behaviors.globalmap import GlobalMap
         from cbr_behaviors.goals import GoalManager
         from cbr_behaviors.messages import message_day, straight_line
@@ -199,21 +229,30 @@ class Delivery:
 
         o = self.options
         rng = self.rng.spawn(1)[0]
-        eta = straight_line(CRUISE / ETA_DETOUR)
         messages = message_day(self.world, rng, length=o.length, rate_per_hour=o.rate,
-                               origin=self.home, eta=eta)
+                               origin=self.home, eta=straight_line(CRUISE / ETA_DETOUR))
         spec = PIONEER_2DX
         sensors = Sensors(camera=Camera(), odometry=Odometry(o.odometry_noise, o.odometry_noise))
-        self.pilot.install(parse_behavior_set(list(self.default)))
+        if isinstance(self.pilot, BehaviorPilot):
+            self.pilot.install(parse_behavior_set(list(self.default)))
+        else:
+            self.pilot.reset()
+        self._installed_name = DEFAULT_SET
         sim = Simulation(self.world, spec, sensors.fitted(spec.radius), Navigator(self.pilot),
                          Pose(*self.home, 0.0), self.home, dt=0.1, rng=rng,
                          tolerance=o.waypoint, capacity=int(o.length / 0.1) + 2)
         gmap = GlobalMap(self.world, fade=o.fade, robot_radius=spec.radius, plan_cell=o.cell)
         if self.planner is None:
             self.planner = self._planner(gmap)
+        points = {**self.world.places, "start": self.home}
+        origin = (self.world.bounds[0], self.world.bounds[1])
+        if self.fields is None:
+            self.fields = route_fields(gmap.permanent(o.cell), o.cell, origin, points)
+        eta = RouteEta(self.fields, points, o.cell, origin, CRUISE)
         goals = GoalManager(eta, radius=o.deliver_radius)
         goals.receive(messages)
-        state = _DayState(sim, gmap, goals, ReplanMonitor(o.triggers), len(messages), eta)
+        state = _DayState(sim, gmap, goals, ReplanMonitor(o.triggers), len(messages), eta,
+                          log=DayLog(day) if o.log else None)
         spell: _Spell | None = None
         counts = {"consultations": 0, "adapted": 0, "plans": 0, "meta_plans": 0}
         obs = sim.observe()
@@ -228,20 +267,32 @@ class Delivery:
             obs = sim.step()
         if spell is not None:
             self._learn(session, state, spell)
-        goals.close(sim.t)
+        for missed in goals.close(sim.t):
+            state.note("unfinished", missed.message.point, missed.message.place)
         if o.trajectories:
             self.paths[f"day_{day}"] = sim.trajectory[:, :4].copy()
+        if state.log is not None and self.ctx.out_dir is not None:
+            state.log.save(self.ctx.out_dir / f"day_{day}.npz")
         return self._summary(day, state, counts)
 
     def _tick(self, state: _DayState, obs: Observation) -> tuple[str, ...]:
         """One step of the goal manager, the global map and the plan manager; the re-planning
         triggers that fired."""
+        from cbr_behaviors.situation import people_in_view
+
         sim, o = state.sim, self.options
         t, true = obs.t, obs.true_pose
         decided = state.goals.update((true.x, true.y), t)
-        arrived = decided.arrived
-        change = state.gmap.update(obs.pose, obs.sonar, obs.sonar_angles, t)
-        if self.pilot.localizing and len(obs.sightings) >= 2:
+        for m in decided.arrived:
+            state.note("message", m.point, m.place)
+        for d in decided.delivered:
+            state.note("delivered", d.message.point, d.message.place)
+        for m in decided.missed:
+            state.note("missed", m.message.point, m.message.place)
+        state.people = people_in_view(sim.world, true, obs.pose, t, sim.dt, obs.v)
+        seen = np.array([(p.x, p.y) for p in state.people]).reshape(-1, 2)
+        change = state.gmap.update(obs.pose, obs.sonar, obs.sonar_angles, t, seen)
+        if getattr(self.pilot, "localizing", False) and len(obs.sightings) >= 2:
             # 004: localization is done by the map subsystem from the landmarks the robot
             # recognises while a localize behavior collects observations
             sim.sensors.odometry.reset(obs.true_pose)
@@ -256,25 +307,34 @@ class Delivery:
         target = state.target if state.target is not None else self.home
         if target != sim.target:
             sim.retarget(target)
-        state.track(obs)
-        fired = state.monitor.check(state.snapshot(obs, arrived, change))
+        state.track(obs, self._installed_name)
+        fired = state.monitor.check(state.snapshot(obs, decided.arrived, change))
         state.plan_installed = False
+        if "impasse" in fired and o.consult:
+            # the set in force got the robot stuck: out of retrieval for a while
+            state.excluded[freeze([a.data for a in self.pilot.behaviors])] = t + o.exclude
         return tuple(fired)
 
     def _consult(self, session: Session, state: _DayState, obs: Observation,
                  fired: tuple[str, ...], counts: dict[str, int]) -> _Spell:
-        moment = Moment(obs.t, fired, self._index(state, obs), state.target, state.goal,
-                        tuple(a.data for a in self.pilot.behaviors), state.plan_case)
+        t = obs.t
+        state.excluded = {k: until for k, until in state.excluded.items() if until > t}
+        moment = Moment(t, fired, self._index(state, obs), state.target, state.goal,
+                        tuple(a.data for a in self.pilot.behaviors), state.plan_case,
+                        excluded=tuple(state.excluded))
         decision = session.consult(moment)
         counts["consultations"] += 1
         solution = decision.proposal.solution
         value = None if solution is None else solution.value
+        kind = "" if solution is None else str(solution.detail.get("kind", ""))
         if isinstance(value, InstallBehaviors):
             if freeze(value.behaviors) != freeze([a.data for a in self.pilot.behaviors]):
                 # the same set again keeps running: installing restarts what behaviors latch
                 self.pilot.install(parse_behavior_set(list(value.behaviors)))
+                state.installed(t)
+            self._installed_name = value.name
             counts["adapted"] += value.adapted is not None
-            counts["meta_plans"] += solution.detail.get("kind") == "meta_plan"
+            counts["meta_plans"] += kind == "meta_plan"
         elif isinstance(value, InstallPlan):
             counts["plans"] += 1
             state.plan_case = value.name
@@ -282,11 +342,18 @@ class Delivery:
             if value.localize:
                 self.pilot.install(parse_behavior_set([[["localize"], "high"],
                                                        *self.default]))
+                state.installed(t)
+                self._installed_name = value.name
         elif value is not None:
             raise PluginError(f"workload 'delivery': the proposal for query {decision.index} "
                               f"is a {type(value).__name__}, expected InstallBehaviors or "
                               "InstallPlan (cbr_behaviors.moment)")
-        return _Spell(decision, obs.t, state.to_target(obs), state.collisions,
+        if state.log is not None:
+            similarity = 1.0 - float(solution.detail.get("distance", math.nan)
+                                     if solution is not None else math.nan)
+            adapted = isinstance(value, InstallBehaviors) and value.adapted is not None
+            state.log.retrieval(t, getattr(value, "name", ""), kind, fired, similarity, adapted)
+        return _Spell(decision, t, state.to_target(obs), state.collisions,
                       state.impasses, len(state.goals.delivered))
 
     def _learn(self, session: Session, state: _DayState, spell: _Spell) -> None:
@@ -298,7 +365,7 @@ class Delivery:
         session.learn(spell.decision, Outcome(report.good, cost=report.active, report=report))
 
     def _index(self, state: _DayState, obs: Observation) -> Index:
-        from cbr_behaviors.index import SONAR_BEAMS, SONAR_MAX, Index
+        from cbr_behaviors.index import ATTRIBUTES, SITUATION, SONAR_BEAMS, SONAR_MAX, Index
 
         pose = obs.pose
         goals = state.goals
@@ -311,6 +378,7 @@ class Delivery:
             left = primary.deadline - obs.t
             needed = state.eta((pose.x, pose.y), primary.point)
             urgency = 1.0 if left <= 0 else min(1.0, needed / left)
+        situation = dict(zip(SITUATION, state.situation(obs).tolist(), strict=True))
         return Index(
             sonar=tuple(float(v) for v in sonar), motors=(obs.v, obs.w),
             map=frozenset(state.gmap.objects_near((pose.x, pose.y))),
@@ -321,7 +389,8 @@ class Delivery:
             goal_urgency=0.0 if primary is None else PRIORITY_URGENCY[primary.priority],
             pending_goals=frozenset(m.place for m in goals.pending),
             loc_conf=obs.confidence, plan_conf=state.plan_confidence(pose),
-            behav_conf=state.behavior_confidence())
+            behav_conf=state.behavior_confidence(),
+            **{ATTRIBUTES[f]: v for f, v in situation.items()})
 
     def _planner(self, gmap: GlobalMap) -> Any:
         """The ``planner`` solver, built on the rasterised global map it plans on (a grid
@@ -336,13 +405,25 @@ class Delivery:
         goals = state.goals
         times = [d.time for d in goals.delivered]
         self.records = goals.records()
-        return DayRow(day, state.messages, len(goals.delivered), len(goals.missed),
+        unfinished = sum(m.why == "unfinished" for m in goals.missed)
+        minutes = state.sim.t / 60.0
+        installs = state.install_times(state.sim.t)
+        return DayRow(day, state.messages, len(goals.delivered),
+                      len(goals.missed) - unfinished, unfinished,
                       state.collisions, state.sim.collisions,
                       round(float(np.mean(times)), 3) if times else math.nan,
                       round(state.sim.distance, 3), counts["consultations"], counts["adapted"],
-                      counts["plans"], counts["meta_plans"])
+                      counts["plans"], counts["meta_plans"],
+                      round(state.busy_distance / state.busy_time, 4) if state.busy_time
+                      else math.nan,
+                      round(counts["consultations"] / minutes, 3) if minutes else math.nan,
+                      round(float(np.median(installs)), 3) if installs else math.nan,
+                      round(state.longest_stall, 1), round(state.door_wait, 1))
 
 
+DEFAULT_SET = "default"
+"""The name the day log gives the pilot's own behavior set (installed at the start of a day and
+all day with ``consult: false``)."""
 CRUISE = 0.3
 """m/s: the speed the goal manager's time estimates assume (the ``mod-fast`` speed)."""
 ETA_DETOUR = 1.4
@@ -361,6 +442,13 @@ PLAN_SLACK = 1.25
 long as the direct route: a case planned for another errand may still lie on the way."""
 
 
+STALL_RADIUS = 0.5
+"""Metres: the robot is stalled while it stays within this of where the stall began."""
+WAIT_REACH = 2.5
+"""Metres: a robot this near a shut door on its route, straight-line to the doorway's centre,
+is waiting for it to open (not stalled, and no impasse)."""
+
+
 @attrs.define
 class _DayState:
     sim: Simulation
@@ -368,9 +456,11 @@ class _DayState:
     goals: GoalManager
     monitor: Any
     messages: int
-    eta: Callable[[Point, Point], float]
+    eta: RouteEta
+    log: DayLog | None = None
     goal: Point | None = None
     route: list[Point] = attrs.field(factory=list)
+    route_total: float = 0.0
     steps: tuple[str, ...] = ()
     plan_case: str | None = None
     passed: Point | None = None
@@ -378,9 +468,22 @@ class _DayState:
     impasses: int = 0
     collisions: int = 0
     """Contacts the robot drove into (see :data:`RAM_SPEED`)."""
+    people: list[PersonSeen] = attrs.field(factory=list)
+    """The people in view at this step."""
+    excluded: dict[Any, float] = attrs.field(factory=dict)
+    """Behavior sets (frozen) kept out of retrieval, with the time until which."""
+    busy_distance: float = 0.0
+    busy_time: float = 0.0
+    longest_stall: float = 0.0
+    door_wait: float = 0.0
+    _stall: tuple[float, float, float] | None = None
+    """(t, x, y) where the current stall began."""
+    _installs: list[float] = attrs.field(factory=list)
     _bumped: bool = False
     _speed: float = 0.0
     _history: list[tuple[float, float]] = attrs.field(factory=list)
+    _door: tuple[float, bool] | None = None
+    _door_t: float = -math.inf
 
     @property
     def target(self) -> Point | None:
@@ -406,6 +509,71 @@ class _DayState:
         self.passed = at
         self.route = [goal] if chosen is None else list(chosen)
         self.steps = steps if chosen is not None else ()
+        self.route_total = self.remaining(at)
+        self._door_t = -math.inf
+
+    def remaining(self, at: Point) -> float:
+        """Metres of route left from ``at``."""
+        if not self.route:
+            return 0.0
+        return math.dist(at, self.route[0]) + _length(self.route)
+
+    def door(self, at: Point, t: float) -> tuple[float, bool] | None:
+        """The doorway ahead on the route (:func:`cbr_behaviors.situation.door_ahead`),
+        looked at afresh every half second."""
+        from cbr_behaviors.situation import door_ahead
+
+        if t - self._door_t >= 0.5:
+            self._door = door_ahead(self.sim.world, at, self.route, t) if self.route else None
+            self._door_t = t
+        return self._door
+
+    def situation(self, obs: Observation) -> np.ndarray:
+        """The values of :data:`cbr_behaviors.index.SITUATION` now."""
+        from cbr_behaviors.index import SONAR_MAX
+        from cbr_behaviors.situation import (
+            CLOSING_SCALE,
+            DOOR_REACH,
+            PERSON_REACH,
+            WIDTH_SCALE,
+            free_width,
+            progress,
+            sectors,
+        )
+
+        at = (obs.pose.x, obs.pose.y)
+        front, left, right, rear = sectors(obs.sonar, obs.sonar_angles)
+        width = free_width(obs.sonar, obs.sonar_angles, 2.0 * self.sim.spec.radius)
+        person = self.people[0] if self.people else None
+        door = self.door(at, obs.t)
+        return np.array([
+            front / SONAR_MAX, left / SONAR_MAX, right / SONAR_MAX, rear / SONAR_MAX,
+            min(1.0, width / WIDTH_SCALE),
+            1.0 if person is None else min(1.0, max(0.0, person.distance) / PERSON_REACH),
+            1.0 if person is None else abs(person.bearing) / math.pi,
+            0.0 if person is None else min(1.0, max(0.0, person.closing) / CLOSING_SCALE),
+            1.0 if door is None else min(1.0, door[0] / DOOR_REACH),
+            0.0 if door is None else float(door[1]),
+            progress(self.remaining(at), self.route_total) if self.goal is not None else 1.0,
+        ])
+
+    def waiting(self, obs: Observation) -> bool:
+        """Whether the robot is before a shut door on its route, within :data:`WAIT_REACH`."""
+        door = self.door((obs.pose.x, obs.pose.y), obs.t)
+        return door is not None and door[1] and door[0] <= WAIT_REACH
+
+    def note(self, kind: str, at: Point, text: str = "") -> None:
+        """An event for the day log."""
+        if self.log is not None:
+            self.log.event(self.sim.t, kind, at[0], at[1], text)
+
+    def installed(self, t: float) -> None:
+        """A new behavior set was installed at ``t``."""
+        self._installs.append(t)
+
+    def install_times(self, end: float) -> list[float]:
+        """How long each behavior set installed stayed installed (the last until ``end``)."""
+        return [b - a for a, b in itertools.pairwise([*self._installs, end])]
 
     def advance(self, at: Point, within: float) -> None:
         while len(self.route) > 1 and math.dist(at, self.route[0]) <= within:
@@ -417,12 +585,37 @@ class _DayState:
             return 0.0
         return math.dist((obs.pose.x, obs.pose.y), target)
 
-    def track(self, obs: Observation) -> None:
-        self.impasses += sum(e.name in STUCK for e in self.sim.events)
+    def track(self, obs: Observation, case: str) -> None:
+        true = obs.true_pose
+        stuck = sum(e.name in STUCK for e in self.sim.events)
+        self.impasses += stuck
+        if stuck:
+            self.note("impasse", (true.x, true.y))
         if (obs.bumped and not self._bumped and self._speed > RAM_SPEED
                 and abs(obs.bump_bearing) <= COLLISION_ARC
                 and self._speed * math.cos(obs.bump_bearing) > self._closing(obs)):
             self.collisions += 1
+            self.note("collision", (true.x, true.y))
+        busy = self.goal is not None
+        dt = self.sim.dt
+        if busy:
+            self.busy_time += dt
+            self.busy_distance += abs(obs.v) * dt
+            self.eta.observe(abs(obs.v) * dt, dt)
+        waiting = busy and self.waiting(obs)
+        if waiting:
+            self.door_wait += dt
+        if (not busy or waiting or self._stall is None
+                or math.hypot(true.x - self._stall[1], true.y - self._stall[2]) > STALL_RADIUS):
+            if self._stall is not None and obs.t - self._stall[0] >= 60.0:
+                self.note("stall", (self._stall[1], self._stall[2]),
+                          f"{obs.t - self._stall[0]:.0f} s")
+            self._stall = (obs.t, true.x, true.y) if busy and not waiting else None
+        else:
+            self.longest_stall = max(self.longest_stall, obs.t - self._stall[0])
+        if self.log is not None:
+            self.log.step(obs.t, true.x, true.y, true.theta, obs.v, obs.w, case,
+                          self.target if busy else None, busy)
         self._bumped, self._speed = obs.bumped, obs.v
         self._history.append((obs.t, self.to_target(obs)))
         while self._history and self._history[0][0] < obs.t - PROGRESS_WINDOW:
@@ -470,7 +663,8 @@ class _DayState:
                         removed=0 if change is None else change.removed,
                         critical=sum(m.priority == "critical" for m in arrived),
                         plan_installed=self.plan_installed, distance=self.sim.distance,
-                        target=self.target, status=status)
+                        target=self.target, status=status, situation=self.situation(obs),
+                        waiting=self.waiting(obs))
 
 
 def _length(route: list[Point]) -> float:

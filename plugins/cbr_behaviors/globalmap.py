@@ -68,6 +68,9 @@ from cbr_world2d.world import Point, World
 
 TRANSIENT_RISK = 0.5
 """The risk of a raster cell near a transient object only (see :meth:`GlobalMap.raster`)."""
+PERSON_MARGIN = 0.6
+"""Metres from a tracked person's centre within which an echo is taken to be that person (a
+person's radius, 0.25 m, and the sonar cone's spread across a metre or two)."""
 DOOR_NEAR = 1.2
 """Metres: a doorway this near counts as ``door`` in the index's ``map`` feature, close
 enough that passing it takes a doorway's behaviors."""
@@ -210,11 +213,15 @@ class GlobalMap:
     # --- transient objects ----------------------------------------------------------------
 
     def update(self, pose: Pose, sonar: Sequence[float] | np.ndarray,
-               sonar_angles: Sequence[float] | np.ndarray, t: float) -> MapChange:
+               sonar_angles: Sequence[float] | np.ndarray, t: float,
+               people: np.ndarray | None = None) -> MapChange:
         """Add the unexplained echoes of ``sonar`` (ranges from the rim, at ``sonar_angles``
         relative to the heading) seen from ``pose`` at time ``t``, fade what was not seen again
-        and clear what the sonar sees through; the object cells added and removed. Times must
-        not go backwards."""
+        and clear what the sonar sees through; the object cells added and removed. ``people``
+        ``(k, 2)`` are where the robot's person tracker sees people now: an echo within
+        :data:`PERSON_MARGIN` of one is that person, who will have walked on by the next look,
+        not a transient object for the map to keep and route round. Times must not go
+        backwards."""
         if t < self._t:
             raise ValueError(f"the map was updated at t={self._t}; t={t} goes back in time")
         self._t = t
@@ -229,6 +236,11 @@ class GlobalMap:
                                ring.mount_radius, self.world.static_segments,
                                self.world.static_discs)
         echo = (ranges < ring.max_range) & (ranges < expected - self.tolerance)
+        if people is not None and len(people) and echo.any():
+            reach = ring.mount_radius + ranges
+            hx, hy = x + reach * np.cos(theta + angles), y + reach * np.sin(theta + angles)
+            gap = np.hypot(hx[:, None] - people[None, :, 0], hy[:, None] - people[None, :, 1])
+            echo &= ~(gap <= PERSON_MARGIN).any(axis=1)
         # fade before adding, so that a sighting long after the last is new evidence again
         self._evidence[t - self._seen > self.fade] = 0
         if self.clearing:
@@ -296,6 +308,19 @@ class GlobalMap:
 
     # --- the raster and routes ------------------------------------------------------------
 
+    def permanent(self, cell: float) -> np.ndarray:
+        """The cells of a raster at ``cell`` metres (rows y, columns x, as :meth:`raster`)
+        whose centres lie nearer than ``robot_radius`` to a permanent feature; doors are not
+        permanent."""
+        if cell not in self._permanent:
+            raster = _Raster(self.world.bounds, cell, self.robot_radius)
+            for row in self.world.static_segments.tolist():
+                raster.segment(*row)
+            for row in self.world.static_discs.tolist():
+                raster.disc(*row)
+            self._permanent[cell] = raster.blocked
+        return self._permanent[cell]
+
     def raster(self, cell: float) -> Grid:
         """The map rasterised at ``cell`` metres for the grid planners. A cell whose centre
         lies nearer than ``robot_radius`` to a permanent feature is blocked (risk 1); one that
@@ -309,19 +334,13 @@ class GlobalMap:
         cached = self._rasters.get(cell)
         if cached is not None and cached[0] == self._version:
             return cached[1]
-        if cell not in self._permanent:
-            permanent = _Raster(self.world.bounds, cell, self.robot_radius)
-            for row in self.world.static_segments.tolist():
-                permanent.segment(*row)
-            for row in self.world.static_discs.tolist():
-                permanent.disc(*row)
-            self._permanent[cell] = permanent.blocked
+        permanent = self.permanent(cell)
         transient = _Raster(self.world.bounds, cell, self.robot_radius)
         for x, y in self.object_points().tolist():
             transient.square(x, y, self.cell / 2)
         soft = math.isfinite(self.transient_cost)
         risk = np.where(transient.blocked, TRANSIENT_RISK if soft else 1.0, 0.0)
-        risk[self._permanent[cell]] = 1.0
+        risk[permanent] = 1.0
         # factor = 1 + weight * risk, so that a cell of TRANSIENT_RISK costs transient_cost
         weight = (self.transient_cost - 1.0) / TRANSIENT_RISK if soft else 1.0
         grid = Grid(risk, cost_model=CostModel(risk_weight=weight))

@@ -52,11 +52,23 @@ import numpy as np
 from cbr_world2d.pilots.behaviors import TOP_SPEED, TOP_TURN_RATE
 from cbrcore.errors import CbrError
 
-FEATURES: tuple[str, ...] = (
+FIGURE_5: tuple[str, ...] = (
     "sonar", "motors", "map", "location", "behaviors", "task-loc", "task-urgency", "plan",
     "goal", "goal-urgency", "pending-goals", "loc-conf", "plan-conf", "behav-conf",
 )
-"""The index's features, in 004 Figure 5's order and spelling; the attributes of
+"""The features of 004 Figure 5, in its order and spelling."""
+SITUATION: tuple[str, ...] = (
+    "front", "left", "right", "rear", "width", "person", "person-bearing", "closing", "door",
+    "door-shut", "progress",
+)
+"""The features that tell the situations of an office floor apart, each a number in [0, 1]
+(:mod:`cbr_behaviors.situation` computes them): the sonar's nearest reading ahead, left, right
+and behind, the free width across the robot, the nearest person in view (distance, bearing,
+closing speed), the doorway ahead on the route (distance, shut or open) and the progress made
+along the route to the goal. Figure 5's raw sonar vector and map set cannot tell a person ahead
+from a doorway or an empty hallway (one passing walker moves every range); these can."""
+FEATURES: tuple[str, ...] = FIGURE_5 + SITUATION
+"""The index's features: Figure 5's, then :data:`SITUATION`'s; the attributes of
 :class:`Index` spell them with underscores."""
 ATTRIBUTES: dict[str, str] = {f: f.replace("-", "_") for f in FEATURES}
 """Each feature's attribute name on :class:`Index`."""
@@ -75,7 +87,7 @@ TERMS: tuple[str, ...] = ("plan", "goal")
 POINTS: tuple[str, ...] = ("location", "task-loc")
 """The features that are points (straight-line distance over :attr:`Scales.location`)."""
 FRACTIONS: tuple[str, ...] = ("task-urgency", "goal-urgency", "loc-conf", "plan-conf",
-                              "behav-conf")
+                              "behav-conf", *SITUATION)
 """The features that are numbers in [0, 1] (absolute difference)."""
 
 VARIABLE_CODE = -1
@@ -258,6 +270,28 @@ class Index:
     loc_conf: float | None = _field("loc-conf")
     plan_conf: float | None = _field("plan-conf")
     behav_conf: float | None = _field("behav-conf")
+    front: float | None = _field("front")
+    """The nearest sonar reading within 30 degrees of the heading, over :data:`SONAR_MAX`."""
+    left: float | None = _field("left")
+    """The nearest reading 30 to 150 degrees to the left, over :data:`SONAR_MAX`."""
+    right: float | None = _field("right")
+    """The nearest reading 30 to 150 degrees to the right, over :data:`SONAR_MAX`."""
+    rear: float | None = _field("rear")
+    """The nearest reading more than 150 degrees off the heading, over :data:`SONAR_MAX`."""
+    width: float | None = _field("width")
+    """The free width across the robot (both side readings and its diameter), over 4 m."""
+    person: float | None = _field("person")
+    """The distance to the nearest person in view, over 5 m (1: none within 5 m)."""
+    person_bearing: float | None = _field("person-bearing")
+    """That person's bearing off the heading, over pi (0 straight ahead; 1 behind or none)."""
+    closing: float | None = _field("closing")
+    """How fast that person and the robot close in, over 1.5 m/s (0 parting or none)."""
+    door: float | None = _field("door")
+    """The distance to the next doorway the route passes, over 5 m (1: none within 5 m)."""
+    door_shut: float | None = _field("door-shut")
+    """1 when that doorway's door is shut, 0 when open or with no doorway ahead."""
+    progress: float | None = _field("progress")
+    """The part of the route to the current goal already driven (0 at its start, 1 there)."""
 
     def value(self, feature: str) -> Any:
         """The value of ``feature`` (named as in :data:`FEATURES`), None when unspecified."""
@@ -518,7 +552,7 @@ class IndexTable:
     every array, which are feature-major so that the pass reads each feature's values of all
     the cases in a row: ``specified`` ``(F, N)`` the features it specifies, ``sonar``
     ``(16, N)``, ``motors`` ``(2, N)``, ``points`` ``(2, 2, N)`` (:data:`POINTS`, x and y),
-    ``fractions`` ``(5, N)`` (:data:`FRACTIONS`); its sets (:data:`SETS`) as bitsets over
+    ``fractions`` ``(16, N)`` (:data:`FRACTIONS`); its sets (:data:`SETS`) as bitsets over
     ``names`` (bit ``c % 64`` of word ``c // 64`` for the name of code ``c``) in ``bits``
     ``(3, W, N)``, with their sizes in ``sizes`` ``(3, N)``; its terms (:data:`TERMS`) as
     codes of ``atoms`` (variables -1), padded, in ``terms`` ``(2, L, N)``, with their lengths

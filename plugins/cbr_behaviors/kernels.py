@@ -102,7 +102,7 @@ def score(n: int, rows: np.ndarray | None, specified: np.ndarray, sonar: np.ndar
     (``min(k, n)``).
 
     The table (``N`` cases): ``specified`` ``(F, N)``; ``sonar`` ``(16, N)``; ``motors``
-    ``(2, N)``; ``points`` ``(2, 2, N)`` (:data:`POINTS`, x and y); ``fractions`` ``(5, N)``
+    ``(2, N)``; ``points`` ``(2, 2, N)`` (:data:`POINTS`, x and y); ``fractions`` ``(16, N)``
     (:data:`FRACTIONS`); the sets (:data:`SETS`) as bitsets ``bits`` ``(3, W, N)`` over the
     table's names, with their sizes ``sizes`` ``(3, N)``; the terms (:data:`TERMS`) as atom
     codes ``terms`` ``(2, L, N)`` with their lengths ``lengths`` ``(2, N)``. The query's

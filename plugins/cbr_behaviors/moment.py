@@ -32,7 +32,8 @@ class Moment:
     ``index`` the situation, ``target`` the point the behaviors are steering for now (None when
     idle) and ``goal`` the current message goal's point; ``behaviors`` the behavior set in
     force (plain data items) and ``plan`` the name of the plan case in force for this goal
-    (None: the route was planned directly).
+    (None: the route was planned directly); ``excluded`` the behavior sets (each a tuple of
+    plain data items) that reached an impasse lately and are not to be installed again yet.
     """
 
     t: float
@@ -42,6 +43,7 @@ class Moment:
     goal: Point | None
     behaviors: tuple[Any, ...]
     plan: str | None = None
+    excluded: tuple[Any, ...] = ()
 
 
 @attrs.frozen

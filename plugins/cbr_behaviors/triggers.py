@@ -13,8 +13,11 @@ side of retrieving too often, rather than too seldom."
 the situation with the one at the last retrieval, so a trigger that fired keeps firing until
 the next retrieval. The triggers, in the order :meth:`~ReplanMonitor.check` lists them:
 
-- ``sonar``: the RMS difference between the sonar ranges now and at the last retrieval
-  exceeds ``sonar`` metres;
+- ``situation``: the situation moved: some feature of :data:`cbr_behaviors.index.SITUATION`
+  (a sector of the sonar, the person in view, the doorway ahead, the progress) differs from its
+  value at the last retrieval by more than ``change`` (004's "sudden change to the raw sonar
+  readings", read as a change of what the readings mean: one walker passing changes every raw
+  range, a sonar flicker none of these);
 - ``map``: a snapshot since the last retrieval reported object cells added to or removed from
   the global map;
 - ``message``: a snapshot since the last retrieval reported a new critical message;
@@ -30,6 +33,10 @@ the next retrieval. The triggers, in the order :meth:`~ReplanMonitor.check` list
 - ``period``: ``period`` seconds passed or ``distance`` metres were driven since the last
   retrieval, and no other trigger fired. Before the first retrieval the period has always
   passed.
+
+*Hysteresis*: within ``hold`` seconds of a retrieval only the critical triggers (``message``,
+``impasse``) fire; the others are remembered until the hold has passed, so that an installed
+case acts for a while before it is judged again.
 
 The events (``map``, ``message``, ``plan``) come as what happened since the previous snapshot;
 the monitor remembers them until a retrieval. A retrieval's own snapshot sets the baselines
@@ -54,9 +61,11 @@ if TYPE_CHECKING:
     from cbr_world2d.robot import Pose
     from cbr_world2d.world import Point
 
-TRIGGERS: tuple[str, ...] = ("sonar", "map", "message", "plan", "impasse", "location",
+TRIGGERS: tuple[str, ...] = ("situation", "map", "message", "plan", "impasse", "location",
                              "period")
 """The trigger names, in the order a check lists those that fired."""
+CRITICAL: frozenset[str] = frozenset({"message", "impasse"})
+"""The triggers that fire within the hold after a retrieval."""
 
 _POSITIVE = attrs.validators.gt(0.0)
 _UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
@@ -66,11 +75,11 @@ _UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0)
 class TriggerOptions:
     """The thresholds of the re-planning triggers (metres and seconds)."""
 
-    sonar: float = option(
-        0.5, "Metres: an RMS change of the sonar ranges since the last retrieval above this "
-        "fires 'sonar'. A tenth of the sonar's 5 m range: one beam going from nothing in range "
-        "to an obstacle at 1 m changes the RMS of 16 beams by 1 m, driving half a metre along "
-        "a hallway much less.", validator=_POSITIVE)
+    change: float = option(
+        0.35, "A situation feature (docs/rupart.md) differing from its value at the last "
+        "retrieval by more than this fires 'situation' (features are in [0, 1]: 0.35 is a "
+        "person coming into view within 3 m, or the nearest reading ahead falling from "
+        "nothing in range to 3 m).", validator=_POSITIVE)
     window: float = option(
         10.0, "Seconds without progress toward the target that fire 'impasse' (the progress "
         "monitor's window).", validator=_POSITIVE)
@@ -88,16 +97,16 @@ class TriggerOptions:
         4, "'map' fires once this many evidence cells of the global map were added or removed "
         "since the last retrieval (4: one cart or person a half metre across).",
         validator=attrs.validators.ge(1))
-    pause: float = option(
-        1.0, "Seconds after a retrieval during which only 'message' and 'plan' may fire: the "
-        "installed behaviors get a second to act before the situation is judged again.",
+    hold: float = option(
+        5.0, "Seconds after a retrieval during which only the critical triggers ('message', "
+        "'impasse') fire: the installed case acts for a while before it is judged again.",
         validator=attrs.validators.ge(0.0))
     period: float = option(
-        10.0, "Seconds since the last retrieval after which 'period' fires when nothing else "
+        20.0, "Seconds since the last retrieval after which 'period' fires when nothing else "
         "does (004 errs on retrieving too often).", validator=_POSITIVE)
     distance: float = option(
-        3.0, "Metres driven since the last retrieval after which 'period' fires when nothing "
-        "else does (ten seconds at 0.3 m/s).", validator=_POSITIVE)
+        6.0, "Metres driven since the last retrieval after which 'period' fires when nothing "
+        "else does (twenty seconds at 0.3 m/s).", validator=_POSITIVE)
 
 
 def _ranges(value: object) -> np.ndarray:
@@ -115,7 +124,9 @@ class Snapshot:
     global map gained and lost since the previous snapshot; ``critical`` the critical messages
     that arrived since then; ``plan_installed`` whether a high-level plan was installed since
     then; ``distance`` the distance driven so far (an odometer, metres); ``target`` the point
-    the robot heads for (None: none); ``status`` the progress monitor's status.
+    the robot heads for (None: none); ``status`` the progress monitor's status;
+    ``situation`` the values of :data:`cbr_behaviors.index.SITUATION` (None: not known);
+    ``waiting`` whether the robot waits before a shut door on its route.
     """
 
     t: float
@@ -129,6 +140,8 @@ class Snapshot:
     distance: float = 0.0
     target: Point | None = None
     status: str = "moving"
+    situation: np.ndarray | None = None
+    waiting: bool = False
 
 
 class ReplanMonitor:
@@ -163,6 +176,8 @@ class ReplanMonitor:
     def _no_progress(self, snapshot: Snapshot) -> bool:
         """Record the distance to the target; whether it shrank by less than ``progress`` over
         a whole window ending now."""
+        if snapshot.waiting:
+            self._progress.clear()
         distance = self._record(snapshot)
         if distance is None:
             return False
@@ -191,16 +206,17 @@ class ReplanMonitor:
             if snapshot.sonar.shape != base.sonar.shape:
                 raise ValueError(f"the sonar has {snapshot.sonar.shape[0]} ranges now and had "
                                  f"{base.sonar.shape[0]} at the last retrieval")
-            if snapshot.sonar.size and math.sqrt(
-                    float(np.mean((snapshot.sonar - base.sonar) ** 2))) > o.sonar:
-                fired.add("sonar")
-            if snapshot.status in STUCK and base.status not in STUCK:
+            if (snapshot.situation is not None and base.situation is not None
+                    and float(np.max(np.abs(snapshot.situation - base.situation))) > o.change):
+                fired.add("situation")
+            if (snapshot.status in STUCK and base.status not in STUCK
+                    and not snapshot.waiting):
                 fired.add("impasse")
             if (snapshot.confidence < o.confidence <= base.confidence
                     or base.confidence - snapshot.confidence >= o.confidence_drop):
                 fired.add("location")
-        if base is not None and snapshot.t - base.t < o.pause:
-            fired &= {"message", "plan"}
+        if base is not None and snapshot.t - base.t < o.hold:
+            fired &= CRITICAL
             return [name for name in TRIGGERS if name in fired]
         if not fired and (base is None or snapshot.t - base.t >= o.period
                           or snapshot.distance - base.distance >= o.distance):

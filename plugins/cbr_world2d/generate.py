@@ -248,7 +248,8 @@ def _pieces(x0: float, x1: float, gaps: Sequence[tuple[float, float]]) -> list[t
 
 def office(seed: Seed, *, rooms: int = 4, room_width: float = 4.0, room_depth: float = 4.0,
            hallway_width: float = 2.0, hallways: int = 1, door_width: float = 1.0,
-           people: int = 3, objects: int = 2, furniture: float = 0.7) -> World:
+           people: int = 3, objects: int = 2, furniture: float = 0.7,
+           doors_open: bool = False, name: str = "office") -> World:
     """An office floor like the building of 004: hallways with rooms on both sides.
 
     With one hallway, ``rooms`` rooms (``room_width`` x ``room_depth``) line each side of a
@@ -262,7 +263,8 @@ def office(seed: Seed, *, rooms: int = 4, room_width: float = 4.0, room_depth: f
     hallways, back and forth with one) at 0.5 to 1.3 m/s; ``objects`` transient objects (carts,
     boxes) stand in a hallway for a while. Places: ``room_1`` ... at the rooms' centres (the
     bottom row first, left to right) and the hallway ends ``hall_west``, ``hall_east`` (with
-    two hallways ``hall_1_west``, ... ``hall_2_east``).
+    two hallways ``hall_1_west``, ... ``hall_2_east``, and ``hall_west``, ``hall_east`` for
+    the first hallway's ends as well). ``doors_open`` keeps every door open all the time.
     """
     if rooms < (2 if hallways == 2 else 1) or hallways not in (1, 2):
         raise CbrError(f"expected hallways 1 or 2 and at least {2 if hallways == 2 else 1} "
@@ -315,7 +317,7 @@ def office(seed: Seed, *, rooms: int = 4, room_width: float = 4.0, room_depth: f
         g0, g1 = _mm(centre - door_width / 2), _mm(centre + door_width / 2)
         gaps.setdefault(wall_y, []).append((g0, g1))
         period = float(rng.integers(20, 91))
-        always = bool(rng.random() < 1 / 3)
+        always = bool(rng.random() < 1 / 3) or doors_open
         open_for = period if always else round(period * rng.uniform(0.3, 0.9), 1)
         doors.append({"a": [g0, _mm(wall_y)], "b": [g1, _mm(wall_y)], "period": period,
                       "open_for": open_for, "phase": round(rng.uniform(0, period), 1),
@@ -332,6 +334,8 @@ def office(seed: Seed, *, rooms: int = 4, room_width: float = 4.0, room_depth: f
         prefix = "hall" if hallways == 1 else f"hall_{n}"
         places[f"{prefix}_west"] = [0.75, _mm(y + hall / 2)]
         places[f"{prefix}_east"] = [_mm(width - 0.75), _mm(y + hall / 2)]
+        if n == 1 and hallways == 2:
+            places["hall_west"], places["hall_east"] = places["hall_1_west"], places["hall_1_east"]
     # furniture last, clear of everything so far: a desk against the far wall, then a chair
     frame = world_from_data({"bounds": [0.0, 0.0, width, height], "walls": walls,
                              "landmarks": landmarks}, "office")
@@ -379,8 +383,37 @@ def office(seed: Seed, *, rooms: int = 4, room_width: float = 4.0, room_depth: f
                                       _mm(rng.uniform(y0, y1))]],
                        "speed": 0.0, "radius": _mm(rng.uniform(0.2, 0.35)), "kind": "object",
                        "appears": appears, "leaves": round(appears + rng.uniform(30, 120), 1)})
-    data = {"name": _name("office", seed), "bounds": [0.0, 0.0, float(width), float(height)],
+    data = {"name": _name(name, seed), "bounds": [0.0, 0.0, float(width), float(height)],
             "landmarks": landmarks, "walls": walls, "polygons": polygons,
             "points": [{"at": c[:2], "radius": c[2]} for c in chairs], "doors": doors,
             "movers": movers, "places": places}
     return world_from_data(data, f"office(seed={seed})")
+
+
+def office_floor(seed: Seed, *, people: int | None = None, objects: int | None = None,
+                 doors_open: bool = False) -> World:
+    """An office floor whose layout is drawn from ``seed`` as well as its doors, furniture and
+    people: :func:`office` with 3 to 6 rooms a side, one hallway or (with probability 0.3) two
+    making a loop, rooms 3.5 to 5 m wide and deep, hallways 1.8 to 2.6 m wide, doors 0.9 to
+    1.2 m wide, 2 to 5 people walking and 1 to 3 transient objects (``people`` and ``objects``
+    fix those counts). The floors a robot tuned on one range of seeds has never seen come from
+    another range."""
+    rng = np.random.default_rng(seed)
+    hallways = 2 if rng.random() < 0.3 else 1
+    rooms = int(rng.integers(3, 7))
+    hall = _mm(rng.uniform(1.8, 2.6))
+    room_width = _mm(rng.uniform(3.5, 5.0))
+    if hallways == 2:
+        # the middle row's rooms must stay wide enough for their doors
+        room_width = max(room_width, _mm((2 * hall + (rooms - 1) * 3.0) / rooms + 0.01))
+    drawn = {"rooms": rooms, "room_width": room_width, "room_depth": _mm(rng.uniform(3.5, 5.0)),
+             "hallway_width": hall, "hallways": hallways,
+             "door_width": _mm(rng.uniform(0.9, 1.2)), "people": int(rng.integers(2, 6)),
+             "objects": int(rng.integers(1, 4))}
+    if people is not None:
+        drawn["people"] = people
+    if objects is not None:
+        drawn["objects"] = objects
+    # the rooms' doors, furniture and people from a stream of their own
+    return office(np.random.SeedSequence(int(rng.integers(2**63))), doors_open=doors_open,
+                  name=_name("office floor", seed), **drawn)

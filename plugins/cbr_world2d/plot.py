@@ -3,11 +3,17 @@ time, and a GIF of a trial with its doors and people moving.
 
 matplotlib is imported inside the functions, with the Agg canvas attached to each figure, so
 that importing the package stays cheap and no window or global pyplot state is ever involved.
+The pieces the trial pictures are made of are public for other pictures of the world (RUPART's
+day, :mod:`cbr_behaviors.dayplot`): a figure sized to the world (:func:`world_figure`), what
+does not change (:func:`draw_static`), the doors and people at a time (:func:`draw_moving`, or
+:class:`WorldMotion` for an animation) and the GIF writer (:func:`gif_frame`,
+:func:`gif_palette`, :func:`write_gif`).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -15,6 +21,7 @@ import numpy as np
 
 from cbr_world2d.simulation import TrialResult
 from cbr_world2d.world import World
+from cbrcore import files
 from cbrcore.errors import CbrError
 
 if TYPE_CHECKING:
@@ -36,8 +43,9 @@ _TARGET = "gold"
 _MIN_INCHES, _MAX_INCHES = 4.0, 9.0
 
 
-def _figure(world: World, extra_width: float = 0.0) -> Figure:
-    """A figure with an Agg canvas, sized to the world's aspect."""
+def world_figure(world: World, extra_width: float = 0.0) -> Figure:
+    """A figure with an Agg canvas, sized to the world's aspect; ``extra_width`` inches more
+    for a colorbar or a legend beside the world."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -51,21 +59,23 @@ def _figure(world: World, extra_width: float = 0.0) -> Figure:
     return figure
 
 
-def _save(figure: Figure, path: Path, **kwargs: Any) -> None:
+def save_figure(figure: Figure, path: Path, **kwargs: Any) -> None:
+    """``figure.savefig(path, **kwargs)``; a file that cannot be written is a CbrError naming
+    it."""
     try:
         figure.savefig(path, **kwargs)
     except (OSError, ValueError) as exc:
         raise CbrError(f"{path}: cannot write the picture: {exc}") from exc
 
 
-def _door_rows(world: World, t: float) -> tuple[np.ndarray, np.ndarray]:
+def door_rows(world: World, t: float) -> tuple[np.ndarray, np.ndarray]:
     """The door segments ``(n, 2, 2)`` shut and open at time ``t``."""
     rows = world.door_segments.reshape(-1, 2, 2)
     shut = np.array([not door.is_open(t) for door in world.doors], dtype=bool)
     return rows[shut], rows[~shut]
 
 
-def _mover_centres(world: World, t: float) -> tuple[np.ndarray, np.ndarray]:
+def mover_centres(world: World, t: float) -> tuple[np.ndarray, np.ndarray]:
     """The movers' centres ``(m, 2)`` at time ``t`` and whether each is present ``(m,)``."""
     centres = np.array([mover.position(t) for mover in world.movers], dtype=float).reshape(-1, 2)
     present = np.array([mover.present(t) for mover in world.movers], dtype=bool)
@@ -80,31 +90,32 @@ def draw_world(ax: Axes, world: World, t: float = 0.0, *, labels: bool = True) -
     (present at ``t``) orange, named places purple. ``labels`` writes landmark ids and place
     names.
     """
-    _draw_static(ax, world, labels)
-    _draw_moving(ax, world, t)
+    draw_static(ax, world, labels=labels)
+    draw_moving(ax, world, t)
 
 
-def _draw_moving(ax: Axes, world: World, t: float) -> None:
-    """The doors and movers of ``world`` at time ``t``."""
+def draw_moving(ax: Axes, world: World, t: float) -> None:
+    """Draw the doors and movers of ``world`` as they are at time ``t`` into ``ax``."""
     from matplotlib.collections import LineCollection, PatchCollection
     from matplotlib.patches import Circle
 
     if world.doors:
-        shut, opened = _door_rows(world, t)
+        shut, opened = door_rows(world, t)
         ax.add_collection(LineCollection(list(shut), colors=_DOOR_SHUT, linewidths=3.0,
                                          label="doors (shut)"))
         ax.add_collection(LineCollection(list(opened), colors=_DOOR_OPEN, linewidths=1.5,
                                          linestyles="dashed", label="doors (open)"))
     if world.movers:
-        centres, present = _mover_centres(world, t)
+        centres, present = mover_centres(world, t)
         radii = [mover.radius for mover in world.movers]
         ax.add_collection(PatchCollection(
             [Circle(c, r) for c, r, p in zip(centres, radii, present, strict=True) if p],
             facecolor=_MOVER, edgecolor="none", alpha=0.8))
 
 
-def _draw_static(ax: Axes, world: World, labels: bool) -> None:
-    """Everything of ``world`` that does not change with time, and the axes' frame."""
+def draw_static(ax: Axes, world: World, *, labels: bool = True) -> None:
+    """Draw everything of ``world`` that does not change with time into ``ax`` (all of
+    :func:`draw_world` but the doors and movers) and set the axes' frame to the world."""
     from matplotlib.collections import LineCollection, PatchCollection
     from matplotlib.patches import Circle, Polygon, Rectangle
 
@@ -153,12 +164,12 @@ def _draw_static(ax: Axes, world: World, labels: bool) -> None:
 def plot_world(world: World, path: Path, t: float = 0.0) -> None:
     """Draw ``world`` at time ``t`` into the picture file ``path`` (the format by its
     extension)."""
-    figure = _figure(world)
+    figure = world_figure(world)
     ax = figure.add_subplot()
     draw_world(ax, world, t)
     ax.set_title(world.name or "world", fontsize=10)
     figure.tight_layout()
-    _save(figure, path, dpi=120)
+    save_figure(figure, path, dpi=120)
 
 
 def _title(result: TrialResult) -> str:
@@ -211,13 +222,13 @@ def plot_trial(world: World, result: TrialResult, path: Path) -> None:
     """Draw ``world`` and the trial ``result`` into the picture file ``path``: the trajectory
     coloured by time with a colorbar, the start, the final target as a star, the diverting
     targets, collisions and where the robot got stuck; the title says how it went."""
-    figure = _figure(world, extra_width=1.2)
+    figure = world_figure(world, extra_width=1.2)
     ax = figure.add_subplot()
     lines = draw_trial(ax, world, result)
     figure.colorbar(lines, ax=ax, label="time (s)", fraction=0.046, pad=0.04)
     ax.set_title(f"{world.name + ': ' if world.name else ''}{_title(result)}", fontsize=10)
     figure.tight_layout()
-    _save(figure, path, dpi=120)
+    save_figure(figure, path, dpi=120)
 
 
 def animate_trial(world: World, result: TrialResult, path: Path, fps: int = 10,
@@ -234,9 +245,7 @@ def animate_trial(world: World, result: TrialResult, path: Path, fps: int = 10,
     the world, axes and labels are drawn once and each frame redraws only the moving artists
     over that background, some twenty times faster than redrawing the whole figure per frame.
     """
-    from matplotlib.collections import LineCollection
     from matplotlib.patches import Circle
-    from PIL import Image
 
     if fps < 1 or max_frames < 1:
         raise ValueError(f"fps and max_frames must be at least 1, not {fps} and {max_frames}")
@@ -245,32 +254,24 @@ def animate_trial(world: World, result: TrialResult, path: Path, fps: int = 10,
     rows = np.unique(np.linspace(0, trajectory.shape[0] - 1, count).round().astype(int))
     radius = result.spec.radius
 
-    figure = _figure(world)
+    figure = world_figure(world)
     figure.set_dpi(dpi)
     ax = figure.add_subplot()
     # doors and movers are drawn with the robot, per frame
-    _draw_static(ax, world, labels=True)
+    draw_static(ax, world, labels=True)
     ax.plot(*result.trial.target, "*", color=_TARGET, markeredgecolor="black", markersize=16,
             zorder=6)
     for point in result.diverting:
         ax.plot(*point, "D", color="tab:pink", markeredgecolor="black", markersize=7, zorder=6)
     trail, = ax.plot([], [], color="tab:blue", linewidth=1.5, zorder=4)
-    shut = LineCollection([], colors=_DOOR_SHUT, linewidths=3.0, zorder=3)
-    opened = LineCollection([], colors=_DOOR_OPEN, linewidths=1.5, linestyles="dashed",
-                            zorder=3)
-    ax.add_collection(shut)
-    ax.add_collection(opened)
-    people = [Circle((0.0, 0.0), mover.radius, facecolor=_MOVER, edgecolor="none", alpha=0.8,
-                     zorder=6) for mover in world.movers]
-    for person in people:
-        ax.add_patch(person)
+    motion = WorldMotion(ax, world)
     body = Circle((trajectory[0, 1], trajectory[0, 2]), radius, facecolor=_ROBOT,
                   edgecolor="black", zorder=7)
     ax.add_patch(body)
     heading, = ax.plot([], [], color="black", linewidth=1.5, zorder=8)
     title = ax.set_title("t = 0.0 s", fontsize=10)
     figure.tight_layout()
-    moving = [trail, shut, opened, *people, body, heading, title]
+    moving = [trail, *motion.artists, body, heading, title]
     for artist in moving:
         artist.set_animated(True)
     canvas = figure.canvas
@@ -283,26 +284,105 @@ def animate_trial(world: World, result: TrialResult, path: Path, fps: int = 10,
         trail.set_data(trajectory[:i + 1, 1], trajectory[:i + 1, 2])
         body.center = (x, y)
         heading.set_data([x, x + radius * math.cos(theta)], [y, y + radius * math.sin(theta)])
-        if world.doors:
-            now_shut, now_open = _door_rows(world, float(t))
-            shut.set_segments(list(now_shut))
-            opened.set_segments(list(now_open))
-        if people:
-            centres, present = _mover_centres(world, float(t))
-            for person, centre, here in zip(people, centres, present, strict=True):
-                person.center = (centre[0], centre[1])
-                person.set_visible(bool(here))
+        motion.at(float(t))
         title.set_text(f"t = {t:.1f} s")
         canvas.restore_region(background)
         for artist in moving:
             ax.draw_artist(artist)
-        # a GIF holds palette images; the fast octree palette is five times quicker than
-        # Pillow's default median cut, which would take most of the time otherwise
-        frame = Image.fromarray(np.asarray(canvas.buffer_rgba())).convert("RGB")
-        frames.append(frame.quantize(256, method=Image.Quantize.FASTOCTREE))
-    try:
-        frames[0].save(path, format="GIF", save_all=True, append_images=frames[1:],
-                       duration=round(1000 / fps), loop=0)
-    except (OSError, ValueError) as exc:
-        raise CbrError(f"{path}: cannot write the animation: {exc}") from exc
+        frames.append(gif_frame(figure))
+    write_gif(frames, path, fps)
     return len(frames)
+
+
+class WorldMotion:
+    """The doors and people of a world as animated artists of ``ax``, set to a time with
+    :meth:`at`: an animation draws the rest of the world once (:func:`draw_static`) and
+    redraws :attr:`artists` per frame, doors red when shut and dashed green when open, people
+    orange while present, as :func:`draw_moving` draws them."""
+
+    def __init__(self, ax: Axes, world: World) -> None:
+        from matplotlib.collections import LineCollection
+        from matplotlib.patches import Circle
+
+        self.world = world
+        self.shut = LineCollection([], colors=_DOOR_SHUT, linewidths=3.0, zorder=3)
+        self.opened = LineCollection([], colors=_DOOR_OPEN, linewidths=1.5,
+                                     linestyles="dashed", zorder=3)
+        ax.add_collection(self.shut)
+        ax.add_collection(self.opened)
+        self.people = [Circle((0.0, 0.0), mover.radius, facecolor=_MOVER, edgecolor="none",
+                              alpha=0.8, zorder=6) for mover in world.movers]
+        for person in self.people:
+            ax.add_patch(person)
+        self.artists: list[Any] = [self.shut, self.opened, *self.people]
+        """The artists to mark animated and redraw per frame, in their drawing order."""
+
+    def at(self, t: float) -> None:
+        """Move the doors and people to time ``t``."""
+        world = self.world
+        if world.doors:
+            now_shut, now_open = door_rows(world, t)
+            self.shut.set_segments(list(now_shut))
+            self.opened.set_segments(list(now_open))
+        if self.people:
+            centres, present = mover_centres(world, t)
+            for person, centre, here in zip(self.people, centres, present, strict=True):
+                person.center = (centre[0], centre[1])
+                person.set_visible(bool(here))
+
+
+def gif_frame(figure: Figure, palette: Any = None) -> Any:
+    """What ``figure``'s Agg canvas holds now as a palette image (a PIL ``Image``) for
+    :func:`write_gif`: in its own 256 colours, or mapped to the colours of ``palette`` (from
+    :func:`gif_palette`), without dithering."""
+    from PIL import Image
+
+    frame = Image.fromarray(np.asarray(figure.canvas.buffer_rgba())).convert("RGB")
+    if palette is not None:
+        return frame.quantize(palette=palette, dither=Image.Dither.NONE)
+    # a GIF holds palette images; the fast octree palette is five times quicker than
+    # Pillow's default median cut, which would take most of the time otherwise
+    return frame.quantize(256, method=Image.Quantize.FASTOCTREE)
+
+
+def gif_palette(figure: Figure, colours: Sequence[Any] = ()) -> Any:
+    """One palette for every frame of an animation: the 256 colours that best render what
+    ``figure``'s canvas holds now, the world's colours (doors shut and open, people, the
+    robot) and ``colours`` (any matplotlib colours), which may appear only later.
+
+    Frames in their own palettes (:func:`gif_frame` without one) differ in nearly every
+    pixel's index even where nothing moved, so the GIF stores each frame whole; frames in one
+    palette differ only where something moved, and a long animation's file is several times
+    smaller.
+    """
+    from matplotlib.colors import to_rgb
+    from PIL import Image
+
+    frame = np.asarray(figure.canvas.buffer_rgba())[:, :, :3]
+    # people are drawn at 0.8 opacity, mostly over the white floor
+    person = 0.2 + 0.8 * np.array(to_rgb(_MOVER))
+    swatches = [to_rgb(c) for c in (_DOOR_SHUT, _DOOR_OPEN, person, _ROBOT, _TARGET, *colours)]
+    # each colour a block of the strip beneath the frame, large enough to get a palette entry
+    block = 12
+    strip = np.full((block, max(frame.shape[1], block * len(swatches)), 3), 255, dtype=np.uint8)
+    for i, colour in enumerate(swatches):
+        strip[:, i * block:(i + 1) * block] = np.round(np.array(colour) * 255)
+    width = strip.shape[1]
+    padded = np.full((frame.shape[0], width, 3), 255, dtype=np.uint8)
+    padded[:, :frame.shape[1]] = frame
+    return Image.fromarray(np.concatenate([padded, strip])).quantize(256)
+
+
+def write_gif(frames: Iterable[Any], path: Path, fps: int) -> None:
+    """Write the :func:`gif_frame` images ``frames`` (at least one) to ``path`` as a looping
+    GIF of ``fps`` frames a second, replacing the file whole or not at all; a file that
+    cannot be written is a CbrError naming it. ``frames`` may be a generator, drawn as it is
+    written, so that only the GIF writer holds the frames."""
+    frames = iter(frames)
+    first = next(frames)
+    try:
+        with files.replacing(path, "wb") as handle:
+            first.save(handle, format="GIF", save_all=True, append_images=frames,
+                       duration=round(1000 / fps), loop=0)
+    except OSError as exc:
+        raise CbrError(f"{path}: cannot write the animation: {exc}") from exc

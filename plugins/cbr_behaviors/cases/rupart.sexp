@@ -11,109 +11,131 @@
 ; cases/rupart.yaml is this file exported as a case base (cbr_behaviors.casefiles.export).
 
 ; --- behavior cases ---------------------------------------------------------------------------
+;
+; Indexed by the situation features (docs/rupart.md): front, left, right, rear (the nearest
+; sonar reading in each sector over 5 m), width (free width across the robot over 4 m), person,
+; person-bearing, closing (the nearest person in view: distance over 5 m, bearing over 180
+; degrees, closing speed over 1.5 m/s), door, door-shut (the doorway ahead on the route:
+; distance over 5 m, shut or open) and progress (the part of the route driven). A feature left
+; out does not count. Every case keeps a short avoidCollision and a backOff, the escape.
 
-; 004 Figure 4 (a): an open area with few obstacles; moderately fast, turning away from
-; obstacles 1.5 m off, avoiding collisions half a metre off
+; 004 Figure 4 (a): an open area with few obstacles, as printed (moderately fast, turning away
+; from obstacles 1.5 m off, avoiding collisions half a metre off)
 (behavior-case open-area
-  (plan-index (sonar 4.0) (map) (behaviors avoidCollision goToPos))
+  (plan-index (front 1.0) (left 1.0) (right 1.0) (width 1.0) (person 1.0) (door 1.0))
   (((goStraight mod-fast curr-head) med)
    ((avoidObstacle 150 moderate) med)
    ((goToPos curr-goal mod-fast 100) high)
    ((avoidCollision 50 mod-fast) high)))
 
-; 004 Figure 4 (b): a hallway with many obstacles, most likely pedestrians; slow, slowing
-; further as they come near so that they step aside
+; 004 Figure 4 (b): a hallway with many obstacles, most likely pedestrians, as printed
 (behavior-case crowded-hallway
-  (plan-index
-    (sonar 1.0 1.3 1.4 1.2 1.2 1.4 1.3 1.0 1.0 1.3 2.0 5.0 5.0 2.0 1.3 1.0)
-    (map landmark object))
+  (plan-index (front 0.3) (width 0.5) (person 0.2) (person-bearing 0.1) (closing 0.3)
+              (door 1.0))
   (((followWall curr-head) med)
    ((moveForward slow) med)
    ((slowAvoid 50 very-slow) med-high)
    ((avoidCollision 20 fast) high)
    ((goToPos curr-goal slow 100) med)))
 
-; an empty hallway: along it at cruising speed
+; nothing ahead for metres, no one near, no doorway: along the route briskly
+(behavior-case clear-way
+  (plan-index (front 0.8) (person 1.0) (closing 0.0) (door 1.0) (door-shut 0.0))
+  (((goToPos curr-goal 50 30) high)
+   ((avoidObstacle 50 moderate) med)
+   ((avoidCollision 40 mod-fast) high)
+   ((backOff 20 slow) high)))
+
+; an empty hallway: walls close both sides, the way ahead open
 (behavior-case empty-hallway
-  (plan-index (sonar 1.0 1.3 2.0 5.0 5.0 2.0 1.3 1.0 1.0 1.3 2.0 5.0 5.0 2.0 1.3 1.0)
-              (map landmark))
-  (((goToPos curr-goal fast 30) high)
-   ((avoidCollision 40 mod-fast) high)))
+  (plan-index (front 1.0) (left 0.25) (right 0.25) (width 0.55) (person 1.0) (door 1.0))
+  (((goToPos curr-goal 50 30) high)
+   ((avoidObstacle 40 moderate) med)
+   ((avoidCollision 40 mod-fast) high)
+   ((backOff 20 slow) high)))
 
-; urgent, in the open: fast, with room to turn away early
-(behavior-case urgent-open-area
-  (plan-index (sonar 4.0) (map) (task-urgency 1.0) (goal-urgency 1.0))
-  (((goToPos curr-goal fast 30) high)
-   ((avoidObstacle 120 mod-fast) med)
-   ((avoidCollision 50 fast) high)))
+; someone in view but not in the way (behind, beside or walking off)
+(behavior-case person-aside
+  (plan-index (front 0.8) (person 0.4) (person-bearing 0.6) (closing 0.0) (door 1.0))
+  (((goToPos curr-goal 40 30) high)
+   ((avoidObstacle 60 moderate) med)
+   ((avoidCollision 40 mod-fast) high)
+   ((backOff 20 slow) high)))
 
-; a wall close on the left, open to the right: keep along the wall
-(behavior-case along-a-wall
-  (plan-index (sonar 0.6 0.8 1.2 3.5 5.0 5.0 5.0 5.0 5.0 5.0 5.0 3.5 3.5 1.2 0.8 0.6))
-  (((followWall curr-head) med)
-   ((goToPos curr-goal mod-fast 30) high)
-   ((avoidCollision 40 moderate) high)))
+; a person ahead coming closer: slow down and give way to the side they are not on
+(behavior-case approaching-person
+  (plan-index (front 0.5) (person 0.4) (person-bearing 0.05) (closing 0.5) (door 1.0))
+  (((goToPos curr-goal moderate 30) high)
+   ((avoidObstacle 120 slow) high)
+   ((avoidCollision 50 mod-fast) high)
+   ((backOff 25 slow) high)))
 
-; at a doorway (one within reach on the map): the route passes it square, so head for the
-; waypoints slowly and let the jambs come close; avoiding them early would turn the robot
-; away from the gap
+; a person right in front: stop for them, turn aside, back off if they come on
+(behavior-case person-close
+  (plan-index (front 0.15) (person 0.1) (person-bearing 0.05) (closing 0.4))
+  (((goToPos curr-goal slow 30) med)
+   ((slowAvoid 100 0) high)
+   ((avoidCollision 60 moderate) high)
+   ((backOff 35 slow) high)))
+
+; at an open doorway on the route: head for its waypoints on the axis, let the jambs come close
 (behavior-case doorway
-  (plan-index (sonar 5.0 1.6 1.2 5.0 5.0 1.2 1.6 5.0 5.0 1.6 1.2 1.0 1.0 1.2 1.6 5.0)
-              (map landmark door))
+  (plan-index (door 0.2) (door-shut 0.0) (width 0.3))
   (((goToPos curr-goal moderate 10) high)
-   ((avoidCollision 15 moderate) med)))
+   ((avoidCollision 15 moderate) med)
+   ((backOff 12 slow) high)))
+
+; the doorway ahead is shut: draw up before it and wait, doors of this building open again
+(behavior-case door-shut
+  (plan-index (door 0.2) (door-shut 1.0))
+  (((goToPos curr-goal slow 10) med)
+   ((slowAvoid 120 0) high)
+   ((avoidCollision 40 slow) high)))
 
 ; a passage barely wider than the robot: straight on, slowly, collisions avoided late
 (behavior-case narrow-passage
-  (plan-index (sonar 0.5 0.7 1.0 5.0 5.0 1.0 0.7 0.5 0.5 0.7 1.0 5.0 5.0 1.0 0.7 0.5))
-  (((goStraight moderate curr-head) med)
-   ((goToPos curr-goal moderate 30) high)
-   ((avoidCollision 15 slow) high)))
+  (plan-index (width 0.3) (left 0.06) (right 0.06) (door 1.0) (person 1.0))
+  (((goToPos curr-goal moderate 30) high)
+   ((avoidCollision 15 slow) high)
+   ((backOff 12 slow) high)))
 
-; a person (a transient object) coming up ahead: slow right down toward them, the goal
-; weighing little, and let them pass
-(behavior-case approaching-person
-  (plan-index (sonar 1.0 1.3 1.8 1.5 1.5 1.8 1.3 1.0 1.0 1.3 2.0 5.0 5.0 2.0 1.3 1.0)
-              (map landmark object))
-  (((slowAvoid 150 very-slow) high)
-   ((goToPos curr-goal moderate 30) low)
-   ((avoidCollision 60 moderate) high)))
-
-; the door ahead is shut (a wall where the way goes on, no progress): stop and wait, doors
-; of this building open again (at an impasse the case is not retrieved again, so the robot
-; does not wait for ever)
-(behavior-case door-shut
-  (plan-index (sonar 5.0 0.9 0.6 0.5 0.5 0.6 0.9 5.0 5.0 5.0 5.0 5.0 5.0 5.0 5.0 5.0)
-              (map landmark) (behav-conf 0.0))
-  (((stop) high)
-   ((avoidCollision 40 slow) high)))
+; something in the way ahead that is not a person (a cart, a wall the route bends at)
+(behavior-case blocked-ahead
+  (plan-index (front 0.08) (person 1.0) (door 1.0))
+  (((goToPos curr-goal moderate 20) high)
+   ((avoidObstacle 80 slow) high)
+   ((avoidCollision 40 moderate) high)
+   ((backOff 35 slow) high)))
 
 ; a cluttered room: furniture on all sides
 (behavior-case cluttered-room
-  (plan-index (sonar 1.0 0.8 1.5 2.0 0.9 1.2 0.7 1.8 1.5 2.0 1.1 0.9 2.5 1.4 1.0 0.8)
-              (map object))
+  (plan-index (front 0.25) (left 0.15) (right 0.15) (width 0.6) (person 1.0) (door 1.0))
   (((goToPos curr-goal moderate 20) high)
-   ((avoidObstacle 60 slow) med)
-   ((avoidCollision 25 moderate) high)))
-
-; inside an office, walls two metres round: out toward the door at moderate speed
-(behavior-case leave-room
-  (plan-index (sonar 2.0) (map))
-  (((goToPos curr-goal mod-fast 20) high)
-   ((avoidCollision 30 moderate) high)))
+   ((avoidObstacle 50 slow) med)
+   ((avoidCollision 25 moderate) high)
+   ((backOff 20 slow) high)))
 
 ; near the goal: slow, precise, close obstacles allowed
 (behavior-case near-the-goal
-  (plan-index (sonar 2.0) (map) (task-urgency 0.9))
+  (plan-index (progress 1.0) (person 1.0) (door 1.0))
   (((goToPos curr-goal moderate 10) high)
    ((avoidCollision 25 slow) high)))
 
+; urgent and the way clear: as fast as the robot safely goes
+(behavior-case urgent-clear-way
+  (plan-index (front 0.8) (person 1.0) (door 1.0) (task-urgency 1.0) (goal-urgency 1.0))
+  (((goToPos curr-goal 60 30) high)
+   ((avoidObstacle 60 mod-fast) med)
+   ((avoidCollision 50 fast) high)
+   ((backOff 20 slow) high)))
+
 ; --- meta-plans: generic fall-backs when no case matches well --------------------------------
 
-; move away: into the open, hopefully somewhere more familiar
+; move away: back out of where the robot is stuck, into the open
 (meta-plan move-away
-  (plan-index (behav-conf 0.0) (sonar 0.8))
-  (((goStraight slow curr-head) med)
+  (plan-index (behav-conf 0.0) (front 0.1))
+  (((backOff 60 slow) high)
+   ((goStraight slow curr-head) med)
    ((avoidObstacle 120 slow) high)
    ((avoidCollision 40 moderate) high)))
 
@@ -156,20 +178,26 @@
 ; --- adaptation strategies -------------------------------------------------------------------
 
 ; 004: "decreasing the speed in behaviors like moveForward if sonar or map values show objects
-; closer to the robot than in the retrieved case", by more the larger the difference
+; closer to the robot than in the retrieved case", by more the larger the difference: here the
+; nearest reading ahead
 (alter-strategy slow-when-closer
-  (adapts behavior) (feature sonar) (sense closer) (min 0.05)
-  (change (moveForward goStraight goToPos avoidObstacle slowAvoid) speed -0.8))
+  (adapts behavior) (feature front) (sense closer) (min 0.1)
+  (change (moveForward goStraight goToPos avoidObstacle slowAvoid) speed -1.0))
 
+; the other way: the way ahead is clearer than in the case, so drive faster
 (alter-strategy speed-up-when-farther
-  (adapts behavior) (feature sonar) (sense farther) (min 0.05)
+  (adapts behavior) (feature front) (sense farther) (min 0.1)
   (change (moveForward goStraight goToPos) speed 1.0))
 
-; more on the map near the robot (transient objects: people, carts) than in the case: turn
-; away from them earlier
+; a person nearer than in the case: turn away from them earlier
 (alter-strategy widen-when-crowded
-  (adapts behavior) (feature map) (sense closer) (min 0.3)
+  (adapts behavior) (feature person) (sense closer) (min 0.15)
   (change (avoidObstacle avoidCollision slowAvoid) distance 1.0))
+
+; a person farther than in the case: they need less room
+(alter-strategy narrow-when-clear
+  (adapts behavior) (feature person) (sense farther) (min 0.15)
+  (change (avoidObstacle slowAvoid) distance -0.5))
 
 ; 004: merge "when the retrieved behavior case has very high distance values on some
 ; features and very low values on others"

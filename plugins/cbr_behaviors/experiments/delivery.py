@@ -1,23 +1,32 @@
-"""``rupart-delivery``: the evaluation 004 announces and never reports.
+"""``rupart-delivery``: RUPART's robot against the behavior sets a user would write instead.
 
-On the office floor (``world2d_generated`` kind ``office``: hallways, rooms, doors on
-schedules, people walking and carts standing for a while) a robot works simulated days of
-message delivery (the ``delivery`` workload), four ways:
+A robot works days of message delivery (the ``delivery`` workload) on office floors it was not
+tuned on (``world2d_generated`` kind ``office_floor``: the layout, doors, furniture and people
+drawn from the seed; the floors of :data:`TUNING_SEEDS` were the only ones any choice was tuned
+on, and the experiment's seeds start at its ``--seed``, 0 by default), six ways:
 
 ``fixed``
-    One fixed hand-made behavior set all day, 004 Figure 4(a) (the open-area case): no case
-    memory; goals, routes and the global map as for the others.
+    004 Figure 4(a) (the open-area case) all day: no case memory.
+``best-fixed``
+    The best fixed behavior set built from Table 1's primitives, goToPos + avoidObstacle +
+    avoidCollision, its parameters tuned on the tuning floors (:data:`BEST_FIXED`,
+    ``benchmarks/rupart_tuning.py``): the baseline a user would write.
+``potential-field``
+    The landmark family's potential-field pilot all day.
 ``cbr``
     CBR behavior selection from the shipped case memory, without adaptation or learning.
-``adaptive``
+``cbr-learning``
     CBR with adaptation by the stored strategies and learning: adapted cases retained, quality
     counters kept, low-quality learned cases forgotten.
 ``learned-weights``
-    ``adaptive`` with the index weights learned from outcomes as well.
+    ``cbr-learning`` with the index weights learned from outcomes as well.
 
-Each runs ``days`` days per seed (the case base carrying over between the days of a seed), on
-the floor of that seed; the table gives deliveries made, deadlines missed, collisions and mean
-delivery time per day, mean ± sd over seeds, and the ratios of ``adaptive`` to ``fixed``.
+Every arm has the same goal manager, global map and routes, and on a seed the same floor and
+the same messages day by day; each seed's days run in a row, the case base carrying over. The
+results give per arm the figures of :data:`MEASURES` per day (mean ± sd over seeds), the
+paired per-seed differences of every arm from ``best-fixed`` with 95% intervals, and the
+learning arms' last day against their first. A second part runs ``best-fixed``, ``cbr`` and
+``cbr-learning`` on the shipped floor with nobody in it and every door open.
 """
 
 from __future__ import annotations
@@ -26,6 +35,8 @@ import csv
 import math
 from pathlib import Path
 from typing import Any, ClassVar
+
+import numpy as np
 
 from cbr_behaviors.casefiles import shipped_path
 from cbr_world2d.pilots.behaviors import OPEN_AREA
@@ -37,20 +48,48 @@ from cbrcore.plugins import current
 from cbrcore.run import run_workload
 from cbrcore.tasks import task_runner
 
-ARMS = ("fixed", "cbr", "adaptive", "learned-weights")
-MEASURES = ("delivered", "missed", "collisions", "contacts", "mean_delivery_time")
+ARMS = ("fixed", "best-fixed", "potential-field", "cbr", "cbr-learning", "learned-weights")
+LEARNING = ("cbr-learning", "learned-weights")
+MEASURES = ("delivered", "missed", "unfinished", "collisions", "contacts", "busy_speed",
+            "retrievals_per_minute", "median_install", "longest_stall", "door_wait")
+"""The figures per arm, per day: messages delivered on time, deadlines missed, messages still
+open at the day's end, collisions the robot drove into, all contacts, mean speed while busy,
+retrievals per minute, median seconds a retrieved set stayed installed, the longest stall
+(seconds within half a metre while busy, waits before shut doors apart) and the seconds waited
+before shut doors."""
+BASELINE = "best-fixed"
+
+BEST_FIXED: list[Any] = [
+    [["goToPos", "curr-goal", 40, 20], "high"],
+    [["avoidObstacle", 50, "slow"], "med"],
+    [["avoidCollision", 30, "moderate"], "high"],
+]
+"""The best fixed set of goToPos + avoidObstacle + avoidCollision found on the tuning floors
+(``python benchmarks/rupart_tuning.py``: every combination of goToPos speed, avoidObstacle
+distance and speed and avoidCollision distance it lists, ranked by messages delivered with
+collisions as the tie-break), in centimetres."""
+TUNING_SEEDS = range(100, 106)
+"""The office floors every tuned choice (this set, the case memory's values, the trigger
+thresholds, the index weights) was tuned on; the experiment reports on others."""
 
 
 def arm_config(arm: str, seed: int, *, days: int, length: float,
-               casebase: Path | None = None) -> dict[str, Any]:
-    """The configuration of ``arm`` (one of :data:`ARMS`) for one seed's days."""
+               casebase: Path | None = None, world: dict[str, Any] | None = None,
+               log: bool = False) -> dict[str, Any]:
+    """The configuration of ``arm`` (one of :data:`ARMS`) for one seed's days on ``world``
+    (default: the ``office_floor`` of the seed)."""
     config: dict[str, Any] = {
-        "seed": seed, "world": {"use": "world2d_generated", "kind": "office"},
+        "seed": seed,
+        "world": world or {"use": "world2d_generated", "kind": "office_floor"},
         "pilot": {"use": "behaviors", "behaviors": OPEN_AREA},
-        "workload": {"use": "delivery", "days": days, "length": length},
+        "workload": {"use": "delivery", "days": days, "length": length, "log": log},
     }
-    if arm == "fixed":
+    if arm in ("fixed", "best-fixed", "potential-field"):
         config["workload"]["consult"] = False
+        if arm == "best-fixed":
+            config["pilot"]["behaviors"] = BEST_FIXED
+        elif arm == "potential-field":
+            config["pilot"] = "potential_field"
         return config
     store: Any = {"use": "memory", "initial": str(shipped_path("yaml"))}
     if casebase is not None:
@@ -60,7 +99,7 @@ def arm_config(arm: str, seed: int, *, days: int, length: float,
         config["reuse"] = {"use": "rupart", "adapt": False}
         return config
     config.update({"retain": ["rupart_cases"], "forget": ["rupart_quality"]})
-    if arm == "adaptive":
+    if arm == "cbr-learning":
         return config
     if arm == "learned-weights":
         config["retain"] = ["rupart_cases", "rupart_weights"]
@@ -68,6 +107,11 @@ def arm_config(arm: str, seed: int, *, days: int, length: float,
         return config
     raise ValueError(f"unknown arm {arm!r}; expected one of {', '.join(ARMS)}")
 
+
+EMPTY_FLOOR = {"use": "world2d_generated", "kind": "office", "people": 0, "objects": 0,
+               "doors_open": True}
+"""The shipped floor with nobody in it and every door open."""
+EMPTY_ARMS = ("best-fixed", "cbr", "cbr-learning")
 
 WORKERS = 2
 """Processes the experiment's runs are spread over without a scheduler (at most the machine's
@@ -90,12 +134,26 @@ def run_arm(config: dict[str, Any], out_dir: Path) -> list[dict[str, float]]:
         return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(handle)]
 
 
+def interval(values: list[float]) -> dict[str, float | None]:
+    """The mean of ``values`` with its 95% t-interval (None bounds for fewer than two)."""
+    from scipy import stats
+
+    array = np.asarray([v for v in values if math.isfinite(v)], dtype=float)
+    if not len(array):
+        return {"mean": None, "low": None, "high": None, "n": 0}
+    mean = float(array.mean())
+    if len(array) < 2:
+        return {"mean": mean, "low": None, "high": None, "n": 1}
+    half = float(stats.t.ppf(0.975, len(array) - 1) * array.std(ddof=1) / math.sqrt(len(array)))
+    return {"mean": mean, "low": mean - half, "high": mean + half, "n": len(array)}
+
+
 class DeliveryExperiment:
-    """The four arms over seeds (see the module docstring)."""
+    """The six arms over seeds (see the module docstring)."""
 
     SIZES: ClassVar[dict[str, dict[str, float]]] = {
-        "ci": {"seeds": 2, "days": 1, "length": 150.0},
-        "full": {"seeds": 5, "days": 2, "length": 1800.0},
+        "ci": {"seeds": 2, "days": 2, "length": 120.0},
+        "full": {"seeds": 10, "days": 5, "length": 1800.0},
     }
 
     def __init__(self, options: object, ctx: Context) -> None:
@@ -106,50 +164,105 @@ class DeliveryExperiment:
         plan = self.SIZES[size]
         seeds = [self.seed + k for k in range(int(plan["seeds"]))]
         days, length = int(plan["days"]), float(plan["length"])
-        jobs = [(arm, seed) for seed in seeds for arm in ARMS]
+        jobs = [("floors", arm, seed) for seed in seeds for arm in ARMS]
+        jobs += [("empty", arm, 0) for arm in EMPTY_ARMS]
+
+        def config(part: str, arm: str, seed: int) -> dict[str, Any]:
+            if part == "empty":
+                return arm_config(arm, seed, days=1, length=length, world=EMPTY_FLOOR)
+            return arm_config(arm, seed, days=days, length=length)
+
         # every arm and seed is a run of its own: spread over processes, the results the same
         # as one after another (each run's randomness comes from its seed only)
         runs = self.tasks.map(run_job, [
-            (arm_config(arm, seed, days=days, length=length),
-             out_dir.resolve() / arm / f"seed_{seed}") for arm, seed in jobs],
-            progress=progress, processes=WORKERS)
+            (config(*job), out_dir.resolve() / job[0] / job[1] / f"seed_{job[2]}")
+            for job in jobs], progress=progress, processes=WORKERS)
         found = dict(zip(jobs, runs, strict=True))
-        per_seed = {arm: [_per_day(found[arm, seed]) for seed in seeds] for arm in ARMS}
-        # a seed that delivered nothing has no delivery time: the spread is over the others
+        per_day = {arm: {seed: found["floors", arm, seed] for seed in seeds} for arm in ARMS}
+        per_seed = {arm: [_mean_day(per_day[arm][s]) for s in seeds] for arm in ARMS}
         summary = {arm: {m: spread([s[m] for s in per_seed[arm] if math.isfinite(s[m])])
                          for m in MEASURES} for arm in ARMS}
+        paired = {arm: {m: interval([a[m] - b[m] for a, b in zip(per_seed[arm],
+                                                                    per_seed[BASELINE],
+                                                                    strict=True)])
+                        for m in ("delivered", "collisions")}
+                  for arm in ARMS if arm != BASELINE}
+        learning = {arm: {"first": spread([per_day[arm][s][0]["delivered"] for s in seeds]),
+                          "last": spread([per_day[arm][s][-1]["delivered"] for s in seeds]),
+                          "gain": interval([per_day[arm][s][-1]["delivered"]
+                                            - per_day[arm][s][0]["delivered"] for s in seeds])}
+                    for arm in LEARNING}
+        empty = {arm: found["empty", arm, 0][0] for arm in EMPTY_ARMS}
         results = {"seeds": seeds, "days": days, "length": length, "summary": summary,
-                   "per_seed": per_seed, "configs": {arm: arm_config(arm, seeds[0], days=days,
-                                                                     length=length)
-                                                     for arm in ARMS}}
-        return ExperimentResult(results=results, table=_table(summary, len(seeds), days,
-                                                              length))
+                   "paired": paired, "learning": learning, "empty": empty,
+                   "per_seed": per_seed,
+                   "per_day": {arm: [[row["delivered"] for row in per_day[arm][s]]
+                                     for s in seeds] for arm in ARMS},
+                   "tuning_seeds": list(TUNING_SEEDS), "best_fixed": BEST_FIXED,
+                   "configs": {arm: arm_config(arm, seeds[0], days=days, length=length)
+                               for arm in ARMS}}
+        return ExperimentResult(results=results, table=table(results))
 
 
-def _per_day(rows: list[dict[str, float]]) -> dict[str, float]:
-    """One seed's figures per day, averaged over its days (mean delivery time weighted by the
-    deliveries)."""
-    days = len(rows)
-    delivered = sum(r["delivered"] for r in rows)
-    timed = sum(r["mean_delivery_time"] * r["delivered"] for r in rows if r["delivered"])
-    return {"delivered": delivered / days, "missed": sum(r["missed"] for r in rows) / days,
-            "collisions": sum(r["collisions"] for r in rows) / days,
-            "contacts": sum(r["contacts"] for r in rows) / days,
-            "mean_delivery_time": timed / delivered if delivered else float("nan")}
+def _mean_day(rows: list[dict[str, float]]) -> dict[str, float]:
+    """One seed's figures per day, averaged over its days (the longest stall the longest of
+    any day)."""
+    figures = {}
+    for m in MEASURES:
+        values = [r[m] for r in rows if math.isfinite(r[m])]
+        if m == "longest_stall":
+            figures[m] = max(values, default=math.nan)
+        else:
+            figures[m] = float(np.mean(values)) if values else math.nan
+    return figures
 
 
-def _cell(s: dict[str, float | None]) -> str:
+def _cell(s: dict[str, float | None], digits: int = 2) -> str:
     if s["mean"] is None or s["mean"] != s["mean"]:
         return "-"
-    return f"{s['mean']:.2f} ± {s['std']:.2f}"
+    return f"{s['mean']:.{digits}f} ± {s['std']:.{digits}f}"
 
 
-def _table(summary: dict[str, Any], seeds: int, days: int, length: float) -> str:
-    lines = [f"RUPART delivery: {seeds} seeds, {days} day(s) of {length:.0f} s each; per day, "
-             "mean ± sd over seeds.", "",
-             "| arm | delivered | deadlines missed | collisions | contacts | "
-             "mean delivery time (s) |", "|---|---|---|---|---|---|"]
+def _interval(s: dict[str, float | None]) -> str:
+    if s["mean"] is None:
+        return "-"
+    if s["low"] is None:
+        return f"{s['mean']:+.2f}"
+    return f"{s['mean']:+.2f} [{s['low']:+.2f}, {s['high']:+.2f}]"
+
+
+HEADERS = {"delivered": "delivered", "missed": "missed", "unfinished": "unfinished",
+           "collisions": "collisions", "contacts": "contacts", "busy_speed": "busy m/s",
+           "retrievals_per_minute": "retrievals/min", "median_install": "install s (median)",
+           "longest_stall": "longest stall s", "door_wait": "door wait s"}
+
+
+def table(results: dict[str, Any]) -> str:
+    """The experiment's markdown tables."""
+    seeds, days = results["seeds"], results["days"]
+    lines = [f"RUPART delivery on office floors {seeds[0]} to {seeds[-1]} (held out; tuning "
+             f"used floors {results['tuning_seeds'][0]} to {results['tuning_seeds'][-1]}), "
+             f"{days} day(s) of {results['length']:.0f} s each; per day, mean ± sd over "
+             "seeds.", "",
+             "| arm | " + " | ".join(HEADERS[m] for m in MEASURES) + " |",
+             "|---" * (len(MEASURES) + 1) + "|"]
     for arm in ARMS:
-        s = summary[arm]
-        lines.append(f"| {arm} | " + " | ".join(_cell(s[m]) for m in MEASURES) + " |")
+        s = results["summary"][arm]
+        lines.append(f"| {arm} | " + " | ".join(
+            _cell(s[m], 3 if m == "busy_speed" else 2) for m in MEASURES) + " |")
+    lines += ["", f"Paired per-seed differences from {BASELINE} (mean [95% interval]):", "",
+              "| arm | delivered | collisions |", "|---|---|---|"]
+    for arm, p in results["paired"].items():
+        lines.append(f"| {arm} | {_interval(p['delivered'])} | {_interval(p['collisions'])} |")
+    lines += ["", "Learning: delivered on the first and the last day (mean ± sd over seeds) "
+              "and the paired gain:", "", "| arm | first day | last day | gain |",
+              "|---|---|---|---|"]
+    for arm, s in results["learning"].items():
+        lines.append(f"| {arm} | {_cell(s['first'])} | {_cell(s['last'])} | "
+                     f"{_interval(s['gain'])} |")
+    lines += ["", "The shipped floor (seed 0) with nobody in it and every door open, one day:",
+              "", "| arm | messages | delivered | busy m/s |", "|---|---|---|---|"]
+    for arm, row in results["empty"].items():
+        lines.append(f"| {arm} | {row['messages']:.0f} | {row['delivered']:.0f} | "
+                     f"{row['busy_speed']:.3f} |")
     return "\n".join(lines) + "\n"

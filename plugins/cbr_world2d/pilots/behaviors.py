@@ -4,11 +4,23 @@ behavior set read from plain data, the merge, and the ``behaviors`` pilot.
 Behaviors are fuzzy control rules (:mod:`.primitives`): each step each proposes a turn rate and
 a speed, either possibly unspecified, with a degree of fit in [0, 1]. A behavior set activates
 several behaviors at once, each with a *priority*; the controller merges their proposals as a
-fuzzy controller defuzzifies its rules, by a weighted average with weight priority x fit, for
-the turn and the speed separately, over the behaviors that specify each::
+fuzzy controller defuzzifies its rules, weighing each by priority x fit, but so that opposite
+proposals never cancel (Saffiotti's context-dependent blending; a plain weighted average of a
+left turn and a right turn is no turn at all, and a robot can freeze against an obstacle):
 
-    turn  = sum(p_i * f_i * turn_i)  / sum(p_i * f_i)      (behaviors with a turn)
-    speed = sum(p_i * f_i * speed_i) / sum(p_i * f_i)      (behaviors with a speed)
+- **turn**: the proposals turning left (turn above :data:`DEADBAND`) and those turning right
+  each weigh ``sum(p_i * f_i * |turn_i|)``. When both sides ask, one side is chosen, the heavier,
+  and *held* (:class:`Arbiter`): a side chosen before stays chosen while its weight is at least
+  1 / :data:`HOLD` of the other's, until no opposition has been seen for :data:`HOLD_STEPS`
+  steps. The turn is the weighted average over the proposals of the chosen side and those
+  asking for no turn to speak of: ``sum(p_i f_i turn_i) / sum(p_i f_i)``;
+- **speed**: the weighted average of the speeds asked for, ``sum(p_i f_i speed_i) /
+  sum(p_i f_i)``, capped by each *limit* (a behavior slowing for an obstacle,
+  :attr:`Proposal.limit`) to the degree it fits: at most ``s_i + (1 - f_i) (top - s_i)``,
+  ``top`` the fastest speed asked for, so that a fully fitting avoidCollision's 0 stops the
+  robot however hard goToPos pulls, and a limit fading out lets go gradually. When a behavior
+  asks to back up (a speed below 0), only the backing proposals count, since an escape
+  averaged with a push forward goes nowhere.
 
 When no behavior specifies one (or every weight is 0, at most :data:`NEGLIGIBLE`), it is 0:
 with nothing asking to move, the robot stands still and keeps its heading.
@@ -58,6 +70,7 @@ from cbr_world2d.pilots.base import Command, Point
 from cbr_world2d.pilots.primitives import (
     AvoidCollision,
     AvoidObstacle,
+    BackOff,
     Behavior,
     EnterDoorway,
     FollowWall,
@@ -77,13 +90,47 @@ if TYPE_CHECKING:
     from cbr_world2d.sensors import Observation
 
 __all__ = [
-    "ARGUMENTS", "BEHAVIORS", "CURRENT_GOAL", "CURRENT_HEADING", "LENGTH_UNITS", "NEGLIGIBLE",
-    "OPEN_AREA", "PRIORITIES", "SPEEDS", "TOP_SPEED", "TOP_TURN_RATE", "TURN_RATES",
-    "ActiveBehavior", "AvoidCollision", "AvoidObstacle", "Behavior", "BehaviorPilot",
-    "BehaviorPilotOptions", "BehaviorType", "EnterDoorway", "FollowWall", "GoStraight",
-    "GoToPos", "Localize", "MoveForward", "Proposal", "SlowAvoid", "Stop", "TurnToAngle",
-    "TurnToPos", "lookup_behavior", "merge", "parse_behavior", "parse_behavior_set",
-    "register_argument", "register_behavior",
+    "ARGUMENTS",
+    "BEHAVIORS",
+    "CURRENT_GOAL",
+    "CURRENT_HEADING",
+    "DEADBAND",
+    "HOLD",
+    "HOLD_STEPS",
+    "LENGTH_UNITS",
+    "NEGLIGIBLE",
+    "OPEN_AREA",
+    "PRIORITIES",
+    "SPEEDS",
+    "TOP_SPEED",
+    "TOP_TURN_RATE",
+    "TURN_RATES",
+    "ActiveBehavior",
+    "Arbiter",
+    "AvoidCollision",
+    "AvoidObstacle",
+    "BackOff",
+    "Behavior",
+    "BehaviorPilot",
+    "BehaviorPilotOptions",
+    "BehaviorType",
+    "EnterDoorway",
+    "FollowWall",
+    "GoStraight",
+    "GoToPos",
+    "Localize",
+    "MoveForward",
+    "Proposal",
+    "SlowAvoid",
+    "Stop",
+    "TurnToAngle",
+    "TurnToPos",
+    "lookup_behavior",
+    "merge",
+    "parse_behavior",
+    "parse_behavior_set",
+    "register_argument",
+    "register_behavior",
 ]
 
 NEGLIGIBLE = 1e-12
@@ -91,22 +138,70 @@ NEGLIGIBLE = 1e-12
 subnormal ones would spoil the ratio of the weighted sums."""
 
 
+DEADBAND = 0.02
+"""rad/s: a turn this small (about a degree a second) is no turn to either side: it goes with
+whichever side is chosen."""
+HOLD = 2.0
+"""A side chosen to turn to is kept while its weight is at least 1 / HOLD of the other side's:
+noise that shifts the balance a little does not flip the robot back and forth."""
+HOLD_STEPS = 10
+"""Steps (a second at the default 0.1 s) without opposing proposals after which the side held
+is forgotten: a new conflict is judged afresh."""
+
+
+@attrs.define
+class Arbiter:
+    """Merges proposals step after step, holding the side it chose to turn to (see the module
+    docstring)."""
+
+    side: int = 0
+    """+1 left, -1 right: the side chosen at the last conflict; 0 none held."""
+    quiet: int = 0
+    """Steps since the last conflict."""
+
+    def merge(self, proposals: Sequence[tuple[Proposal, float]]) -> Command:
+        """``(speed, turn)`` merged from ``(proposal, priority)`` pairs."""
+        weighed = [(p, priority * p.fit) for p, priority in proposals
+                   if priority * p.fit > NEGLIGIBLE]
+        mass = {1: 0.0, -1: 0.0}
+        for p, w in weighed:
+            if p.turn is not None and abs(p.turn) > DEADBAND:
+                mass[1 if p.turn > 0 else -1] += w * abs(p.turn)
+        chosen = 0
+        if mass[1] > 0.0 and mass[-1] > 0.0:
+            held = self.side
+            chosen = (held if held and HOLD * mass[held] >= mass[-held]
+                      else (1 if mass[1] >= mass[-1] else -1))
+            self.side, self.quiet = chosen, 0
+        else:
+            self.quiet += 1
+            if self.quiet >= HOLD_STEPS:
+                self.side = 0
+        turns = [(p.turn, w) for p, w in weighed if p.turn is not None
+                 and (chosen == 0 or abs(p.turn) <= DEADBAND or (p.turn > 0) == (chosen > 0))]
+        speeds = [(p.speed, w) for p, w in weighed if p.speed is not None]
+        if any(v < 0.0 for v, _ in speeds):
+            return _mean([(v, w) for v, w in speeds if v < 0.0]), _mean(turns)
+        speed = _mean(speeds)
+        top = max((v for v, _ in speeds), default=0.0)
+        for p, _ in weighed:
+            if p.limit and p.speed is not None:
+                speed = min(speed, p.speed + (1.0 - p.fit) * (top - p.speed))
+        return speed, _mean(turns)
+
+    def reset(self) -> None:
+        self.side, self.quiet = 0, 0
+
+
+def _mean(values: Sequence[tuple[float, float]]) -> float:
+    total = sum(w for _, w in values)
+    return sum(v * w for v, w in values) / total if total > 0.0 else 0.0
+
+
 def merge(proposals: Sequence[tuple[Proposal, float]]) -> Command:
-    """``(speed, turn)`` merged from ``(proposal, priority)`` pairs (see the module docstring)."""
-    turn_sum = turn_weight = speed_sum = speed_weight = 0.0
-    for proposal, priority in proposals:
-        weight = priority * proposal.fit
-        if weight <= NEGLIGIBLE:
-            continue
-        if proposal.turn is not None:
-            turn_sum += weight * proposal.turn
-            turn_weight += weight
-        if proposal.speed is not None:
-            speed_sum += weight * proposal.speed
-            speed_weight += weight
-    speed = speed_sum / speed_weight if speed_weight > 0.0 else 0.0
-    turn = turn_sum / turn_weight if turn_weight > 0.0 else 0.0
-    return speed, turn
+    """``(speed, turn)`` merged from ``(proposal, priority)`` pairs by an :class:`Arbiter` that
+    holds no side yet (one step on its own)."""
+    return Arbiter().merge(proposals)
 
 
 # --- the behaviors known by name --------------------------------------------------------
@@ -175,6 +270,9 @@ register_behavior("avoidObstacle", AvoidObstacle, [("distance", "distance"), ("s
 register_behavior("avoidCollision", AvoidCollision,
                   [("distance", "distance"), ("turn_rate", "turn_rate")],
                   "Turn at given rate away from an imminent collision at given distance.")
+register_behavior("backOff", BackOff, [("distance", "distance"), ("speed", "speed")],
+                  "Back up, turning toward the freer side, from an obstacle within the given "
+                  "distance ahead (not in 004 Table 1: the escape its behaviors lack).")
 register_behavior("slowAvoid", SlowAvoid, [("distance", "distance"), ("speed", "speed")],
                   "Slow but continue toward obstacle.")
 register_behavior("goToPos", GoToPos,
@@ -283,6 +381,7 @@ class BehaviorPilot:
         self.behaviors: tuple[ActiveBehavior, ...] = tuple(behaviors)
         self.proposals: tuple[Proposal, ...] = ()
         """The proposals of the last step, in the order of :attr:`behaviors`."""
+        self.arbiter = Arbiter()
 
     @classmethod
     def from_data(cls, data: Any, length_unit: Literal["cm", "m"] = "cm") -> BehaviorPilot:
@@ -305,10 +404,11 @@ class BehaviorPilot:
 
     def command(self, obs: Observation, target: Point) -> Command:
         self.proposals = tuple(a.behavior.propose(obs, target) for a in self.behaviors)
-        return merge([(p, a.priority) for p, a in zip(self.proposals, self.behaviors,
-                                                      strict=True)])
+        return self.arbiter.merge([(p, a.priority) for p, a in zip(self.proposals,
+                                                                   self.behaviors, strict=True)])
 
     def reset(self) -> None:
         self.proposals = ()
+        self.arbiter.reset()
         for active in self.behaviors:
             active.behavior.reset()

@@ -53,6 +53,21 @@ OBSTACLE_ARC = math.radians(90.0)
 COLLISION_FADE = 1.5
 """avoidCollision fits fully within its distance and fades out linearly to this many times it."""
 
+COLLISION_CREEP = SPEEDS["slow"]
+"""m/s: the speed avoidCollision asks for at the edge of its reach, falling to 0 at half its
+distance."""
+REAR_ARC = math.radians(110.0)
+"""backOff reads the beams more than this off the heading as behind the robot (on a Pioneer the
+rear ring's discs at 130 to 180 degrees)."""
+REAR_ROOM = 0.4
+"""m: backOff backs up only while every rear reading is longer than this."""
+BACK_CLEAR = 2.0
+"""backOff stops once the nearest reading ahead is this many times its distance."""
+BACK_TIME = 3.0
+"""s: backOff backs up at most this long at once."""
+BACK_REST = 4.0
+"""s: after backing up, backOff rests this long before it may back up again."""
+
 SIDE_ARC = math.radians(20.0)
 """followWall and enterDoorway read what is beside the robot from the beams within this angle
 of straight left or right: on a Pioneer the discs at +-90 degrees, whose 30 degree cones take in
@@ -121,11 +136,14 @@ circle."""
 @attrs.frozen
 class Proposal:
     """What one behavior asks for: a turn rate (rad/s) and a speed (m/s), either None when it
-    has no opinion, with its degree of fit in [0, 1]."""
+    has no opinion, with its degree of fit in [0, 1]. ``limit``: the speed is a most the robot
+    may drive, to the degree of the fit (a behavior that slows for an obstacle), not merely a
+    wish to blend with the others."""
 
     turn: float | None
     speed: float | None
     fit: float
+    limit: bool = False
 
 
 NOTHING = Proposal(None, None, 0.0)
@@ -246,39 +264,49 @@ class GoToPos:
 class AvoidObstacle:
     """``(avoidObstacle distance speed)``: with something within ``distance`` metres in the
     front half, slow to ``speed`` and turn away at ``turn_rate`` (the side with the closer
-    readings, see :func:`cbr_world2d.pilots.kernels.sector`). Its fit grows from 0 at
-    ``distance`` to 1 at contact: ``1 - nearest / distance``. ``turn_rate`` is none of Table 1's
-    arguments: plain data leaves it at ``moderate``."""
+    readings, see :func:`cbr_world2d.pilots.kernels.sector`, chosen when the obstacle comes
+    within ``distance`` and held until it is clear: a reading flickering about the robot's axis
+    does not swing it left and right). Its fit grows from 0 at ``distance`` to 1 at contact:
+    ``1 - nearest / distance``. ``turn_rate`` is none of Table 1's arguments: plain data leaves
+    it at ``moderate``."""
 
     distance: float
     speed: float
     turn_rate: float = TURN_RATES["moderate"]
     _sector: SectorKernel = attrs.field(init=False, factory=_sector_kernel, eq=False,
                                         repr=False)
+    _side: float = attrs.field(default=0.0, init=False)
 
     def propose(self, obs: Observation, target: Point) -> Proposal:
         nearest, side = self._sector(_floats(obs.sonar), _floats(obs.sonar_angles),
                                      OBSTACLE_ARC, self.distance)
         fit = _clip(1.0 - nearest / self.distance, 0.0, 1.0)
         if fit == 0.0:
+            self._side = 0.0
             return NOTHING
-        return Proposal(side * self.turn_rate, self.speed, fit)
+        if self._side == 0.0:
+            self._side = side
+        return Proposal(self._side * self.turn_rate, self.speed, fit, limit=True)
 
     def reset(self) -> None:
-        pass
+        self._side = 0.0
 
 
 @attrs.define
 class AvoidCollision:
     """``(avoidCollision distance turnRate)``: with something within ``distance`` metres ahead
-    (beams within 60 degrees of the heading), stop forward movement and turn away at
-    ``turn_rate`` rad/s. Its fit is 1 within ``distance`` and fades linearly to 0 at 1.5 times
-    ``distance``."""
+    (beams within 60 degrees of the heading), slow down and turn away at ``turn_rate`` rad/s,
+    the side chosen when the obstacle comes into reach and held until it is clear. Its fit is 1
+    within ``distance`` and fades linearly to 0 at 1.5 times ``distance``. The speed it asks
+    for falls from :data:`COLLISION_CREEP` at 1.5 times ``distance`` to 0 at half of it: the
+    robot keeps steering round what it can pass rather than freezing before it (Table 1 says
+    "turn", not "stop"), and stops for what is right in front of it."""
 
     distance: float
     turn_rate: float
     _sector: SectorKernel = attrs.field(init=False, factory=_sector_kernel, eq=False,
                                         repr=False)
+    _side: float = attrs.field(default=0.0, init=False)
 
     def propose(self, obs: Observation, target: Point) -> Proposal:
         reach = COLLISION_FADE * self.distance
@@ -286,11 +314,64 @@ class AvoidCollision:
                                      COLLISION_ARC, reach)
         fit = _clip((reach - nearest) / (reach - self.distance), 0.0, 1.0)
         if fit == 0.0:
+            self._side = 0.0
             return NOTHING
-        return Proposal(side * self.turn_rate, 0.0, fit)
+        if self._side == 0.0:
+            self._side = side
+        stop = 0.5 * self.distance
+        speed = COLLISION_CREEP * _clip((nearest - stop) / (reach - stop), 0.0, 1.0)
+        return Proposal(self._side * self.turn_rate, speed, fit, limit=True)
 
     def reset(self) -> None:
-        pass
+        self._side = 0.0
+
+
+@attrs.define
+class BackOff:
+    """``(backOff distance speed)``: the escape the other behaviors lack. With something within
+    ``distance`` metres ahead (the beams of :data:`COLLISION_ARC`) and room behind (every rear
+    beam reads more than :data:`REAR_ROOM`), back up at ``speed`` turning the nose toward the
+    freer side, fit 1, until the nearest reading ahead is :data:`BACK_CLEAR` times ``distance``
+    or :data:`BACK_TIME` seconds have passed; then it rests :data:`BACK_REST` seconds, so that
+    the other behaviors drive on before it may back up again."""
+
+    distance: float
+    speed: float
+    _sector: SectorKernel = attrs.field(init=False, factory=_sector_kernel, eq=False,
+                                        repr=False)
+    _sides: SidesKernel = attrs.field(init=False, factory=_sides_kernel, eq=False, repr=False)
+    _since: float | None = attrs.field(default=None, init=False)
+    """When the backing up started; None while not backing up."""
+    _turn: float = attrs.field(default=0.0, init=False)
+    _rest_until: float = attrs.field(default=-math.inf, init=False)
+
+    def propose(self, obs: Observation, target: Point) -> Proposal:
+        ranges, angles = _floats(obs.sonar), _floats(obs.sonar_angles)
+        nearest, _ = self._sector(ranges, angles, COLLISION_ARC, self.distance)
+        if self._since is None:
+            if obs.t < self._rest_until or nearest >= self.distance:
+                return NOTHING
+            behind = _rear(ranges, angles)
+            if behind <= REAR_ROOM:
+                return NOTHING
+            left, right = self._sides(ranges, angles, SIDE_ARC)
+            # backing up while turning clockwise swings the nose left, toward the freer side
+            self._since, self._turn = obs.t, (-1.0 if left >= right else 1.0)
+        if (nearest >= BACK_CLEAR * self.distance or obs.t - self._since >= BACK_TIME
+                or _rear(ranges, angles) <= REAR_ROOM):
+            self._since, self._rest_until = None, obs.t + BACK_REST
+            return NOTHING
+        return Proposal(self._turn * TURN_RATES["slow"], -self.speed, 1.0)
+
+    def reset(self) -> None:
+        self._since, self._turn, self._rest_until = None, 0.0, -math.inf
+
+
+def _rear(ranges: np.ndarray, angles: np.ndarray) -> float:
+    """The shortest reading of the beams pointing backward (more than 110 degrees off the
+    heading)."""
+    back = np.abs((angles + math.pi) % (2.0 * math.pi) - math.pi) > REAR_ARC
+    return float(ranges[back].min()) if back.any() else math.inf
 
 
 @attrs.define
@@ -310,7 +391,7 @@ class SlowAvoid:
         nearest, _ = self._sector(_floats(obs.sonar), _floats(obs.sonar_angles),
                                   COLLISION_ARC, self.distance)
         fit = _clip(1.0 - nearest / self.distance, 0.0, 1.0)
-        return NOTHING if fit == 0.0 else Proposal(None, self.speed, fit)
+        return NOTHING if fit == 0.0 else Proposal(None, self.speed, fit, limit=True)
 
     def reset(self) -> None:
         pass
