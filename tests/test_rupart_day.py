@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -12,7 +13,15 @@ from PIL import Image
 
 from cbr_behaviors.cli import run_world
 from cbr_behaviors.daylog import DayLog
-from cbr_behaviors.dayplot import animate_day, case_colours, frame_times, plot_day, plot_timeline
+from cbr_behaviors.dayplot import (
+    NO_CASE,
+    OTHER_CASES,
+    animate_day,
+    case_colours,
+    frame_times,
+    plot_day,
+    plot_timeline,
+)
 from cbr_world2d.generate import office
 from cbrcore.config import load_config
 from cbrcore.errors import CbrError
@@ -85,9 +94,11 @@ def test_a_file_that_is_not_a_day_log_is_refused_by_name(tmp_path: Path) -> None
     lone = tmp_path / "array.npy"
     np.save(lone, np.zeros(3))
     for path in (text, other, lone):
-        with pytest.raises(CbrError, match=rf"^{path}: not a day log .*workload\.log: true"):
+        with pytest.raises(CbrError, match=rf"^{re.escape(str(path))}: not a day log "
+                                           r".*workload\.log: true"):
             DayLog.load(path)
-    with pytest.raises(CbrError, match=rf"^{tmp_path / 'day_9.npz'}: no such file"):
+    with pytest.raises(CbrError, match=rf"^{re.escape(str(tmp_path / 'day_9.npz'))}: no such "
+                                       "file"):
         DayLog.load(tmp_path / "day_9.npz")
 
 
@@ -108,10 +119,15 @@ def assert_png(path: Path) -> None:
 
 def test_each_case_keeps_its_colour_and_a_day_s_cases_differ() -> None:
     names = [f"case-{k}" for k in range(18)]
-    colours = case_colours(["", *names])
-    assert colours[""] == "0.6"
+    colours = case_colours(["", *names], shown=18)
+    assert colours[""] == NO_CASE
     assert len({colours[n] for n in names}) == len(names)  # as many colours as tab20 has
-    assert case_colours(list(reversed(names))) == case_colours(names)
+    # the order of the cases shown does not matter
+    assert case_colours(list(reversed(names)), shown=18) == {n: colours[n] for n in names}
+    # past the cases shown, one grey for all
+    fewer = case_colours(names, shown=5)
+    assert [fewer[n] for n in names[5:]] == [OTHER_CASES] * 13
+    assert len({fewer[n] for n in names[:5]} | {OTHER_CASES}) == 6
     # a name's colour does not depend on the other cases of the day when it is the first
     # to choose (in sorted order), whatever the others are
     assert {case_colours(["a-case", *others])["a-case"]
@@ -159,15 +175,16 @@ def test_day_draws_a_recorded_day_in_its_world(cli: Cli, tmp_path: Path) -> None
     run = run_folder(tmp_path / "run", CONFIGS / "rupart.yaml", f"seed={SEED}")
     synthetic(day=1).save(run / "day_1.npz")
     out = tmp_path / "pictures"
-    result = cli("rupart", "day", str(run), "--day", "1", "--out", str(out), "--fps", "5",
-                 "--speedup", "4")
+    # a frame every 8 / 2 = 4 s of the 11.9 s day: at 0, 4 and 8 s
+    result = cli("rupart", "day", str(run), "--day", "1", "--out", str(out), "--fps", "2",
+                 "--speedup", "8")
     assert result.exit_code == 0, result.stderr
     assert sorted(p.name for p in out.iterdir()) == ["day_1.gif", "day_1.png",
                                                      "day_1_timeline.png"]
     assert_png(out / "day_1.png")
     with Image.open(out / "day_1.gif") as gif:
-        assert gif.n_frames == 15
-    assert f"wrote {out / 'day_1.gif'} (15 frames, 3 s)" in result.stdout
+        assert gif.n_frames == 3
+    assert f"wrote {out / 'day_1.gif'} (3 frames, 2 s)" in result.stdout
     # by default into the run folder, and without the GIF when asked
     assert cli("rupart", "day", str(run), "--day", "1", "--no-gif").exit_code == 0
     assert {"day_1.png", "day_1_timeline.png"} <= {p.name for p in run.iterdir()}
@@ -216,7 +233,7 @@ def test_a_delivery_run_with_log_writes_a_day_the_command_draws(cli: Cli,
                  "--set", "workload.length=3", "--out", str(run))
     assert result.exit_code == 0, result.stderr
     log = DayLog.load(run / "day_0.npz")
-    assert len(log.track()) == 30
+    assert len(log.track()) == 30  # a step every 0.1 s of the 3 s day
     drawn = cli("rupart", "day", str(run), "--no-gif")
     assert drawn.exit_code == 0, drawn.stderr
     assert_png(run / "day_0.png")

@@ -2,9 +2,12 @@
 and under which case, when it retrieved and why, how fast it went, and a GIF of the day.
 
 Every picture colours a case the same way (:func:`case_colours`), so the floor plan, the
-timeline and the animation can be read side by side. The world is drawn with the pieces of
-:mod:`cbr_world2d.plot`; matplotlib is imported inside the functions, each figure with its own
-Agg canvas, as there.
+timeline and the animation can be read side by side. A day installs dozens of cases (adapted
+ones get names of their own), more than colours can tell apart: the :data:`SHOWN_CASES`
+installed longest get a colour and a legend entry each, the others share one grey.
+
+The world is drawn with the pieces of :mod:`cbr_world2d.plot`; matplotlib is imported inside
+the functions, each figure with its own Agg canvas, as there.
 """
 
 from __future__ import annotations
@@ -35,8 +38,12 @@ from cbr_world2d.world import World
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-NO_CASE = "0.6"
+NO_CASE = "0.3"
 """The colour of the steps under no named case (the name ``""``)."""
+OTHER_CASES = "0.72"
+"""The colour the cases past the :data:`SHOWN_CASES` longest installed share."""
+SHOWN_CASES = 14
+"""How many cases, those installed longest, get a colour of their own."""
 DOORS = "0.45"
 """The doors in the day's picture, where they are open at some times and shut at others."""
 MARKERS: dict[str, dict[str, Any]] = {
@@ -54,30 +61,30 @@ INCIDENTS = ("impasse", "collision", "stall")
 _PALETTE_SIZE = 20
 
 
-def case_colours(names: Sequence[str]) -> dict[str, Any]:
-    """A colour for each case name: grey for ``""``, else a colour of matplotlib's ``tab20``.
+def case_colours(ranked: Sequence[str], shown: int = SHOWN_CASES) -> dict[str, Any]:
+    """A colour for each case name of ``ranked``, most important first: the first ``shown``
+    names a colour each of matplotlib's ``tab20`` (its greys left out), the others
+    :data:`OTHER_CASES`; the name ``""`` (no case) is :data:`NO_CASE`.
 
     A name's colour is picked by a CRC-32 of the name (Python's ``hash`` of a string changes
     with every process), so a case keeps its colour from picture to picture and from day to
-    day; when two names of ``names`` pick the same colour, the later one in sorted order
-    takes the next free one. Only past twenty named cases do colours repeat.
+    day; when two of the names shown pick the same colour, the later one in sorted order
+    takes the next free one.
     """
     from matplotlib import colormaps
 
     palette = [c for i, c in enumerate(colormaps["tab20"].colors) if i not in (14, 15)]
+    named = [name for name in dict.fromkeys(ranked) if name]
+    colours: dict[str, Any] = dict.fromkeys(named[shown:], OTHER_CASES)
     taken: set[int] = set()
-    colours: dict[str, Any] = {}
-    for name in sorted(set(names)):
-        if not name:
-            colours[name] = NO_CASE
-            continue
+    for name in sorted(named[:shown]):
         slot = zlib.crc32(name.encode()) % len(palette)
-        for probe in range(len(palette)):
-            if (slot + probe) % len(palette) not in taken:
-                slot = (slot + probe) % len(palette)
-                break
-        taken.add(slot)
-        colours[name] = palette[slot]
+        free = next((k % len(palette) for k in range(slot, slot + len(palette))
+                     if k % len(palette) not in taken), slot)
+        taken.add(free)
+        colours[name] = palette[free]
+    if "" in ranked:
+        colours[""] = NO_CASE
     return colours
 
 
@@ -86,18 +93,29 @@ def case_label(name: str) -> str:
     return name or "(no case)"
 
 
-def _used(track: Track) -> list[int]:
-    """The indices of the cases installed at some step, in the order first installed."""
-    _, first = np.unique(track.case, return_index=True)
-    return [int(track.case[i]) for i in sorted(first)]
+class _Cases:
+    """The cases of a day as the pictures show them: ranked by how long each was installed,
+    a colour each (:func:`case_colours`), and legend entries for those shown."""
 
+    def __init__(self, log: DayLog, track: Track) -> None:
+        from matplotlib.colors import to_rgba_array
 
-def _rgba(log: DayLog) -> np.ndarray:
-    """The RGBA colour of each case of ``log.cases``, ``(k, 4)``, to index by a step's case."""
-    from matplotlib.colors import to_rgba_array
-
-    colours = case_colours(log.cases)
-    return to_rgba_array([colours[name] for name in log.cases]).reshape(-1, 4)
+        steps = np.bincount(track.case, minlength=len(log.cases))
+        share = steps / max(len(track), 1)
+        # sorted is stable: cases installed equally long keep the order they were first seen
+        ranked = sorted(range(len(log.cases)), key=lambda i: -steps[i])
+        installed = [i for i in ranked if steps[i]]
+        colours = case_colours([log.cases[i] for i in installed], SHOWN_CASES)
+        self.rgba = to_rgba_array([colours.get(name, OTHER_CASES) for name in log.cases]
+                                  ).reshape(-1, 4)
+        """The RGBA colour of each case of ``log.cases``, ``(k, 4)``, to index by a step's."""
+        self.entries = [(self.rgba[i], f"{case_label(log.cases[i])} ({share[i]:.0%})")
+                        for i in installed[:SHOWN_CASES]]
+        """Legend entries: a colour and a label with the share of the day, longest first."""
+        others = installed[SHOWN_CASES:]
+        if others:
+            self.entries.append((OTHER_CASES, f"{len(others)} other cases "
+                                              f"({sum(share[i] for i in others):.0%})"))
 
 
 def _place(world: World, text: str, x: float, y: float) -> tuple[float, float]:
@@ -116,6 +134,12 @@ def _title(log: DayLog) -> str:
 
 def _marker(kind: str, **extra: Any) -> dict[str, Any]:
     return {"linestyle": "none", "markersize": 8, **MARKERS[kind], **extra}
+
+
+def _incident(kind: str) -> dict[str, Any]:
+    """An incident's mark on the floor: a day may have a hundred impasses, so small and
+    translucent, the path showing through."""
+    return _marker(kind, markersize=5, alpha=0.6)
 
 
 def plot_day(world: World, log: DayLog, path: Path) -> None:
@@ -137,18 +161,15 @@ def plot_day(world: World, log: DayLog, path: Path) -> None:
                                          zorder=3))
         handles.append(Line2D([], [], color=DOORS, linewidth=2.0, linestyle="dotted",
                               label="doors (on schedules)"))
-    colours = _rgba(log)
+    cases = _Cases(log, track)
     if len(track) > 1:
         points = np.column_stack([track.x, track.y])
         ax.add_collection(LineCollection(np.stack([points[:-1], points[1:]], axis=1),
-                                         colors=colours[track.case[:-1]], linewidths=2.0,
+                                         colors=cases.rgba[track.case[:-1]], linewidths=2.0,
                                          zorder=4))
+    handles += [Line2D([], [], color=colour, linewidth=3.0, label=label)
+                for colour, label in cases.entries]
     if len(track):
-        shares = np.bincount(track.case, minlength=len(log.cases)) / len(track)
-        for index in _used(track):
-            handles.append(Line2D([], [], color=colours[index], linewidth=3.0,
-                                  label=f"{case_label(log.cases[index])} "
-                                        f"({shares[index]:.0%})"))
         ax.plot(track.x[0], track.y[0], "^", color="tab:cyan", markeredgecolor="black",
                 markersize=9, zorder=6)
         handles.append(Line2D([], [], linestyle="none", marker="^", color="tab:cyan",
@@ -174,11 +195,11 @@ def plot_day(world: World, log: DayLog, path: Path) -> None:
         handles.append(Line2D([], [], **_marker(kind, markeredgecolor="black"),
                               label=f"message {kind}"))
     for kind in INCIDENTS:
-        spots = np.array([(e.x, e.y) for e in log.events if e.kind == kind],
+        where = np.array([(e.x, e.y) for e in log.events if e.kind == kind],
                          dtype=float).reshape(-1, 2)
-        if spots.shape[0]:
-            ax.plot(spots[:, 0], spots[:, 1], **_marker(kind), zorder=8)
-            handles.append(Line2D([], [], **_marker(kind), label=f"{kind} ({spots.shape[0]})"))
+        if where.shape[0]:
+            ax.plot(where[:, 0], where[:, 1], **_incident(kind), zorder=8)
+            handles.append(Line2D([], [], **_marker(kind), label=f"{kind} ({where.shape[0]})"))
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7,
               framealpha=0.9, borderaxespad=0.0)
     ax.set_title(f"{world.name + ', ' if world.name else ''}{_title(log)}", fontsize=9)
@@ -199,7 +220,8 @@ def _case_band(ax: Axes, log: DayLog, track: Track, end: float) -> None:
     """The installed case over time: a bar per stretch, coloured by case."""
     from matplotlib.patches import Patch
 
-    colours = _rgba(log)
+    cases = _Cases(log, track)
+    colours = cases.rgba
     spans: dict[int, list[tuple[float, float]]] = {}
     for first, past in _runs(track.case):
         stop = float(track.t[past]) if past < len(track) else end
@@ -210,13 +232,12 @@ def _case_band(ax: Axes, log: DayLog, track: Track, end: float) -> None:
     ax.set_yticks([])
     ax.set_ylim(0.0, 1.0)
     ax.set_ylabel("case", rotation=0, ha="right", va="center", fontsize=8)
-    handles = [Patch(facecolor=colours[i], label=case_label(log.cases[i]))
-               for i in _used(track)]
+    handles = [Patch(facecolor=colour, label=label) for colour, label in cases.entries]
     if handles:
         # beside the rows below as well: the other rows explain themselves in their labels
         ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7,
-                  title="installed case", title_fontsize=7, borderaxespad=0.0,
-                  ncols=math.ceil(len(handles) / 24))
+                  title="installed case (share of the day)", title_fontsize=7,
+                  borderaxespad=0.0)
 
 
 def _retrieval_ticks(ax: Axes, log: DayLog) -> None:
@@ -353,14 +374,15 @@ def animate_day(world: World, log: DayLog, path: Path, fps: int = 10,
     track = log.track()
     times = frame_times(track, fps, speedup)
     rows = np.clip(np.searchsorted(track.t, times, side="right") - 1, 0, len(track) - 1)
-    colours = _rgba(log)
+    cases = _Cases(log, track)
+    colours = cases.rgba
 
-    figure = world_figure(world, extra_width=1.8)
+    figure = world_figure(world, extra_width=2.6)
     figure.set_dpi(dpi)
     ax = figure.add_subplot()
     draw_static(ax, world, labels=True)
-    handles = [Line2D([], [], color=colours[i], linewidth=3.0,
-                      label=case_label(log.cases[i])) for i in _used(track)]
+    handles = [Line2D([], [], color=colour, linewidth=3.0, label=label)
+               for colour, label in cases.entries]
     handles += [Line2D([], [], **_marker(kind), label=label) for kind, label in (
         ("message", "open message"), ("delivered", "delivered"), ("missed", "missed"),
         *((k, k) for k in INCIDENTS if log.count(k)))]
@@ -368,8 +390,9 @@ def animate_day(world: World, log: DayLog, path: Path, fps: int = 10,
               borderaxespad=0.0)
     trails = _Trails(ax, track, colours)
     motion = WorldMotion(ax, world)
-    marks = {kind: ax.plot([], [], **_marker(kind, markeredgecolor="black"
-                                             if kind in GOAL_EVENTS else None), zorder=7)[0]
+    marks = {kind: ax.plot([], [], **(_marker(kind, markeredgecolor="black")
+                                      if kind in GOAL_EVENTS else _incident(kind)),
+                           zorder=7)[0]
              for kind in ("message", "delivered", "missed", *INCIDENTS)}
     steer, = ax.plot([], [], linestyle="dotted", color="goldenrod", linewidth=1.2, zorder=6)
     body = Circle((track.x[0], track.y[0]), radius, edgecolor="black", zorder=8)
@@ -387,7 +410,7 @@ def animate_day(world: World, log: DayLog, path: Path, fps: int = 10,
     background = canvas.copy_from_bbox(figure.bbox)
     # the trail is drawn at 0.7 opacity over the white floor
     faded = [0.3 + 0.7 * colour[:3] for colour in colours]
-    palette = gif_palette(figure, [*colours, *faded, "goldenrod", "black",
+    palette = gif_palette(figure, [*colours[:, :3], *faded, "goldenrod", "black",
                                    *(style["color"] for style in MARKERS.values())])
     events = sorted(log.events, key=lambda e: e.t)
 

@@ -484,6 +484,7 @@ class _DayState:
     _history: list[tuple[float, float]] = attrs.field(factory=list)
     _door: tuple[float, bool] | None = None
     _door_t: float = -math.inf
+    """The half-second tick of the doorway ahead kept in ``_door``."""
 
     @property
     def target(self) -> Point | None:
@@ -510,7 +511,7 @@ class _DayState:
         self.route = [goal] if chosen is None else list(chosen)
         self.steps = steps if chosen is not None else ()
         self.route_total = self.remaining(at)
-        self._door_t = -math.inf
+        self._door_t = -math.inf  # a new route: look again
 
     def remaining(self, at: Point) -> float:
         """Metres of route left from ``at``."""
@@ -523,9 +524,11 @@ class _DayState:
         looked at afresh every half second."""
         from cbr_behaviors.situation import door_ahead
 
-        if t - self._door_t >= 0.5:
+        # on a fixed half-second clock, so that looking more often changes nothing
+        tick = math.floor(t / 0.5)
+        if tick != self._door_t:
             self._door = door_ahead(self.sim.world, at, self.route, t) if self.route else None
-            self._door_t = t
+            self._door_t = tick
         return self._door
 
     def situation(self, obs: Observation) -> np.ndarray:

@@ -71,6 +71,12 @@ TRANSIENT_RISK = 0.5
 PERSON_MARGIN = 0.6
 """Metres from a tracked person's centre within which an echo is taken to be that person (a
 person's radius, 0.25 m, and the sonar cone's spread across a metre or two)."""
+DOOR_MARGIN = 0.3
+"""Metres from a doorway's line within which an echo is taken to be its door, shut."""
+WALL_MARGIN = 0.35
+"""Metres from a permanent wall within which an echo is taken to be the wall: the odometry
+drifts by that much between localizations, and an echo of the wall then lands off it. (A cart
+against a wall is not mapped; the robot's routes keep off walls anyway.)"""
 DOOR_NEAR = 1.2
 """Metres: a doorway this near counts as ``door`` in the index's ``map`` feature, close
 enough that passing it takes a doorway's behaviors."""
@@ -85,6 +91,20 @@ class MapChange:
 
     added: int
     removed: int
+
+
+def _off_segments(x: np.ndarray, y: np.ndarray, segments: np.ndarray,
+                  margin: float) -> np.ndarray:
+    """Whether each point ``(x, y)`` lies farther than ``margin`` from every segment of
+    ``segments`` ``(k, 4)``."""
+    if not len(segments):
+        return np.ones(x.shape, dtype=bool)
+    ax, ay, bx, by = (segments[:, i][None, :] for i in range(4))
+    dx, dy = bx - ax, by - ay
+    length = np.maximum(dx * dx + dy * dy, 1e-12)
+    u = np.clip(((x[:, None] - ax) * dx + (y[:, None] - ay) * dy) / length, 0.0, 1.0)
+    gap = np.hypot(x[:, None] - ax - u * dx, y[:, None] - ay - u * dy)
+    return (gap > margin).all(axis=1)
 
 
 def _shape(bounds: tuple[float, float, float, float], cell: float) -> tuple[int, int]:
@@ -190,6 +210,7 @@ class GlobalMap:
     _objects: np.ndarray = attrs.field(init=False, repr=False)
     _offsets: np.ndarray = attrs.field(init=False, repr=False)
     _steps: np.ndarray = attrs.field(init=False, repr=False)
+    _doors: np.ndarray = attrs.field(init=False, repr=False)
     _t: float = attrs.field(default=-math.inf, init=False)
     _version: int = attrs.field(default=0, init=False)
     _permanent: dict[float, np.ndarray] = attrs.field(factory=dict, init=False, repr=False)
@@ -209,6 +230,8 @@ class GlobalMap:
         # distances from the centre at which clearing samples each ray
         self._steps = np.arange(ring.mount_radius, ring.mount_radius + ring.max_range,
                                 self.cell / 2)
+        self._doors = np.array([[*d.a, *d.b] for d in self.world.doors],
+                               dtype=float).reshape(-1, 4)
 
     # --- transient objects ----------------------------------------------------------------
 
@@ -236,11 +259,17 @@ class GlobalMap:
                                ring.mount_radius, self.world.static_segments,
                                self.world.static_discs)
         echo = (ranges < ring.max_range) & (ranges < expected - self.tolerance)
-        if people is not None and len(people) and echo.any():
+        if echo.any():
             reach = ring.mount_radius + ranges
             hx, hy = x + reach * np.cos(theta + angles), y + reach * np.sin(theta + angles)
-            gap = np.hypot(hx[:, None] - people[None, :, 0], hy[:, None] - people[None, :, 1])
-            echo &= ~(gap <= PERSON_MARGIN).any(axis=1)
+            # a shut door is part of the building, not a transient object; so is a wall the
+            # odometry's drift shows a little nearer than the map has it
+            echo &= _off_segments(hx, hy, self._doors, DOOR_MARGIN)
+            echo &= _off_segments(hx, hy, self.world.static_segments, WALL_MARGIN)
+            if people is not None and len(people):
+                gap = np.hypot(hx[:, None] - people[None, :, 0],
+                               hy[:, None] - people[None, :, 1])
+                echo &= ~(gap <= PERSON_MARGIN).any(axis=1)
         # fade before adding, so that a sighting long after the last is new evidence again
         self._evidence[t - self._seen > self.fade] = 0
         if self.clearing:

@@ -271,11 +271,11 @@ class Index:
     plan_conf: float | None = _field("plan-conf")
     behav_conf: float | None = _field("behav-conf")
     front: float | None = _field("front")
-    """The nearest sonar reading within 30 degrees of the heading, over :data:`SONAR_MAX`."""
+    """The nearest sonar reading within 15 degrees of the heading, over :data:`SONAR_MAX`."""
     left: float | None = _field("left")
-    """The nearest reading 30 to 150 degrees to the left, over :data:`SONAR_MAX`."""
+    """The nearest reading 15 to 150 degrees to the left, over :data:`SONAR_MAX`."""
     right: float | None = _field("right")
-    """The nearest reading 30 to 150 degrees to the right, over :data:`SONAR_MAX`."""
+    """The nearest reading 15 to 150 degrees to the right, over :data:`SONAR_MAX`."""
     rear: float | None = _field("rear")
     """The nearest reading more than 150 degrees off the heading, over :data:`SONAR_MAX`."""
     width: float | None = _field("width")

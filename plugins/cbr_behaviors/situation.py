@@ -6,8 +6,8 @@ changes every sonar range at once, and the ``map`` set flips from "empty hallway
 near" whenever any cell within 3 m is occupied. The features here name what a behavior set is
 chosen for, each scaled into [0, 1]:
 
-- the sonar as sector minima (:func:`sectors`): the nearest reading ahead (within 30 degrees of
-  the heading), to the left and right (30 to 150 degrees) and behind, and the free width
+- the sonar as sector minima (:func:`sectors`): the nearest reading ahead (within 15 degrees of
+  the heading), to the left and right (15 to 150 degrees) and behind, and the free width
   across the robot (:func:`free_width`);
 - the nearest person in view (:func:`people_in_view`): the robot's person tracker, as a camera
   or laser leg detector gives one on a real robot, reports the people within
@@ -34,8 +34,10 @@ if TYPE_CHECKING:
     from cbr_world2d.robot import Pose
     from cbr_world2d.world import Door, Point, World
 
-FRONT_ARC = math.radians(30.0)
-"""The beams within this of the heading are ``front``."""
+FRONT_ARC = math.radians(15.0)
+"""The beams within this of the heading are ``front`` (on a Pioneer the two at 10 degrees,
+whose cones reach 25 degrees: in a hallway 2 m wide the walls stand 2.4 m off along them, so
+that ``front`` tells an open way from one blocked ahead)."""
 REAR_ARC = math.radians(150.0)
 """The beams more than this off the heading are ``rear``; those between the arcs are ``left``
 (counter-clockwise) and ``right``."""

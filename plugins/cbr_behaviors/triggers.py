@@ -13,9 +13,9 @@ side of retrieving too often, rather than too seldom."
 the situation with the one at the last retrieval, so a trigger that fired keeps firing until
 the next retrieval. The triggers, in the order :meth:`~ReplanMonitor.check` lists them:
 
-- ``situation``: the situation moved: some feature of :data:`cbr_behaviors.index.SITUATION`
-  (a sector of the sonar, the person in view, the doorway ahead, the progress) differs from its
-  value at the last retrieval by more than ``change`` (004's "sudden change to the raw sonar
+- ``situation``: the situation moved: some feature of :data:`WATCHED` (the way ahead, the
+  free width, the person in view, the doorway ahead) differs from its value at the last
+  retrieval by more than ``change`` (004's "sudden change to the raw sonar
   readings", read as a change of what the readings mean: one walker passing changes every raw
   range, a sonar flicker none of these);
 - ``map``: a snapshot since the last retrieval reported object cells added to or removed from
@@ -54,6 +54,7 @@ from typing import TYPE_CHECKING
 import attrs
 import numpy as np
 
+from cbr_behaviors.index import SITUATION
 from cbr_world2d.pilots.monitor import STUCK
 from cbrcore.options import option
 
@@ -64,6 +65,12 @@ if TYPE_CHECKING:
 TRIGGERS: tuple[str, ...] = ("situation", "map", "message", "plan", "impasse", "location",
                              "period")
 """The trigger names, in the order a check lists those that fired."""
+WATCHED: tuple[str, ...] = ("front", "width", "person", "person-bearing", "closing", "door",
+                            "door-shut")
+"""The situation features whose change fires ``situation``: those that name what a case is
+chosen for. The side and rear readings change with every piece of furniture passed, and the
+progress with every metre driven."""
+_WATCHED = np.array([SITUATION.index(f) for f in WATCHED])
 CRITICAL: frozenset[str] = frozenset({"message", "impasse"})
 """The triggers that fire within the hold after a retrieval."""
 
@@ -94,9 +101,9 @@ class TriggerOptions:
         0.2, "... or when it fell by this much or more since the last retrieval.",
         validator=_POSITIVE)
     map_cells: int = option(
-        4, "'map' fires once this many evidence cells of the global map were added or removed "
-        "since the last retrieval (4: one cart or person a half metre across).",
-        validator=attrs.validators.ge(1))
+        8, "'map' fires once this many evidence cells of the global map were added or removed "
+        "since the last retrieval (8: a cart, or two; single cells come and go with the "
+        "sonar's noise and the odometry's drift).", validator=attrs.validators.ge(1))
     hold: float = option(
         5.0, "Seconds after a retrieval during which only the critical triggers ('message', "
         "'impasse') fire: the installed case acts for a while before it is judged again.",
@@ -207,7 +214,8 @@ class ReplanMonitor:
                 raise ValueError(f"the sonar has {snapshot.sonar.shape[0]} ranges now and had "
                                  f"{base.sonar.shape[0]} at the last retrieval")
             if (snapshot.situation is not None and base.situation is not None
-                    and float(np.max(np.abs(snapshot.situation - base.situation))) > o.change):
+                    and float(np.max(np.abs(snapshot.situation[_WATCHED]
+                                            - base.situation[_WATCHED]))) > o.change):
                 fired.add("situation")
             if (snapshot.status in STUCK and base.status not in STUCK
                     and not snapshot.waiting):

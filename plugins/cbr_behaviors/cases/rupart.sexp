@@ -129,6 +129,14 @@
    ((avoidCollision 50 fast) high)
    ((backOff 20 slow) high)))
 
+; the odometry has drifted: stand and turn so that the map subsystem localizes from the
+; landmarks in view, then go on
+(behavior-case lost
+  (plan-index (loc-conf 0.3))
+  (((localize) high)
+   ((goToPos curr-goal moderate 20) med)
+   ((avoidCollision 40 moderate) high)))
+
 ; --- meta-plans: generic fall-backs when no case matches well --------------------------------
 
 ; move away: back out of where the robot is stuck, into the open

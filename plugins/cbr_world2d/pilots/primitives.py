@@ -566,7 +566,8 @@ class TurnToAngle:
 @attrs.define
 class Localize:
     """``(localize)``: make sensor observations for the localization algorithm: stand still
-    (speed 0) and turn on the spot at :data:`SCAN_RATE`, fit 1, until it has turned
+    (speed 0, a limit: the others do not drive the robot off while it looks) and turn on the
+    spot at :data:`SCAN_RATE`, fit 1, until it has turned
     :data:`SCAN_ANGLE` (counted from the odometry's headings); from then on (until reset) fit
     0. :attr:`cbr_world2d.pilots.BehaviorPilot.localizing` is True while it fits, when the map
     subsystem takes its observations."""
@@ -581,7 +582,7 @@ class Localize:
         self._last = theta
         if self._turned >= SCAN_ANGLE:
             return NOTHING
-        return Proposal(SCAN_RATE, 0.0, 1.0)
+        return Proposal(SCAN_RATE, 0.0, 1.0, limit=True)
 
     def reset(self) -> None:
         self._turned = 0.0
