@@ -1,12 +1,15 @@
-"""benchmarks/rupart_retrieval.py: its cases and queries are full indices as its docstring says,
-a moved query stays near its source, ``nearest`` agrees with the plain Python reference, and a
-tiny run (when CBRkit is installed) writes its outputs with the rankings equal. No timing is
+"""benchmarks/rupart_retrieval.py: its cases and queries are full indices (all 25 features) as
+its docstring says, every feature is weighted, a moved query stays near its source, ``nearest``
+agrees with the plain Python reference, and a tiny run (when CBRkit is installed) writes its
+outputs, both tables, with the rankings equal, which the docs' blocks render. No timing is
 asserted."""
 
 from __future__ import annotations
 
+import importlib
 import importlib.util
 import json
+from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
@@ -17,6 +20,7 @@ from cbr_behaviors.index import (
     FEATURES,
     FRACTIONS,
     SETS,
+    SITUATION,
     Index,
     IndexTable,
     Scales,
@@ -24,8 +28,10 @@ from cbr_behaviors.index import (
     weight_vector,
 )
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "rupart_retrieval.py"
+BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+SCRIPT = BENCHMARKS / "rupart_retrieval.py"
 CASES, QUERIES, SEED = 120, 8, 3
+SIZES = [24, 50, 100]
 
 
 @pytest.fixture(scope="module")
@@ -59,6 +65,15 @@ def test_cases_and_queries_are_full_indices(bench: ModuleType,
     # only stored cases hold variables, as hand-made ones may; a query never does
     assert not any(_has_variable(q) for q in asked)
     assert 0 < sum(map(_has_variable, stored)) < CASES // 2
+    # the situation features are drawn, not left at one value
+    for feature in SITUATION:
+        assert len({data[feature] for data in stored}) == CASES, feature
+
+
+def test_every_feature_is_weighted(bench: ModuleType) -> None:
+    assert set(bench.WEIGHTS) == set(FEATURES)
+    assert all(bench.WEIGHTS[f] == 1.0 for f in SITUATION)
+    assert len(set(bench.WEIGHTS.values())) > 1  # Figure 5's are unequal
 
 
 def test_a_moved_case_stays_near_its_source(bench: ModuleType,
@@ -95,13 +110,21 @@ def test_nearest_agrees_with_the_plain_python_reference(
     assert found["ms_median"] > 0
 
 
-def test_tiny_run_writes_outputs(bench: ModuleType, tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def tiny(bench: ModuleType, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The folder a tiny run wrote its outputs to (CBRkit needed)."""
     pytest.importorskip("cbrkit")
-    result = bench.main(["--cases", str(CASES), "--queries", "6", "--repeats", "1",
-                         "--reference-queries", "3", "--seed", str(SEED),
-                         "--out", str(tmp_path)])
-    written = json.loads((tmp_path / "rupart_retrieval.json").read_text())
+    out = tmp_path_factory.mktemp("rupart_retrieval")
+    bench.main(["--cases", str(CASES), "--queries", "6", "--repeats", "1",
+                "--reference-queries", "3", "--seed", str(SEED),
+                "--sizes", *map(str, SIZES), "--out", str(out)])
+    return out
+
+
+def test_tiny_run_writes_outputs(tiny: Path) -> None:
+    written = json.loads((tiny / "rupart_retrieval.json").read_text())
     assert written["cases"] == CASES and written["queries"] == 6
+    assert set(written["weights"]) == set(FEATURES)
     agreement = written["agreement"]
     assert agreement["best_case_equal"] == agreement["top5_equal"] == "6/6"
     assert agreement["max_similarity_difference"] <= 1e-9
@@ -110,6 +133,45 @@ def test_tiny_run_writes_outputs(bench: ModuleType, tmp_path: Path) -> None:
     best = written["best_distance"]
     assert 0.0 <= best["min"] <= best["median"] <= best["max"] <= 1.0
     assert written["target"]["met"] is False  # 120 cases are not the target's 10,000
-    text = (tmp_path / "rupart_retrieval.md").read_text()
+    assert written["nearest_ms"]["median"] > 0
+    assert [row["cases"] for row in written["by_size"]] == SIZES
+    for row in written["by_size"]:
+        assert row["top5_equal"] == "6/6"
+        assert row["nearest_ms"]["median"] > 0 and row["reference_ms"]["median"] > 0
+    text = (tiny / "rupart_retrieval.md").read_text()
     assert "`IndexTable.nearest`" in text and "CBRkit" in text
-    assert result["nearest_ms"]["median"] > 0
+    tables = [block for block in text.split("\n\n") if block.startswith("|")]
+    assert len(tables) == 2
+    # header, rule, the small sizes, then the whole case base with CBRkit's ratio
+    rows = tables[1].splitlines()[2:]
+    assert [row.split("|")[1].strip() for row in rows] == [*map(str, SIZES), str(CASES)]
+    assert rows[-1].rstrip(" |").endswith("x") and rows[0].rstrip(" |").endswith("-")
+
+
+def test_a_size_at_or_over_the_cases_is_left_to_the_whole_row(bench: ModuleType,
+                                                              tmp_path: Path) -> None:
+    pytest.importorskip("cbrkit")
+    result = bench.main(["--cases", "30", "--queries", "2", "--repeats", "1",
+                         "--reference-queries", "1", "--sizes", "24", "30", "50",
+                         "--out", str(tmp_path)])
+    assert [row["cases"] for row in result["by_size"]] == [24]
+
+
+@pytest.fixture
+def pages(tiny: Path) -> Iterator[ModuleType]:
+    """The docs' figures pages module (what renders a block) reading the tiny run's
+    results."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.syspath_prepend(str(BENCHMARKS))
+        module = importlib.import_module("docfigures.pages")
+        patch.setattr(importlib.import_module("docfigures.results"), "RESULTS", tiny)
+        yield module
+
+
+def test_the_blocks_render_the_tiny_run(pages: ModuleType) -> None:
+    by_size = pages.render("rupart-retrieval-by-size")
+    assert by_size.startswith("| cases | `nearest` median ms |")
+    assert "At the 24, 50 and 100 cases the robot's memory holds" in by_size
+    assert "both find the same five cases on all 6 queries at each size" in by_size
+    for name in ("rupart-retrieval", "rupart-retrieval-reading", "rupart-retrieval-agreement"):
+        assert pages.render(name).strip(), name

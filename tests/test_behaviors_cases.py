@@ -213,7 +213,8 @@ BAD_SEXP = [
      "takes nothing, got (localize now)"),
     ("(alter-strategy s\n  (feature location) (sense closer)\n  (change * speed 1.0))",
      "line 2: alter-strategy s, sense: 'closer' compares the closeness of objects, which "
-     "only sonar and map tell; use 'any' for location"),
+     "only sonar, map, front, left, right, rear, width, person, closing, door tell; use "
+     "'any' for location"),
     ("(alter-strategy s (feature sonar)\n  (change (moveForward) distance 1.0))",
      "line 2: alter-strategy s, change 0 (change (moveForward) distance 1.0): moveForward has "
      "no distance argument"),
@@ -310,9 +311,11 @@ def test_a_malformed_stored_case_names_the_case() -> None:
 def test_the_shipped_memory_holds_the_papers_initial_cases() -> None:
     cases = shipped_cases()
     kinds = Counter(c.to_case().kind for c in cases)
-    assert kinds == {BEHAVIOR: 12, PLAN: 5, META: 3, STRATEGY: 4}
+    # 004: "10-15 behavior cases, 5 planning cases" and "a small set of meta-plans" and of
+    # adaptation strategies
+    assert 10 <= kinds[BEHAVIOR] <= 15 and kinds[PLAN] == 5 and kinds[META] == 3
     strategies = Counter(c.kind for c in cases if isinstance(c, Strategy))
-    assert strategies == {"alter": 3, "merge": 1}
+    assert strategies["alter"] >= 2 and strategies["merge"] == 1
     places = office(0).places
     for case in cases:
         if isinstance(case, PlanCase):
@@ -348,8 +351,9 @@ def test_add_stores_every_case_of_good_files(cli: Cli, tmp_path: Path) -> None:
     result = cli("rupart", "add", str(shipped_path()), str(tmp_path / "figures.yaml"),
                      "--store", store)
     assert result.exit_code == 0, result.stderr
-    assert "added 26 cases (14 behavior_case, 5 plan_case, 3 meta_plan, " \
-           "4 adaptation_strategy)" in result.stdout
+    kinds = Counter(c.to_case().kind for c in (*shipped_cases(), *parse_sexp(FIGURES)))
+    listed = ", ".join(f"{kinds[k]} {k}" for k in (BEHAVIOR, PLAN, META, STRATEGY))
+    assert f"added {kinds.total()} cases ({listed})" in result.stdout
     with SQLiteStore(tmp_path / "cb.sqlite") as sqlite:
         assert sqlite.revision == 1
         stored = [from_case(c) for c in sqlite.cases()]
@@ -368,7 +372,7 @@ def test_add_with_a_bad_file_stores_nothing(cli: Cli, tmp_path: Path) -> None:
                                     "((flyAway) high): unknown behavior 'flyAway'")
     assert "Traceback" not in result.stderr
     with SQLiteStore(tmp_path / "cb.sqlite") as sqlite:
-        assert (sqlite.revision, len(sqlite)) == (1, 24)
+        assert (sqlite.revision, len(sqlite)) == (1, len(shipped_cases()))
 
 
 def test_add_needs_one_store(cli: Cli) -> None:

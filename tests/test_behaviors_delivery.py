@@ -354,10 +354,18 @@ def test_situation_fires_when_a_feature_moved_over_the_threshold() -> None:
     person = calm.copy()
     person[SITUATION.index("person")] = 0.1  # a person 0.4 nearer: over the 0.35
     drift = calm + 0.3  # every feature 0.3 off: none over it
-    assert monitor(situation=calm).check(snap(situation=person)) == ["situation"]
-    assert monitor(situation=calm).check(snap(situation=drift)) == []
+    replan = monitor(situation=calm)
+    # it must stay moved for the settle second
+    assert replan.check(snap(t=1.0, situation=person)) == []
+    assert replan.check(snap(t=1.5, situation=person)) == []
+    assert replan.check(snap(t=2.0, situation=person)) == ["situation"]
+    flicker = monitor(situation=calm)
+    assert flicker.check(snap(t=1.0, situation=person)) == []
+    assert flicker.check(snap(t=1.5, situation=calm)) == []
+    assert flicker.check(snap(t=2.0, situation=person)) == []
+    assert monitor(situation=calm).check(snap(t=3.0, situation=drift)) == []
     # the raw sonar alone fires nothing: a flicker is no change of situation
-    assert monitor(situation=calm).check(snap(situation=calm, sonar=[0.0] * 16)) == []
+    assert monitor(situation=calm).check(snap(t=3.0, situation=calm, sonar=[0.0] * 16)) == []
 
 
 @pytest.mark.parametrize(("event", "name"), [

@@ -93,7 +93,7 @@ def moment(index: Index, plan: str | None = None) -> Moment:
 
 
 def spell(active: float, collisions: int = 0) -> Outcome:
-    report = SpellReport(active, 1.0, collisions, 0, 0)
+    report = SpellReport(active, 2.0, collisions, 0, 0)
     return Outcome(report.good, cost=active, report=report)
 
 
@@ -422,11 +422,11 @@ def test_malformed_counters_count_as_none() -> None:
 #   rate 0.5: sonar e^0.05 = 1.051271, motors e^-0.15 = 0.860708, behaviors e^0.1 = 1.105171,
 #             the other 22 stay 1; mean (22 + 3.017150) / 25 = 1.000686
 #   rate 10:  sonar e^1 = 2.718282, motors e^-3 = 0.049787 clipped to 0.05, behaviors
-#             e^2 = 7.389056; mean (22 + 10.157338) / 25 = 1.286294
+#             e^2 = 7.389056; mean (22 + 10.157338) / 25 = 1.286293517
 WORKED = {0.5: {"sonar": 1.051271 / 1.000686, "motors": 0.860708 / 1.000686,
                 "behaviors": 1.105171 / 1.000686, "other": 1 / 1.000686},
-          10.0: {"sonar": 2.718282 / 1.286294, "motors": 0.05 / 1.286294,
-                 "behaviors": 7.389056 / 1.286294, "other": 1 / 1.286294}}
+          10.0: {"sonar": 2.718281828 / 1.286293517, "motors": 0.05 / 1.286293517,
+                 "behaviors": 7.389056099 / 1.286293517, "other": 1 / 1.286293517}}
 
 
 @pytest.mark.parametrize("rate", sorted(WORKED))

@@ -106,6 +106,8 @@ def _blocks() -> list[Block]:
                world2d.rupart_retrieval_reading),
         _bench("rupart-retrieval-agreement", "rupart_retrieval.json",
                world2d.rupart_retrieval_agreement),
+        _bench("rupart-retrieval-by-size", "rupart_retrieval.md",
+               world2d.rupart_retrieval_by_size),
         _experiment("ros2005-baseline-output", baseline.BASELINE, baseline.baseline_output),
         _experiment("ros2005-baseline-table", baseline.BASELINE, baseline.baseline_table),
         _experiment("ros2005-baseline-reading", baseline.BASELINE, baseline.baseline_reading),

@@ -6,8 +6,8 @@ from __future__ import annotations
 import statistics
 from typing import Any
 
-from .results import FiguresError, bench
-from .wording import all_of, goal, grouped, verdict
+from .results import FiguresError, bench, result_md, table
+from .wording import all_of, goal, grouped, listed, verdict
 
 
 def world2d_tour() -> str:
@@ -139,12 +139,20 @@ def landmarks_retrieval_notes() -> str:
     ])
 
 
+def _loaded(data: dict[str, Any]) -> str:
+    """`` on a loaded machine`` when other work kept at least one CPU busy as the run began
+    (the 1-minute load average), else nothing: results written before the load was recorded
+    say nothing either."""
+    load = data.get("load_average")
+    return " on a loaded machine" if load is not None and load["before"] >= 1.0 else ""
+
+
 def rupart_retrieval_reading() -> str:
     data = bench("rupart_retrieval")
     target = data["target"]
     return (f"Reading against the target, **a median of {goal(target)} ms per "
             f"query over {grouped(data['cases'])} cases: {verdict(target['met'])}** "
-            f"({target['measured']:.2f} ms on a loaded machine). CBRkit takes "
+            f"({target['measured']:.2f} ms{_loaded(data)}). CBRkit takes "
             f"{grouped(round(data['ratio'], -1))} times as long; both return the same five "
             f"cases in the same order on {all_of(data['agreement']['top5_equal'])} queries, and "
             "the table's distances equal the reference's"
@@ -159,3 +167,27 @@ def rupart_retrieval_agreement() -> str:
             f"same five cases in the same order in {same[0]} of {same[1]} queries (largest "
             "difference of similarity "
             f"{data['agreement']['max_similarity_difference']:.1e}).")
+
+
+def rupart_retrieval_by_size() -> str:
+    """The table of retrieval time at the memory sizes the robot holds (table 2 of the
+    results), and what it reads."""
+    data = bench("rupart_retrieval")
+    rows = data.get("by_size")
+    if not rows:
+        raise FiguresError("benchmarks/results/rupart_retrieval.json times no memory sizes "
+                           "(by_size): run benchmarks/rupart_retrieval.py")
+    medians = [row["nearest_ms"]["median"] for row in rows]
+    ratios = [row["reference_over_nearest"] for row in rows]
+    counts = [row["top5_equal"] for row in rows]
+    # every query at every size reads as one phrase; anything less names each size's count
+    same = (f"{all_of(counts[0])} queries at each size" if len(set(counts)) == 1
+            else f"{listed([all_of(c) for c in counts])} queries")
+    low, high = f"{min(medians):.2f}", f"{max(medians):.2f}"
+    took = f"{low} ms" if low == high else f"{low} to {high} ms"
+    return (table(result_md("rupart_retrieval"), 1) + "\n\n"
+            f"At the {listed([str(row['cases']) for row in rows])} cases the robot's memory "
+            f"holds, `nearest` takes a median of {took} per query, {min(ratios):.0f} to "
+            f"{max(ratios):.0f} times less than the plain Python reference, and both find the "
+            f"same five cases on {same}. Over {grouped(data['cases'])} cases CBRkit takes "
+            f"{grouped(round(data['ratio'], -1))} times as long as `nearest`.")

@@ -358,7 +358,7 @@ def _strategy_problems(fields: Mapping[str, Any]) -> list[tuple[str, str]]:
         sense, feature = fields.get("sense", "any"), fields["feature"]
         if sense != "any" and feature not in SENSED:
             problems.append(("sense", f"{sense!r} compares the closeness of objects, which only "
-                                      f"{' and '.join(SENSED)} tell; use 'any' for {feature}"))
+                                      f"{', '.join(SENSED)} tell; use 'any' for {feature}"))
     elif not fields["low"] < fields["high"]:
         problems.append(("low", f"expected low < high, got low {fields['low']!r} and high "
                                 f"{fields['high']!r}"))

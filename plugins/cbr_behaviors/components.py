@@ -71,6 +71,11 @@ class RetrieveOptions:
     location_scale: float = option(
         10.0, "Metres at which the location and task-loc distances reach 1.",
         validator=_POSITIVE)
+    quality_band: float = option(
+        0.01, "Cases whose distances lie within this of each other are told apart by their "
+        "quality (how often their spells went well) rather than by distance: 0.01 breaks near "
+        "ties only; wider, the robot's experience of which case works chooses among the "
+        "cases that match about as well.", validator=_UNIT)
 
     @property
     def scales(self) -> Scales:
@@ -117,15 +122,16 @@ class RupartRetriever:
         failed = tuple(i for behaviors in problem.excluded for i in memory.ids_with(behaviors))
         if "impasse" in problem.triggers:
             failed += memory.ids_with(problem.behaviors)
+        band = o.quality_band
         found = memory.nearest(problem.index, weights, (BEHAVIOR, PLAN), o.candidates, scales,
-                               exclude=failed)
+                               exclude=failed, tie=band)
         if found and all(f.case.kind == PLAN for f in found):
             # the reuser falls back on the nearest behavior case when the plan is in force
             found += memory.nearest(problem.index, weights, (BEHAVIOR,), 1, scales,
-                                    exclude=failed)
+                                    exclude=failed, tie=band)
         if not found or found[0].distance > o.meta_threshold:
             fallback = memory.nearest(problem.index, weights, (META,), o.candidates, scales,
-                                      exclude=failed)
+                                      exclude=failed, tie=band)
             if fallback:
                 found = fallback
         if not found:

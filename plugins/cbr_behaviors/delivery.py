@@ -154,6 +154,7 @@ class _Spell:
     collisions: int
     impasses: int
     delivered: int
+    waited: float
 
 
 class Delivery:
@@ -301,8 +302,10 @@ class Delivery:
             state.goal, state.plan_case = goal, None
             state.plan((obs.pose.x, obs.pose.y), self.planner, (), self.home)
         elif any(e.name in STUCK for e in sim.events):
-            # the plan manager routes again round what the global map holds now
-            state.plan((obs.pose.x, obs.pose.y), self.planner, state.steps, self.home)
+            # the plan manager routes again round what the global map holds now: the same
+            # plan, no new one to re-plan the behaviors for
+            state.plan((obs.pose.x, obs.pose.y), self.planner, state.steps, self.home,
+                       new=False)
         state.advance((obs.pose.x, obs.pose.y), o.waypoint)
         target = state.target if state.target is not None else self.home
         if target != sim.target:
@@ -354,14 +357,15 @@ class Delivery:
             adapted = isinstance(value, InstallBehaviors) and value.adapted is not None
             state.log.retrieval(t, getattr(value, "name", ""), kind, fired, similarity, adapted)
         return _Spell(decision, t, state.to_target(obs), state.collisions,
-                      state.impasses, len(state.goals.delivered))
+                      state.impasses, len(state.goals.delivered), state.door_wait)
 
     def _learn(self, session: Session, state: _DayState, spell: _Spell) -> None:
         sim = state.sim
         report = SpellReport(round(sim.t - spell.started, 4),
                              round(spell.progress_from - state.to_target(sim.observe()), 4),
                              state.collisions - spell.collisions, state.impasses - spell.impasses,
-                             len(state.goals.delivered) - spell.delivered)
+                             len(state.goals.delivered) - spell.delivered,
+                             round(state.door_wait - spell.waited, 4))
         session.learn(spell.decision, Outcome(report.good, cost=report.active, report=report))
 
     def _index(self, state: _DayState, obs: Observation) -> Index:
@@ -490,13 +494,16 @@ class _DayState:
     def target(self) -> Point | None:
         return self.route[0] if self.route else self.goal
 
-    def plan(self, at: Point, planner: Any, via: tuple[str, ...], home: Point) -> None:
+    def plan(self, at: Point, planner: Any, via: tuple[str, ...], home: Point,
+             new: bool = True) -> None:
         """Route from ``at`` to the goal (home when idle), through the places ``via`` of a plan
         case when they are on the way; with no route the goal itself becomes the target.
 
         The adaptation of a plan case (004 leaves its strategies out): its places are kept
         when the route through them is at most :data:`PLAN_SLACK` times as long as the route
-        planned directly, else dropped; a place the world does not have drops them too."""
+        planned directly, else dropped; a place the world does not have drops them too.
+        ``new``: a new high-level plan (a new goal or a plan case), which fires the ``plan``
+        trigger; a route planned again round an obstacle is not one."""
         goal = self.goal if self.goal is not None else home
         world = self.sim.world
         direct = self.gmap.route(planner, at, goal)
@@ -506,7 +513,7 @@ class _DayState:
             if through is not None and (direct is None
                                         or _length(through) <= PLAN_SLACK * _length(direct)):
                 chosen, steps = through, via
-        self.plan_installed = True
+        self.plan_installed = new
         self.passed = at
         self.route = [goal] if chosen is None else list(chosen)
         self.steps = steps if chosen is not None else ()

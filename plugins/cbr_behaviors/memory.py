@@ -107,14 +107,16 @@ class CaseMemory:
                          if c.kind in kinds and c.id not in exclude], dtype=np.int64)
 
     def nearest(self, query: Index, weights: np.ndarray, kinds: Collection[str], k: int,
-                scales: Scales, exclude: Collection[int] = ()) -> list[Found]:
+                scales: Scales, exclude: Collection[int] = (), tie: float = TIE
+                ) -> list[Found]:
         """The ``k`` cases of ``kinds`` nearest ``query`` under ``weights``, best first; near
-        ties (within :data:`~cbr_behaviors.quality.TIE`) go to the case of higher quality."""
+        ties (distances within ``tie``, default :data:`~cbr_behaviors.quality.TIE`) go to the
+        case of higher quality."""
         rows = self.rows(kinds, exclude)
         if not len(rows):
             return []
-        hits = self.table(scales).nearest(query, weights, k + 2, rows=rows)
-        return [self._found(h) for h in _by_quality(hits, self.cases)][:k]
+        hits = self.table(scales).nearest(query, weights, k + 8, rows=rows)
+        return [self._found(h) for h in _by_quality(hits, self.cases, tie)][:k]
 
     def ids_with(self, behaviors: Sequence[object]) -> tuple[int, ...]:
         """The ids of the behavior cases and meta-plans whose behavior set is ``behaviors``."""
@@ -160,12 +162,13 @@ class CaseMemory:
         self._table = None
 
 
-def _by_quality(hits: Sequence[Hit], cases: Sequence[Case]) -> list[Hit]:
-    """``hits`` (best first) with runs of near-equal distances ordered by quality."""
+def _by_quality(hits: Sequence[Hit], cases: Sequence[Case], tie: float) -> list[Hit]:
+    """``hits`` (best first) with runs of distances within ``tie`` of the run's first ordered
+    by quality."""
     out: list[Hit] = []
     group: list[Hit] = []
     for hit in hits:
-        if group and hit.distance - group[0].distance > TIE:
+        if group and hit.distance - group[0].distance > tie:
             out += sorted(group, key=lambda h: -Quality.of(cases[h.row].meta).score())
             group = []
         group.append(hit)

@@ -22,6 +22,9 @@ Point = tuple[float, float]
 GOOD_PROGRESS = 0.5
 """Metres nearer its target a spell must get the robot to count as good (with no collision and
 no impasse): a few seconds of driving, more than the sway of a robot standing still."""
+GOOD_RATE = 0.1
+"""m/s toward the target a spell must average to count as good: half the ``moderate`` speed,
+so that a case that keeps the robot crawling proves worse than one that gets it on."""
 
 
 @attrs.frozen(eq=False)
@@ -70,20 +73,23 @@ class InstallPlan:
 @attrs.frozen
 class SpellReport:
     """How the installed case fared until the next retrieval (or the day's end): seconds it
-    stayed active, metres gained toward the target, collisions and impasses meanwhile, and
-    messages delivered."""
+    stayed active, metres gained toward the target, collisions and impasses meanwhile,
+    messages delivered, and seconds spent waiting before a shut door on the route."""
 
     active: float
     progress: float
     collisions: int
     impasses: int
     delivered: int
+    waited: float = 0.0
 
     @property
     def good(self) -> bool:
         """A spell went well when it had no collision and no impasse and got the robot on: at
-        least :data:`GOOD_PROGRESS` metres nearer its target, or a message delivered. A spell
-        with nothing to do (the robot waiting at home) is not good: what it installed proved
-        nothing."""
+        least :data:`GOOD_PROGRESS` metres nearer its target, and at least
+        :data:`GOOD_RATE` m/s over the time it did not wait before a shut door, or a message
+        delivered. A spell with nothing to do (the robot waiting at home) is not good: what it
+        installed proved nothing; nor is one that crawled."""
+        needed = max(GOOD_PROGRESS, GOOD_RATE * max(0.0, self.active - self.waited))
         return (self.collisions == 0 and self.impasses == 0
-                and (self.progress >= GOOD_PROGRESS or self.delivered > 0))
+                and (self.progress >= needed or self.delivered > 0))

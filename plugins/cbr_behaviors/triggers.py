@@ -15,7 +15,7 @@ the next retrieval. The triggers, in the order :meth:`~ReplanMonitor.check` list
 
 - ``situation``: the situation moved: some feature of :data:`WATCHED` (the way ahead, the
   free width, the person in view, the doorway ahead) differs from its value at the last
-  retrieval by more than ``change`` (004's "sudden change to the raw sonar
+  retrieval by more than ``change``, and has for ``settle`` seconds (004's "sudden change to the raw sonar
   readings", read as a change of what the readings mean: one walker passing changes every raw
   range, a sonar flicker none of these);
 - ``map``: a snapshot since the last retrieval reported object cells added to or removed from
@@ -100,6 +100,10 @@ class TriggerOptions:
     confidence_drop: float = option(
         0.2, "... or when it fell by this much or more since the last retrieval.",
         validator=_POSITIVE)
+    settle: float = option(
+        1.0, "Seconds the situation must stay moved before 'situation' fires: a person "
+        "flickering at the edge of view, or a reading passing a doorframe, fires nothing.",
+        validator=attrs.validators.ge(0.0))
     map_cells: int = option(
         8, "'map' fires once this many evidence cells of the global map were added or removed "
         "since the last retrieval (8: a cart, or two; single cells come and go with the "
@@ -159,6 +163,7 @@ class ReplanMonitor:
         self._base: Snapshot | None = None
         self._events: set[str] = set()
         self._changed = 0
+        self._moved: float | None = None
         self._target: Point | None = None
         # (t, distance to the target) since the last target change or impasse
         self._progress: deque[tuple[float, float]] = deque()
@@ -216,7 +221,12 @@ class ReplanMonitor:
             if (snapshot.situation is not None and base.situation is not None
                     and float(np.max(np.abs(snapshot.situation[_WATCHED]
                                             - base.situation[_WATCHED]))) > o.change):
-                fired.add("situation")
+                if self._moved is None:
+                    self._moved = snapshot.t
+                if snapshot.t - self._moved >= o.settle:
+                    fired.add("situation")
+            else:
+                self._moved = None
             if (snapshot.status in STUCK and base.status not in STUCK
                     and not snapshot.waiting):
                 fired.add("impasse")
@@ -237,4 +247,5 @@ class ReplanMonitor:
         self._base = snapshot
         self._events.clear()
         self._changed = 0
+        self._moved = None
         self._record(snapshot)

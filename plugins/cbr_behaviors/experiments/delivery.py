@@ -60,9 +60,9 @@ before shut doors."""
 BASELINE = "best-fixed"
 
 BEST_FIXED: list[Any] = [
-    [["goToPos", "curr-goal", 40, 20], "high"],
-    [["avoidObstacle", 50, "slow"], "med"],
-    [["avoidCollision", 30, "moderate"], "high"],
+    [["goToPos", "curr-goal", 50, 20], "high"],
+    [["avoidObstacle", 80, "moderate"], "med"],
+    [["avoidCollision", 25, "moderate"], "high"],
 ]
 """The best fixed set of goToPos + avoidObstacle + avoidCollision found on the tuning floors
 (``python benchmarks/rupart_tuning.py``: every combination of goToPos speed, avoidObstacle
