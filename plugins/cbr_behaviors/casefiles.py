@@ -490,9 +490,11 @@ def shipped_cases() -> tuple[AnyCase, ...]:
     return read_cases(shipped_path("sexp"))
 
 
-def export(target: str | os.PathLike[str] | None = None) -> Path:
-    """Write the shipped memory as an exported case base (default: ``cases/rupart.yaml``, what
-    a store's ``initial`` option loads); return where."""
+def export(target: str | os.PathLike[str] | None = None,
+           cases: Iterable[AnyCase] | None = None) -> Path:
+    """Write ``cases`` (default: the shipped memory) as an exported case base (default:
+    ``cases/rupart.yaml``, what a store's ``initial`` option loads); return where."""
     path = Path(target) if target is not None else shipped_path("yaml")
-    files.write_text(path, dump_document(document(shipped_cases()), "yaml"))
+    chosen = shipped_cases() if cases is None else tuple(cases)
+    files.write_text(path, dump_document(document(chosen), "yaml"))
     return path

@@ -105,12 +105,14 @@ class TriggerOptions:
         "flickering at the edge of view, or a reading passing a doorframe, fires nothing.",
         validator=attrs.validators.ge(0.0))
     map_cells: int = option(
-        8, "'map' fires once this many evidence cells of the global map were added or removed "
-        "since the last retrieval (8: a cart, or two; single cells come and go with the "
-        "sonar's noise and the odometry's drift).", validator=attrs.validators.ge(1))
+        12, "'map' fires once this many evidence cells of the global map were added or removed "
+        "since the last retrieval (12: a cart or two seen from a few sides; single cells come "
+        "and go with the sonar's noise and the odometry's drift).",
+        validator=attrs.validators.ge(1))
     hold: float = option(
-        5.0, "Seconds after a retrieval during which only the critical triggers ('message', "
-        "'impasse') fire: the installed case acts for a while before it is judged again.",
+        12.0, "Seconds after a retrieval during which only the critical triggers ('message', "
+        "'impasse') fire: the installed case acts for a while before it is judged again (its "
+        "avoid behaviors meet what comes up meanwhile).",
         validator=attrs.validators.ge(0.0))
     period: float = option(
         20.0, "Seconds since the last retrieval after which 'period' fires when nothing else "

@@ -230,9 +230,13 @@ class Odometry:
 
     Each update measures the true move since the last one (the displacement ``ds`` in the
     robot's frame and the turn ``dtheta``) scaled by ``1 + noise_v * N(0, 1)`` and
-    ``1 + noise_w * N(0, 1)`` and applies it to the estimated :attr:`pose`. The variance of
-    the position error grows by ``(noise_v ds)^2`` plus ``ds^2`` times the heading variance,
-    which grows by ``(noise_w dtheta)^2``; :attr:`confidence` is
+    ``1 + noise_w * N(0, 1)`` and applies it to the estimated :attr:`pose`. The error's
+    variance is propagated as an extended Kalman filter does along the path: the along-track
+    variance grows by ``(noise_v ds)^2``; the heading variance ``H`` by ``(noise_w dtheta)^2``;
+    the cross-track error ``c`` carries the heading error along, so that with ``C`` its
+    covariance with the heading, ``var(c) += 2 ds C + ds^2 H`` and ``C += ds H`` (a heading error
+    made early pushes the estimate sideways for the rest of the way, which variances added step
+    by step as if independent would miss). :attr:`confidence` is
     ``1 / (1 + variance / confidence_scale^2)``: 1 without noise or right after
     :meth:`reset`, halved when the error's standard deviation reaches ``confidence_scale``
     metres.
@@ -250,13 +254,15 @@ class Odometry:
     _theta: float = attrs.field(default=0.0, init=False)
     _variance: float = attrs.field(default=0.0, init=False)
     _heading_variance: float = attrs.field(default=0.0, init=False)
+    _cross: float = attrs.field(default=0.0, init=False)
+    """The covariance of the cross-track error with the heading error."""
     _speed: float = attrs.field(default=0.0, init=False)
     _turn_rate: float = attrs.field(default=0.0, init=False)
 
     def reset(self, pose: Pose | RobotState) -> None:
         """Start dead reckoning from ``pose``, known exactly."""
         self._x, self._y, self._theta = float(pose.x), float(pose.y), float(pose.theta)
-        self._variance = self._heading_variance = 0.0
+        self._variance = self._heading_variance = self._cross = 0.0
         self._speed = self._turn_rate = 0.0
 
     @property
@@ -300,7 +306,9 @@ class Odometry:
             dtheta_m = dtheta * (1.0 + self.noise_w * e_w)
             ds = math.hypot(forward, left)
             self._heading_variance += (self.noise_w * dtheta) ** 2
-            self._variance += (self.noise_v * ds) ** 2 + ds * ds * self._heading_variance
+            self._variance += ((self.noise_v * ds) ** 2 + 2.0 * ds * self._cross
+                               + ds * ds * self._heading_variance)
+            self._cross += ds * self._heading_variance
         else:
             scale = 1.0
             dtheta_m = dtheta

@@ -75,9 +75,10 @@ thresholds, the index weights) was tuned on; the experiment reports on others.""
 
 def arm_config(arm: str, seed: int, *, days: int, length: float,
                casebase: Path | None = None, world: dict[str, Any] | None = None,
-               log: bool = False) -> dict[str, Any]:
-    """The configuration of ``arm`` (one of :data:`ARMS`) for one seed's days on ``world``
-    (default: the ``office_floor`` of the seed)."""
+               log: bool = False, memory: Path | None = None) -> dict[str, Any]:
+    """The configuration of ``arm`` (one of :data:`ARMS`, or :data:`ADAPTING`) for one seed's
+    days on ``world`` (default: the ``office_floor`` of the seed), its case base starting from
+    ``memory`` (default: the shipped memory)."""
     config: dict[str, Any] = {
         "seed": seed,
         "world": world or {"use": "world2d_generated", "kind": "office_floor"},
@@ -91,22 +92,34 @@ def arm_config(arm: str, seed: int, *, days: int, length: float,
         elif arm == "potential-field":
             config["pilot"] = "potential_field"
         return config
-    store: Any = {"use": "memory", "initial": str(shipped_path("yaml"))}
+    initial = str(memory or shipped_path("yaml"))
+    store: Any = {"use": "memory", "initial": initial}
     if casebase is not None:
-        store = {"use": "sqlite", "path": str(casebase), "initial": str(shipped_path("yaml"))}
+        store = {"use": "sqlite", "path": str(casebase), "initial": initial}
     config.update({"casebase": store, "retrieve": "rupart", "reuse": "rupart"})
     if arm == "cbr":
         config["reuse"] = {"use": "rupart", "adapt": False}
         return config
-    config.update({"retain": ["rupart_cases"], "forget": ["rupart_quality"]})
+    if arm == ADAPTING:
+        return config
+    # learning arms let what the robot has learned of each case choose among near matches
+    config.update({"retain": ["rupart_cases"], "forget": ["rupart_quality"],
+                   "retrieve": {"use": "rupart", "quality_band": QUALITY_BAND}})
     if arm == "cbr-learning":
         return config
     if arm == "learned-weights":
         config["retain"] = ["rupart_cases", "rupart_weights"]
-        config["retrieve"] = {"use": "rupart", "learned_weights": True}
+        config["retrieve"]["learned_weights"] = True
         return config
     raise ValueError(f"unknown arm {arm!r}; expected one of {', '.join(ARMS)}")
 
+
+ADAPTING = "cbr-adapting"
+"""The ablation's arm: CBR with adaptation and nothing learned, so that a strategy's effect is
+its own."""
+QUALITY_BAND = 0.05
+"""The learning arms' ``quality_band``: among the cases within this of the nearest, the one whose
+spells went best is installed."""
 
 EMPTY_FLOOR = {"use": "world2d_generated", "kind": "office", "people": 0, "objects": 0,
                "doors_open": True}
@@ -152,8 +165,8 @@ class DeliveryExperiment:
     """The six arms over seeds (see the module docstring)."""
 
     SIZES: ClassVar[dict[str, dict[str, float]]] = {
-        "ci": {"seeds": 2, "days": 2, "length": 120.0},
-        "full": {"seeds": 10, "days": 5, "length": 1800.0},
+        "ci": {"seeds": 2, "days": 2, "length": 120.0, "ablation_seeds": 1},
+        "full": {"seeds": 10, "days": 5, "length": 1800.0, "ablation_seeds": 10},
     }
 
     def __init__(self, options: object, ctx: Context) -> None:
@@ -166,10 +179,15 @@ class DeliveryExperiment:
         days, length = int(plan["days"]), float(plan["length"])
         jobs = [("floors", arm, seed) for seed in seeds for arm in ARMS]
         jobs += [("empty", arm, 0) for arm in EMPTY_ARMS]
+        memories = ablation_memories(out_dir.resolve() / "memories")
+        ablated = seeds[:int(plan["ablation_seeds"])]
+        jobs += [("ablation", variant, seed) for seed in ablated for variant in memories]
 
         def config(part: str, arm: str, seed: int) -> dict[str, Any]:
             if part == "empty":
                 return arm_config(arm, seed, days=1, length=length, world=EMPTY_FLOOR)
+            if part == "ablation":
+                return arm_config(ADAPTING, seed, days=1, length=length, memory=memories[arm])
             return arm_config(arm, seed, days=days, length=length)
 
         # every arm and seed is a run of its own: spread over processes, the results the same
@@ -193,8 +211,10 @@ class DeliveryExperiment:
                                             - per_day[arm][s][0]["delivered"] for s in seeds])}
                     for arm in LEARNING}
         empty = {arm: found["empty", arm, 0][0] for arm in EMPTY_ARMS}
+        ablation = _ablation(found, list(memories), ablated)
         results = {"seeds": seeds, "days": days, "length": length, "summary": summary,
                    "paired": paired, "learning": learning, "empty": empty,
+                   "ablation": ablation, "ablation_seeds": ablated,
                    "per_seed": per_seed,
                    "per_day": {arm: [[row["delivered"] for row in per_day[arm][s]]
                                      for s in seeds] for arm in ARMS},
@@ -202,6 +222,42 @@ class DeliveryExperiment:
                    "configs": {arm: arm_config(arm, seeds[0], days=days, length=length)
                                for arm in ARMS}}
         return ExperimentResult(results=results, table=table(results))
+
+
+ALL_STRATEGIES = "all strategies"
+
+
+def ablation_memories(folder: Path) -> dict[str, Path]:
+    """The shipped memory with every adaptation strategy, and without each in turn, written as
+    case bases into ``folder``: variant name -> file."""
+    from cbr_behaviors.casefiles import export, shipped_cases
+    from cbr_behaviors.cases import Strategy
+
+    cases = shipped_cases()
+    names = [c.name for c in cases if isinstance(c, Strategy)]
+    folder.mkdir(parents=True, exist_ok=True)
+    variants = {ALL_STRATEGIES: shipped_path("yaml")}
+    for name in names:
+        variants[f"without {name}"] = export(folder / f"without-{name}.yaml",
+                                             [c for c in cases if c.name != name])
+    return variants
+
+
+def _ablation(found: dict[tuple[str, str, int], list[dict[str, float]]], variants: list[str],
+              seeds: list[int]) -> dict[str, Any]:
+    """Per variant: delivered, collisions, busy speed and adapted cases a day (mean ± sd over
+    the seeds), and the effect of the strategy left out, the full memory less the variant,
+    paired per seed."""
+    rows = {v: [found["ablation", v, s][0] for s in seeds] for v in variants}
+    table: dict[str, Any] = {}
+    for variant in variants:
+        table[variant] = {m: spread([r[m] for r in rows[variant]])
+                          for m in ("delivered", "collisions", "busy_speed", "adapted")}
+        if variant != ALL_STRATEGIES:
+            table[variant]["effect"] = interval([
+                a["delivered"] - b["delivered"]
+                for a, b in zip(rows[ALL_STRATEGIES], rows[variant], strict=True)])
+    return table
 
 
 def _mean_day(rows: list[dict[str, float]]) -> dict[str, float]:
@@ -265,4 +321,15 @@ def table(results: dict[str, Any]) -> str:
     for arm, row in results["empty"].items():
         lines.append(f"| {arm} | {row['messages']:.0f} | {row['delivered']:.0f} | "
                      f"{row['busy_speed']:.3f} |")
+    ablated = results["ablation_seeds"]
+    lines += ["", f"Adaptation strategies left out one at a time ({ADAPTING}: adaptation, "
+              f"nothing learned; floors {ablated[0]} to {ablated[-1]}, the first day); the "
+              "effect of a strategy is the full memory's deliveries less those without it, "
+              "paired per floor:", "",
+              "| memory | delivered | collisions | busy m/s | adapted | effect on delivered |",
+              "|---|---|---|---|---|---|"]
+    for variant, row in results["ablation"].items():
+        effect = _interval(row["effect"]) if "effect" in row else "-"
+        lines.append(f"| {variant} | {_cell(row['delivered'])} | {_cell(row['collisions'])} | "
+                     f"{_cell(row['busy_speed'], 3)} | {_cell(row['adapted'], 1)} | {effect} |")
     return "\n".join(lines) + "\n"
