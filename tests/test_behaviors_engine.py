@@ -191,6 +191,41 @@ def test_meta_plans_only_when_the_best_case_is_farther_than_the_threshold(
     assert [m.similarity for m in proposal.retrieval.matches] == pytest.approx(similarities)
 
 
+def test_sets_that_reached_an_impasse_lately_stay_out_of_retrieval(
+        make: Callable[..., Engine]) -> None:
+    engine = make(retrieve={"meta_threshold": 0.5})
+    behaviors = tuple(OPEN.behaviors)
+    # open is the best at 0.2; excluded, crowd (0.4) leads
+    problem = Moment(0.0, ("plan",), QUERY, None, None, (), None, excluded=(behaviors,))
+    assert names(engine.solve(problem))[0] == "crowd"
+    # the impasse's own retrieval leaves out the set in force, as before
+    stuck = Moment(0.0, ("impasse",), QUERY, None, None, behaviors, None)
+    assert "open" not in names(engine.solve(stuck))
+
+
+def _proven(engine: Engine) -> Engine:
+    """``engine`` with open's three spells gone badly and crowd's three well."""
+    store = engine.casebase
+    assert store is not None
+    with store.transaction():
+        for name, good in (("open", 0), ("crowd", 3)):
+            case = store.get(IDS[name])
+            store.replace(attrs.evolve(case, meta={**case.meta,
+                                                   **Quality(3, 3, good, 30.0).to_meta()}))
+    return engine
+
+
+def test_the_quality_band_lets_experience_choose_among_near_matches(
+        make: Callable[..., Engine]) -> None:
+    # open (0.2) and crowd (0.4) lie 0.2 apart: a band of 0.25 takes them as one group, and
+    # crowd, whose spells went well, comes first, nearer or not
+    wide = {"quality_band": 0.25, "meta_threshold": 0.5}
+    assert names(_proven(make(retrieve=wide)).solve(moment(QUERY)))[:2] == ["crowd", "open"]
+    # the default band breaks near ties only
+    narrow = {"meta_threshold": 0.5}
+    assert names(_proven(make(retrieve=narrow)).solve(moment(QUERY)))[:2] == ["open", "crowd"]
+
+
 REWEIGHED = {"motors": 4.0, "map": 0.0, "location": 0.0}
 # open (0.1 + 4 * 0.5 + 0) / (1 + 4 + 1) = 0.35; crowd 0.2 / 1 = 0.2 (map and location weigh
 # nothing); route (0 * 1 + 1 * 1/3) / (0 + 1) = 1/3: crowd, route, open

@@ -39,9 +39,9 @@
 (behavior-case crowded-hallway
   (plan-index (front 0.1) (left 0.1) (right 0.1) (width 0.5) (person 0.2))
   (((followWall curr-head) med)
-   ((moveForward mod-fast) med)
-   ((slowAvoid 50 slow) med-high)
-   ((avoidCollision 25 fast) high)
+   ((moveForward moderate) med)
+   ((slowAvoid 80 slow) med-high)
+   ((avoidCollision 35 fast) high)
    ((goToPos curr-goal 40 20) med)
    ((backOff 25 slow) high)))
 
@@ -105,7 +105,7 @@
 ; at an open doorway on the route: head for its waypoints on the axis, let the jambs come close
 (behavior-case doorway
   (plan-index (door 0.12) (door-shut 0.0) (person 1.0))
-  (((goToPos curr-goal 40 10) high)
+  (((goToPos curr-goal 30 10) high)
    ((avoidCollision 15 moderate) med)
    ((backOff 10 slow) high)))
 
@@ -127,9 +127,9 @@
 ; a passage barely wider than the robot: straight on, slowly, collisions avoided late
 (behavior-case narrow-passage
   (plan-index (width 0.35) (person 1.0) (door 1.0))
-  (((goToPos curr-goal 40 20) high)
-   ((avoidCollision 12 slow) high)
-   ((backOff 10 slow) high)))
+  (((goToPos curr-goal 30 20) high)
+   ((avoidCollision 18 moderate) high)
+   ((backOff 12 slow) high)))
 
 ; near the goal: slower, precise, close obstacles allowed
 (behavior-case near-the-goal
