@@ -81,8 +81,8 @@ def test_route_fields_match_a_brute_force_dijkstra(case: tuple) -> None:
     fields = route_fields(blocked, cell, origin, points)
     assert set(fields) == set(points)
     for name, (x, y) in points.items():
-        cx = int(math.floor((x - origin[0]) / cell))
-        cy = int(math.floor((y - origin[1]) / cell))
+        cx = math.floor((x - origin[0]) / cell)
+        cy = math.floor((y - origin[1]) / cell)
         expected = brute_force(blocked, cell, (cx, cy))
         field = fields[name]
         assert field.shape == blocked.shape

@@ -174,7 +174,8 @@ def indices(draw: st.DrawFn) -> Index:
 
 
 @given(st.lists(indices(), min_size=1, max_size=12), indices(),
-       st.lists(st.sampled_from([0.0, 0.5, 1.0, 3.0]), min_size=len(FEATURES), max_size=len(FEATURES)),
+       st.lists(st.sampled_from([0.0, 0.5, 1.0, 3.0]), min_size=len(FEATURES),
+                max_size=len(FEATURES)),
        st.floats(1.0, 30.0))
 @settings(max_examples=60, deadline=None)
 def test_table_equals_reference(cases: list[Index], query: Index, weights: list[float],

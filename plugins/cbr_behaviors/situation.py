@@ -21,6 +21,7 @@ chosen for, each scaled into [0, 1]:
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
@@ -102,7 +103,8 @@ class PersonSeen:
 
 def people_in_view(world: World, true: Pose, believed: Pose, t: float, dt: float,
                    robot_v: float, reach: float = PERSON_REACH) -> list[PersonSeen]:
-    """The people within ``reach`` of the robot's rim-to-rim that no wall or shut door hides,
+    """The people whose rim lies within ``reach`` of the robot's centre and whom no wall or shut
+    door hides,
     nearest first. ``true`` is where the robot is (the tracker measures from it), ``believed``
     where it thinks it is (the positions are reported in its frame), ``robot_v`` its speed:
     the closing speed is the robot's and the person's velocities along the line between
@@ -126,8 +128,9 @@ def people_in_view(world: World, true: Pose, believed: Pose, t: float, dt: float
         if not visible(true.x, true.y, px, py, segments):
             continue
         ux, uy = dx / centre, dy / centre
-        qx, qy = mover.position(max(0.0, t - dt))
-        person_v = ((px - qx) * ux + (py - qy) * uy) / dt if dt > 0 else 0.0
+        before = max(0.0, t - dt)
+        qx, qy = mover.position(before)
+        person_v = ((px - qx) * ux + (py - qy) * uy) / (t - before) if t > before else 0.0
         closing = robot_v * (heading[0] * ux + heading[1] * uy) - person_v
         bearing = math.atan2(dy, dx) - true.theta
         bearing = (bearing + math.pi) % (2.0 * math.pi) - math.pi
@@ -157,20 +160,25 @@ def door_ahead(world: World, at: Point, route: Sequence[Point], t: float,
     sees once the doorway's centre is in line of sight."""
     from cbr_world2d.geometry import visible
 
-    legs = list(zip([at, *route[:-1]], route, strict=True))
-    for a, b in legs:
+    for a, b in itertools.pairwise([at, *route]):
         if math.dist(at, a) > reach:
             return None
-        for door in world.doors:
-            centre = ((door.a[0] + door.b[0]) / 2, (door.a[1] + door.b[1]) / 2)
-            if not (_crosses(a, b, door) or math.dist(b, centre) < 0.05):
-                continue
+        # of the doorways this leg passes, the nearest its start
+        passed = [door for door in world.doors
+                  if _crosses(a, b, door) or math.dist(b, _centre(door)) < 0.05]
+        if passed:
+            door = min(passed, key=lambda d: math.dist(a, _centre(d)))
+            centre = _centre(door)
             distance = math.dist(at, centre)
             if distance > reach:
                 return None
             seen = visible(at[0], at[1], centre[0], centre[1], world.static_segments)
             return distance, bool(seen and not door.is_open(t))
     return None
+
+
+def _centre(door: Door) -> Point:
+    return ((door.a[0] + door.b[0]) / 2, (door.a[1] + door.b[1]) / 2)
 
 
 def progress(remaining: float, total: float) -> float:

@@ -15,9 +15,9 @@ the next retrieval. The triggers, in the order :meth:`~ReplanMonitor.check` list
 
 - ``situation``: the situation moved: some feature of :data:`WATCHED` (the way ahead, the
   free width, the person in view, the doorway ahead) differs from its value at the last
-  retrieval by more than ``change``, and has for ``settle`` seconds (004's "sudden change to the raw sonar
-  readings", read as a change of what the readings mean: one walker passing changes every raw
-  range, a sonar flicker none of these);
+  retrieval by more than ``change``, and has for ``settle`` seconds (004's "sudden change to
+  the raw sonar readings", read as a change of what the readings mean: one walker passing
+  changes every raw range, a sonar flicker none of these);
 - ``map``: a snapshot since the last retrieval reported object cells added to or removed from
   the global map;
 - ``message``: a snapshot since the last retrieval reported a new critical message;

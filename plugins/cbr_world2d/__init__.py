@@ -47,7 +47,7 @@ def world_file(options: WorldFileOptions, ctx: Context) -> World:
 
 def _office_only(instance: GeneratedWorldOptions, attribute: attrs.Attribute,
                  value: object) -> None:
-    if value not in (None, False) and instance.kind not in OFFICES:
+    if value is not None and value is not False and instance.kind not in OFFICES:
         raise ValueError(f"'{attribute.name}' is an option of the office floors "
                          f"({', '.join(OFFICES)}), not of kind {instance.kind!r}")
 

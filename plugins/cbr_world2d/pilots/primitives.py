@@ -355,8 +355,9 @@ class BackOff:
             if behind <= REAR_ROOM:
                 return NOTHING
             left, right = self._sides(ranges, angles, SIDE_ARC)
-            # backing up while turning clockwise swings the nose left, toward the freer side
-            self._since, self._turn = obs.t, (-1.0 if left >= right else 1.0)
+            # the heading turns with the turn rate whichever way the robot drives: turning
+            # counter-clockwise while backing up points the nose left, toward the freer side
+            self._since, self._turn = obs.t, (1.0 if left >= right else -1.0)
         if (nearest >= BACK_CLEAR * self.distance or obs.t - self._since >= BACK_TIME
                 or _rear(ranges, angles) <= REAR_ROOM):
             self._since, self._rest_until = None, obs.t + BACK_REST
