@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from cbr_behaviors.index import (
     ATTRIBUTES,
     FEATURES,
+    SITUATION,
     Index,
     IndexDataError,
     IndexTable,
@@ -163,6 +164,7 @@ VALUES = {
     "loc-conf": UNIT,
     "plan-conf": UNIT,
     "behav-conf": UNIT,
+    **{f: UNIT for f in SITUATION},
 }
 
 

@@ -388,38 +388,58 @@ def test_ranges_and_lists_read_as_prose(figures: ModuleType) -> None:
     assert wording.pm({"mean": None, "std": None}) == "-"
 
 
-def _delivery(arms: dict[str, tuple[float, float, float, float]]) -> dict[str, Any]:
-    """Results of rupart-delivery whose arms have (delivered, missed, collisions, contacts)."""
+def _delivery(delivered: dict[str, float], collisions: dict[str, float], *,
+              gain: tuple[float, float], rate: float, stall: float,
+              empty: float) -> dict[str, Any]:
+    """Results of rupart-delivery: the arms' deliveries and collisions a day, the learning
+    arms' paired gain (mean, lower bound), the CBR arms' retrievals a minute and longest stall,
+    and what the CBR arms deliver on the empty floor (of 17)."""
     def spread(mean: float) -> dict[str, float]:
         return {"mean": mean, "std": 0.1, "min": mean, "max": mean}
 
-    return {"seeds": [0, 1, 2], "days": 2, "length": 1800.0, "summary": {
-        arm: {"delivered": spread(d), "missed": spread(m), "collisions": spread(c),
-              "contacts": spread(k), "mean_delivery_time": spread(100.0)}
-        for arm, (d, m, c, k) in arms.items()}}
+    arms = ("fixed", "best-fixed", "potential-field", "cbr", "cbr-learning", "learned-weights")
+    summary = {arm: {"delivered": spread(delivered.get(arm, 1.0)),
+                     "collisions": spread(collisions.get(arm, 1.0)),
+                     "retrievals_per_minute": spread(rate), "median_install": spread(12.0),
+                     "longest_stall": spread(stall)} for arm in arms}
+    base = delivered["best-fixed"]
+    paired = {arm: {"delivered": {"mean": delivered.get(arm, 1.0) - base,
+                                  "low": delivered.get(arm, 1.0) - base - 0.5,
+                                  "high": delivered.get(arm, 1.0) - base + 0.5}}
+              for arm in arms if arm != "best-fixed"}
+    learning = {arm: {"first": spread(10.0), "last": spread(10.0 + gain[0]),
+                      "gain": {"mean": gain[0], "low": gain[1], "high": gain[0] + 1.0}}
+                for arm in ("cbr-learning", "learned-weights")}
+    empty = {arm: {"messages": 17.0, "delivered": empty if arm != "best-fixed" else 16.0,
+                   "busy_speed": 0.25} for arm in ("best-fixed", "cbr", "cbr-learning")}
+    return {"seeds": list(range(10)), "days": 5, "length": 1800.0, "summary": summary,
+            "paired": paired, "learning": learning, "empty": empty,
+            "tuning_seeds": [100, 105]}
 
 
-def test_the_delivery_reading_draws_its_conclusions_from_the_figures(
+def test_the_delivery_reading_states_each_target_against_the_figures(
         figures: ModuleType, monkeypatch: pytest.MonkeyPatch) -> None:
-    better = _delivery({"fixed": (2, 14, 2.0, 30), "cbr": (5, 11, 1.0, 90),
-                        "adaptive": (4, 12, 0.5, 80), "learned-weights": (4, 11, 0.4, 70)})
     delivery = figures.rupart_experiments
-    monkeypatch.setattr(delivery, "delivery", lambda: better)
+    good = _delivery({"best-fixed": 10.0, "cbr": 12.0, "cbr-learning": 13.0},
+                     {"best-fixed": 2.0, "cbr": 1.0, "cbr-learning": 1.5},
+                     gain=(1.0, 0.2), rate=5.5, stall=40.0, empty=16.0)
+    monkeypatch.setattr(delivery, "delivery", lambda: good)
     reading = delivery.delivery_reading()
-    assert "fewer collisions of the robot's (0.50 against 2.00 a day)" in reading
-    assert "not established" not in reading  # the differences exceed the spread of 0.1
-    assert "`cbr` delivers most (5.0 a day" in reading
-    assert "**Learned weights** gain over fixed weights" in reading
-    assert "All four miss most deadlines" in reading
-    worse = _delivery({"fixed": (9, 2, 0.5, 30), "cbr": (5, 3, 1.0, 20),
-                       "adaptive": (4, 3, 1.5, 80), "learned-weights": (10, 1, 2.0, 70)})
-    monkeypatch.setattr(delivery, "delivery", lambda: worse)
+    # 13 / 10 = 1.30 >= 1.25 with the interval above 0
+    assert "13.00 against 10.00 messages delivered on time a day, 1.30 times" in reading
+    assert "**not met**" not in reading
+    assert "at most 5.5 retrievals a minute (target 6: met)" in reading
+    poor = _delivery({"best-fixed": 10.0, "cbr": 9.0, "cbr-learning": 11.0},
+                     {"best-fixed": 1.0, "cbr": 1.0, "cbr-learning": 2.0},
+                     gain=(0.4, -0.3), rate=7.0, stall=90.0, empty=12.0)
+    monkeypatch.setattr(delivery, "delivery", lambda: poor)
     reading = delivery.delivery_reading()
-    assert "this run does not show both" in reading
-    assert "`learned-weights` delivers most (10.0 a day" in reading
-    assert "people reach them more often" not in reading  # cbr has fewer contacts than fixed
-    assert "**Learned weights** show no gain" in reading
-    assert "miss most deadlines" not in reading
+    assert "1.10 times as many (target 1.25 for `cbr-learning`, above 1 for `cbr`: " \
+           "**not met**)" in reading
+    assert "collisions of the robot's 2.00 against 1.00 (**not met**)" in reading
+    assert "(target 6: **not met**)" in reading and "(target 60: **not met**)" in reading
+    assert "(target: above 0, **not met**)" in reading
+    assert "15 of 17 at 0.2 m/s: **not met**" in reading
 
 
 def test_the_first_diversion_is_named_by_the_nearest_landmark(figures: ModuleType) -> None:

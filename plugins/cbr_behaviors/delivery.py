@@ -3,27 +3,34 @@
 One robot (a Pioneer 2 DX with noisy odometry) spends ``days`` simulated days on the configured
 2D world. Messages arrive at seeded random times (:mod:`cbr_behaviors.messages`) and become
 navigation goals; the goal manager (:mod:`cbr_behaviors.goals`) picks the one to serve, gives
-up those that can no longer be saved and serves pending ones on the way. Three parts run side
-by side as in 004 Figure 2:
+up those that can no longer be saved (judged by the route's length over the speed the robot
+has made, :mod:`cbr_behaviors.eta`) and serves pending ones on the way. Three parts run side by
+side as in 004 Figure 2:
 
 - the *behavior manager*: the ``behaviors`` pilot executing the installed behavior set, which
   keeps running while re-planning happens;
 - the *plan manager*: the current goal's route, planned on the rasterised global map with the
   ``planner`` grid solver (:mod:`cbr_behaviors.globalmap`), its next waypoint the behaviors'
-  target; the global map holds the transient objects the sonar reports until they fade;
+  target; the global map holds the transient objects the sonar reports until they fade, but
+  not the people the robot's person tracker sees (:mod:`cbr_behaviors.situation`);
 - *action selection* (004 Figure 3): the re-planning triggers (:mod:`cbr_behaviors.triggers`)
-  consult the engine with a :class:`~cbr_behaviors.moment.Moment`, the index of Figure 5 filled
-  in from the simulation. A behavior case or meta-plan is installed at once; a plan case has
-  the plan manager route through its places (deliberative re-planning).
+  consult the engine with a :class:`~cbr_behaviors.moment.Moment`, the index of Figure 5 and
+  the situation features filled in from the simulation. A behavior case or meta-plan is
+  installed at once; a plan case has the plan manager route through its places (deliberative
+  re-planning). A behavior set in force when an impasse fired stays out of retrieval for
+  ``exclude`` seconds.
 
 Each decision is learned when the next retrieval replaces it or the day ends, its outcome's
 report a :class:`~cbr_behaviors.moment.SpellReport`. With ``consult: false`` the robot keeps
-the pilot's behavior set all day (004's comparison: one fixed hand-made behavior set).
+the pilot's behavior set all day (004's comparison: one fixed hand-made behavior set), or
+drives with any other pilot.
 
 Besides ``results.csv`` the workload writes ``deliveries.csv`` (a row per message: when it
 arrived, its deadline, whether and when it was delivered or why it was missed) and
-``days.csv`` (a row per day: deliveries, missed deadlines, collisions, mean delivery time,
-consultations), and with ``trajectories`` the true path of each day in ``trajectories.npz``.
+``days.csv`` (a row per day, :class:`DayRow`: deliveries, deadlines missed, messages
+unfinished, collisions, busy speed, retrievals per minute, install times, stalls, door
+waits), with ``trajectories`` the true path of each day in ``trajectories.npz`` and with
+``log`` each day's :class:`~cbr_behaviors.daylog.DayLog` in ``day_N.npz``.
 """
 
 from __future__ import annotations
