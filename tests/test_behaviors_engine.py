@@ -684,3 +684,15 @@ def test_two_processes_learning_at_once_lose_no_update(plugins: Plugins, initial
         assert worker.returncode == 0
     with SQLiteStore(tmp_path / "cb.sqlite") as store:
         assert_learned_from(store, 4 * rounds, 3.0 * 2 * rounds)
+
+
+def test_a_spell_is_judged_by_its_pace_waits_before_shut_doors_apart() -> None:
+    # 20 s installed: at least max(0.5, 0.1 m/s x 20 s) = 2 m nearer the target
+    assert not SpellReport(20.0, 1.5, 0, 0, 0).good
+    assert SpellReport(20.0, 2.0, 0, 0, 0).good
+    # 10 of the 20 s waiting before a shut door: 1 m is enough
+    assert SpellReport(20.0, 1.5, 0, 0, 0, waited=10.0).good
+    # a short spell still needs half a metre, a delivery always counts, a collision never
+    assert not SpellReport(2.0, 0.3, 0, 0, 0).good
+    assert SpellReport(20.0, 0.0, 0, 0, 1).good
+    assert not SpellReport(20.0, 5.0, 1, 0, 1).good
