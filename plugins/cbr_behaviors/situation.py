@@ -54,10 +54,6 @@ DOOR_REACH = 5.0
 """Metres: the doorway ahead counts within this, straight-line to its centre."""
 
 
-def _relative(angles: np.ndarray) -> np.ndarray:
-    return np.abs((np.asarray(angles, dtype=float) + math.pi) % (2.0 * math.pi) - math.pi)
-
-
 def sectors(sonar: Sequence[float] | np.ndarray, angles: Sequence[float] | np.ndarray
             ) -> tuple[float, float, float, float]:
     """``(front, left, right, rear)``: the nearest reading in each sector, metres, at most
@@ -77,14 +73,13 @@ def sectors(sonar: Sequence[float] | np.ndarray, angles: Sequence[float] | np.nd
 def free_width(sonar: Sequence[float] | np.ndarray, angles: Sequence[float] | np.ndarray,
                diameter: float) -> float:
     """Metres free across the robot: the nearest readings within :data:`SIDE_ARC` of straight
-    left and right (each at most :data:`~cbr_behaviors.index.SONAR_MAX`) and its
-    ``diameter``."""
-    ranges = np.minimum(np.asarray(sonar, dtype=float), SONAR_MAX)
-    wrapped = (np.asarray(angles, dtype=float) + math.pi) % (2.0 * math.pi) - math.pi
-    left = np.abs(wrapped - math.pi / 2) <= SIDE_ARC
-    right = np.abs(wrapped + math.pi / 2) <= SIDE_ARC
-    return ((float(ranges[left].min()) if left.any() else SONAR_MAX)
-            + (float(ranges[right].min()) if right.any() else SONAR_MAX) + diameter)
+    left and right, as followWall reads them (:func:`cbr_world2d.pilots.kernels.sides`),
+    each at most :data:`~cbr_behaviors.index.SONAR_MAX`, and its ``diameter``."""
+    from cbr_world2d.pilots.kernels import sides
+
+    left, right = sides(np.asarray(sonar, dtype=np.float64),
+                        np.asarray(angles, dtype=np.float64), SIDE_ARC)
+    return min(left, SONAR_MAX) + min(right, SONAR_MAX) + diameter
 
 
 @attrs.frozen
