@@ -139,7 +139,7 @@ class Lab:
 
 
 class Greeter:
-    """Adds ``greet``, ``refuse`` and ``leave``, and a ``run`` the built-in must win over."""
+    """Adds ``greet``, ``refuse`` and ``leave``."""
 
     @hookimpl
     def cbr_cli(self, app: typer.Typer) -> None:
@@ -159,6 +159,12 @@ class Greeter:
             """Leave through sys.exit."""
             sys.exit(code if code else "leaving with a message")
 
+
+class Hijacker:
+    """Adds a ``run`` the built-in must win over."""
+
+    @hookimpl
+    def cbr_cli(self, app: typer.Typer) -> None:
         @app.command(name="run")
         def hijack() -> None:
             """Not the run command."""
@@ -558,12 +564,14 @@ def test_a_command_leaving_through_sys_exit_keeps_its_exit_code(cbr_cli: Cli) ->
     assert cbr_cli("leave", "0") == CliResult(1, "", "leaving with a message\n")
 
 
-@pytest.mark.usefixtures("toy")
-def test_a_plugin_command_cannot_replace_a_builtin(cbr_cli: Cli, toy_config: Path,
-                                                   tmp_path: Path) -> None:
+def test_a_plugin_command_cannot_replace_a_builtin(load_toy: Callable[..., Plugins], cbr_cli: Cli,
+                                                   toy_config: Path, tmp_path: Path) -> None:
+    load_toy(("hijacker", Hijacker()))
     result = cbr_cli("run", str(toy_config), "--out", str(tmp_path / "out"))
     assert result.exit_code == 0
     assert "hijacked" not in result.stdout
+    assert result.stderr == ("warning: plugin 'hijacker' failed to add command 'run': the name "
+                             "is taken by cbrcore's own command\n")
     assert len(read_rows(tmp_path / "out" / "results.csv")) == 30
 
 

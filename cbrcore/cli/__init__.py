@@ -19,9 +19,11 @@ from typing import TextIO
 
 import typer
 from rich.console import Console
+from typer.models import CommandInfo
 
 from cbrcore.cli import casebase, commands
 from cbrcore.cli.conventions import CONTEXT_SETTINGS, follow_conventions
+from cbrcore.cli.plugin_commands import plugin_commands
 from cbrcore.errors import CbrError, PluginWarning
 from cbrcore.plugins import Plugins, current
 
@@ -62,19 +64,22 @@ def _options(
 
 
 def build_app() -> typer.Typer:
-    """The ``cbr`` application. A command added later replaces one of the same name, so third
-    parties' commands come first, then those of cbrcore's own plugins, then the core's: a
-    built-in name always wins. Every command follows :mod:`cbrcore.cli.conventions`."""
+    """The ``cbr`` application: cbrcore's commands and those the plugins add, each plugin's
+    isolated and a name taken by whoever claims it first, cbrcore's own commands before
+    its built-in plugins', and those before any other's (:mod:`cbrcore.cli.plugin_commands`).
+    Every command follows :mod:`cbrcore.cli.conventions`."""
     app = typer.Typer(name="cbr", no_args_is_help=True, pretty_exceptions_enable=False,
                       rich_markup_mode=None, callback=_options,
                       context_settings=CONTEXT_SETTINGS)
     plugins = current()
-    builtin = [plugins.pm.get_plugin(name) for name in plugins.builtins]
-    third_party = [obj for _, obj in plugins.pm.list_name_plugin() if obj not in builtin]
-    plugins.pm.subset_hook_caller("cbr_cli", remove_plugins=builtin)(app=app)
-    plugins.pm.subset_hook_caller("cbr_cli", remove_plugins=third_party)(app=app)
-    commands.install(app, plugins.registry)
-    app.add_typer(casebase.app)
+    core = typer.Typer()
+    commands.install(core, plugins.registry)
+    core.add_typer(casebase.app)
+    for unit in plugin_commands(plugins, core):
+        if isinstance(unit, CommandInfo):
+            app.registered_commands.append(unit)
+        else:
+            app.registered_groups.append(unit)
     follow_conventions(app)
     return app
 
