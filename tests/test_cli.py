@@ -322,7 +322,7 @@ BAD_CONFIGS = {
         "line 5, column 15: malformed YAML: mapping values are not allowed here"),
     "unknown key": (
         toy_domain.TOY_CONFIG + "retreive: nearest\n",
-        "retreive (line 11, column 11): unknown key; expected one of: casebase, forget, metrics, "
+        "line 11, column 1: unknown key; expected one of: casebase, forget, metrics, "
         "observers, retain, retrieve, reuse, revise, seed, solver, workload, world"),
     "unknown option": (
         _toy_with("radius: 1", "radius: 1, k: 3"),
@@ -366,7 +366,7 @@ def test_every_problem_is_reported_at_once(cbr_cli: Cli, tmp_path: Path) -> None
     assert result.exit_code == 2
     assert result.stderr.splitlines()[0] == f"error: {config}: 3 problems:"
     assert sorted(result.stderr.splitlines()[1:]) == sorted([
-        "  - seed_ (line 11, column 8): unknown key; expected one of: casebase, forget, metrics, "
+        "  - line 11, column 1: unknown key; expected one of: casebase, forget, metrics, "
         "observers, retain, retrieve, reuse, revise, seed, solver, workload, world",
         "  - retrieve.radius (line 4, column 34): expected an integer, got True",
         "  - forget.0.limit (line 9, column 33): expected an integer, got 2.5",
@@ -455,7 +455,7 @@ def cbr_script() -> str:
 
 def test_console_script_exits_2_without_traceback(cbr_script: str, tmp_path: Path) -> None:
     config = write(tmp_path / "bad.yaml", "seed: 1\nretreive: nearest\n")
-    expected = (f"error: {config}: 1 problem:\n  - retreive (line 2, column 11): unknown key; "
+    expected = (f"error: {config}: 1 problem:\n  - line 2, column 1: unknown key; "
                 "expected one of: casebase, forget, kinematics, metrics, observers, pilot, "
                 "retain, retrieve, reuse, revise, seed, solver, workload, world\n")
 
