@@ -288,17 +288,19 @@ def yaml_problem(exc: yaml.YAMLError) -> str:
     return _mark(mark) + problem
 
 
-def position(node: yaml.Node | None, *keys: str) -> str:
+def position(node: yaml.Node | None, *keys: str, key: bool = False) -> str:
     """`` (line L, column C)`` where the value under ``keys`` (mapping keys from the top level)
-    starts in a composed document; the document's start without keys; empty when the document
-    does not hold them."""
-    for key in keys:
+    starts in a composed document, or with ``key`` where its last key does; the document's
+    start without keys; empty when the document does not hold them."""
+    found_at = node
+    for name in keys:
         if not isinstance(node, yaml.MappingNode):
             return ""
-        node = next((value for name, value in node.value if name.value == key), None)
-    if node is None:
+        found_at, node = next(((k, v) for k, v in node.value if k.value == name), (None, None))
+    at = found_at if key else node
+    if at is None:
         return ""
-    return f" (line {node.start_mark.line + 1}, column {node.start_mark.column + 1})"
+    return f" (line {at.start_mark.line + 1}, column {at.start_mark.column + 1})"
 
 
 # --- what errors show of a document ----------------------------------------------------------
