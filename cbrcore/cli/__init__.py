@@ -97,7 +97,7 @@ def _plugin_warnings_as_lines(err: Console, show: ShowWarning) -> ShowWarning:
     def display(message: Warning | str, category: type[Warning], filename: str, lineno: int,
                 file: TextIO | None = None, line: str | None = None) -> None:
         if issubclass(category, PluginWarning):
-            err.print(f"warning: {message}", markup=False)
+            err.print(f"warning: {message}")
         else:
             show(message, category, filename, lineno, file, line)
 
@@ -106,7 +106,8 @@ def _plugin_warnings_as_lines(err: Console, show: ShowWarning) -> ShowWarning:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``cbr`` with ``argv`` (default: the process's arguments); return the exit code."""
-    err = Console(stderr=True, highlight=False, soft_wrap=True)
+    # messages quote users' files and plugins' text: printed as written, no markup or emoji
+    err = Console(stderr=True, highlight=False, soft_wrap=True, markup=False, emoji=False)
     # catch_warnings restores the display on return, for callers running ``main`` in-process
     with warnings.catch_warnings():
         warnings.showwarning = _plugin_warnings_as_lines(err, warnings.showwarning)
@@ -136,8 +137,8 @@ def _run(args: list[str], err: Console) -> int:
         return 1
     except (CbrError, PluginWarning) as exc:  # a plugin warning is raised under -W error
         if show_traceback:
-            err.print(traceback.format_exc(), markup=False)
-        err.print(f"error: {exc}", markup=False)
+            err.print(traceback.format_exc())
+        err.print(f"error: {exc}")
         return 2
     return result if isinstance(result, int) else 0
 
