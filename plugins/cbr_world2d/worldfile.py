@@ -36,7 +36,6 @@ from __future__ import annotations
 import functools
 import math
 import re
-import reprlib
 import typing
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -65,11 +64,6 @@ Pair = NewType("Pair", tuple[str, str])
 Box = NewType("Box", tuple[float, float, float, float])
 """Bounds ``[xmin, ymin, xmax, ymax]`` with ``xmin < xmax`` and ``ymin < ymax``."""
 
-_shown = reprlib.Repr()
-_shown.maxlist = _shown.maxtuple = _shown.maxdict = 6
-_shown.maxstring = _shown.maxother = 40
-
-
 def _number(value: Any) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool)
 
@@ -86,7 +80,7 @@ def _pt(point: Sequence[float]) -> str:
 def _numbers(value: Any, count: int, label: str) -> tuple[float, ...]:
     if not (isinstance(value, list | tuple) and len(value) == count
             and all(_number(v) for v in value)):
-        raise TypeError(f"expected {label}, got {_shown.repr(value)}")
+        raise TypeError(f"expected {label}, got {found(value, setting=True)}")
     numbers = tuple(float(v) for v in value)
     if not all(math.isfinite(v) for v in numbers):
         raise ValueError(f"expected {label} of finite numbers, got {_pt(numbers)}")
@@ -100,7 +94,7 @@ def _structure_xy(value: Any, _: type) -> tuple[float, float]:
 
 def _structure_finite(value: Any, _: type) -> float:
     if not _number(value):
-        raise TypeError(f"expected a number, got {_shown.repr(value)}")
+        raise TypeError(f"expected a number, got {found(value, setting=True)}")
     if not math.isfinite(value):
         raise ValueError(f"expected a finite number, got {_num(value)}")
     return float(value)
@@ -109,7 +103,7 @@ def _structure_finite(value: Any, _: type) -> float:
 def _structure_pair(value: Any, _: type) -> tuple[str, str]:
     if not (isinstance(value, list | tuple) and len(value) == 2
             and all(isinstance(v, str) for v in value)):
-        raise TypeError(f"expected two landmark ids [id1, id2], got {_shown.repr(value)}")
+        raise TypeError(f"expected two landmark ids [id1, id2], got {found(value, setting=True)}")
     return value[0], value[1]
 
 
@@ -299,7 +293,7 @@ def _structure(data: Mapping[str, Any], problems: Problems) -> dict[str, Any]:
                 values[name] = field.default
         elif origin is list:
             if not isinstance(raw, list):
-                problems.append((name, f"expected a list, got {_shown.repr(raw)}"))
+                problems.append((name, f"expected a list, got {found(raw, setting=True)}"))
                 values[name] = []
                 continue
             items = ((i, _structure_one(args[0], item, f"{name}.{i}", problems))
@@ -308,7 +302,7 @@ def _structure(data: Mapping[str, Any], problems: Problems) -> dict[str, Any]:
         elif origin is dict:
             if not isinstance(raw, Mapping):
                 problems.append((name, f"expected a mapping of names to points, got "
-                                       f"{_shown.repr(raw)}"))
+                                       f"{found(raw, setting=True)}"))
                 values[name] = {}
                 continue
             places = {}
