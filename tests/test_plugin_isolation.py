@@ -56,6 +56,10 @@ CASES: dict[str, tuple[str, str, bool]] = {
         "`Annotated` Typer arguments for 'x'", False),
     "SystemExit at import": (
         "raise SystemExit(1)\n", "failed to import: SystemExit: 1", False),
+    "cbr_register calls sys.exit": (
+        "from cbrcore import hookimpl\n\n\n@hookimpl\ndef cbr_register(registry):\n"
+        "    raise SystemExit('no licence')\n", "failed to register: SystemExit: no licence",
+        False),
     "command named run": (
         _cli(HELLO + "    @app.command(name='run')\n    def hijack() -> None:\n"
              "        typer.echo('hijacked')\n"),
@@ -99,9 +103,14 @@ def _load(cbr_plugins: Callable[..., Plugins], **environ: str) -> Plugins:
                        environ={"CBR_PLUGINS": ALLOWED, **environ})
 
 
+def _at_load(message: str) -> bool:
+    """Whether the failure is found as plugins load, rather than as the CLI adds commands."""
+    return "failed to import" in message or "failed to register" in message
+
+
 def _load_warned(cbr_plugins: Callable[..., Plugins], message: str) -> None:
-    """Loading warns only for a plugin that fails to import; its commands fail in the CLI."""
-    if "failed to import" in message:
+    """Loading warns only for a plugin that fails to load; its commands fail in the CLI."""
+    if _at_load(message):
         with pytest.warns(PluginWarning, match="plugin 'broken'"):
             _load(cbr_plugins)
     else:
@@ -133,7 +142,7 @@ def test_every_other_command_works_and_one_line_names_the_plugin(
 
     assert result.exit_code == 0, result
     assert "Traceback" not in result.stderr and "hijacked" not in result.stdout
-    if "failed to import" in message:  # reported where plugins load, and listed
+    if _at_load(message):  # reported where plugins load, and listed
         if command != "run":
             assert message in result.stdout
     else:
@@ -166,7 +175,7 @@ def test_strict_plugins_make_the_failure_an_error(broken: tuple[Path, str, bool]
                                                   cbr_plugins: Callable[..., Plugins],
                                                   cbr_cli: Cli) -> None:
     _, message, _ = broken
-    if "failed to import" in message:  # strict loading refuses it before the command line
+    if _at_load(message):  # strict loading refuses it before the command line
         with pytest.raises(PluginError, match=f"^{re.escape(message)}$"):
             _load(cbr_plugins, CBR_STRICT_PLUGINS="1")
         return
