@@ -23,7 +23,7 @@ from typer.models import CommandInfo
 
 from cbrcore.cli import casebase, commands
 from cbrcore.cli.conventions import CONTEXT_SETTINGS, follow_conventions
-from cbrcore.cli.plugin_commands import plugin_commands
+from cbrcore.cli.plugin_commands import cbr_commands
 from cbrcore.errors import CbrError, PluginWarning
 from cbrcore.plugins import Plugins, current
 
@@ -75,7 +75,7 @@ def build_app() -> typer.Typer:
     core = typer.Typer()
     commands.install(core, plugins.registry)
     core.add_typer(casebase.app)
-    for unit in plugin_commands(plugins, core):
+    for unit in cbr_commands(plugins, core):
         if isinstance(unit, CommandInfo):
             app.registered_commands.append(unit)
         else:

@@ -3,12 +3,12 @@
 Each plugin's ``cbr_cli`` adds its commands to an application of its own, which is then built
 (so that a declaration typer cannot turn into a command fails there, named) and whose commands
 join ``cbr`` one by one. A command name goes to whoever claims it first: cbrcore's own commands,
-then those of cbrcore's built-in plugins, then the others'. A plugin
-whose ``cbr_cli`` raises (``SystemExit`` included; only ``KeyboardInterrupt`` goes through)
-adds no command at all, and a command whose name is taken is left out while the plugin's other
-commands join. Either is one :class:`~cbrcore.errors.PluginWarning` naming the plugin, its
-distribution and what went wrong, and every other command works; with ``CBR_STRICT_PLUGINS=1``
-it is a :class:`~cbrcore.errors.PluginError` instead.
+then those of cbrcore's built-in plugins, then the others'. A plugin whose ``cbr_cli`` raises
+(``SystemExit`` included; only ``KeyboardInterrupt`` goes through) adds no command at all, and a
+command whose name is taken is left out while the plugin's other commands join. Either is one
+:class:`~cbrcore.errors.PluginWarning` naming the plugin, its distribution and what went wrong,
+and every other command works; with ``CBR_STRICT_PLUGINS=1`` it is a
+:class:`~cbrcore.errors.PluginError` instead.
 """
 
 from __future__ import annotations
@@ -105,7 +105,7 @@ class _Collector:
         return name, self.claim(name, _units(staging))
 
 
-def plugin_commands(plugins: Plugins, core: typer.Typer) -> Iterator[Unit]:
+def cbr_commands(plugins: Plugins, core: typer.Typer) -> Iterator[Unit]:
     """The commands of ``cbr``: those on ``core`` and those the plugins add, in the order they
     are listed (the plugins' before cbrcore's, the others' first), each name claimed once."""
     collector = _Collector(plugins)
