@@ -16,7 +16,9 @@ default when absent: ``kinematics: forward_backward``. Options that name other c
 (:func:`cbrcore.options.reference`) are checked against the registry.
 
 Every problem found is reported at once, each with its YAML path, line and column, the bad value
-and what was expected.
+and what was expected; a key the schema does not know is located by its line and column alone,
+and a document that is not a mapping is named by its kind (the rule of
+:func:`cbrcore.documents.found`).
 """
 
 from __future__ import annotations
@@ -29,7 +31,14 @@ from typing import Any
 import attrs
 import yaml
 
-from cbrcore.documents import DocumentError, compose_yaml, construct_yaml, load_yaml, read_text
+from cbrcore.documents import (
+    DocumentError,
+    compose_yaml,
+    construct_yaml,
+    found,
+    load_yaml,
+    read_text,
+)
 from cbrcore.errors import ConfigError
 from cbrcore.options import (
     option_problems,
@@ -114,6 +123,8 @@ class _Marks:
     def __init__(self, node: yaml.Node | None) -> None:
         # a path the configuration holds at no known position (one given as data) maps to None
         self.marks: dict[str, yaml.Mark | None] = {}
+        # where each key of a mapping is written, by the path it leads to
+        self.keys: dict[str, yaml.Mark] = {}
         self.duplicates: list[str] = []
         # (path, origin) for each override in the order applied: a later one replaces what an
         # earlier one set beneath its path
@@ -145,6 +156,7 @@ class _Marks:
                     self.duplicates.append(f"{child}{self.at(key.start_mark)}: key written twice")
                 self._walk(value, child)
                 self.marks.setdefault(child, key.start_mark)
+                self.keys.setdefault(child, key.start_mark)
         elif isinstance(node, yaml.SequenceNode):
             for index, item in enumerate(node.value):
                 self._walk(item, f"{path}.{index}" if path else str(index))
@@ -178,13 +190,26 @@ class _Marks:
                 return set_path, origin
         return None
 
+    def unknown_key(self, path: str, message: str) -> str:
+        """One problem line about a key the schema does not know: where the document writes it,
+        ``line L, column C: ...``, without the key, which may be a secret's (see
+        :func:`cbrcore.documents.found`); one an override set or given as data is named."""
+        mark = self.keys.get(path)
+        if mark is None or self.option(path) is not None:
+            return self.describe(path, message)
+        return f"line {mark.line + 1}, column {mark.column + 1}: {message}"
+
+    def top(self) -> str:
+        """`` (line L, column C)`` where the document's top level starts; empty for data."""
+        return self.at(self.marks.get(""))
+
     def describe(self, path: str, message: str) -> str:
         """One problem line: ``--set KEY=VALUE: ...`` or ``overrides['KEY']: ...`` for a value
         an override set, else the YAML path and where the document holds it."""
-        found = self.option(path)
-        if found is None:
+        override = self.option(path)
+        if override is None:
             return f"{path}{self.where(path)}: {message}"
-        set_path, origin = found
+        set_path, origin = override
         if path == set_path:
             return f"{origin}: {message}"
         return f"{origin}: {path}: {message}"
@@ -349,22 +374,22 @@ def _component(raw: Any, kind: str, path: str, registry: Registry,
         options = {k: v for k, v in raw.items() if k != "use"}
     else:
         problems.append((path, f"expected a {kind} name or a mapping with a 'use' key naming "
-                               f"the {kind}, got {raw!r}"))
+                               f"the {kind}, got {found(raw, setting=True)}"))
         return None
     try:
         component = registry.get(kind, name)
     except UnknownComponent as exc:
         problems.append((f"{path}.use" if isinstance(raw, Mapping) else path, str(exc)))
         return None
-    value, found = option_problems(component.options, options, path)
-    if not found:
+    value, faults = option_problems(component.options, options, path)
+    if not faults:
         for where, referred, target in referenced_names(value, path):
             try:
                 registry.get(referred, target)
             except UnknownComponent as exc:
-                found.append((where, str(exc)))
-    problems.extend(found)
-    return ComponentRef(kind, name, value, path) if not found else None
+                faults.append((where, str(exc)))
+    problems.extend(faults)
+    return ComponentRef(kind, name, value, path) if not faults else None
 
 
 def _default_store(registry: Registry, problems: list[tuple[str, str]]) -> ComponentRef | None:
@@ -391,16 +416,18 @@ def parse_config(data: Any, registry: Registry, *, source: Path | None = None,
     if data is None:
         data = {}
     if not isinstance(data, Mapping):
-        raise ConfigError(label, [f"expected a mapping at the top level, got {data!r}"])
+        raise ConfigError(label, [f"the top level{marks.top()}: expected a mapping of "
+                                  f"settings, got {found(data)}"])
     problems: list[tuple[str, str]] = []
     plugin_slots = registry.slots
     known = {*CORE_KEYS, *plugin_slots}
-    for key in data:
-        if key not in known:
-            problems.append((str(key), f"unknown key; expected one of: {', '.join(sorted(known))}"))
+    unknown = [marks.unknown_key(str(key), f"unknown key; expected one of: "
+                                           f"{', '.join(sorted(known))}")
+               for key in data if key not in known]
     seed = data.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        problems.append(("seed", f"expected a non-negative integer, got {seed!r}"))
+        problems.append(("seed", f"expected a non-negative integer, got "
+                                 f"{found(seed, setting=True)}"))
     values: dict[str, Any] = {}
     base = source.parent if source is not None else Path.cwd()
     with paths_relative_to(base):
@@ -430,8 +457,9 @@ def parse_config(data: Any, registry: Registry, *, source: Path | None = None,
                 refs = [_component(item, kind, f"{slot}.{i}" if isinstance(raw, list) else slot,
                                    registry, problems) for i, item in enumerate(items)]
                 values[slot] = tuple(ref for ref in refs if ref is not None)
-    if problems:
-        raise ConfigError(label, [marks.describe(path, message) for path, message in problems])
+    if unknown or problems:
+        raise ConfigError(label, unknown + [marks.describe(path, message)
+                                            for path, message in problems])
     return Config(seed=seed, source=source, slots=slots, **values)
 
 

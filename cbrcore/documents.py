@@ -20,7 +20,17 @@ variable                           default      limit
 
 A refused document raises :class:`DocumentError`, whose ``problem`` gives the line and column
 where the limit was passed when known. Malformed text raises the parser's own error
-(:class:`yaml.YAMLError`, :class:`json.JSONDecodeError`), which callers word their own way.
+(:class:`yaml.YAMLError`, :class:`json.JSONDecodeError`), which callers word their own way:
+with the parser's ``problem`` and the line and column (:func:`yaml_problem`), never the
+exception's text, which quotes the line.
+
+What an error quotes of a document follows one rule, applied by :func:`found`: a value is
+quoted only when it is the user's own setting, under a key the schema knows in a document of
+the expected shape at its top level. A document that is not of the expected shape at its top
+level (a string or a list where a mapping is expected, a ``format`` tag that is not the
+expected one) may be any file, a secret, so the error names the file, the line and column and
+the shape expected, and says only what kind of value it found; a key the schema does not know
+is located by its line and column, never quoted.
 """
 
 from __future__ import annotations
@@ -266,6 +276,58 @@ def construct_yaml(node: yaml.Node | None, source: str) -> Any:
 def load_yaml(text: str, source: str, limits: Limits | None = None) -> Any:
     """Parse one YAML document safely within the limits."""
     return construct_yaml(compose_yaml(text, source, limits), source)
+
+
+def yaml_problem(exc: yaml.YAMLError) -> str:
+    """What is wrong with malformed YAML, and where: ``line L, column C: PROBLEM``.
+
+    The exception's own text quotes the line it is about, which may be a secret's.
+    """
+    mark = getattr(exc, "problem_mark", None)
+    problem = getattr(exc, "problem", None) or type(exc).__name__
+    return _mark(mark) + problem
+
+
+def position(node: yaml.Node | None, *keys: str, key: bool = False) -> str:
+    """`` (line L, column C)`` where the value under ``keys`` (mapping keys from the top level)
+    starts in a composed document, or with ``key`` where its last key does; the document's
+    start without keys; empty when the document does not hold them."""
+    found_at = node
+    for name in keys:
+        if not isinstance(node, yaml.MappingNode):
+            return ""
+        found_at, node = next(((k, v) for k, v in node.value if k.value == name), (None, None))
+    at = found_at if key else node
+    if at is None:
+        return ""
+    return f" (line {at.start_mark.line + 1}, column {at.start_mark.column + 1})"
+
+
+# --- what errors show of a document ----------------------------------------------------------
+
+SHOWN_LENGTH = 60
+"""The most characters of a setting an error quotes."""
+
+_KINDS: tuple[tuple[type | tuple[type, ...], str], ...] = (
+    (bool, "a boolean"), ((int, float), "a number"), (str, "a string"), (list, "a list"),
+    (Mapping, "a mapping"),
+)
+
+
+def found(value: Any, *, setting: bool = False) -> str:
+    """What an error says it found in a document (see the module's documentation for the rule).
+
+    A ``setting``, a value under a key the schema knows in a document of the expected shape,
+    is quoted, cut to :data:`SHOWN_LENGTH` characters. Anything else is named by its kind
+    alone: ``a string``, ``a list``, ``a mapping``, ``a number``, ``a boolean``, ``null``.
+    """
+    if setting:
+        text = repr(value)
+        return text if len(text) <= SHOWN_LENGTH else text[: SHOWN_LENGTH - 3] + "..."
+    if value is None:
+        return "null"
+    return next((kind for types, kind in _KINDS if isinstance(value, types)),
+                f"a {type(value).__name__}")
 
 
 # --- JSON ------------------------------------------------------------------------------------

@@ -64,6 +64,12 @@ def cbr_cli(app: typer.Typer) -> None:
     with ``@app.command()`` or sub-applications with ``app.add_typer(...)``. Raise
     :class:`~cbrcore.errors.CbrError` from a command for a user error: the CLI prints it and exits
     with code 2.
+
+    Each plugin is given an application of its own, whose commands then join ``cbr``: a plugin
+    whose ``cbr_cli`` raises (``SystemExit`` included, ``KeyboardInterrupt`` excepted) or adds a
+    command typer cannot build adds none, and a command named like one of cbrcore's, a built-in
+    plugin's or an earlier plugin's is left out. Either is one warning naming the plugin while
+    every other command works (an error with ``CBR_STRICT_PLUGINS=1``).
     """
 
 

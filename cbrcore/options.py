@@ -35,6 +35,7 @@ import attrs
 import cattrs
 from cattrs.errors import ClassValidationError, ForbiddenExtraKeysError, IterableValidationError
 
+from cbrcore.documents import found
 from cbrcore.errors import ConfigError
 
 _base_dir: contextvars.ContextVar[Path] = contextvars.ContextVar("cbr_base_dir")
@@ -142,16 +143,17 @@ def _integer(value: Any, _: type) -> int:
     number = _strict(int, "an integer", (int,))(value, int)
     low, high = INT64
     if not low <= number <= high:
-        raise ValueError(f"expected an integer from {low} to {high}, got {value!r}")
+        raise ValueError(f"expected an integer from {low} to {high}, got "
+                         f"{found(value, setting=True)}")
     return number
 
 
 def _strict(kind: type, label: str, accept: tuple[type, ...]) -> Callable[[Any, type], Any]:
     def structure(value: Any, _: type) -> Any:
         if isinstance(value, bool) and kind is not bool:
-            raise TypeError(f"expected {label}, got {value!r}")
+            raise TypeError(f"expected {label}, got {found(value, setting=True)}")
         if not isinstance(value, accept):
-            raise TypeError(f"expected {label}, got {value!r}")
+            raise TypeError(f"expected {label}, got {found(value, setting=True)}")
         return kind(value)
 
     return structure
@@ -160,13 +162,14 @@ def _strict(kind: type, label: str, accept: tuple[type, ...]) -> Callable[[Any, 
 def _literal(value: Any, kind: Any) -> Any:
     allowed = typing.get_args(kind)
     if not any(type(value) is type(a) and value == a for a in allowed):
-        raise ValueError(f"expected one of {', '.join(map(repr, allowed))}, got {value!r}")
+        raise ValueError(f"expected one of {', '.join(map(repr, allowed))}, got "
+                         f"{found(value, setting=True)}")
     return value
 
 
 def _path(value: Any, _: type) -> Path:
     if not isinstance(value, str | Path):
-        raise TypeError(f"expected a file path, got {value!r}")
+        raise TypeError(f"expected a file path, got {found(value, setting=True)}")
     path = Path(value).expanduser()
     base = _base_dir.get(None)
     return path if path.is_absolute() or base is None else base / path
@@ -180,14 +183,15 @@ written, or relative to the run's output folder and inside it; resolve it with
 
 def _output_path(value: Any, _: type) -> Path:
     if not isinstance(value, str | Path):
-        raise TypeError(f"expected a file path, got {value!r}")
+        raise TypeError(f"expected a file path, got {found(value, setting=True)}")
     path = Path(value).expanduser()
     if path.is_absolute():
         return path
     # checked by its text: the run folder may not exist yet, or not be known (cbr validate)
     inside = Path(os.path.normpath(path))
     if inside.parts[:1] in ((), (os.pardir,)):
-        raise ValueError(f"expected a file inside the run's output folder, got {str(value)!r}; "
+        raise ValueError(f"expected a file inside the run's output folder, got "
+                         f"{found(str(value), setting=True)}; "
                          "give an absolute path to write outside it")
     return inside
 
@@ -212,7 +216,8 @@ def _mapping_first(converter: cattrs.Converter) -> Callable[[type], Callable[[An
 
         def checked(value: Any, kind: type) -> Any:
             if not isinstance(value, Mapping):
-                raise TypeError(f"expected a mapping with keys {keys}, got {value!r}")
+                raise TypeError(f"expected a mapping with keys {keys}, got "
+                                f"{found(value, setting=True)}")
             return structure(value, kind)
 
         return checked
@@ -309,7 +314,8 @@ def option_problems(options_cls: type, data: Any, where: str) -> tuple[Any, list
     if data is None:
         data = {}
     if not isinstance(data, Mapping):
-        return None, [(where, f"expected a mapping of options, got {data!r}")]
+        return None, [(where, f"expected a mapping of options, got "
+                              f"{found(data, setting=True)}")]
     try:
         return converter.structure(dict(data), options_cls), []
     except Exception as exc:  # cattrs gathers every field's error into one group

@@ -2,7 +2,9 @@
 
 Plugins are found through the ``cbr`` entry point group; cbrcore's own built-ins are declared
 there too, so they are found exactly as a third party's are. A plugin that fails to import or
-register is reported and skipped while the others load, unless ``CBR_STRICT_PLUGINS=1``.
+register is reported and skipped while the others load, unless ``CBR_STRICT_PLUGINS=1``. Whatever
+it raises counts as its failure, ``SystemExit`` included, except ``KeyboardInterrupt``: the user
+stopping the program.
 
 The built-in plugins, those the ``cbrcore`` distribution declares (:func:`builtin_plugins`),
 register first, then the other distributions' in entry point name order, then those given in
@@ -101,12 +103,20 @@ class Plugins:
     skipped: list[str] = attrs.field(factory=list)
     builtins: set[str] = attrs.field(factory=set)
     """The names of the loaded plugins that are cbrcore's own."""
+    strict: bool = False
+    """Whether a plugin's failure is fatal (``CBR_STRICT_PLUGINS``), its commands' included."""
 
     def info(self, name: str) -> PluginInfo:
         for plugin in self.loaded:
             if plugin.name == name:
                 return plugin
         raise PluginError(f"no plugin named {name!r} is loaded")
+
+
+def describe_exception(exc: BaseException) -> str:
+    """An exception a plugin raised, as a failure's reason: its type and its message, if any."""
+    text = str(exc)
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
 def _names(environ: Mapping[str, str], key: str) -> set[str] | None:
@@ -175,7 +185,7 @@ def load_plugins(extra: Sequence[tuple[str, Any]] = (), *, entry_points: bool = 
     allow = _names(environ, "CBR_PLUGINS")
     block = _names(environ, "CBR_DISABLE_PLUGINS") or set()
     strict = environ.get("CBR_STRICT_PLUGINS", "") not in ("", "0")
-    plugins = Plugins(pm=new_plugin_manager(), registry=Registry())
+    plugins = Plugins(pm=new_plugin_manager(), registry=Registry(), strict=strict)
     sources: dict[str, Source] = {}
 
     def fail(name: str, dist: Source, stage: str, error: str) -> None:
@@ -213,8 +223,10 @@ def load_plugins(extra: Sequence[tuple[str, Any]] = (), *, entry_points: bool = 
             continue
         try:
             obj = source.load() if _is_entry_point(source) else source
-        except Exception as exc:  # a broken plugin must not stop the others
-            fail(name, dist, "import", f"{type(exc).__name__}: {exc}")
+        except KeyboardInterrupt:
+            raise
+        except BaseException as exc:  # a broken plugin, even one calling sys.exit, stops no other
+            fail(name, dist, "import", describe_exception(exc))
             continue
         if plugins.pm.is_registered(obj):
             # a plugin's own tests pass its module in code while it is installed too
@@ -226,7 +238,7 @@ def load_plugins(extra: Sequence[tuple[str, Any]] = (), *, entry_points: bool = 
         try:
             plugins.pm.register(obj, name=name)
         except Exception as exc:  # e.g. a hook implementation taking an argument of no hookspec
-            fail(name, dist, "import", f"{type(exc).__name__}: {exc}")
+            fail(name, dist, "import", describe_exception(exc))
             continue
         sources[name] = dist
         if builtin:
@@ -241,9 +253,11 @@ def load_plugins(extra: Sequence[tuple[str, Any]] = (), *, entry_points: bool = 
             register = getattr(obj, "cbr_register", None)
             if register is not None and "cbr_register" in implemented_hooks(obj):
                 register(registry=plugins.registry)
-        except Exception as exc:  # a broken plugin must not stop the others
+        except KeyboardInterrupt:
+            raise
+        except BaseException as exc:  # a broken plugin must not stop the others
             _withdraw(plugins, name)
-            fail(name, dist, "register", f"{type(exc).__name__}: {exc}")
+            fail(name, dist, "register", describe_exception(exc))
             continue
         registered.append(name)
 

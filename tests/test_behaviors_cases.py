@@ -183,9 +183,10 @@ def test_files_are_read_and_written_by_their_extension(tmp_path: Path) -> None:
 BAD_SEXP = [
     ("(behavior-case a (((goStraight mod-fast curr-head) med))", "line 1: the list opened at "
      "column 1 is never closed"),
-    ("(behavior-case a (((stop) high)))\nstray", "line 2: expected a case form, one of "
-     "(behavior-case ...), (meta-plan ...), (plan-case ...), (alter-strategy ...), "
-     "(merge-strategy ...), got 'stray'"),
+    # what is not a case form may be any file's text, a secret's: it is not quoted
+    ("(behavior-case a (((stop) high)))\nstray", "line 2, column 1: expected a case form, one "
+     "of (behavior-case ...), (meta-plan ...), (plan-case ...), (alter-strategy ...), "
+     "(merge-strategy ...), got a string"),
     ("(behavior-case a\n  (((stop) high)\n   ((flyAway 50) high)))",
      "line 3: behavior-case a, item 1 ((flyAway 50) high): unknown behavior 'flyAway'"),
     ("(behavior-case a\n  (((avoidObstacle 150 moderat) med)))",
@@ -241,7 +242,7 @@ def test_a_bad_file_lists_every_problem_in_line_order() -> None:
     lines = str(raised.value).splitlines()
     assert lines[0] == "bad.sexp: 4 problems:"
     assert [line.split(":")[0] for line in lines[1:]] == [
-        "  - line 1", "  - line 2", "  - line 3", "  - line 4"]
+        "  - line 1", "  - line 2", "  - line 3", "  - line 4, column 1"]
 
 
 YAML_CASES = """\
@@ -279,7 +280,7 @@ def test_a_bad_yaml_file_names_line_path_and_item() -> None:
                            "speed, distance, turn_rate, priority, got 'spd'")
     assert problems[4] == ("line 15 ([3]): expected a case (a mapping whose first key is one "
                            "of behavior-case, meta-plan, plan-case, alter-strategy, "
-                           "merge-strategy), got just a string")
+                           "merge-strategy), got a string")
     assert len(problems) == 5
 
 
@@ -287,7 +288,8 @@ def test_a_bad_yaml_file_names_line_path_and_item() -> None:
     ("- behavior-case: a\n  behaviors: [[[stop], high]\n", "bad.yaml, line 3: not valid YAML"),
     ("- plan-case: p\n  route: [a]\n  route: [b]\n",
      "bad.yaml, line 3 ([0].route): the key 'route' is given twice"),
-    ("plan-case: p\n", "bad.yaml, line 1 (the document): expected a list of cases"),
+    ("plan-case: p\n", "bad.yaml, line 1, column 1 (the document): expected a list of cases "
+     "(or an exported case base), got a mapping"),
 ])
 def test_yaml_that_is_no_list_of_cases(text: str, message: str) -> None:
     with pytest.raises(CaseFormatError) as raised:

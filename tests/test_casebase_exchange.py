@@ -144,7 +144,10 @@ def broken(change: Any) -> dict[str, Any]:
 
 @pytest.mark.parametrize(("data", "expected"), [
     (broken(lambda d: d["cases"][3].update(kind=5)), "cases[3].kind: expected a non-empty string"),
-    (broken(lambda d: d.update(format="other")), "format: expected 'cbrcore-casebase'"),
+    # a document without the format's tag is not quoted: it may be any file
+    (broken(lambda d: d.update(format="other")), "format (line 1, column 9): expected "
+                                                 "'cbrcore-casebase', got a string; this is not "
+                                                 "an exported case base"),
     (broken(lambda d: d.pop("format")), "format: expected 'cbrcore-casebase', got nothing"),
     (broken(lambda d: d.update(schema=2)), "schema: this cbrcore reads schema 1, the document "
                                            "has 2"),
@@ -163,8 +166,9 @@ def broken(change: Any) -> dict[str, Any]:
     (broken(lambda d: d.update(revision="4")), "revision: expected an integer >= 0, got '4'"),
     (broken(lambda d: d.update(meta={"cbrcore.revision": 1})), "meta['cbrcore.revision']: this "
                                                                 "key is reserved"),
-    (broken(lambda d: d.update(extra=1)), "extra: unknown key"),
-    ([1, 2], "expected a case base document (a mapping with format: cbrcore-casebase), got list"),
+    (broken(lambda d: d.update(extra=1)), "line 38, column 1: unknown key"),
+    ([1, 2], "the top level (line 1, column 1): expected a case base document (a mapping with "
+             "format: cbrcore-casebase), got a list"),
 ])
 def test_invalid_documents_are_explained(data: Any, expected: str) -> None:
     with pytest.raises(CaseBaseError) as caught:

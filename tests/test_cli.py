@@ -139,7 +139,7 @@ class Lab:
 
 
 class Greeter:
-    """Adds ``greet``, ``refuse`` and ``leave``, and a ``run`` the built-in must win over."""
+    """Adds ``greet``, ``refuse`` and ``leave``."""
 
     @hookimpl
     def cbr_cli(self, app: typer.Typer) -> None:
@@ -159,6 +159,12 @@ class Greeter:
             """Leave through sys.exit."""
             sys.exit(code if code else "leaving with a message")
 
+
+class Hijacker:
+    """Adds a ``run`` the built-in must win over."""
+
+    @hookimpl
+    def cbr_cli(self, app: typer.Typer) -> None:
         @app.command(name="run")
         def hijack() -> None:
             """Not the run command."""
@@ -316,7 +322,7 @@ BAD_CONFIGS = {
         "line 5, column 15: malformed YAML: mapping values are not allowed here"),
     "unknown key": (
         toy_domain.TOY_CONFIG + "retreive: nearest\n",
-        "retreive (line 11, column 11): unknown key; expected one of: casebase, forget, metrics, "
+        "line 11, column 1: unknown key; expected one of: casebase, forget, metrics, "
         "observers, retain, retrieve, reuse, revise, seed, solver, workload, world"),
     "unknown option": (
         _toy_with("radius: 1", "radius: 1, k: 3"),
@@ -360,7 +366,7 @@ def test_every_problem_is_reported_at_once(cbr_cli: Cli, tmp_path: Path) -> None
     assert result.exit_code == 2
     assert result.stderr.splitlines()[0] == f"error: {config}: 3 problems:"
     assert sorted(result.stderr.splitlines()[1:]) == sorted([
-        "  - seed_ (line 11, column 8): unknown key; expected one of: casebase, forget, metrics, "
+        "  - line 11, column 1: unknown key; expected one of: casebase, forget, metrics, "
         "observers, retain, retrieve, reuse, revise, seed, solver, workload, world",
         "  - retrieve.radius (line 4, column 34): expected an integer, got True",
         "  - forget.0.limit (line 9, column 33): expected an integer, got 2.5",
@@ -449,7 +455,7 @@ def cbr_script() -> str:
 
 def test_console_script_exits_2_without_traceback(cbr_script: str, tmp_path: Path) -> None:
     config = write(tmp_path / "bad.yaml", "seed: 1\nretreive: nearest\n")
-    expected = (f"error: {config}: 1 problem:\n  - retreive (line 2, column 11): unknown key; "
+    expected = (f"error: {config}: 1 problem:\n  - line 2, column 1: unknown key; "
                 "expected one of: casebase, forget, kinematics, metrics, observers, pilot, "
                 "retain, retrieve, reuse, revise, seed, solver, workload, world\n")
 
@@ -558,12 +564,14 @@ def test_a_command_leaving_through_sys_exit_keeps_its_exit_code(cbr_cli: Cli) ->
     assert cbr_cli("leave", "0") == CliResult(1, "", "leaving with a message\n")
 
 
-@pytest.mark.usefixtures("toy")
-def test_a_plugin_command_cannot_replace_a_builtin(cbr_cli: Cli, toy_config: Path,
-                                                   tmp_path: Path) -> None:
+def test_a_plugin_command_cannot_replace_a_builtin(load_toy: Callable[..., Plugins], cbr_cli: Cli,
+                                                   toy_config: Path, tmp_path: Path) -> None:
+    load_toy(("hijacker", Hijacker()))
     result = cbr_cli("run", str(toy_config), "--out", str(tmp_path / "out"))
     assert result.exit_code == 0
     assert "hijacked" not in result.stdout
+    assert result.stderr == ("warning: plugin 'hijacker' failed to add command 'run': the name "
+                             "is taken by cbrcore's own command\n")
     assert len(read_rows(tmp_path / "out" / "results.csv")) == 30
 
 

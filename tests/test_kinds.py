@@ -318,7 +318,7 @@ def test_a_slot_takes_a_name_or_a_mapping_with_options(gauges: Plugins) -> None:
      "gauge.digit (line 1, column 30): unknown key; expected one of: digits"),
     ("gauge: [plain]\n", "gauge (line 1, column 8): expected a gauge name or a mapping with a "
                          "'use' key naming the gauge, got ['plain']"),
-    ("gauges: plain\n", "gauges (line 1, column 9): unknown key; expected one of: casebase, "
+    ("gauges: plain\n", "line 1, column 1: unknown key; expected one of: casebase, "
                         "forget, gauge, metrics, observers, retain, retrieve, reuse, revise, "
                         "seed, solver, workload, world"),
 ])
@@ -339,7 +339,7 @@ def test_set_overrides_a_slot(gauges: Plugins) -> None:
 def test_a_slot_is_unknown_without_the_plugin_declaring_it() -> None:
     plugins = load(("core", cbrcore.builtins))
     assert problems_of("gauge: plain\n", plugins.registry)[0].startswith(
-        "gauge (line 1, column 8): unknown key; expected one of: casebase, forget, metrics")
+        "line 1, column 1: unknown key; expected one of: casebase, forget, metrics")
 
 
 # -- what the command line and the reference show ------------------------------------------------

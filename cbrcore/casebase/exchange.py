@@ -37,7 +37,16 @@ from cbrcore.casebase.data import (
     json_problems,
 )
 from cbrcore.casebase.store import CaseStore
-from cbrcore.documents import DocumentError, load_json, load_yaml, read_text
+from cbrcore.documents import (
+    DocumentError,
+    compose_yaml,
+    construct_yaml,
+    found,
+    load_json,
+    position,
+    read_text,
+    yaml_problem,
+)
 from cbrcore.errors import CaseBaseError
 from cbrcore.model import JSON, Case
 
@@ -177,22 +186,37 @@ class _Reader:
         return Case(problem, solution, kind, meta, case_id, uses, created, last_used)
 
 
-def document_from_data(data: Any, source: str) -> Document:
-    """Validate a parsed document; CaseBaseError lists every problem with its path in it."""
+def _unknown_key(node: yaml.Node | None, key: Any, index: int) -> str:
+    """Where a top-level key the format does not know is, without quoting it: it may be a
+    secret's (the rule of :func:`cbrcore.documents.found`)."""
+    where = position(node, str(key), key=True).strip(" ()")
+    return where or f"key {index + 1} of the top level"
+
+
+def document_from_data(data: Any, source: str, node: yaml.Node | None = None) -> Document:
+    """Validate a parsed document; CaseBaseError lists every problem with its path in it.
+
+    ``node``, the document's composed YAML, adds the line and column of its top-level
+    problems. A document that is not a mapping tagged ``format: cbrcore-casebase`` gets that
+    one problem, and nothing of it is quoted.
+    """
     if not isinstance(data, dict):
-        raise CaseBaseError(f"{source}: expected a case base document (a mapping with "
-                            f"format: {FORMAT}), got {_type_name(data)}")
+        raise CaseBaseError(f"{source}: the top level{position(node)}: expected a case base "
+                            f"document (a mapping with format: {FORMAT}), got {found(data)}")
     reader = _Reader()
     if data.get("format") != FORMAT:
-        got = "nothing" if "format" not in data else _short(data["format"])
-        reader.problem("format", f"expected {FORMAT!r}, got {got}")
+        got = "nothing" if "format" not in data else found(data["format"])
+        reader.problem(f"format{position(node, 'format')}",
+                       f"expected {FORMAT!r}, got {got}; this is not an exported case base")
+        _refuse(reader.problems, source)
     schema = data.get("schema")
     if schema != SCHEMA:
         reader.problem("schema", f"this cbrcore reads schema {SCHEMA}, the document has "
                                  f"{_short(schema) if 'schema' in data else 'none'}")
-    for key in data:
+    for index, key in enumerate(data):
         if key not in ("format", "schema", "revision", "meta", "cases"):
-            reader.problem(str(key), "unknown key; expected format, schema, revision, meta, cases")
+            reader.problem(_unknown_key(node, key, index),
+                           "unknown key; expected format, schema, revision, meta, cases")
     revision = reader.count(data.get("revision", 0), "revision")
     meta = reader.mapping(data.get("meta", {}), "meta")
     for key in meta or {}:
@@ -212,15 +236,21 @@ def document_from_data(data: Any, source: str) -> Document:
         case = reader.case(entry, f"cases[{index}]", revision, ids)
         if case is not None:
             cases.append(case)
-    if reader.problems:
-        listed = reader.problems[:_MAX_LISTED]
-        more = len(reader.problems) - len(listed)
-        lines = "\n".join(f"  - {p}" for p in listed) + (f"\n  ... and {more} more" if more else "")
-        noun = "problem" if len(reader.problems) == 1 else "problems"
-        raise CaseBaseError(f"{source}: not a valid case base document, "
-                            f"{len(reader.problems)} {noun}:\n{lines}")
+    _refuse(reader.problems, source)
     assert revision is not None and meta is not None
     return Document(revision, meta, tuple(cases))
+
+
+def _refuse(problems: list[str], source: str) -> None:
+    """Raise the error listing ``problems``, if there are any."""
+    if not problems:
+        return
+    listed = problems[:_MAX_LISTED]
+    more = len(problems) - len(listed)
+    lines = "\n".join(f"  - {p}" for p in listed) + (f"\n  ... and {more} more" if more else "")
+    noun = "problem" if len(problems) == 1 else "problems"
+    raise CaseBaseError(f"{source}: not a valid case base document, {len(problems)} {noun}:\n"
+                        f"{lines}")
 
 
 class _Dumper(yaml.SafeDumper):
@@ -253,15 +283,20 @@ def dump_document(document: Document, format: Format = "yaml") -> str:
 def parse_document(text: str, format: Format, source: str = "<text>") -> Document:
     """Parse and validate YAML or JSON text within the document limits
     (:mod:`cbrcore.documents`); ``source`` names it in error messages."""
+    node = None
     try:
-        data = load_json(text, source) if format == "json" else load_yaml(text, source)
-    except json.JSONDecodeError as exc:
+        if format == "json":
+            data = load_json(text, source)
+        else:
+            node = compose_yaml(text, source)
+            data = construct_yaml(node, source)
+    except json.JSONDecodeError as exc:  # its text names the line and column, quoting nothing
         raise CaseBaseError(f"{source}: not valid JSON: {exc}") from exc
     except yaml.YAMLError as exc:
-        raise CaseBaseError(f"{source}: not valid YAML: {exc}") from exc
+        raise CaseBaseError(f"{source}: not valid YAML: {yaml_problem(exc)}") from exc
     except DocumentError as exc:
         raise CaseBaseError(str(exc)) from None
-    return document_from_data(data, source)
+    return document_from_data(data, source, node)
 
 
 def format_of(path: str | os.PathLike[str]) -> Format:

@@ -19,9 +19,11 @@ from typing import TextIO
 
 import typer
 from rich.console import Console
+from typer.models import CommandInfo
 
 from cbrcore.cli import casebase, commands
 from cbrcore.cli.conventions import CONTEXT_SETTINGS, follow_conventions
+from cbrcore.cli.plugin_commands import cbr_commands
 from cbrcore.errors import CbrError, PluginWarning
 from cbrcore.plugins import Plugins, current
 
@@ -62,19 +64,22 @@ def _options(
 
 
 def build_app() -> typer.Typer:
-    """The ``cbr`` application. A command added later replaces one of the same name, so third
-    parties' commands come first, then those of cbrcore's own plugins, then the core's: a
-    built-in name always wins. Every command follows :mod:`cbrcore.cli.conventions`."""
+    """The ``cbr`` application: cbrcore's commands and those the plugins add, each plugin's
+    isolated and a name taken by whoever claims it first, cbrcore's own commands before
+    its built-in plugins', and those before any other's (:mod:`cbrcore.cli.plugin_commands`).
+    Every command follows :mod:`cbrcore.cli.conventions`."""
     app = typer.Typer(name="cbr", no_args_is_help=True, pretty_exceptions_enable=False,
                       rich_markup_mode=None, callback=_options,
                       context_settings=CONTEXT_SETTINGS)
     plugins = current()
-    builtin = [plugins.pm.get_plugin(name) for name in plugins.builtins]
-    third_party = [obj for _, obj in plugins.pm.list_name_plugin() if obj not in builtin]
-    plugins.pm.subset_hook_caller("cbr_cli", remove_plugins=builtin)(app=app)
-    plugins.pm.subset_hook_caller("cbr_cli", remove_plugins=third_party)(app=app)
-    commands.install(app, plugins.registry)
-    app.add_typer(casebase.app)
+    core = typer.Typer()
+    commands.install(core, plugins.registry)
+    core.add_typer(casebase.app)
+    for unit in cbr_commands(plugins, core):
+        if isinstance(unit, CommandInfo):
+            app.registered_commands.append(unit)
+        else:
+            app.registered_groups.append(unit)
     follow_conventions(app)
     return app
 
@@ -92,7 +97,7 @@ def _plugin_warnings_as_lines(err: Console, show: ShowWarning) -> ShowWarning:
     def display(message: Warning | str, category: type[Warning], filename: str, lineno: int,
                 file: TextIO | None = None, line: str | None = None) -> None:
         if issubclass(category, PluginWarning):
-            err.print(f"warning: {message}", markup=False)
+            err.print(f"warning: {message}")
         else:
             show(message, category, filename, lineno, file, line)
 
@@ -101,7 +106,8 @@ def _plugin_warnings_as_lines(err: Console, show: ShowWarning) -> ShowWarning:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``cbr`` with ``argv`` (default: the process's arguments); return the exit code."""
-    err = Console(stderr=True, highlight=False, soft_wrap=True)
+    # messages quote users' files and plugins' text: printed as written, no markup or emoji
+    err = Console(stderr=True, highlight=False, soft_wrap=True, markup=False, emoji=False)
     # catch_warnings restores the display on return, for callers running ``main`` in-process
     with warnings.catch_warnings():
         warnings.showwarning = _plugin_warnings_as_lines(err, warnings.showwarning)
@@ -131,8 +137,8 @@ def _run(args: list[str], err: Console) -> int:
         return 1
     except (CbrError, PluginWarning) as exc:  # a plugin warning is raised under -W error
         if show_traceback:
-            err.print(traceback.format_exc(), markup=False)
-        err.print(f"error: {exc}", markup=False)
+            err.print(traceback.format_exc())
+        err.print(f"error: {exc}")
         return 2
     return result if isinstance(result, int) else 0
 

@@ -17,6 +17,7 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
+from rich.text import Text
 
 from cbrcore.cli import completion
 from cbrcore.config import load_config
@@ -51,7 +52,9 @@ class Reference(enum.StrEnum):
 
 
 def _out() -> Console:
-    console = Console(highlight=False, soft_wrap=True)
+    # cells and lines hold users' and plugins' text (kinds, names, errors): rich would read
+    # ``[x]`` as markup and ``:x:`` as an emoji, so neither is interpreted
+    console = Console(highlight=False, soft_wrap=True, markup=False, emoji=False)
     if not console.is_terminal:  # a pipe or a file: the reader, not a window, sets the width
         console.width = UNBOUNDED
     return console
@@ -68,7 +71,7 @@ def _json_option(what: str) -> Any:
 
 @contextmanager
 def _progress(label: str) -> Iterator[Callable[[int, int], None]]:
-    console = Console(stderr=True)
+    console = Console(stderr=True, markup=False, emoji=False)
     bar = Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                    console=console, transient=True, disable=not console.is_terminal)
     task = bar.add_task(label, total=None)
@@ -179,7 +182,7 @@ def plugins(
     console = _out()
     console.print(table)
     for failure in loaded.failed:
-        console.print(f"[red]failed[/red]: {failure.describe()}", markup=True)
+        console.print(Text.assemble(("failed", "red"), f": {failure.describe()}"))
     if loaded.skipped:
         console.print(f"skipped by CBR_PLUGINS / CBR_DISABLE_PLUGINS: {', '.join(loaded.skipped)}")
 
@@ -231,7 +234,7 @@ def experiment(
         written = run_experiment(name, current(), size=sized, out_dir=out_dir, seed=seed,
                                  progress=progress, tasks=tasks)
     console = _out()
-    console.print((out_dir / "results.md").read_text(encoding="utf-8"), markup=False)
+    console.print((out_dir / "results.md").read_text(encoding="utf-8"))
     for path in written:
         console.print(f"wrote {path}")
 

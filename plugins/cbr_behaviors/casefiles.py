@@ -86,14 +86,13 @@ from cbr_behaviors.cases import (
     Strategy,
     build_case,
     document,
-    flow_text,
     from_case,
     index_data,
 )
 from cbr_behaviors.index import FRACTIONS
 from cbrcore import files
 from cbrcore.casebase.exchange import document_from_data, dump_document
-from cbrcore.documents import DocumentError, compose_yaml, construct_yaml, read_text
+from cbrcore.documents import DocumentError, compose_yaml, construct_yaml, found, read_text
 
 # --- reading files -------------------------------------------------------------------------------
 
@@ -146,9 +145,11 @@ class _SexpForm:
         node = self.node
         head = node.items[0].symbol if node.items else None
         if head not in FORMS:
-            what = node.text() if node.is_list else repr(node.text())
-            self.problem(node, f"expected a case form, one of ({' ...), ('.join(FORMS)} ...), "
-                               f"got {what}")
+            # a file that is not a case file may be a secret: its text is not quoted, and the
+            # column tells apart the words of one line
+            self.problems.append(f"{_line(node)}, column {node.column}: expected a case form, "
+                                 f"one of ({' ...), ('.join(FORMS)} ...), got "
+                                 f"{found(node.plain())}")
             return None
         if len(node.items) < 2 or node.items[1].is_list:
             self.problem(node, f"{head}: expected a name after {head}")
@@ -263,7 +264,7 @@ def parse_sexp(text: str, source: str = "<text>") -> tuple[AnyCase, ...]:
 
 
 def _line_number(problem: str) -> int:
-    return int(problem.split(":", 1)[0].split()[1])
+    return int(problem.split(":", 1)[0].split()[1].rstrip(","))
 
 
 # YAML
@@ -285,7 +286,7 @@ def _yaml_tree(node: yaml.Node, path: str, source: str, problems: list[str]) -> 
             key = construct_yaml(key_node, source)
             if not isinstance(key, str):
                 problems.append(f"line {key_node.start_mark.line + 1} ({path}): expected a "
-                                f"name as the key, got {flow_text(key)}")
+                                f"name as the key, got {found(key)}")
                 continue
             if key in parts:
                 problems.append(f"line {key_node.start_mark.line + 1} ({_path(path, key)}): "
@@ -312,21 +313,27 @@ def parse_yaml(text: str, source: str = "<text>") -> tuple[AnyCase, ...]:
     if isinstance(root, yaml.MappingNode):
         data = construct_yaml(root, source)
         if isinstance(data, Mapping) and "format" in data:
-            return _exported(data, source)
+            return _exported(data, source, root)
     problems: list[str] = []
     if root is None:
         return ()
+    if not isinstance(root, yaml.SequenceNode):
+        # checked before anything inside is read: any file may be given, a secret, and none
+        # of its text is quoted
+        kind = "a mapping" if isinstance(root, yaml.MappingNode) else found(
+            construct_yaml(root, source))
+        mark = root.start_mark
+        raise CaseFormatError(source, [f"line {mark.line + 1}, column {mark.column + 1} (the "
+                                       f"document): expected a list of cases (or an exported "
+                                       f"case base), got {kind}"])
     tree = _yaml_tree(root, "", source, problems)
     if problems:
         raise CaseFormatError(source, problems)
-    if not isinstance(tree.value, list):
-        raise CaseFormatError(source, [f"{tree.where}: expected a list of cases (or an "
-                                       "exported case base)"])
     return _parse_cases([tree.part(k) for k in range(len(tree.value))], source)
 
 
-def _exported(data: Mapping[str, Any], source: str) -> tuple[AnyCase, ...]:
-    exported = document_from_data(data, source)
+def _exported(data: Mapping[str, Any], source: str, root: yaml.Node) -> tuple[AnyCase, ...]:
+    exported = document_from_data(data, source, root)
     problems: list[str] = []
     cases: list[AnyCase] = []
     for k, case in enumerate(exported.cases):

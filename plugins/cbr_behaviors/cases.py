@@ -26,6 +26,7 @@ import yaml
 from cbr_behaviors.index import FEATURES, Index, IndexDataError
 from cbr_world2d.pilots.behaviors import BEHAVIORS, LENGTH_UNITS, parse_behavior
 from cbrcore.casebase.exchange import Document
+from cbrcore.documents import found
 from cbrcore.errors import CbrError
 from cbrcore.model import Case
 
@@ -525,13 +526,15 @@ class _Problems:
 def build_case(tree: Located, out: list[str]) -> AnyCase | None:
     """The case a located mapping describes, or None with its problems added to ``out``."""
     fields = tree.value
+    # an item that is not a case may be any file's line, a secret's: it is not quoted, nor are
+    # keys that are not the forms' (the rule of cbrcore.documents.found)
     if not isinstance(fields, Mapping):
         out.append(f"{tree.where}: expected a case (a mapping whose first key is one of "
-                   f"{', '.join(FORMS)}), got {tree.shown}")
+                   f"{', '.join(FORMS)}), got {found(fields)}")
         return None
     forms = [k for k in fields if k in FORMS]
     if len(forms) != 1:
-        got = ", ".join(map(str, fields)) or "nothing"
+        got = " and ".join(forms) if forms else "none"
         out.append(f"{tree.where}: expected exactly one of {', '.join(FORMS)} naming the case, "
                    f"got {got}")
         return None

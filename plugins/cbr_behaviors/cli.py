@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
+from cbrcore.documents import found
 from cbrcore.errors import CbrError, ConfigError
 
 if TYPE_CHECKING:
@@ -159,7 +160,8 @@ def _manifest(run_dir: Path) -> dict[str, Any]:
     workload = config.get("workload")
     used = workload.get("use") if isinstance(workload, dict) else None
     if used != DELIVERY:
-        raise CbrError(f"{path}: a run of the workload {used!r}, not {DELIVERY!r}; only "
+        raise CbrError(f"{path}: a run of the workload {found(used, setting=True)}, not "
+                       f"{DELIVERY!r}; only "
                        f"{DELIVERY} runs record days")
     return config
 

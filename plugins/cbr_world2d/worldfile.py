@@ -36,7 +36,6 @@ from __future__ import annotations
 import functools
 import math
 import re
-import reprlib
 import typing
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -48,6 +47,7 @@ import yaml
 
 from cbr_world2d.world import Door, Landmark, Mover, Point, Wall, World
 from cbrcore.config import read_yaml
+from cbrcore.documents import found
 from cbrcore.errors import ConfigError
 from cbrcore.options import converter, option, option_problems
 
@@ -63,11 +63,6 @@ Pair = NewType("Pair", tuple[str, str])
 """Two landmark ids."""
 Box = NewType("Box", tuple[float, float, float, float])
 """Bounds ``[xmin, ymin, xmax, ymax]`` with ``xmin < xmax`` and ``ymin < ymax``."""
-
-_shown = reprlib.Repr()
-_shown.maxlist = _shown.maxtuple = _shown.maxdict = 6
-_shown.maxstring = _shown.maxother = 40
-
 
 def _number(value: Any) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool)
@@ -85,7 +80,7 @@ def _pt(point: Sequence[float]) -> str:
 def _numbers(value: Any, count: int, label: str) -> tuple[float, ...]:
     if not (isinstance(value, list | tuple) and len(value) == count
             and all(_number(v) for v in value)):
-        raise TypeError(f"expected {label}, got {_shown.repr(value)}")
+        raise TypeError(f"expected {label}, got {found(value, setting=True)}")
     numbers = tuple(float(v) for v in value)
     if not all(math.isfinite(v) for v in numbers):
         raise ValueError(f"expected {label} of finite numbers, got {_pt(numbers)}")
@@ -99,7 +94,7 @@ def _structure_xy(value: Any, _: type) -> tuple[float, float]:
 
 def _structure_finite(value: Any, _: type) -> float:
     if not _number(value):
-        raise TypeError(f"expected a number, got {_shown.repr(value)}")
+        raise TypeError(f"expected a number, got {found(value, setting=True)}")
     if not math.isfinite(value):
         raise ValueError(f"expected a finite number, got {_num(value)}")
     return float(value)
@@ -108,7 +103,7 @@ def _structure_finite(value: Any, _: type) -> float:
 def _structure_pair(value: Any, _: type) -> tuple[str, str]:
     if not (isinstance(value, list | tuple) and len(value) == 2
             and all(isinstance(v, str) for v in value)):
-        raise TypeError(f"expected two landmark ids [id1, id2], got {_shown.repr(value)}")
+        raise TypeError(f"expected two landmark ids [id1, id2], got {found(value, setting=True)}")
     return value[0], value[1]
 
 
@@ -223,15 +218,26 @@ SECTIONS: dict[str, type] = {
 
 
 class Marks(Protocol):
-    """Where YAML paths were written: ``where("landmarks.3")`` gives `` (line L, column C)``
-    (as :func:`cbrcore.config.read_yaml` returns)."""
+    """Where YAML paths were written: ``where("landmarks.3")`` gives `` (line L, column C)``,
+    ``top()`` that of the document, and ``unknown_key`` a problem line locating a key without
+    quoting it (as :func:`cbrcore.config.read_yaml` returns)."""
 
     def where(self, path: str) -> str: ...
+
+    def top(self) -> str: ...
+
+    def unknown_key(self, path: str, message: str) -> str: ...
 
 
 class _NoMarks:
     def where(self, path: str) -> str:
         return ""
+
+    def top(self) -> str:
+        return ""
+
+    def unknown_key(self, path: str, message: str) -> str:
+        return f"{path}: {message}"
 
 
 Problems = list[tuple[str, str]]
@@ -261,14 +267,15 @@ def _structure_one(kind: Any, raw: Any, path: str, problems: Problems) -> Any:
     return None
 
 
+def _fields() -> dict[str, attrs.Attribute[Any]]:
+    return attrs.fields_dict(attrs.resolve_types(WorldFileSpec))
+
+
 def _structure(data: Mapping[str, Any], problems: Problems) -> dict[str, Any]:
     """Each top-level key structured on its own, and each list item and place on its own, so
     that one bad item hides nothing else; list sections become ``[(index, item), ...]`` of the
     items that structured, ``places`` a mapping of those that did."""
-    fields = attrs.fields_dict(attrs.resolve_types(WorldFileSpec))
-    for key in data:
-        if key not in fields:
-            problems.append((str(key), f"unknown key; expected one of: {', '.join(fields)}"))
+    fields = _fields()
     values: dict[str, Any] = {}
     for name, field in fields.items():
         raw = data.get(name)
@@ -286,7 +293,7 @@ def _structure(data: Mapping[str, Any], problems: Problems) -> dict[str, Any]:
                 values[name] = field.default
         elif origin is list:
             if not isinstance(raw, list):
-                problems.append((name, f"expected a list, got {_shown.repr(raw)}"))
+                problems.append((name, f"expected a list, got {found(raw, setting=True)}"))
                 values[name] = []
                 continue
             items = ((i, _structure_one(args[0], item, f"{name}.{i}", problems))
@@ -295,7 +302,7 @@ def _structure(data: Mapping[str, Any], problems: Problems) -> dict[str, Any]:
         elif origin is dict:
             if not isinstance(raw, Mapping):
                 problems.append((name, f"expected a mapping of names to points, got "
-                                       f"{_shown.repr(raw)}"))
+                                       f"{found(raw, setting=True)}"))
                 values[name] = {}
                 continue
             places = {}
@@ -581,20 +588,23 @@ def world_from_data(data: Any, source: str, marks: Marks | None = None, seed: in
     """
     marks = marks or _NoMarks()
     if not isinstance(data, Mapping):
-        raise ConfigError(source, [f"expected a world: a mapping with at least bounds [xmin, "
-                                   f"ymin, xmax, ymax], got {_shown.repr(data)}"])
+        raise ConfigError(source, [f"the top level{marks.top()}: expected a world: a mapping "
+                                   f"with at least bounds [xmin, ymin, xmax, ymax], got "
+                                   f"{found(data)}"])
+    fields = _fields()
+    lines = [marks.unknown_key(str(key), f"unknown key; expected one of: {', '.join(fields)}")
+             for key in data if key not in fields]
     problems: Problems = []
     values = _structure(data, problems)
     world = _build(values, data, values["seed"] if "seed" in data else seed, problems)
-    if problems or world is None:
-        lines = [(marks.where(path), path, message) for path, message in problems]
+    if lines or problems or world is None:
+        lines += [f"{path}{marks.where(path)}: {message}" for path, message in problems]
         # in the order of the file, whichever check found them
-        lines.sort(key=lambda line: _position(line[0]))
-        raise ConfigError(source, [f"{path}{where}: {message}" for where, path, message in lines])
+        raise ConfigError(source, sorted(lines, key=_position))
     return world
 
 
-_MARK = re.compile(r"\(line (\d+), column (\d+)\)")
+_MARK = re.compile(r"line (\d+), column (\d+)")
 
 
 def _position(where: str) -> tuple[int, int]:
