@@ -59,7 +59,11 @@ def _dependencies() -> list[str]:
 
 def manifest(config: Config | None, plugins: Plugins, *, seed: int,
              extra: Mapping[str, Any] | None = None) -> dict[str, Any]:
-    """What a run or an experiment needs recorded to be repeated."""
+    """What a run or an experiment needs recorded to be repeated.
+
+    An option that may hold a secret is shown as its options class declares (a PostgreSQL
+    DSN without its password), in the configuration and in the command line alike.
+    """
 
     def version(name: str) -> str | None:
         try:
@@ -67,9 +71,12 @@ def manifest(config: Config | None, plugins: Plugins, *, seed: int,
         except metadata.PackageNotFoundError:
             return None
 
+    def shown(text: str) -> str:
+        return config.masked(text) if config is not None else text
+
     return {
         "created": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
-        "command": [Path(sys.argv[0]).name, *sys.argv[1:]],
+        "command": [shown(arg) for arg in (Path(sys.argv[0]).name, *sys.argv[1:])],
         "seed": seed,
         "python": platform.python_version(),
         "platform": platform.platform(),
@@ -208,7 +215,7 @@ def run_workload(engine: Engine, out_dir: Path, *, overrides: Sequence[str] = ()
     output_folder(out_dir)
     write_json(out_dir / "manifest.json", manifest(
         engine.config, engine.plugins, seed=engine.config.seed,
-        extra={"overrides": list(overrides)}))
+        extra={"overrides": [engine.config.masked(text) for text in overrides]}))
     total = len(engine.workload)
     rows: list[dict[str, Any]] = []
     started = time.perf_counter()
