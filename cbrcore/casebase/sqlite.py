@@ -44,6 +44,11 @@ from cbrcore.model import JSON, Case
 LOCK_RETRY = (0.0001, 0.0005)
 """The first and the longest pause, in seconds, between two tries for the write lock."""
 
+_NO_SHM = frozenset({"SQLITE_CANTOPEN", "SQLITE_READONLY_DIRECTORY", "SQLITE_READONLY_CANTINIT"})
+"""What SQLite reports when it cannot create or set up the ``-shm`` file of a WAL database in
+a folder, or beside a file, that may not be written (which one depends on its version and on
+what is missing)."""
+
 _COLUMNS = "id, kind, problem, solution, meta, uses, created, last_used"
 _CHUNK = 500
 """Ids per statement: SQLite limits the parameters of one statement."""
@@ -137,10 +142,16 @@ class SQLiteStore:
         A read-write connection told to write nothing comes first: unlike a read-only one, the
         last such connection to close removes the ``-wal`` and ``-shm`` files beside the case
         base, so reading leaves nothing behind. In a folder the process may not write, reading
-        a WAL database needs its ``-shm`` file to exist already; without a ``-wal`` file
-        everything committed is in the case base file itself, and SQLite may read it as
-        immutable (a snapshot that takes no locks).
+        a WAL database needs its ``-shm`` file to exist already, and SQLite refuses it
+        (:data:`_NO_SHM`); without a ``-wal`` file everything committed is in the case base
+        file itself, and SQLite may read it as immutable (a snapshot that takes no locks). A
+        file the process may not write is read so at once: SQLite would open it read-only and
+        leave ``-wal`` and ``-shm`` files it cannot remove.
         """
+        wal = self.path.with_name(self.path.name + "-wal")
+        if not os.access(self.path, os.W_OK) and not wal.exists():
+            self._immutable = True
+            return self._connect("mode=ro&immutable=1")
         conn = self._connect("mode=rw")
         try:
             conn.execute("PRAGMA query_only = ON")
@@ -149,10 +160,10 @@ class SQLiteStore:
             return conn
         except sqlite3.Error as exc:
             conn.close()
-            if getattr(exc, "sqlite_errorname", "") != "SQLITE_CANTOPEN":
+            if getattr(exc, "sqlite_errorname", "") not in _NO_SHM:
                 raise self._translate(exc) or CaseBaseError(
                     f"cannot open {self.path}: {exc}") from exc
-        if self.path.with_name(self.path.name + "-wal").exists():
+        if wal.exists():
             return self._connect("mode=ro")
         self._immutable = True
         return self._connect("mode=ro&immutable=1")
