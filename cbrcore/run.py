@@ -9,7 +9,9 @@ outcome becomes known (:mod:`cbrcore.workload`). A run writes into its output fo
     One row per learned decision, in the order the outcomes became known (query order for the
     default loop), appended as the run goes (a killed run keeps the rows so far). A row is
     measured before its learn step and written once the step has committed, so the rows and
-    the case base's learn steps agree when a metric, a phase or the step itself fails.
+    the case base's learn steps agree when a metric, a phase or the step itself fails. A step
+    skipped because another process held the case base's write lock too long
+    (:meth:`~cbrcore.engine.Engine.learn`) has its row written when a retry commits it.
 ``summary.json``
     Where answers came from, the CBR share, success rate, phase timings and metric means.
 ``manifest.json``
@@ -254,6 +256,9 @@ def run_workload(engine: Engine, out_dir: Path, *, overrides: Sequence[str] = ()
         session = Session(engine, record=record)
         loop(engine, session)
         session.close()
+        # learn steps skipped while another process held the case base's lock: their rows
+        # are written as they commit; the summary counts any the lock still keeps out
+        engine.retry_skipped()
     summary = summarise(rows, engine, time.perf_counter() - started)
     write_json(out_dir / "summary.json", summary)
     return summary

@@ -35,7 +35,7 @@ from cbrcore.casebase.postgres_schema import (
     stored_version,
 )
 from cbrcore.casebase.store import Changes
-from cbrcore.errors import CaseBaseError, UnusableCaseBase
+from cbrcore.errors import CaseBaseError, CaseBaseLocked, UnusableCaseBase
 from cbrcore.model import JSON, Case
 
 MAX_ID = MAX_INTEGER
@@ -138,7 +138,7 @@ class PostgresStore:
     def _translate(self, exc: psycopg.Error) -> CaseBaseError | None:
         """The CaseBaseError for a problem with the case base or the server; None for a bug."""
         if isinstance(exc, pg_errors.LockNotAvailable):
-            return CaseBaseError(f"{self} is locked by another process (gave up after waiting "
+            return CaseBaseLocked(f"{self} is locked by another process (gave up after waiting "
                                  f"{self.busy_timeout:g} s for it)")
         if isinstance(exc, pg_errors.ReadOnlySqlTransaction):
             return CaseBaseError(f"{self} is open for reading only and cannot be written")

@@ -38,7 +38,7 @@ from cbrcore.casebase.sqlite_file import (
     validate,
 )
 from cbrcore.casebase.store import Changes
-from cbrcore.errors import CaseBaseError, UnusableCaseBase
+from cbrcore.errors import CaseBaseError, CaseBaseLocked, UnusableCaseBase
 from cbrcore.model import JSON, Case
 
 LOCK_RETRY = (0.0001, 0.0005)
@@ -186,7 +186,7 @@ class SQLiteStore:
         """The CaseBaseError for a problem with the file; None for anything else (a bug)."""
         name = getattr(exc, "sqlite_errorname", "")
         if name.startswith(("SQLITE_BUSY", "SQLITE_LOCKED")):
-            return CaseBaseError(f"{self.path} is locked by another process (gave up after "
+            return CaseBaseLocked(f"{self.path} is locked by another process (gave up after "
                                  f"waiting {self.busy_timeout:g} s for it)")
         if name.startswith("SQLITE_CORRUPT") or name == "SQLITE_NOTADB":
             return UnusableCaseBase(f"{self.path} is corrupt: {exc}")
