@@ -58,10 +58,39 @@ def _contents(engine: Engine) -> list[tuple[Any, ...]]:
     return [(c.id, c.problem, c.solution, c.uses) for c in engine.casebase.cases()]
 
 
+class Lock:
+    """Holds a store's write lock as a learner frozen inside its learn step does."""
+
+    def __init__(self, request: pytest.FixtureRequest, tmp_path: Path, store: str) -> None:
+        if store == "sqlite":
+            self.casebase = _stored(tmp_path / "cb.sqlite")
+            self._conn: Any = sqlite3.connect(tmp_path / "cb.sqlite", isolation_level=None)
+            self._take = ["BEGIN IMMEDIATE"]
+        else:
+            psycopg = pytest.importorskip("psycopg")
+            dsn = request.getfixturevalue("postgres_database")
+            self.casebase = {"use": "postgres", "dsn": dsn, "busy_timeout": 0.01}
+            self._conn = psycopg.connect(dsn, autocommit=True)
+            # the store's own write lock: the clock row, locked by every writing transaction
+            self._take = ["BEGIN", "SELECT revision FROM cbrcore.clock FOR UPDATE"]
+
+    def take(self) -> None:
+        for statement in self._take:
+            self._conn.execute(statement)
+
+    def release(self) -> None:
+        self._conn.execute("ROLLBACK")
+
+    def close(self) -> None:
+        self._conn.close()
+
+
+@pytest.mark.parametrize("store", ["sqlite", "postgres"])
 def test_a_locked_step_is_skipped_kept_and_stored_once_the_lock_is_free(
-        plugins: Plugins, tmp_path: Path, blocker: sqlite3.Connection) -> None:
-    engine = Engine.from_dict({**CYCLE, "casebase": _stored(tmp_path / "cb.sqlite")},
-                              plugins=plugins)
+        plugins: Plugins, tmp_path: Path, request: pytest.FixtureRequest, store: str) -> None:
+    lock = Lock(request, tmp_path, store)
+    request.addfinalizer(lock.close)
+    engine = Engine.from_dict({**CYCLE, "casebase": lock.casebase}, plugins=plugins)
     decisions: list[tuple[int, Proposal, Outcome]] = []
     committed: list[int] = []
     assert engine.workload is not None
@@ -78,14 +107,14 @@ def test_a_locked_step_is_skipped_kept_and_stored_once_the_lock_is_free(
         return returned
 
     with engine:
-        blocker.execute("BEGIN IMMEDIATE")
+        lock.take()
         assert drive(4) == [None] * 4
         assert (engine.stats.learn_skipped, engine.stats.learn_pending) == (4, 4)
         assert (committed, engine.stats.learned, engine.casebase.revision) == ([], 0, 0)
         # still locked: the skipped steps stay queued, in order, with nothing lost
         assert engine.retry_skipped() == 4
 
-        blocker.execute("ROLLBACK")
+        lock.release()
         assert all(timings is not None for timings in drive(COUNT - 4))
         assert engine.retry_skipped() == 0
         assert (engine.stats.learn_skipped, engine.stats.learn_pending) == (4, 0)
