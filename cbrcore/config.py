@@ -22,6 +22,7 @@ and what was expected.
 from __future__ import annotations
 
 import copy
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -98,10 +99,12 @@ class Config:
         """``text`` (a command-line argument, an override) with the value of every option that
         may hold a secret replaced by what is shown of it."""
         secrets = {raw: shown for ref in self.refs() for raw, shown in
-                   secret_values(ref.options).items()}
-        # the longest first: a value may hold a shorter one
+                   secret_values(ref.options).items() if raw != shown}
+        # the longest first: a value may hold a shorter one; whole values only, as written
+        # after '=' or ':', quoted or in a YAML mapping, not a word inside another
         for raw in sorted(secrets, key=len, reverse=True):
-            text = text.replace(raw, secrets[raw])
+            text = re.sub(rf"(?<![^\s=:'\"{{,\[]){re.escape(raw)}(?![^\s'\"}},\]])",
+                          lambda _, shown=secrets[raw]: shown, text)
         return text
 
     def resolved(self) -> dict[str, Any]:

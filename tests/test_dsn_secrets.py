@@ -85,7 +85,8 @@ def test_the_manifest_masks_the_dsn_in_the_config_and_the_command(
     config = config_from_text("casebase: {use: postgres, schema: fleet}", plugins.registry,
                               [override])
     monkeypatch.setattr(sys, "argv", ["cbr", "run", "x.yaml", "--set", override,
-                                      f"--set={override}"])
+                                      f"--set={override}",
+                                      f"--set=casebase={{use: postgres, dsn: '{dsn}'}}"])
 
     written = json.dumps(manifest(config, plugins, seed=1))
 
@@ -93,7 +94,30 @@ def test_the_manifest_masks_the_dsn_in_the_config_and_the_command(
     shown = "postgresql://robot:***@db:5433/cases?sslmode=***"
     recorded = json.loads(written)
     assert recorded["config"]["casebase"]["dsn"] == shown
-    assert recorded["command"][4:] == [f"casebase.dsn={shown}", f"--set=casebase.dsn={shown}"]
+    assert recorded["command"][4:] == [f"casebase.dsn={shown}", f"--set=casebase.dsn={shown}",
+                                       f"--set=casebase={{use: postgres, dsn: '{shown}'}}"]
+
+
+def test_only_whole_values_are_masked(cbr_plugins: Callable[..., Plugins]) -> None:
+    plugins = cbr_plugins(entry_points=True)
+    config = config_from_text("casebase: {use: postgres, dsn: 'db'}", plugins.registry)
+    # a DSN libpq cannot read shows as *** whole, but the word in a file name stays
+    assert config.masked("db.yaml") == "db.yaml"
+    assert config.masked("casebase.dsn=db") == "casebase.dsn=***"
+
+
+def test_validate_shows_the_dsn_masked(cbr_cli: Cli, cbr_plugins: Callable[..., Plugins],
+                                       tmp_path: Path) -> None:
+    cbr_plugins(entry_points=True)
+    config = tmp_path / "run.yaml"
+    config.write_text("casebase: {use: postgres}\n", encoding="utf-8")
+
+    result = cbr_cli("validate", str(config), "--json", "--set",
+                     f"casebase.dsn=host=db password={PASSWORD}")
+
+    assert result.exit_code == 0, result
+    assert PASSWORD not in result.stdout + result.stderr
+    assert json.loads(result.stdout)["resolved"]["casebase"]["dsn"] == "password=*** host=db"
 
 
 def test_a_run_folder_holds_no_password(cbr_cli: Cli, cbr_plugins: Callable[..., Plugins],
