@@ -8,7 +8,9 @@ field's value becomes :data:`MASK`::
     postgresql://robot:hunter2@db:5433/cases?sslmode=require
     -> postgresql://robot:***@db:5433/cases?sslmode=***
     host=db user=robot password=hunter2 sslmode=require
-    -> host=db user=robot password=*** sslmode=***
+    -> user=robot password=*** host=db sslmode=***
+
+(the fields of the ``key=value`` form in libpq's order).
 
 An error about a DSN (one libpq cannot read, a value it refuses, a connection that fails) shows
 no value at all: it names the fields the DSN gives and keeps of libpq's message only the words
@@ -55,6 +57,19 @@ def _fields(dsn: str) -> dict[str, str]:
             if value is not None}
 
 
+def _readable(dsn: str) -> dict[str, str] | None:
+    """The fields ``dsn`` gives, by name; None when psycopg is missing or libpq cannot read
+    ``dsn``."""
+    try:
+        import psycopg
+    except ImportError:
+        return None
+    try:
+        return _fields(dsn)
+    except psycopg.Error:
+        return None
+
+
 def fields(dsn: str) -> dict[str, str]:
     """The fields ``dsn`` gives, by name.
 
@@ -76,9 +91,8 @@ def masked_dsn(dsn: str) -> str:
     read, or when psycopg is missing."""
     if not dsn.strip():
         return dsn
-    try:
-        given = _fields(dsn)
-    except Exception:  # psycopg missing, or a DSN libpq cannot read: show nothing of it
+    given = _readable(dsn)
+    if given is None:
         return MASK
     shown = {key: value if key in SHOWN_FIELDS else MASK for key, value in given.items()}
     if _URI.match(dsn.lstrip()):
@@ -114,11 +128,8 @@ def scrubbed(message: str, dsn: str) -> str:
     """libpq's or psycopg's ``message`` about ``dsn`` without any value that may be secret:
     every quoted text that is not a field name, and every value ``dsn`` gives, become
     :data:`MASK`."""
-    try:
-        given = _fields(dsn)
-    except Exception:  # the quoted texts are masked all the same
-        given = {}
-    return _masked_text(message, given)
+    # the quoted texts are masked even when the DSN cannot be read
+    return _masked_text(message, _readable(dsn) or {})
 
 
 def _masked_text(message: str, given: dict[str, str]) -> str:
@@ -147,9 +158,6 @@ def connection_label(dsn: str, schema: str) -> str:
     if not dsn.strip():
         return (f"schema {schema} on the server the PG* environment variables name "
                 "(values not shown)")
-    try:
-        names = list(_fields(dsn))
-    except Exception:
-        names = []
+    names = list(_readable(dsn) or {})
     given = f" with {', '.join(names)}" if names else ""
     return f"schema {schema} on the server of casebase dsn{given} (values not shown)"
