@@ -339,8 +339,8 @@ def unstructure(options: Any) -> Any:
 
 
 def _secrets(options: Any) -> Iterator[tuple[str, str, Callable[[str], str]]]:
-    """``(field name, value, how it is shown)`` for each string option of ``options`` declared
-    with ``shown``; nested options instances are searched by :func:`displayed`."""
+    """``(field name, value, how it is shown)`` for each string option of ``options`` itself
+    declared with ``shown``."""
     for field in attrs.fields(type(options)):
         show = field.metadata.get(_SHOWN)
         value = getattr(options, field.name)

@@ -114,12 +114,11 @@ class Session:
     transaction has committed; see :data:`Record`). A learn step that another process's write
     lock keeps out is skipped and retried by the engine (:meth:`~cbrcore.engine.Engine.learn`):
     the decision is no longer open, and is recorded when the retry commits. While a decision
-    is learned, retainers,
-    forgetters, observers and metrics see ``ctx.step`` as it was when the decision was
-    consulted. Misuse is a
-    :class:`~cbrcore.errors.PluginError` naming the workload: learning a decision twice, a
-    decision of another session, anything but a decision and an outcome, using the
-    session after it was closed, and closing it with decisions still open.
+    is learned, retainers, forgetters, observers and metrics see ``ctx.step`` as it was when
+    the decision was consulted. Misuse is a :class:`~cbrcore.errors.PluginError` naming the
+    workload: learning a decision twice, a decision of another session, anything but a decision
+    and an outcome, using the session after it was closed, and closing it with decisions still
+    open.
     """
 
     def __init__(self, engine: Engine, *, record: Record | None = None) -> None:
