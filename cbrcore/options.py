@@ -310,6 +310,13 @@ def _walk(exc: BaseException, path: str) -> Iterator[tuple[str, str]]:
         yield path, _describe(exc)
 
 
+def _unquoted(message: str) -> str:
+    """A problem with an option that may hold a secret, without the value it quotes: what was
+    expected, when the message says so, else only that the value is refused."""
+    expected, got, _ = message.partition(", got ")
+    return f"{expected if got else 'the value is refused'} (the value given is not shown)"
+
+
 def option_problems(options_cls: type, data: Any, where: str) -> tuple[Any, list[tuple[str, str]]]:
     """Structure ``data`` into ``options_cls``; return the instance or the problems found.
 
@@ -322,7 +329,10 @@ def option_problems(options_cls: type, data: Any, where: str) -> tuple[Any, list
     try:
         return converter.structure(dict(data), options_cls), []
     except Exception as exc:  # cattrs gathers every field's error into one group
-        return None, list(_walk(exc, where))
+        secret = {f"{where}.{field.name}" for field in attrs.fields(options_cls)
+                  if _SHOWN in field.metadata}
+        return None, [(path, _unquoted(message) if path in secret else message)
+                      for path, message in _walk(exc, where)]
 
 
 def structure_options(options_cls: type, data: Any, where: str) -> Any:

@@ -113,6 +113,9 @@ if importlib.util.find_spec("psycopg") is not None:
             _run("casebase: {use: postgres, dsn: 'host=/a/b sslmode=TOPSECRET password=hunter2'}"),
             "cannot connect to schema cbrcore on the server of casebase dsn with password, host, "
             "sslmode (values not shown): connection is bad: invalid sslmode value: \"***\""),
+        "DSN of the wrong type": (
+            _run("casebase: {use: postgres, dsn: {TOPSECRET: hunter2}}"),
+            "casebase.dsn (line 1, column 32): expected a string (the value given is not shown)"),
         "DSN that is not one": (
             _run("casebase: {use: postgres, dsn: 'postgresql://u:hunter2@db/x?TOPSECRET'}"),
             "casebase dsn: not a PostgreSQL connection string"),
