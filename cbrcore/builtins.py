@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import attrs
 
 from cbrcore.casebase import MemoryStore, SQLiteStore
+from cbrcore.casebase.conninfo import masked_dsn
 from cbrcore.casebase.exchange import read_document
 from cbrcore.casebase.postgres_schema import schema_name_problem
 from cbrcore.casebase.store import CaseStore
@@ -75,7 +76,9 @@ class PostgresOptions:
         "",
         "The database: a libpq connection string ('host=db dbname=cases user=robot') or URI "
         "('postgresql://robot@db/cases'). Empty: the standard PG* environment variables "
-        "(PGHOST, PGPORT, PGUSER, PGDATABASE, PGPASSWORD, ...) say where to connect.",
+        "(PGHOST, PGPORT, PGUSER, PGDATABASE, PGPASSWORD, ...) say where to connect. "
+        "Manifests show only its host, port, database and user; errors show none of its values.",
+        shown=masked_dsn,
     )
     schema: str = option(
         "cbrcore",

@@ -24,6 +24,7 @@ and a document that is not a mapping is named by its kind (the rule of
 from __future__ import annotations
 
 import copy
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -41,11 +42,12 @@ from cbrcore.documents import (
 )
 from cbrcore.errors import ConfigError
 from cbrcore.options import (
+    displayed,
     option_problems,
     paths_relative_to,
     referenced_names,
+    secret_values,
     slots_configured,
-    unstructure,
 )
 from cbrcore.registry import CORE_KEYS, LIST_SLOTS, SINGLE_SLOTS, Registry, UnknownComponent
 
@@ -96,11 +98,30 @@ class Config:
     def base_dir(self) -> Path:
         return self.source.parent if self.source is not None else Path.cwd()
 
+    def refs(self) -> list[ComponentRef]:
+        """Every configured component."""
+        singles = [getattr(self, slot) for slot in SINGLE_SLOTS]
+        lists = [ref for slot in LIST_SLOTS for ref in getattr(self, slot)]
+        return [ref for ref in (*singles, *self.slots.values(), *lists) if ref is not None]
+
+    def masked(self, text: str) -> str:
+        """``text`` (a command-line argument, an override) with the value of every option that
+        may hold a secret replaced by what is shown of it."""
+        secrets = {raw: shown for ref in self.refs() for raw, shown in
+                   secret_values(ref.options).items() if raw != shown}
+        # the longest first: a value may hold a shorter one; whole values only, as written
+        # after '=' or ':', quoted or in a YAML mapping, not a word inside another
+        for raw in sorted(secrets, key=len, reverse=True):
+            text = re.sub(rf"(?<![^\s=:'\"{{,\[]){re.escape(raw)}(?![^\s'\"}},\]])",
+                          lambda _, shown=secrets[raw]: shown, text)
+        return text
+
     def resolved(self) -> dict[str, Any]:
-        """The configuration as plain data with every default filled in (for a run's manifest)."""
+        """The configuration as plain data with every default filled in (for a run's manifest),
+        each option that may hold a secret as it is shown (:func:`~cbrcore.options.option`)."""
 
         def plain(ref: ComponentRef) -> dict[str, Any]:
-            return {"use": ref.name, **unstructure(ref.options)}
+            return {"use": ref.name, **displayed(ref.options)}
 
         data: dict[str, Any] = {"seed": self.seed}
         for slot in SINGLE_SLOTS:

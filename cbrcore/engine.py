@@ -6,7 +6,7 @@ import collections
 import contextlib
 import os
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any
@@ -17,7 +17,7 @@ import pluggy
 from cbrcore.casebase.store import CaseStore
 from cbrcore.config import ComponentRef, Config, Overrides, config_from_data, load_config
 from cbrcore.context import Context
-from cbrcore.errors import CbrError, ConfigError, PhaseError, PluginError
+from cbrcore.errors import CaseBaseLocked, CbrError, ConfigError, PhaseError, PluginError
 from cbrcore.hookimpls import implemented_hooks, unknown_hooks
 from cbrcore.hookspecs import PHASE_HOOKS
 from cbrcore.model import CASEBASE, Outcome, Proposal, Retrieval, Revision, Solution
@@ -63,6 +63,12 @@ class EngineStats:
     from_solver: int = 0
     unsolved: int = 0
     learned: int = 0
+    learn_skipped: int = 0
+    """Learn steps that waited longer than the store's ``busy_timeout`` for the case base's
+    write lock and were kept to be retried (:meth:`Engine.learn`)."""
+    learn_pending: int = 0
+    """Skipped learn steps not yet learned: at the end of a run, those the lock kept out to
+    the last."""
     fallback_reasons: collections.Counter[str] = attrs.field(factory=collections.Counter)
 
     @property
@@ -77,9 +83,27 @@ class EngineStats:
             "from_solver": self.from_solver,
             "unsolved": self.unsolved,
             "learned": self.learned,
+            "learn_skipped": self.learn_skipped,
+            "learn_pending": self.learn_pending,
             "cbr_share": self.cbr_share,
             "fallback_reasons": dict(self.fallback_reasons),
         }
+
+
+LearnDone = Callable[[dict[str, float]], None]
+"""Called with a learn step's timings once the step has committed."""
+
+
+@attrs.frozen
+class SkippedStep:
+    """A learn step that gave up waiting for the case base's write lock, kept to be retried."""
+
+    problem: Any
+    proposal: Proposal
+    outcome: Outcome
+    step: int
+    """``ctx.step`` when the step was first tried: its retry sees the same."""
+    then: LearnDone | None
 
 
 def culprit(caller: Any, exc: BaseException | None, owners: Mapping[str, str]) -> str:
@@ -200,6 +224,7 @@ class Engine:
         self.warm_seconds = 0.0
         """How long the components' warm-up (``cbr_warm``) took while the engine was built."""
         self._closed = False
+        self._skipped: collections.deque[SkippedStep] = collections.deque()
         made = out_dir is not None and not out_dir.exists()
         if out_dir is not None:
             output_folder(out_dir)
@@ -405,7 +430,8 @@ class Engine:
         source = f"solver:{self._slots['solver']}"
         return Proposal(solution, source, reason, retrieval, revision, timings)
 
-    def learn(self, problem: Any, proposal: Proposal, outcome: Outcome) -> dict[str, float]:
+    def learn(self, problem: Any, proposal: Proposal, outcome: Outcome, *,
+              then: LearnDone | None = None) -> dict[str, float] | None:
         """Retain and forget after ``proposal`` was carried out.
 
         One case base transaction: a crash inside keeps nothing of this step and everything
@@ -415,23 +441,82 @@ class Engine:
         learned world among them). The engine's own transaction must be the outermost one: a
         learn step nested in a caller's transaction that rolls back later is not taken back
         from the mirror. Returns seconds per phase (``retain``, ``forget``) and for the whole
-        step, commit included (``learn``).
+        step, commit included (``learn``), and calls ``then`` with them once it has committed.
+
+        A step that waits longer than the store's ``busy_timeout`` for the case base's write
+        lock (another process holds it, a learner frozen in its own step say) is skipped
+        instead of failing the run: it is kept, counted in ``stats.learn_skipped``, and
+        ``learn`` returns None. Skipped steps are retried in the order they were skipped at the
+        start of the next learn step, which waits behind them (and is skipped too while the
+        lock is still held), and by :meth:`retry_skipped`; ``then`` is called when the step
+        commits at last. So a learner waits at most ``busy_timeout`` per learn step.
         """
-        started = time.perf_counter()
-        timings: dict[str, float] = {}
-        solution = outcome.solution or proposal.solution
         if self.casebase is None:
             raise ConfigError(str(self.config.source or "configuration"),
                               ["casebase: the engine has no case base to learn into; name a "
                                "store in the 'casebase' slot"])
-        with self.ctx.mirror.transaction():
-            if proposal.from_casebase and proposal.solution is not None:
-                _touch_stored(self.casebase, proposal.solution.cases)
-            if solution is not None:
-                self.hooks.retain(problem, solution, outcome, self.casebase, self.ctx, timings)
-            self.hooks.forget(self.casebase, self.ctx, timings)
+        step = SkippedStep(problem, proposal, outcome, self.ctx.step, then)
+        if self._skipped and not self._retry():
+            self._skip(step)
+            return None
+        try:
+            return self._learn(step)
+        except CaseBaseLocked:
+            self._skip(step)
+            return None
+
+    def retry_skipped(self) -> int:
+        """Retry the skipped learn steps in order, until one still finds the case base locked
+        (after waiting the store's ``busy_timeout``); return how many remain skipped.
+
+        ``cbr run`` calls it when its workload is done, and reports the steps skipped and those
+        still pending in its summary.
+        """
+        if self._skipped:
+            self._retry()
+        return len(self._skipped)
+
+    def _skip(self, step: SkippedStep) -> None:
+        self._skipped.append(step)
+        self.stats.learn_skipped += 1
+        self.stats.learn_pending = len(self._skipped)
+
+    def _retry(self) -> bool:
+        """Learn the skipped steps in order; False when the lock kept one out (it and those
+        after it stay skipped)."""
+        while self._skipped:
+            step = self._skipped.popleft()
+            try:
+                self._learn(step)
+            except CaseBaseLocked:
+                self._skipped.appendleft(step)
+                return False
+            finally:
+                self.stats.learn_pending = len(self._skipped)
+        return True
+
+    def _learn(self, step: SkippedStep) -> dict[str, float]:
+        """One learn step, as the step it was first tried at; CaseBaseLocked changes nothing."""
+        assert self.casebase is not None
+        started = time.perf_counter()
+        timings: dict[str, float] = {}
+        proposal, outcome = step.proposal, step.outcome
+        solution = outcome.solution or proposal.solution
+        current, self.ctx.step = self.ctx.step, step.step
+        try:
+            with self.ctx.mirror.transaction():
+                if proposal.from_casebase and proposal.solution is not None:
+                    _touch_stored(self.casebase, proposal.solution.cases)
+                if solution is not None:
+                    self.hooks.retain(step.problem, solution, outcome, self.casebase, self.ctx,
+                                      timings)
+                self.hooks.forget(self.casebase, self.ctx, timings)
+        finally:
+            self.ctx.step = current
         self.stats.learned += 1
         timings["learn"] = time.perf_counter() - started
+        if step.then is not None:
+            step.then(timings)
         return timings
 
     def measure(self, problem: Any, proposal: Proposal, outcome: Outcome) -> dict[str, Any]:

@@ -52,6 +52,11 @@ class CaseBaseError(CbrError):
     exported case base document that cannot be read."""
 
 
+class CaseBaseLocked(CaseBaseError):
+    """A case base whose write lock another process held for longer than the store waits for it
+    (its ``busy_timeout``)."""
+
+
 class UnusableCaseBase(CaseBaseError):
     """A case base that exists but cannot be used, found when its store opens it.
 

@@ -2,12 +2,14 @@
 
 A file is written to a temporary file in the same folder, flushed to the disk and renamed over
 its target: a crash, a kill or a full disk leaves either the earlier file or the new one, never
-a truncated mix, and a failed write leaves no temporary file behind.
+a truncated mix, and a failed write leaves no temporary file behind. A read-only file is never
+replaced.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import stat
 import tempfile
@@ -23,7 +25,8 @@ def replacing(path: Path, mode: str = "w") -> Iterator[IO[str]]:
     ``mode`` is ``"w"`` (text, UTF-8, newlines as written) or ``"wb"``. A symbolic link is
     followed: the file it names is replaced, and the link stays. A replaced file keeps its
     permissions. Something that is not a regular file (a terminal, a pipe, ``/dev/stdout``)
-    cannot be replaced and is written directly.
+    cannot be replaced and is written directly. A read-only file (:func:`read_only`) is
+    refused with a PermissionError and left as it is.
     """
     options: dict[str, str] = {} if "b" in mode else {"encoding": "utf-8", "newline": ""}
     try:
@@ -34,6 +37,10 @@ def replacing(path: Path, mode: str = "w") -> Iterator[IO[str]]:
         with path.open(mode, **options) as file:
             yield file
         return
+    if existing is not None and read_only(path, existing):
+        # renaming over it would succeed, since that needs only the folder's permission
+        raise PermissionError(errno.EACCES, "the file is read-only; it is not replaced",
+                              str(path))
     target = Path(os.path.realpath(path))
     handle, temporary = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.",
                                          suffix=".partial")
@@ -52,6 +59,13 @@ def replacing(path: Path, mode: str = "w") -> Iterator[IO[str]]:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(temporary)
         raise
+
+
+def read_only(path: Path, found: os.stat_result) -> bool:
+    """Whether the file ``path``, of status ``found``, is read-only: nobody has permission to
+    write it, or this process may not (a superuser may write any file, but a file without any
+    write permission was made read-only on purpose)."""
+    return not found.st_mode & 0o222 or not os.access(path, os.W_OK)
 
 
 def write_text(path: Path, text: str) -> None:

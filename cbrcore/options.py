@@ -43,13 +43,22 @@ _slots: contextvars.ContextVar[Mapping[str, str]] = contextvars.ContextVar("cbr_
 
 
 _REFERS_TO = "cbr_refers_to"
+_SHOWN = "cbr_shown"
 
 
 def option(default: Any = attrs.NOTHING, doc: str = "", *,
-           validator: Callable[..., Any] | None = None, factory: Callable[[], Any] | None = None
-           ) -> Any:
-    """An attrs field with a documentation string shown in the configuration reference."""
-    return _field(default, validator, factory, {"doc": doc})
+           validator: Callable[..., Any] | None = None, factory: Callable[[], Any] | None = None,
+           shown: Callable[[str], str] | None = None) -> Any:
+    """An attrs field with a documentation string shown in the configuration reference.
+
+    ``shown`` marks a string option that may hold a secret (a password in a database's
+    address): what a run's manifest, ``cbr validate --json`` and the recorded command line show
+    instead of its value (see :func:`displayed`).
+    """
+    metadata: dict[str, Any] = {"doc": doc}
+    if shown is not None:
+        metadata[_SHOWN] = shown
+    return _field(default, validator, factory, metadata)
 
 
 def reference(kind: str, default: Any = attrs.NOTHING, doc: str = "", *,
@@ -65,7 +74,7 @@ def reference(kind: str, default: Any = attrs.NOTHING, doc: str = "", *,
 
 
 def _field(default: Any, validator: Callable[..., Any] | None,
-           factory: Callable[[], Any] | None, metadata: dict[str, str]) -> Any:
+           factory: Callable[[], Any] | None, metadata: dict[str, Any]) -> Any:
     if factory is not None:
         return attrs.field(factory=factory, validator=validator, metadata=metadata)
     return attrs.field(default=default, validator=validator, metadata=metadata)
@@ -306,6 +315,13 @@ def _walk(exc: BaseException, path: str) -> Iterator[tuple[str, str]]:
         yield path, _describe(exc)
 
 
+def _unquoted(message: str) -> str:
+    """A problem with an option that may hold a secret, without the value it quotes: what was
+    expected, when the message says so, else only that the value is refused."""
+    expected, got, _ = message.partition(", got ")
+    return f"{expected if got else 'the value is refused'} (the value given is not shown)"
+
+
 def option_problems(options_cls: type, data: Any, where: str) -> tuple[Any, list[tuple[str, str]]]:
     """Structure ``data`` into ``options_cls``; return the instance or the problems found.
 
@@ -319,7 +335,10 @@ def option_problems(options_cls: type, data: Any, where: str) -> tuple[Any, list
     try:
         return converter.structure(dict(data), options_cls), []
     except Exception as exc:  # cattrs gathers every field's error into one group
-        return None, list(_walk(exc, where))
+        secret = {f"{where}.{field.name}" for field in attrs.fields(options_cls)
+                  if _SHOWN in field.metadata}
+        return None, [(path, _unquoted(message) if path in secret else message)
+                      for path, message in _walk(exc, where)]
 
 
 def structure_options(options_cls: type, data: Any, where: str) -> Any:
@@ -333,3 +352,48 @@ def structure_options(options_cls: type, data: Any, where: str) -> Any:
 def unstructure(options: Any) -> Any:
     """Plain data for an options instance (as written to a run's manifest)."""
     return converter.unstructure(options)
+
+
+def _secrets(options: Any) -> Iterator[tuple[str, str, Callable[[str], str]]]:
+    """``(field name, value, how it is shown)`` for each string option of ``options`` itself
+    declared with ``shown``."""
+    for field in attrs.fields(type(options)):
+        show = field.metadata.get(_SHOWN)
+        value = getattr(options, field.name)
+        if show is not None and isinstance(value, str):
+            yield field.name, value, show
+
+
+def displayed(options: Any) -> Any:
+    """Plain data for an options instance as :func:`unstructure` gives it, with the value of
+    every option declared with ``shown`` (in nested options instances too) as it is shown."""
+    data = unstructure(options)
+    _mask(options, data)
+    return data
+
+
+def _mask(options: Any, data: Any) -> None:
+    if not attrs.has(type(options)) or not isinstance(data, dict):
+        return
+    for name, value, show in _secrets(options):
+        data[name] = show(value)
+    for field in attrs.fields(type(options)):
+        value, plain = getattr(options, field.name), data.get(field.name)
+        if isinstance(value, list | tuple) and isinstance(plain, list):
+            for item, item_plain in zip(value, plain, strict=False):
+                _mask(item, item_plain)
+        else:
+            _mask(value, plain)
+
+
+def secret_values(options: Any) -> dict[str, str]:
+    """Each value of an option declared with ``shown`` (in nested options instances too), with
+    what is shown instead: to mask it wherever it was written, such as a command line."""
+    if not attrs.has(type(options)):
+        return {}
+    found = {value: show(value) for _, value, show in _secrets(options) if value}
+    for field in attrs.fields(type(options)):
+        value = getattr(options, field.name)
+        for item in value if isinstance(value, list | tuple) else (value,):
+            found.update(secret_values(item))
+    return found

@@ -9,7 +9,9 @@ outcome becomes known (:mod:`cbrcore.workload`). A run writes into its output fo
     One row per learned decision, in the order the outcomes became known (query order for the
     default loop), appended as the run goes (a killed run keeps the rows so far). A row is
     measured before its learn step and written once the step has committed, so the rows and
-    the case base's learn steps agree when a metric, a phase or the step itself fails.
+    the case base's learn steps agree when a metric, a phase or the step itself fails. A step
+    skipped because another process held the case base's write lock too long
+    (:meth:`~cbrcore.engine.Engine.learn`) has its row written when a retry commits it.
 ``summary.json``
     Where answers came from, the CBR share, success rate, phase timings and metric means.
 ``manifest.json``
@@ -59,7 +61,11 @@ def _dependencies() -> list[str]:
 
 def manifest(config: Config | None, plugins: Plugins, *, seed: int,
              extra: Mapping[str, Any] | None = None) -> dict[str, Any]:
-    """What a run or an experiment needs recorded to be repeated."""
+    """What a run or an experiment needs recorded to be repeated.
+
+    An option that may hold a secret is shown as its options class declares (a PostgreSQL
+    DSN without its password), in the configuration and in the command line alike.
+    """
 
     def version(name: str) -> str | None:
         try:
@@ -67,9 +73,12 @@ def manifest(config: Config | None, plugins: Plugins, *, seed: int,
         except metadata.PackageNotFoundError:
             return None
 
+    def shown(text: str) -> str:
+        return config.masked(text) if config is not None else text
+
     return {
         "created": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
-        "command": [Path(sys.argv[0]).name, *sys.argv[1:]],
+        "command": [shown(arg) for arg in (Path(sys.argv[0]).name, *sys.argv[1:])],
         "seed": seed,
         "python": platform.python_version(),
         "platform": platform.platform(),
@@ -208,7 +217,7 @@ def run_workload(engine: Engine, out_dir: Path, *, overrides: Sequence[str] = ()
     output_folder(out_dir)
     write_json(out_dir / "manifest.json", manifest(
         engine.config, engine.plugins, seed=engine.config.seed,
-        extra={"overrides": list(overrides)}))
+        extra={"overrides": [engine.config.masked(text) for text in overrides]}))
     total = len(engine.workload)
     rows: list[dict[str, Any]] = []
     started = time.perf_counter()
@@ -247,6 +256,9 @@ def run_workload(engine: Engine, out_dir: Path, *, overrides: Sequence[str] = ()
         session = Session(engine, record=record)
         loop(engine, session)
         session.close()
+        # learn steps skipped while another process held the case base's lock: their rows
+        # are written as they commit; the summary counts any the lock still keeps out
+        engine.retry_skipped()
     summary = summarise(rows, engine, time.perf_counter() - started)
     write_json(out_dir / "summary.json", summary)
     return summary

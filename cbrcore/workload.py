@@ -111,12 +111,14 @@ class Session:
     ``consult`` answers a query and opens a :class:`Decision`; ``learn`` learns it, in one case
     base transaction, when its outcome is known, and hands it to ``record`` around that
     transaction (``cbr run`` measures it first and writes its ``results.csv`` row once the
-    transaction has committed; see :data:`Record`). While a decision is learned, retainers,
-    forgetters, observers and metrics see ``ctx.step`` as it was when the decision was
-    consulted. Misuse is a
-    :class:`~cbrcore.errors.PluginError` naming the workload: learning a decision twice, a
-    decision of another session, anything but a decision and an outcome, using the
-    session after it was closed, and closing it with decisions still open.
+    transaction has committed; see :data:`Record`). A learn step that another process's write
+    lock keeps out is skipped and retried by the engine (:meth:`~cbrcore.engine.Engine.learn`):
+    the decision is no longer open, and is recorded when the retry commits. While a decision
+    is learned, retainers, forgetters, observers and metrics see ``ctx.step`` as it was when
+    the decision was consulted. Misuse is a :class:`~cbrcore.errors.PluginError` naming the
+    workload: learning a decision twice, a decision of another session, anything but a decision
+    and an outcome, using the session after it was closed, and closing it with decisions still
+    open.
     """
 
     def __init__(self, engine: Engine, *, record: Record | None = None) -> None:
@@ -177,11 +179,18 @@ class Session:
         current, ctx.step = ctx.step, decision._step
         try:
             write = self._record(decision, outcome) if self._record is not None else None
-            timings = self._engine.learn(decision.problem, decision.proposal, outcome)
-            # learned: whatever writing does, the decision is no longer open
-            del self._open[decision.index]
-            if write is not None:
-                write(timings)
+
+            def learned(timings: dict[str, float]) -> None:
+                # learned: whatever writing does, the decision is no longer open
+                self._open.pop(decision.index, None)
+                if write is not None:
+                    write(timings)
+
+            if self._engine.learn(decision.problem, decision.proposal, outcome,
+                                  then=learned) is None:
+                # skipped for another process's write lock: the engine keeps it, and its
+                # record is written when a retry commits it
+                del self._open[decision.index]
         finally:
             ctx.step = current
 

@@ -7,6 +7,7 @@ paths that would leave the run folder are refused unless given absolute.
 
 from __future__ import annotations
 
+import importlib.util
 from collections.abc import Callable
 from pathlib import Path
 
@@ -106,6 +107,19 @@ CASES = {
         _run("casebase: {use: sqlite, path: sub/../../cb.sqlite}"),
         "casebase.path (line 1, column 31): expected a file inside the run's output folder"),
 }
+if importlib.util.find_spec("psycopg") is not None:
+    CASES |= {
+        "DSN with a password typed as sslmode": (
+            _run("casebase: {use: postgres, dsn: 'host=/a/b sslmode=TOPSECRET password=hunter2'}"),
+            "cannot connect to schema cbrcore on the server of casebase dsn with password, host, "
+            "sslmode (values not shown): connection is bad: invalid sslmode value: \"***\""),
+        "DSN of the wrong type": (
+            _run("casebase: {use: postgres, dsn: {TOPSECRET: hunter2}}"),
+            "casebase.dsn (line 1, column 32): expected a string (the value given is not shown)"),
+        "DSN that is not one": (
+            _run("casebase: {use: postgres, dsn: 'postgresql://u:hunter2@db/x?TOPSECRET'}"),
+            "casebase dsn: not a PostgreSQL connection string"),
+    }
 
 
 @pytest.mark.parametrize(("case", "message"), CASES.values(), ids=list(CASES))

@@ -423,6 +423,7 @@ def test_stats_match_a_hand_count(build: Callable[..., Engine]) -> None:
     rejected = "revision rejected: error 1 above 0.0"
     assert engine.stats.as_dict() == {
         "queries": 6, "from_casebase": 2, "from_solver": 4, "unsolved": 0, "learned": 6,
+        "learn_skipped": 0, "learn_pending": 0,
         "cbr_share": 2 / 6, "fallback_reasons": {"no usable retrieval": 2, rejected: 2},
     }
     assert sorted(c.problem for c in engine.casebase.cases(KIND)) == [2, 3, 4, 5]

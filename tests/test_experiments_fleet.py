@@ -16,6 +16,7 @@ import pytest
 
 from cbr_casegraph.experiments.fleet import (
     PG_VARIABLES,
+    STALL_SKIPS,
     audit,
     curve,
     first_reaching,
@@ -32,7 +33,8 @@ PNG = b"\x89PNG\r\n\x1a\n"
 
 ROW_FIELDS = {"store", "mode", "robots", "trips_per_robot", "learn_steps", "wall_seconds",
               "steps_per_second", "catch_ups", "reloads", "conflicts_retried", "mean_learn_ms",
-              "cbr_share", "trips_to_share", "curve", "integrity", "seconds_with_start_and_audit"}
+              "cbr_share", "trips_to_share", "curve", "integrity", "seconds_with_start_and_audit",
+              "learn_skipped", "frozen_seconds"}
 INTEGRITY_FIELDS = {"case_bases", "lost_steps", "uncovered_steps", "check_problems",
                     "replay_equal", "serialised", "vertices", "segments"}
 
@@ -57,6 +59,7 @@ def test_the_ci_run_reports_every_fleet_and_loses_nothing(
     check_fields(results)
     for row in results["rows"]:
         check_sound(row)
+    check_stalled(results["rows"][-1])
 
 
 def test_the_ci_run_learns_into_postgres_when_the_environment_names_a_server(
@@ -78,15 +81,26 @@ def test_the_ci_run_learns_into_postgres_when_the_environment_names_a_server(
     assert results["postgres_absent"] is None
     rows = [row for row in results["rows"] if row["store"] == "postgres"]
     assert [(row["robots"], row["mode"]) for row in rows] == [
-        (1, "shared"), (2, "shared"), (2, "separate")]
+        (1, "shared"), (2, "shared"), (2, "separate"), (2, "frozen")]
     for row in rows:
         check_sound(row)
+    check_stalled(rows[-1])
+
+
+def check_stalled(row: dict[str, Any]) -> None:
+    """The robots beside a frozen learner skipped learn steps and still lost none: every trip
+    they drove was learned (the audit found every committed step in the store)."""
+    assert row["mode"] == "frozen"
+    assert row["learn_skipped"] >= STALL_SKIPS * row["robots"]
+    assert row["learn_steps"] == sum(row["trips_per_robot"])
+    assert row["frozen_seconds"] > 0
 
 
 def check_fields(results: dict[str, Any]) -> None:
     rows = results["rows"]
     assert [(row["store"], row["robots"], row["mode"]) for row in rows] == [
-        ("sqlite", 1, "shared"), ("sqlite", 2, "shared"), ("sqlite", 2, "separate")]
+        ("sqlite", 1, "shared"), ("sqlite", 2, "shared"), ("sqlite", 2, "separate"),
+        ("sqlite", 2, "frozen")]
     assert results["stores"] == ["sqlite"]
     assert "PGHOST" in results["postgres_absent"]
     for row in rows:
@@ -100,6 +114,7 @@ def check_fields(results: dict[str, Any]) -> None:
         assert row["curve"][-1]["trips"] == row["learn_steps"]
         assert row["integrity"]["case_bases"] == (row["robots"] if row["mode"] == "separate"
                                                   else 1)
+        assert (row["learn_skipped"] > 0) == (row["mode"] == "frozen")
     # one robot alone never finds the case base moved by another
     assert rows[0]["catch_ups"] == 0
     # two robots sharing one do, and their case graphs follow each other's commits

@@ -5,7 +5,6 @@ from __future__ import annotations
 import contextlib
 import json
 import operator
-import re
 from collections.abc import Iterable, Iterator, Mapping
 from typing import Any
 
@@ -13,8 +12,8 @@ import attrs
 import psycopg
 from psycopg import errors as pg_errors
 from psycopg import pq
-from psycopg.conninfo import conninfo_to_dict
 
+from cbrcore.casebase.conninfo import connection_label, fields, scrubbed
 from cbrcore.casebase.data import (
     MAX_INTEGER,
     REVISION_KEY,
@@ -36,7 +35,7 @@ from cbrcore.casebase.postgres_schema import (
     stored_version,
 )
 from cbrcore.casebase.store import Changes
-from cbrcore.errors import CaseBaseError, UnusableCaseBase
+from cbrcore.errors import CaseBaseError, CaseBaseLocked, UnusableCaseBase
 from cbrcore.model import JSON, Case
 
 MAX_ID = MAX_INTEGER
@@ -51,31 +50,6 @@ def _dumps(value: JSON) -> str:
     # ASCII escapes keep every string storable (NUL, lone surrogates) in a database of any
     # encoding, and its text readable back exactly
     return json.dumps(value, allow_nan=False, separators=(",", ":"))
-
-
-def safe_conninfo(dsn: str) -> str:
-    """What ``dsn`` names, fit to show: every password left out.
-
-    A DSN libpq cannot parse gives a CaseBaseError whose message keeps, of what libpq quotes in
-    its complaint, only option names: anything else it quotes may be a password.
-    """
-    try:
-        given = conninfo_to_dict(dsn)
-    except psycopg.ProgrammingError as exc:
-        keywords = {d.keyword.decode() for d in pq.Conninfo.get_defaults()}
-
-        def shown(quote: re.Match[str]) -> str:
-            named = quote[1] in keywords or quote[0] == '"="' or quote.string[
-                :quote.start()].endswith(("option ", "parameter: "))
-            return quote[0] if named else '"..."'
-
-        why = re.sub(r'"([^"]*)"', shown, str(exc).strip())
-        raise CaseBaseError(f"casebase dsn: not a PostgreSQL connection string ('host=db "
-                            f"dbname=cases') or URI ('postgresql://user@db/cases'): {why}"
-                            ) from None
-    shown = [f"{key}={value}" for key, value in given.items()
-             if value is not None and "password" not in key]
-    return " ".join(shown) or "the server the PG* environment variables name"
 
 
 class PostgresStore:
@@ -113,7 +87,8 @@ class PostgresStore:
         self.schema = schema
         self.busy_timeout = busy_timeout
         self.read_only = read_only
-        self._label = f"schema {schema} of {safe_conninfo(dsn)}"
+        fields(dsn)  # a DSN libpq cannot read is refused before connecting
+        self._label = connection_label(dsn, schema)
         self._depth = 0
         self._pending = 0
         self._last_id = 0
@@ -127,7 +102,7 @@ class PostgresStore:
                                          fallback_application_name="cbrcore")
         except psycopg.Error as exc:
             raise CaseBaseError(f"cannot connect to {self._label}: "
-                                f"{self._scrubbed(exc, dsn)}") from None
+                                f"{scrubbed(str(exc), dsn)}") from None
         try:
             info = self._conn.info
             self._label = (f"schema {schema} of database {info.dbname} on "
@@ -146,16 +121,6 @@ class PostgresStore:
             self._conn.close()
             raise
 
-    @staticmethod
-    def _scrubbed(exc: psycopg.Error, dsn: str) -> str:
-        """libpq's message, with any password of ``dsn`` cut out should it quote one."""
-        text = str(exc).strip()
-        with contextlib.suppress(psycopg.Error):
-            for key, value in conninfo_to_dict(dsn).items():
-                if "password" in key and value:
-                    text = text.replace(str(value), "...")
-        return text
-
     def __str__(self) -> str:
         return self._label
 
@@ -173,7 +138,7 @@ class PostgresStore:
     def _translate(self, exc: psycopg.Error) -> CaseBaseError | None:
         """The CaseBaseError for a problem with the case base or the server; None for a bug."""
         if isinstance(exc, pg_errors.LockNotAvailable):
-            return CaseBaseError(f"{self} is locked by another process (gave up after waiting "
+            return CaseBaseLocked(f"{self} is locked by another process (gave up after waiting "
                                  f"{self.busy_timeout:g} s for it)")
         if isinstance(exc, pg_errors.ReadOnlySqlTransaction):
             return CaseBaseError(f"{self} is open for reading only and cannot be written")

@@ -38,11 +38,16 @@ from cbrcore.casebase.sqlite_file import (
     validate,
 )
 from cbrcore.casebase.store import Changes
-from cbrcore.errors import CaseBaseError, UnusableCaseBase
+from cbrcore.errors import CaseBaseError, CaseBaseLocked, UnusableCaseBase
 from cbrcore.model import JSON, Case
 
 LOCK_RETRY = (0.0001, 0.0005)
 """The first and the longest pause, in seconds, between two tries for the write lock."""
+
+_NO_SHM = frozenset({"SQLITE_CANTOPEN", "SQLITE_READONLY_DIRECTORY", "SQLITE_READONLY_CANTINIT"})
+"""What SQLite reports when it cannot create or set up the ``-shm`` file of a WAL database in
+a folder, or beside a file, that may not be written (which one depends on its version and on
+what is missing)."""
 
 _COLUMNS = "id, kind, problem, solution, meta, uses, created, last_used"
 _CHUNK = 500
@@ -137,10 +142,16 @@ class SQLiteStore:
         A read-write connection told to write nothing comes first: unlike a read-only one, the
         last such connection to close removes the ``-wal`` and ``-shm`` files beside the case
         base, so reading leaves nothing behind. In a folder the process may not write, reading
-        a WAL database needs its ``-shm`` file to exist already; without a ``-wal`` file
-        everything committed is in the case base file itself, and SQLite may read it as
-        immutable (a snapshot that takes no locks).
+        a WAL database needs its ``-shm`` file to exist already, and SQLite refuses it
+        (:data:`_NO_SHM`); without a ``-wal`` file everything committed is in the case base
+        file itself, and SQLite may read it as immutable (a snapshot that takes no locks). A
+        file the process may not write is read so at once: SQLite would open it read-only and
+        leave ``-wal`` and ``-shm`` files it cannot remove.
         """
+        wal = self.path.with_name(self.path.name + "-wal")
+        if not os.access(self.path, os.W_OK) and not wal.exists():
+            self._immutable = True
+            return self._connect("mode=ro&immutable=1")
         conn = self._connect("mode=rw")
         try:
             conn.execute("PRAGMA query_only = ON")
@@ -149,10 +160,10 @@ class SQLiteStore:
             return conn
         except sqlite3.Error as exc:
             conn.close()
-            if getattr(exc, "sqlite_errorname", "") != "SQLITE_CANTOPEN":
+            if getattr(exc, "sqlite_errorname", "") not in _NO_SHM:
                 raise self._translate(exc) or CaseBaseError(
                     f"cannot open {self.path}: {exc}") from exc
-        if self.path.with_name(self.path.name + "-wal").exists():
+        if wal.exists():
             return self._connect("mode=ro")
         self._immutable = True
         return self._connect("mode=ro&immutable=1")
@@ -175,7 +186,7 @@ class SQLiteStore:
         """The CaseBaseError for a problem with the file; None for anything else (a bug)."""
         name = getattr(exc, "sqlite_errorname", "")
         if name.startswith(("SQLITE_BUSY", "SQLITE_LOCKED")):
-            return CaseBaseError(f"{self.path} is locked by another process (gave up after "
+            return CaseBaseLocked(f"{self.path} is locked by another process (gave up after "
                                  f"waiting {self.busy_timeout:g} s for it)")
         if name.startswith("SQLITE_CORRUPT") or name == "SQLITE_NOTADB":
             return UnusableCaseBase(f"{self.path} is corrupt: {exc}")

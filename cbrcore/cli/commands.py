@@ -107,6 +107,10 @@ def run(
     ]
     if summary["mean_outcome_cost"] is not None:
         rows.append(("mean outcome cost", f"{summary['mean_outcome_cost']:.4g}"))
+    if summary["learn_skipped"]:
+        # another process held the case base's write lock longer than the store waits
+        rows += [("learn steps skipped (locked)", summary["learn_skipped"]),
+                 ("  still not learned", summary["learn_pending"])]
     rows += [(f"median {phase} ms", f"{ms:.3f}") for phase, ms in summary["median_ms"].items()]
     rows += [(name, f"{value:.4g}") for name, value in summary["metric_means"].items()]
     rows += [("wall time s", f"{summary['seconds']:.2f}"), ("output", str(out_dir))]

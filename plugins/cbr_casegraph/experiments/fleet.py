@@ -21,6 +21,13 @@ experiment reports, for each store, fleet size and mode:
   replaying the retained paths in commit order into a fresh single-process case graph must give
   the same graph (the same vertices and the same segments).
 
+A further fleet of :data:`STALL_ROBOTS` robots (case base ``frozen``) shares its case base with a
+stalled learner: a process that takes the write lock as a learn step does and is then frozen
+with ``SIGSTOP``, until each robot has skipped :data:`STALL_SKIPS` learn steps. The robots wait
+:data:`STALL_LOCK_SECONDS` for the lock, skip the step, keep it and learn it once the learner is
+let go (:meth:`cbrcore.engine.Engine.learn`); the row counts the skipped steps, and its audit
+shows that none was lost.
+
 Learning is retaining and the ``redundant_vertices`` forgetter only: forgetting by risk or by a
 vertex limit removes cases by design, and a lost write could not be told from a forgotten case.
 Each learn step also counts itself in the case base's meta data (the experiment's own
@@ -39,7 +46,9 @@ import json
 import multiprocessing
 import multiprocessing.connection
 import os
+import signal
 import tempfile
+import threading
 import time
 import traceback
 from collections.abc import Callable, Mapping, Sequence
@@ -60,6 +69,7 @@ from cbrcore.engine import Engine
 from cbrcore.errors import CbrError
 from cbrcore.experiment import ExperimentResult, Size
 from cbrcore.hookspecs import hookimpl
+from cbrcore.model import Outcome, Proposal
 from cbrcore.options import option, structure_options
 from cbrcore.plugins import Plugins, current, load_plugins
 from cbrcore.registry import Registry
@@ -84,6 +94,20 @@ READY_SECONDS = 600.0
 LOCK_SECONDS = 300.0
 """How long a robot waits for the write lock of a shared case base: with 8 robots, each step
 catching up with the others', a turn can take seconds, longer than the stores' default."""
+
+STALL_ROBOTS = 2
+"""The robots of the ``frozen`` fleet, which learn into one case base beside a stalled learner."""
+
+STALL_LOCK_SECONDS = 0.2
+"""How long a robot of the ``frozen`` fleet waits for the write lock before skipping a learn
+step: short, so that the stalled learner costs each robot little time per step."""
+
+STALL_SKIPS = 3
+"""The learn steps each robot of the ``frozen`` fleet skips before the stalled learner is let go
+(fewer when the robot drives fewer trips)."""
+
+DONE = 2**31 - 1
+"""What a robot sets its count of skipped steps to once it has driven every trip."""
 
 PG_VARIABLES = ("PGHOST", "PGHOSTADDR", "PGPORT", "PGDATABASE", "PGUSER", "PGPASSWORD",
                 "PGSERVICE")
@@ -178,12 +202,17 @@ def robot_config(job: RobotJob) -> dict[str, Any]:
     }
 
 
-def drive(job: RobotJob, ready: Any) -> None:
+def drive(job: RobotJob, ready: Any, skipped: Any = None) -> None:
     """A robot process: build the engine, wait for the fleet, drive and learn, write the log.
 
-    The log holds, per committed learn step, the revision the step read, whether the case base
-    planned the trip, the cost deviation from A*'s optimum and the path retained (None when the
-    trip failed); a robot that fails writes why instead.
+    The log holds, per committed learn step in the order committed, the revision the step read,
+    whether the case base planned the trip, the cost deviation from A*'s optimum and the path
+    retained (None when the trip failed); a robot that fails writes why instead. A learn step
+    that waits out the store's ``busy_timeout`` is skipped and retried by the engine
+    (:meth:`~cbrcore.engine.Engine.learn`); the robot counts its skipped steps in
+    ``skipped[robot]`` when given (the shared array a stalled learner's release waits on, set
+    to :data:`DONE` once the robot has driven every trip), and retries the steps still
+    skipped at the end until every one is learned.
     """
     try:
         plugins = load_plugins(extra=[("fleet", JournalPlugin())])
@@ -192,21 +221,36 @@ def drive(job: RobotJob, ready: Any) -> None:
             ready.wait(READY_SECONDS)
             started = time.time()
             trips: list[dict[str, Any]] = []
+
+            def committed(proposal: Proposal, outcome: Outcome, deviation: Any
+                          ) -> Callable[[dict[str, float]], None]:
+                solution = outcome.solution or proposal.solution
+
+                def record(timings: dict[str, float]) -> None:
+                    trips.append({"read": journal.read, "cbr": proposal.from_casebase,
+                                  "deviation": deviation, "learn_seconds": timings["learn"],
+                                  "path": (solution.value if outcome.success
+                                           and solution is not None else None)})
+
+                return record
+
             for problem in engine.workload.queries(engine.ctx):
                 proposal = engine.solve(problem)
                 outcome = engine.workload.execute(problem, proposal, engine.ctx)
                 deviation = engine.measure(problem, proposal, outcome).get("deviation")
-                began = time.perf_counter()
-                engine.learn(problem, proposal, outcome)
-                learned = time.perf_counter() - began
-                solution = outcome.solution or proposal.solution
-                trips.append({"read": journal.read, "cbr": proposal.from_casebase,
-                              "deviation": deviation, "learn_seconds": learned,
-                              "path": (solution.value if outcome.success
-                                       and solution is not None else None)})
+                engine.learn(problem, proposal, outcome,
+                             then=committed(proposal, outcome, deviation))
+                if skipped is not None:
+                    skipped[job.robot] = engine.stats.learn_skipped
+            if skipped is not None:
+                skipped[job.robot] = DONE
+            # a robot's account is complete only when every step it drove is in the store
+            while engine.retry_skipped():
+                pass
             account = {"robot": job.robot, "started": started, "finished": time.time(),
                        "catch_ups": engine.ctx.mirror.catch_ups,
-                       "reloads": engine.ctx.mirror.reloads, "trips": trips}
+                       "reloads": engine.ctx.mirror.reloads,
+                       "learn_skipped": engine.stats.learn_skipped, "trips": trips}
     except BaseException as exc:
         account = {"robot": job.robot, "error": f"{type(exc).__name__}: {exc}",
                    "traceback": traceback.format_exc()}
@@ -233,15 +277,86 @@ def postgres_dsn(environ: Mapping[str, str]) -> str | None:
     return "" if any(environ.get(name) for name in PG_VARIABLES) else None
 
 
-def run_fleet(jobs: Sequence[RobotJob]) -> list[dict[str, Any]]:
+def hold_lock(casebase: dict[str, Any], seed: int, locked: Any, release: Any) -> None:
+    """The stalled learner's process: take the case base's write lock as a learn step does (an
+    open write transaction), say so, and hold it until released; it commits nothing."""
+    plugins = load_plugins()
+    component = plugins.registry.get("store", casebase["use"])
+    options = structure_options(component.options,
+                                {k: v for k, v in casebase.items() if k != "use"}, "casebase")
+    store = component.factory(options, Context(registry=plugins.registry, seed=seed))
+    try:
+        with store.transaction():
+            locked.set()
+            release.wait(READY_SECONDS)
+    finally:
+        store.close()
+
+
+class Stall:
+    """A learner that takes the case base's write lock and is then frozen (``SIGSTOP``), as a
+    process stopped by a debugger or a machine that stopped answering would be, until every
+    robot has skipped :data:`STALL_SKIPS` learn steps or driven all its trips."""
+
+    def __init__(self, casebase: dict[str, Any], seed: int, robots: int) -> None:
+        spawn = multiprocessing.get_context("spawn")
+        self.locked, self.release = spawn.Event(), spawn.Event()
+        self.skipped = spawn.Array("i", robots)
+        self.process = spawn.Process(target=hold_lock, daemon=True,
+                                     args=(casebase, seed, self.locked, self.release))
+        self.frozen_seconds = 0.0
+
+    def start(self) -> None:
+        """Start the learner and freeze it once it holds the lock."""
+        self.process.start()
+        if not self.locked.wait(READY_SECONDS):
+            self.process.kill()
+            raise CbrError("experiment 'fleet': the stalled learner never got the write lock")
+        os.kill(self.process.pid, signal.SIGSTOP)
+
+    def watch(self, ready: Any, wanted: Sequence[int]) -> None:
+        """Wait for the fleet to start, then for each robot to skip ``wanted`` steps, then let
+        the learner go (at once if the fleet failed to start)."""
+        try:
+            ready.wait(READY_SECONDS)
+            began = time.perf_counter()
+            while any(self.skipped[robot] < least for robot, least in enumerate(wanted)):
+                if self.release.is_set() or time.perf_counter() - began > READY_SECONDS:
+                    break  # a robot failed, or never got as far
+                time.sleep(0.01)
+            self.frozen_seconds = time.perf_counter() - began
+        except threading.BrokenBarrierError:
+            pass
+        finally:
+            self.resume()
+
+    def resume(self) -> None:
+        """Let the learner go: it ends its transaction, committing nothing, and exits."""
+        if self.process.pid is not None and self.process.exitcode is None:
+            os.kill(self.process.pid, signal.SIGCONT)
+        self.release.set()
+        self.process.join(READY_SECONDS)
+
+
+def run_fleet(jobs: Sequence[RobotJob], stall: Stall | None = None) -> list[dict[str, Any]]:
     """Start a robot process per job, let them drive together and return their accounts.
 
-    The wall time of the learning phase runs from the moment every robot is ready. A CbrError
-    names a robot that failed, with its error.
+    The wall time of the learning phase runs from the moment every robot is ready. With a
+    ``stall``, its learner holds the case base's lock, frozen, from before the robots start
+    until they have skipped some learn steps. A CbrError names a robot that failed, with its
+    error.
     """
     spawn = multiprocessing.get_context("spawn")
-    ready = spawn.Barrier(len(jobs))
-    robots = [spawn.Process(target=drive, args=(job, ready), daemon=True) for job in jobs]
+    ready = spawn.Barrier(len(jobs) + (stall is not None))
+    shared = stall.skipped if stall is not None else None
+    robots = [spawn.Process(target=drive, args=(job, ready, shared), daemon=True)
+              for job in jobs]
+    watcher = None
+    if stall is not None:
+        stall.start()
+        wanted = [min(STALL_SKIPS, job.trips) for job in jobs]
+        watcher = threading.Thread(target=stall.watch, args=(ready, wanted), daemon=True)
+        watcher.start()
     for robot in robots:
         robot.start()
     running = {robot.sentinel: robot for robot in robots}
@@ -250,8 +365,13 @@ def run_fleet(jobs: Sequence[RobotJob]) -> list[dict[str, Any]]:
             ended = running.pop(sentinel)
             ended.join()
             if ended.exitcode != 0:
-                # a robot that died before the start would leave the others waiting for it
+                # a robot that died before the start would leave the others waiting for it,
+                # and one that died later would keep the stalled learner frozen
                 ready.abort()
+                if stall is not None:
+                    stall.resume()
+    if stall is not None and watcher is not None:
+        watcher.join()
     accounts = []
     for job, robot in zip(jobs, robots, strict=True):
         log = Path(job.log)
@@ -430,6 +550,7 @@ class Fleet:
             stores, absent = self.stores(folder, os.environ)
             plan = [(store, n, mode) for store in stores for n in scale.fleets
                     for mode in (("shared",) if n == 1 else ("shared", "separate"))]
+            plan += [(store, STALL_ROBOTS, "frozen") for store in stores]
             for done, (store, n, mode) in enumerate(plan):
                 rows.append(self.fleet(store, n, mode, scale, grid, folder))
                 progress(done + 1, len(plan))
@@ -439,7 +560,8 @@ class Fleet:
                    "stores": [store.name for store in stores], "postgres_absent": absent,
                    "conflict_policy": "a learn step holds the store's write lock from its first "
                                       "read to its commit: steps wait for each other and are "
-                                      "never redone",
+                                      "never redone; a step that waits out the store's "
+                                      "busy_timeout is skipped, kept and learned later",
                    "rows": rows, "targets": targets(rows)}
         return ExperimentResult(results=results, table=table(rows, absent),
                                 figures={"fleet_share": figure(rows)})
@@ -451,11 +573,13 @@ class Fleet:
         labels = ([f"{label}-{robot}" for robot in range(n)] if mode == "separate"
                   else [label] * n)
         trips = [scale.trips // n + (robot < scale.trips % n) for robot in range(n)]
-        jobs = [RobotJob(robot, store.casebase(labels[robot]), scale.side, self.seed,
-                         trips[robot], str(folder / f"{label}-robot-{robot}.json"))
+        lock = {"busy_timeout": STALL_LOCK_SECONDS} if mode == "frozen" else {}
+        jobs = [RobotJob(robot, {**store.casebase(labels[robot]), **lock}, scale.side,
+                         self.seed, trips[robot], str(folder / f"{label}-robot-{robot}.json"))
                 for robot in range(n)]
+        stall = Stall(jobs[0].casebase, self.seed, n) if mode == "frozen" else None
         began = time.perf_counter()
-        accounts = run_fleet(jobs)
+        accounts = run_fleet(jobs, stall)
         audits = []
         for case_base in dict.fromkeys(labels):
             mine = [a for a, own in zip(accounts, labels, strict=True) if own == case_base]
@@ -466,7 +590,7 @@ class Fleet:
                 opened.close()
         wall = max(a["finished"] for a in accounts) - min(a["started"] for a in accounts)
         steps = sum(len(a["trips"]) for a in accounts)
-        if mode == "shared":
+        if mode != "separate":
             ordered = sorted((t for a in accounts for t in a["trips"]), key=lambda t: t["read"])
         else:
             # each robot learns alone: by the time the fleet drove k * n trips, each drove k
@@ -481,6 +605,8 @@ class Fleet:
             "catch_ups": sum(a["catch_ups"] for a in accounts),
             "reloads": sum(a["reloads"] for a in accounts),
             "conflicts_retried": 0,
+            "learn_skipped": sum(a["learn_skipped"] for a in accounts),
+            "frozen_seconds": stall.frozen_seconds if stall is not None else None,
             "mean_learn_ms": float(np.mean(learn) * 1000) if learn else None,
             "cbr_share": sum(t["cbr"] for t in ordered) / len(ordered) if ordered else None,
             "trips_to_share": first_reaching(ordered, SHARE_MARK),
@@ -528,19 +654,28 @@ def targets(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
 
 def table(rows: Sequence[Mapping[str, Any]], absent: str | None) -> str:
     lines = ["| store | robots | case base | learn steps | steps/s | catch-ups | reloads "
-             "| conflicts retried | learn ms | CBR share | trips to share "
+             "| conflicts retried | skipped (locked) | learn ms | CBR share | trips to share "
              f"{SHARE_MARK:.1f} | lost | uncovered | check | replay equal |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for row in rows:
         integrity = row["integrity"]
         lines.append(
             f"| {row['store']} | {row['robots']} | {row['mode']} | {row['learn_steps']} "
             f"| {fmt(row['steps_per_second'], 1)} | {row['catch_ups']} | {row['reloads']} "
-            f"| {row['conflicts_retried']} | {fmt(row['mean_learn_ms'])} "
+            f"| {row['conflicts_retried']} | {row['learn_skipped']} "
+            f"| {fmt(row['mean_learn_ms'])} "
             f"| {fmt(row['cbr_share'], 3)} | {row['trips_to_share'] or 'n/a'} "
             f"| {integrity['lost_steps']} | {integrity['uncovered_steps']} "
             f"| {'ok' if not integrity['check_problems'] else len(integrity['check_problems'])} "
             f"| {'yes' if integrity['replay_equal'] else 'NO'} |")
+    frozen = [row for row in rows if row["mode"] == "frozen"]
+    if frozen:
+        held = ", ".join(f"{row['store']} {fmt(row['frozen_seconds'], 2)} s" for row in frozen)
+        lines += ["", f"Case base 'frozen': the robots share it with a learner frozen (SIGSTOP) "
+                      f"while it holds the write lock ({held} after the start); a robot skips "
+                      f"a learn step after waiting {STALL_LOCK_SECONDS:g} s for the lock and "
+                      f"learns it once the lock is free ('lost' counts any step the store "
+                      f"misses)."]
     if absent:
         lines += ["", f"PostgreSQL rows absent: {absent}."]
     return "\n".join(lines)
@@ -548,7 +683,8 @@ def table(rows: Sequence[Mapping[str, Any]], absent: str | None) -> str:
 
 def figure(rows: Sequence[Mapping[str, Any]]) -> Any:
     """CBR share and cost deviation against total trips, shared (solid) against separate
-    (dashed), one colour per fleet size; SQLite rows only, the PostgreSQL ones being alike."""
+    (dashed) and shared beside a frozen learner (dotted), one colour per fleet size; SQLite
+    rows only, the PostgreSQL ones being alike."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(11, 4))
@@ -558,7 +694,7 @@ def figure(rows: Sequence[Mapping[str, Any]]) -> Any:
         if row["store"] != "sqlite":
             continue
         colour = f"C{sizes.index(row['robots'])}"
-        style = "-" if row["mode"] == "shared" else "--"
+        style = {"shared": "-", "separate": "--", "frozen": ":"}[row["mode"]]
         label = f"{row['robots']} robot{'s' if row['robots'] > 1 else ''}, {row['mode']}"
         xs = [point["trips"] for point in row["curve"]]
         share.plot(xs, [point["cbr_share"] for point in row["curve"]], style, color=colour,
