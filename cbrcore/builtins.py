@@ -11,6 +11,7 @@ from cbrcore.casebase import MemoryStore, SQLiteStore
 from cbrcore.casebase.exchange import read_document
 from cbrcore.casebase.postgres_schema import schema_name_problem
 from cbrcore.casebase.store import CaseStore
+from cbrcore.casebase.worlds import ONE, WORLDS_DOC, WORLDS_VALIDATOR, Worlds
 from cbrcore.context import Context
 from cbrcore.errors import CaseBaseError, ConfigError
 from cbrcore.hookspecs import hookimpl
@@ -58,6 +59,7 @@ class SQLiteOptions:
     read_only: bool = option(False, "Open an existing case base for reading alone, also in a "
                                     "folder that may not be written; a write is an error.")
     initial: Path | None = option(None, _INITIAL_DOC)
+    worlds: Worlds = option(ONE, WORLDS_DOC, validator=WORLDS_VALIDATOR)
 
 
 def _schema_name(instance: Any, attribute: attrs.Attribute, value: str) -> None:
@@ -93,6 +95,7 @@ class PostgresOptions:
     read_only: bool = option(False, "Open an existing case base for reading alone, also with a "
                                     "database role that may only read it; a write is an error.")
     initial: Path | None = option(None, _INITIAL_DOC)
+    worlds: Worlds = option(ONE, WORLDS_DOC, validator=WORLDS_VALIDATOR)
 
 
 @attrs.frozen
@@ -100,6 +103,7 @@ class MemoryOptions:
     """Options of the ``memory`` store."""
 
     initial: Path | None = option(None, _INITIAL_DOC)
+    worlds: Worlds = option(ONE, WORLDS_DOC, validator=WORLDS_VALIDATOR)
 
 
 def memory_store(options: MemoryOptions, ctx: Context) -> MemoryStore:
