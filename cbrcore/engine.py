@@ -485,8 +485,10 @@ class Engine:
         writers committed and, if the step fails, drops the views that may hold its writes (a
         learned world among them). The engine's own transaction must be the outermost one: a
         learn step nested in a caller's transaction that rolls back later is not taken back
-        from the mirror. Returns seconds per phase (``retain``, ``forget``) and for the whole
-        step, commit included (``learn``).
+        from the mirror. The first step of a world-bound run records its world in the case
+        base first (:func:`~cbrcore.casebase.worlds.record_world`), refusing one that another
+        process of another world recorded meanwhile. Returns seconds per phase (``retain``,
+        ``forget``) and for the whole step, commit included (``learn``).
         """
         started = time.perf_counter()
         timings: dict[str, float] = {}
