@@ -12,6 +12,7 @@ from cbrcore.casebase.conninfo import masked_dsn
 from cbrcore.casebase.exchange import read_document
 from cbrcore.casebase.postgres_schema import schema_name_problem
 from cbrcore.casebase.store import CaseStore
+from cbrcore.casebase.worlds import ONE, WORLDS_DOC, WORLDS_VALIDATOR, Worlds
 from cbrcore.context import Context
 from cbrcore.errors import CaseBaseError, ConfigError
 from cbrcore.hookspecs import hookimpl
@@ -59,6 +60,7 @@ class SQLiteOptions:
     read_only: bool = option(False, "Open an existing case base for reading alone, also in a "
                                     "folder that may not be written; a write is an error.")
     initial: Path | None = option(None, _INITIAL_DOC)
+    worlds: Worlds = option(ONE, WORLDS_DOC, validator=WORLDS_VALIDATOR)
 
 
 def _schema_name(instance: Any, attribute: attrs.Attribute, value: str) -> None:
@@ -96,6 +98,7 @@ class PostgresOptions:
     read_only: bool = option(False, "Open an existing case base for reading alone, also with a "
                                     "database role that may only read it; a write is an error.")
     initial: Path | None = option(None, _INITIAL_DOC)
+    worlds: Worlds = option(ONE, WORLDS_DOC, validator=WORLDS_VALIDATOR)
 
 
 @attrs.frozen
@@ -103,6 +106,7 @@ class MemoryOptions:
     """Options of the ``memory`` store."""
 
     initial: Path | None = option(None, _INITIAL_DOC)
+    worlds: Worlds = option(ONE, WORLDS_DOC, validator=WORLDS_VALIDATOR)
 
 
 def memory_store(options: MemoryOptions, ctx: Context) -> MemoryStore:

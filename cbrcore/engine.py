@@ -15,12 +15,22 @@ import attrs
 import pluggy
 
 from cbrcore.casebase.store import CaseStore
+from cbrcore.casebase.worlds import admit, record_world, recorded_worlds, store_policy
 from cbrcore.config import ComponentRef, Config, Overrides, config_from_data, load_config
 from cbrcore.context import Context
-from cbrcore.errors import CaseBaseLocked, CbrError, ConfigError, PhaseError, PluginError
+from cbrcore.errors import (
+    CaseBaseError,
+    CaseBaseLocked,
+    CbrError,
+    ConfigError,
+    PhaseError,
+    PluginError,
+)
+from cbrcore.fingerprint import WorldFingerprint, fingerprint
 from cbrcore.hookimpls import implemented_hooks, unknown_hooks
 from cbrcore.hookspecs import PHASE_HOOKS
 from cbrcore.model import CASEBASE, Outcome, Proposal, Retrieval, Revision, Solution
+from cbrcore.options import unstructure
 from cbrcore.plugins import Plugins, current, new_plugin_manager
 from cbrcore.registry import KIND_HOOK
 
@@ -200,6 +210,13 @@ class Engine:
     for files components write (a SQLite case base by default); None embeds the engine without
     one. Once every component is built, those implementing ``cbr_warm`` warm up (compile their
     kernels on a tiny problem), so that no query's timings include compilation.
+
+    A run whose retriever, reuser, retainers or forgetters are not all declared
+    world-independent uses cases bound to its world: the engine takes the world's fingerprint
+    (``cbr_world_fingerprint``) and, before any component reads the case base, refuses one
+    whose cases belong to another world (:class:`~cbrcore.casebase.worlds.OtherWorld`), unless
+    its store is configured with ``worlds: any``; the first learn step records the world in the
+    case base (:mod:`cbrcore.casebase.worlds`).
     """
 
     def __init__(self, config: Config, *, world: Any = None, plugins: Plugins | None = None,
@@ -221,6 +238,10 @@ class Engine:
         """The built components by YAML path (``retrieve``, ``retain.0``, ``kinematics``): the
         plugin slots', the phase components and the observers."""
         self.casebase: CaseStore | None = None
+        self.world_fingerprint: WorldFingerprint | None = None
+        """The world the run's cases belong to; None when its case components are all
+        world-independent (or it has no world or no case base)."""
+        self._unrecorded: WorldFingerprint | None = None
         self.warm_seconds = 0.0
         """How long the components' warm-up (``cbr_warm``) took while the engine was built."""
         self._closed = False
@@ -236,6 +257,9 @@ class Engine:
                 self.ctx.stash[self.plugins.registry.slots[slot].key] = self._component(ref)
             self.casebase = self._build(config.casebase)
             self.ctx.casebase = self.casebase
+            # before any component loads the cases: another world's would fail it obscurely
+            self.world_fingerprint = self._world_fingerprint(configured_world=world is None)
+            self._admit_world()
             for slot in ("retrieve", "reuse", "revise", "solver"):
                 ref = getattr(config, slot)
                 if ref is not None:
@@ -305,6 +329,60 @@ class Engine:
                 f"{', '.join(takers) or 'none'}; the worlds a configuration can name instead: "
                 f"{', '.join(worlds) or 'none registered'}")
         return world
+
+    def _world_fingerprint(self, *, configured_world: bool) -> WorldFingerprint | None:
+        """The fingerprint of the run's world, when its case components are world-bound.
+
+        Asked of the loaded plugins (``cbr_world_fingerprint``); a configured world no plugin
+        answers for is known by its component, options and the run's seed.
+        """
+        config = self.config
+        if self.casebase is None or self.world is None:
+            return None
+        refs = [ref for ref in (config.retrieve, config.reuse, *config.retain, *config.forget)
+                if ref is not None]
+        registry = self.plugins.registry
+        if all(registry.get(ref.kind, ref.name).world_independent for ref in refs):
+            return None
+        caller = self.plugins.pm.hook.cbr_world_fingerprint
+        try:
+            found = caller(world=self.world)
+        except CbrError:
+            raise
+        except Exception as exc:
+            raise PluginError(f"world: plugin {culprit(caller, exc, {})!r} failed to give the "
+                              f"fingerprint of a {_type_name(self.world)}: "
+                              f"{type(exc).__name__}: {exc}") from exc
+        if found is not None:
+            if not isinstance(found, WorldFingerprint):
+                raise PluginError(f"world: plugin {culprit(caller, None, {})!r} gave a "
+                                  f"{_type_name(found)} as the fingerprint of a "
+                                  f"{_type_name(self.world)}, expected a WorldFingerprint")
+            return found
+        ref = config.world
+        if not configured_world or ref is None:
+            return None
+        options = unstructure(ref.options)
+        written = ", ".join(f"{key}: {value}" for key, value in options.items())
+        return fingerprint("configured world", {"use": ref.name, "options": options,
+                                                "seed": config.seed},
+                           f"world {ref.name} {{{written}}}, seed {config.seed}")
+
+    def _admit_world(self) -> None:
+        """Refuse a case base of another world than the run's; note the world for the first
+        learn step to record, when the run learns."""
+        world = self.world_fingerprint
+        if world is None or self.casebase is None:
+            return
+        recorded, problems = recorded_worlds(self.casebase)
+        if problems:
+            raise CaseBaseError(f"case base {self.casebase}: {problems[0]}; cbr casebase check "
+                                "lists what is wrong")
+        assert self.config.casebase is not None
+        admit(recorded, [world], store_policy(self.config.casebase.options), self.casebase,
+              "this run's world is")
+        if self.config.retain or self.config.forget:
+            self._unrecorded = world
 
     def _warm(self, *, configured_world: bool) -> float:
         """Call ``cbr_warm`` on every built component that implements it; the seconds taken.
@@ -440,8 +518,11 @@ class Engine:
         writers committed and, if the step fails, drops the views that may hold its writes (a
         learned world among them). The engine's own transaction must be the outermost one: a
         learn step nested in a caller's transaction that rolls back later is not taken back
-        from the mirror. Returns seconds per phase (``retain``, ``forget``) and for the whole
-        step, commit included (``learn``), and calls ``then`` with them once it has committed.
+        from the mirror. The first step of a world-bound run records its world in the case
+        base first (:func:`~cbrcore.casebase.worlds.record_world`), refusing one that another
+        process of another world recorded meanwhile. Returns seconds per phase (``retain``,
+        ``forget``) and for the whole step, commit included (``learn``), and calls ``then`` with
+        them once it has committed.
 
         A step that waits longer than the store's ``busy_timeout`` for the case base's write
         lock (another process holds it, a learner frozen in its own step say) is skipped
@@ -505,12 +586,18 @@ class Engine:
         current, self.ctx.step = self.ctx.step, step.step
         try:
             with self.ctx.mirror.transaction():
+                if self._unrecorded is not None:
+                    # under the write lock: a process of another world may have recorded it since
+                    assert self.config.casebase is not None
+                    record_world(self.casebase, self._unrecorded,
+                                 store_policy(self.config.casebase.options))
                 if proposal.from_casebase and proposal.solution is not None:
                     _touch_stored(self.casebase, proposal.solution.cases)
                 if solution is not None:
                     self.hooks.retain(step.problem, solution, outcome, self.casebase, self.ctx,
                                       timings)
                 self.hooks.forget(self.casebase, self.ctx, timings)
+            self._unrecorded = None
         finally:
             self.ctx.step = current
         self.stats.learned += 1

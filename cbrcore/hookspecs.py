@@ -2,11 +2,13 @@
 
 Two sorts of hook live here.
 
-*Plugin hooks* (``cbr_register``, ``cbr_cli``, ``cbr_world_object``, ``cbr_check_casebase``) are
-implemented by plugin modules found through the ``cbr`` entry point group and are called on the
-manager of the loaded plugins: ``cbr_register`` once when plugins load, ``cbr_cli`` when the
-command line starts, ``cbr_world_object`` when an engine is given a world object instead of a
-configured world, ``cbr_check_casebase`` when ``cbr casebase check`` checks a case base.
+*Plugin hooks* (``cbr_register``, ``cbr_cli``, ``cbr_world_object``, ``cbr_world_fingerprint``,
+``cbr_check_casebase``) are implemented by plugin modules found through the ``cbr`` entry point
+group and are called on the manager of the loaded plugins: ``cbr_register`` once when plugins
+load, ``cbr_cli`` when the command line starts, ``cbr_world_object`` when an engine is given a
+world object instead of a configured world, ``cbr_world_fingerprint`` when an engine whose
+components use world-bound cases is built, ``cbr_check_casebase`` when ``cbr casebase check``
+checks a case base.
 
 *Phase hooks* (``cbr_retrieve`` ... ``cbr_forget``, ``cbr_solve``) are implemented by component
 instances. An :class:`~cbrcore.engine.Engine` has its own plugin manager holding exactly the
@@ -32,6 +34,7 @@ if TYPE_CHECKING:
 
     from cbrcore.casebase.store import CaseStore
     from cbrcore.context import Context
+    from cbrcore.fingerprint import WorldFingerprint
     from cbrcore.model import Outcome, Retrieval, Revision, Solution
     from cbrcore.registry import Registry
 
@@ -83,6 +86,23 @@ def cbr_world_object(obj: Any, ctx: Context) -> Any | None:
     replaces the configuration's ``world`` slot. When no plugin answers, the engine raises a
     :class:`~cbrcore.errors.CbrError` naming the object's type. Raise a ``CbrError`` for an
     object of a known type that is not a valid world (an array with values out of range).
+    """
+
+
+@hookspec(firstresult=True)
+def cbr_world_fingerprint(world: Any) -> WorldFingerprint | None:
+    """Give the fingerprint of a world: what a case base records of the world its cases belong
+    to, so that a run in another world does not use them.
+
+    firstresult: the plugin that knows the type of ``world`` (the world a configuration's
+    ``world`` slot built, or the one given as ``Engine(world=...)``) returns
+    :func:`cbrcore.fingerprint.fingerprint` of its content, with a short description for people
+    (``office 100x100, seed 7``); the others return None. Hash what the cases depend on (a grid's
+    cells and frame, a 2D world's walls and landmarks), not how the world was made, so that the
+    same map read from two files is one world. Called once, when an engine whose retriever,
+    reuser, retainers or forgetters are not all world-independent is built (see
+    ``Registry.add``). When no plugin answers, a configured world is known by its component, its
+    options and the run's seed; a world object no plugin answers for is not recorded.
     """
 
 
@@ -188,7 +208,8 @@ PHASE_HOOKS: dict[str, str] = {
 }
 """Each phase of the cycle and the hook that carries it out."""
 
-PLUGIN_HOOKS = ("cbr_register", "cbr_cli", "cbr_world_object", "cbr_check_casebase")
+PLUGIN_HOOKS = ("cbr_register", "cbr_cli", "cbr_world_object", "cbr_world_fingerprint",
+                "cbr_check_casebase")
 """Hooks implemented by plugin modules rather than by configured components."""
 
 COMPONENT_HOOKS = ("cbr_warm",)

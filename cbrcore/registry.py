@@ -115,7 +115,8 @@ class Component:
     """One registered component: how to build it and which plugin supplied it.
 
     ``references`` maps each option that names another component (see
-    :func:`cbrcore.options.reference`) to the kind it names.
+    :func:`cbrcore.options.reference`) to the kind it names. ``world_independent`` says that
+    the cases the component reads or writes hold in any world (see :meth:`Registry.add`).
     """
 
     kind: str
@@ -125,6 +126,7 @@ class Component:
     plugin: str
     doc: str
     references: Mapping[str, str]
+    world_independent: bool = False
 
     @property
     def summary(self) -> str:
@@ -198,16 +200,22 @@ class Registry:
                 if kind.slot is not None}
 
     def add(self, kind: str, name: str, factory: Callable[[Any, Any], Any], *,
-            options: type = NoOptions, doc: str | None = None) -> None:
+            options: type = NoOptions, doc: str | None = None,
+            world_independent: bool = False) -> None:
         """Register ``factory`` as component ``name`` of ``kind``.
 
         ``factory(options, ctx)`` builds the component; ``options`` is an attrs class whose fields
         are the component's configuration keys (document each field with
         ``cbrcore.options.option``, or ``cbrcore.options.reference`` for a field naming another
         component). ``doc`` defaults to the factory's docstring. ``kind`` may be one a plugin
-        loading later declares. Refused: a name taken within the kind, options whose type
-        annotations do not resolve, and a factory class with a hook implementation that names
-        no cbrcore hook (see :func:`cbrcore.hookimpls.unknown_hooks`).
+        loading later declares. ``world_independent`` declares that the cases a retriever,
+        reuser, retainer or forgetter reads and writes hold in any world (they index
+        situations, not a map's cells): a run whose case components all declare it records no
+        world in its case base and is never refused for another world's cases (see
+        :mod:`cbrcore.casebase.worlds`); left false, the safe default, a run records its world
+        and refuses a case base of another. Refused: a name taken within the kind, options
+        whose type annotations do not resolve, and a factory class with a hook implementation
+        that names no cbrcore hook (see :func:`cbrcore.hookimpls.unknown_hooks`).
         """
 
         label = f"{kind} {name!r}"
@@ -225,7 +233,7 @@ class Registry:
                               f"resolve: {exc}") from None
         text = doc if doc is not None else inspect.getdoc(factory) or ""
         self._components[kind, name] = Component(kind, name, factory, options, self._plugin, text,
-                                                 refers)
+                                                 refers, world_independent)
 
     def get(self, kind: str, name: str) -> Component:
         """The component ``name`` of ``kind``; the error lists the registered alternatives."""

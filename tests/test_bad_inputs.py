@@ -13,7 +13,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
+from cbrcore.casebase import SQLiteStore
+from cbrcore.casebase.worlds import record_world
+from cbrcore.fingerprint import fingerprint
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult
 
@@ -70,6 +74,31 @@ def _scen(*lines: str) -> str:
     return "version 1\n" + "".join(f"0\tsmall.map\t3\t2\t{line}\n" for line in lines)
 
 
+def _of_world(tmp: Path, description: str) -> Path:
+    """A case base in ``tmp`` whose cases belong to a world ``description`` stands for."""
+    path = tmp / "worlds.sqlite"
+    with SQLiteStore(path) as store:
+        record_world(store, fingerprint("test", description, description), "one")
+    return path
+
+
+def _run_in_another_world(tmp: Path, cbr_cli: Cli) -> CliResult:
+    """The hybrid configuration (office 100x100, seed 7) on a case base of another office."""
+    path = _of_world(tmp, "office 100x100, seed 1")
+    return _run(f"casebase: {{use: sqlite, path: {path}}}")(tmp, cbr_cli)
+
+
+def _import_from_another_world(tmp: Path, cbr_cli: Cli) -> CliResult:
+    """``import --append`` of a document recording another world than the case base's."""
+    path = _of_world(tmp, "office 100x100, seed 1")
+    other = fingerprint("test", "maze", "maze 64x64, seed 3")
+    document = tmp / "maze.yaml"
+    document.write_text(yaml.safe_dump({
+        "format": "cbrcore-casebase", "schema": 1, "revision": 1,
+        "meta": {"cbrcore.worlds": [other.to_data()]}, "cases": [{"problem": 1, "solution": 1}]}))
+    return cbr_cli("casebase", "import", str(path), str(document), "--append")
+
+
 CASES = {
     "movingai map": (_run("world: {use: movingai, map: ../../secret.txt}"),
                      "secret.txt, line 1: expected the Moving AI header 'type octile'"),
@@ -106,6 +135,18 @@ CASES = {
     "case base escaping the run folder": (
         _run("casebase: {use: sqlite, path: sub/../../cb.sqlite}"),
         "casebase.path (line 1, column 31): expected a file inside the run's output folder"),
+    "run on a case base of another world": (
+        _run_in_another_world,
+        "holds the cases of another world: it records the world office 100x100, seed 1 (world "
+        f"{fingerprint('test', 'office 100x100, seed 1', '').short}); this run's world is office "
+        "100x100, seed 7 (world "),
+    "import of another world's cases": (
+        _import_from_another_world,
+        "the document's cases belong to maze 64x64, seed 3 (world "
+        f"{fingerprint('test', 'maze', '').short})"),
+    "worlds option of an unknown value": (
+        _run("casebase: {use: sqlite, worlds: some}"),
+        "casebase.worlds (line 1, column 33): expected one of 'one', 'any', got 'some'"),
 }
 if importlib.util.find_spec("psycopg") is not None:
     CASES |= {

@@ -191,6 +191,37 @@ def test_a_second_run_continues_from_the_postgres_case_base(
     assert shares[1] > shares[0]
 
 
+def test_a_postgres_case_base_refuses_a_run_of_another_world(
+        postgres_database: str, tmp_path: Path, cbr_plugins: Callable[..., Plugins],
+        cbr_cli: Callable[..., CliResult]) -> None:
+    """The world record lives in the case base's meta, so it is the same on every store: a run
+    of another office is refused and stores nothing, the same office learns on."""
+    cbr_plugins(entry_points=True)
+    config = tmp_path / "run.yaml"
+    config.write_text(
+        "seed: 1\nworld: {use: generated, kind: office, width: 24, height: 24}\n"
+        f"casebase: {{use: postgres, dsn: '{postgres_database}', schema: office}}\n"
+        "workload: {use: trips, count: 4, unknown_static: 60}\nsolver: astar\n"
+        "retain: [risk_map]\n", encoding="utf-8")
+    first = cbr_cli("run", str(config), "--out", str(tmp_path / "a"))
+    assert first.exit_code == 0, first.stderr
+    with PostgresStore(postgres_database, schema="office") as store:
+        before = document_of(store)
+    assert [w["description"] for w in before.meta["cbrcore.worlds"]] == ["office 24x24, seed 1"]
+
+    refused = cbr_cli("run", str(config), "--out", str(tmp_path / "b"), "--set", "seed=2")
+    again = cbr_cli("run", str(config), "--out", str(tmp_path / "c"), "--set", "workload.seed=5")
+
+    assert refused.exit_code == 2 and "Traceback" not in refused.stderr
+    assert "office 24x24, seed 1 (world" in refused.stderr
+    assert "this run's world is office 24x24, seed 2 (world" in refused.stderr
+    assert again.exit_code == 0, again.stderr
+    with PostgresStore(postgres_database, schema="office") as store:
+        after = document_of(store)
+    assert after.meta["cbrcore.worlds"] == before.meta["cbrcore.worlds"]
+    assert after.revision > before.revision
+
+
 # -- passwords and connection errors --------------------------------------------------------
 
 

@@ -253,12 +253,13 @@ def test_info_on_a_registered_store(shelf: ShelfPlugin, cbr_cli: Cli) -> None:
         "cases         3",
         "  case        1",
         "  vertex      2",
+        "world         none recorded",
         "shelf         a",
     ]
     facts = json.loads(cbr_cli("casebase", "info", "--store", "{use: shelf, name: a}",
                                "--json").stdout)
     assert facts == {"store": "shelf", "revision": 3, "cases": 3,
-                     "kinds": {"case": 1, "vertex": 2}, "shelf": "a"}
+                     "kinds": {"case": 1, "vertex": 2}, "worlds": [], "shelf": "a"}
 
 
 def test_a_store_named_alone_has_its_default_options(shelf: ShelfPlugin, cbr_cli: Cli) -> None:
@@ -362,7 +363,8 @@ def test_the_casebase_slot_of_a_configuration(shelf: ShelfPlugin, cbr_cli: Cli, 
     assert (from_file["store"], from_file["cases"]) == ("sqlite", 3)
     assert Path(from_file["path"]).resolve() == casebase.resolve()
     assert (from_shelf["store"], from_shelf["shelf"], from_shelf["cases"]) == ("shelf", "b", 1)
-    assert default == {"store": "memory", "revision": 0, "cases": 0, "kinds": {}}
+    assert default == {"store": "memory", "revision": 0, "cases": 0, "kinds": {},
+                       "worlds": []}
 
 
 def test_a_store_path_resolves_against_the_working_folder(cbr_cli: Cli, casebase: Path,

@@ -171,7 +171,8 @@ def test_an_empty_document_is_the_default_configuration(registry: Registry) -> N
     config = parse_config(None, registry)
     assert config.seed == 0
     assert config.casebase is not None and config.casebase.name == "memory"
-    assert config.resolved() == {"seed": 0, "casebase": {"use": "memory", "initial": None}}
+    assert config.resolved() == {"seed": 0, "casebase": {"use": "memory", "initial": None,
+                                                         "worlds": "one"}}
 
 
 def test_a_list_slot_accepts_a_single_component(registry: Registry) -> None:
@@ -470,7 +471,7 @@ def test_resolved_fills_in_every_default(registry: Registry) -> None:
     config = parse_config(yaml.safe_load(toy_domain.TOY_CONFIG), registry)
     assert config.resolved() == {
         "seed": 3,
-        "casebase": {"use": "memory", "initial": None},
+        "casebase": {"use": "memory", "initial": None, "worlds": "one"},
         "retrieve": {"use": "nearest", "radius": 1},
         "reuse": {"use": "tangent"},
         "revise": {"use": "tolerance", "tolerance": 0.0},

@@ -26,10 +26,12 @@ import toy_domain
 from cbrcore import Case, Engine, Match, Outcome, Retrieval, Revision, Solution, hookimpl, hookspecs
 from cbrcore.casebase import MemoryStore, SQLiteStore
 from cbrcore.casebase.store import CaseStore
+from cbrcore.casebase.worlds import WORLDS_KEY, OtherWorld
 from cbrcore.cli import main
 from cbrcore.config import parse_config
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
+from cbrcore.fingerprint import WorldFingerprint, fingerprint
 from cbrcore.options import option
 from cbrcore.plugins import Plugins, load_plugins, new_plugin_manager, use_plugins
 from cbrcore.reference import config_reference, hook_reference
@@ -216,6 +218,71 @@ def test_hook_cbr_world_object() -> None:
         assert engine.world == ("number", 7)
     with pytest.raises(CbrError, match="float"):
         Engine.from_dict({}, world=2.5, plugins=plugins)
+
+
+@attrs.frozen
+class Floor:
+    """A world: one floor of a building."""
+
+    level: int
+
+
+@attrs.frozen
+class TowerOptions:
+    levels: int = option(3, "How many floors.")
+
+
+def tower(options: TowerOptions, ctx: Context) -> dict[str, int]:
+    """A world no plugin gives a fingerprint of."""
+    return {"levels": options.levels}
+
+
+class Floors:
+    """A plugin whose worlds are floors, with a fingerprint each, and towers, without."""
+
+    @hookimpl
+    def cbr_register(self, registry: Registry) -> None:
+        registry.add("world", "tower", tower, options=TowerOptions)
+
+    @hookimpl
+    def cbr_world_object(self, obj: object) -> Floor | None:
+        return obj if isinstance(obj, Floor) else None
+
+    @hookimpl
+    def cbr_world_fingerprint(self, world: object) -> WorldFingerprint | None:
+        if not isinstance(world, Floor):
+            return None
+        return fingerprint("floor", {"level": world.level}, f"floor {world.level}")
+
+
+def test_hook_cbr_world_fingerprint(tmp_path: Path) -> None:
+    """``cbr_world_fingerprint`` is firstresult on the loaded plugins, called with the run's world
+    when an engine whose case components are not all world-independent is built: the plugin that
+    knows the world answers, and its fingerprint is ``engine.world_fingerprint``. The first learn
+    step records it in the case base, and an engine of another world is refused before it reads
+    a case. A world no plugin answers for is not recorded; a configured one is known by its
+    component, options and seed."""
+    plugins = load(("floors", Floors()), ("rooms", Rooms()))
+    config = {"casebase": {"use": "sqlite", "path": str(tmp_path / "cb.sqlite")},
+              "solver": "compute", "retain": ["keep"]}
+    with Engine.from_dict(config, world=Floor(1), plugins=plugins) as engine:
+        assert engine.world_fingerprint == fingerprint("floor", {"level": 1}, "")
+        assert engine.casebase.get_meta(WORLDS_KEY) is None
+        engine.learn(3, engine.solve(3), Outcome(success=True))
+        assert engine.casebase.get_meta(WORLDS_KEY) == [
+            {"sha256": engine.world_fingerprint.sha256, "description": "floor 1"}]
+    with pytest.raises(OtherWorld, match=r"floor 1 \(world \w{12}\); this run's world is floor 2"):
+        Engine.from_dict(config, world=Floor(2), plugins=plugins)
+    with Engine.from_dict(config, world="kitchen", plugins=plugins) as engine:
+        assert engine.world_fingerprint is None
+    towers = {**config, "casebase": "memory", "seed": 5, "world": {"use": "tower", "levels": 4}}
+    with Engine.from_dict(towers, plugins=plugins) as engine:
+        seed_5 = engine.world_fingerprint
+        assert seed_5 is not None and seed_5.description == "world tower {levels: 4}, seed 5"
+    with Engine.from_dict({**towers, "seed": 6}, plugins=plugins) as engine:
+        assert engine.world_fingerprint not in (None, seed_5)
+    with Engine.from_dict({"solver": "compute"}, world=Floor(2), plugins=plugins) as engine:
+        assert engine.world_fingerprint is None  # no case component: nothing to protect
 
 
 class Squares:

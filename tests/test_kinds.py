@@ -294,7 +294,8 @@ def test_an_absent_slot_holds_its_default(gauges: Plugins) -> None:
     for data in (None, {}, {"gauge": None}):
         config = parse_config(data, gauges.registry)
         assert config.slots == {"gauge": ComponentRef("gauge", "plain", NoOptions(), "gauge")}
-        assert config.resolved() == {"seed": 0, "casebase": {"use": "memory", "initial": None},
+        assert config.resolved() == {"seed": 0, "casebase": {"use": "memory", "initial": None,
+                                                             "worlds": "one"},
                                      "gauge": {"use": "plain"}}
 
 

@@ -217,7 +217,7 @@ def test_the_manifest_records_what_repeats_the_run(
     config_file = out_dir.parent.resolve() / "toy.yaml"
     assert manifest["config"] == {
         "seed": 3,
-        "casebase": {"use": "memory", "initial": None},
+        "casebase": {"use": "memory", "initial": None, "worlds": "one"},
         "retrieve": {"use": "nearest", "radius": 1},
         "reuse": {"use": "tangent"},
         "revise": {"use": "tolerance", "tolerance": 0.0},

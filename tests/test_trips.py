@@ -298,9 +298,14 @@ def test_risk_map_keeps_what_the_robot_learned_for_the_next_run(
     assert np.array_equal(second.workload.true_world.static, first.workload.true_world.static)
     second.close()
 
+    smaller = {**data, "world": {**OFFICE, "width": 10, "height": 10}}
+    with pytest.raises(CbrError, match=rf"case base {store} holds the cases of another world: "
+                                       r"it records the world office 28x20.*office 10x10"):
+        cbr_engine(smaller)
+    # let carry over, a learned cell off the smaller map is still an error
     with pytest.raises(CbrError, match=rf"case base {store}: learned cell \(\d+, \d+\) is "
                                        r"outside the 10x10 world"):
-        cbr_engine({**data, "world": {**OFFICE, "width": 10, "height": 10}})
+        cbr_engine({**smaller, "casebase": {**data["casebase"], "worlds": "any"}})
 
 
 def test_risk_map_drops_cells_back_at_their_configured_risk(
@@ -632,6 +637,31 @@ def test_the_workload_seed_gives_the_same_trips_whatever_the_other_components(
     assert trips(plain) == trips(learning)
     # without it the retriever's generator, spawned first, shifts the workload's
     assert trips(cbr_engine(unseeded)) != trips(cbr_engine({**unseeded, **extra}))
+
+
+def test_the_trip_seed_changes_the_trips_not_the_true_world(
+        walled: Path, cbr_engine: Callable[..., Engine],
+        cbr_plugins: Callable[..., Plugins]) -> None:
+    """Robots of one office, each with its own trip_seed: the same unknown obstacles, other
+    trips; a trip_seed equal to the seed is the seed's own trips."""
+    cbr_plugins(entry_points=True)
+    config = map_config(walled, count=12, unknown_static=3, unknown_dynamic=3, seed=3)
+
+    def with_trips(trip_seed: int | None) -> Engine:
+        return cbr_engine({**config, "workload": {**config["workload"], "trip_seed": trip_seed}})
+
+    def trips(engine: Engine) -> list[Any]:
+        return [(problem.start, problem.goal) for problem, _, _, _ in drive(engine)]
+
+    engines = {seed: with_trips(seed) for seed in (None, 3, 4, 5)}
+    worlds = {seed: (engine.workload.true_world.static.tolist(),
+                     engine.workload.true_world.dynamic.tolist())
+              for seed, engine in engines.items()}
+    assert len({repr(world) for world in worlds.values()}) == 1
+    found = {seed: trips(engine) for seed, engine in engines.items()}
+    assert found[None] == found[3]
+    assert len({repr(found[seed]) for seed in (3, 4, 5)}) == 3
+    assert trips(with_trips(4)) == found[4]
 
 
 # --- what one trip changes, and learning in the learn step --------------------------------------

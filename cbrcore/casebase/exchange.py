@@ -37,6 +37,7 @@ from cbrcore.casebase.data import (
     json_problems,
 )
 from cbrcore.casebase.store import CaseStore
+from cbrcore.casebase.worlds import ONE, WORLDS_KEY, Worlds, join_worlds, parse_worlds
 from cbrcore.documents import (
     DocumentError,
     compose_yaml,
@@ -226,6 +227,8 @@ def document_from_data(data: Any, source: str, node: yaml.Node | None = None) ->
             reader.problem(_step("meta", key), "this key is reserved for the revision")
         elif not _is_unicode(key):
             reader.problem(_step("meta", key), "this key is not valid Unicode text")
+    if meta is not None:
+        reader.problems.extend(parse_worlds(meta.get(WORLDS_KEY), _step("meta", WORLDS_KEY))[1])
     entries = data.get("cases", [])
     cases: list[Case] = []
     if not isinstance(entries, list):
@@ -341,16 +344,22 @@ def write_document(document: Document, target: str | os.PathLike[str] | TextIO,
         raise CaseBaseError(f"cannot write {target}: {exc.strerror or exc}") from exc
 
 
-def load_document(store: CaseStore, document: Document, *, append: bool = False) -> int:
+def load_document(store: CaseStore, document: Document, *, append: bool = False,
+                  worlds: Worlds = ONE) -> int:
     """Load the document into ``store`` in one transaction; return how many cases it added.
 
     Without ``append`` the store must hold no cases: it then becomes a copy of the document (ids,
     revision stamps, meta). With ``append`` the cases are added as new ones (new ids, ``created``
     is the import's revision, ``last_used`` is cleared since the document's revisions count
-    another case base's transactions; ``uses`` is kept) and the store's meta is left alone.
+    another case base's transactions; ``uses`` is kept) and the store's meta is left alone but
+    for the worlds the document records, which join the store's: with ``worlds`` ``one`` (the
+    store's setting) a document of another world than the store's is refused
+    (:class:`~cbrcore.casebase.worlds.OtherWorld`) and nothing is loaded.
     """
     with store.transaction():
         if append:
+            joining, _ = parse_worlds(document.meta.get(WORLDS_KEY), WORLDS_KEY)
+            join_worlds(store, joining, worlds, "the document's cases belong to")
             for case in document.cases:
                 store.add(attrs.evolve(case, last_used=None))
         else:
@@ -371,6 +380,7 @@ def export_casebase(store: CaseStore, target: str | os.PathLike[str] | TextIO,
 
 
 def import_casebase(store: CaseStore, path: str | os.PathLike[str],
-                    format: Format | None = None, *, append: bool = False) -> int:
+                    format: Format | None = None, *, append: bool = False,
+                    worlds: Worlds = ONE) -> int:
     """Read an exported file and load it into ``store`` (see :func:`load_document`)."""
-    return load_document(store, read_document(path, format), append=append)
+    return load_document(store, read_document(path, format), append=append, worlds=worlds)

@@ -20,9 +20,9 @@ from cbrcore.casebase.data import is_json, json_problems
 from cbrcore.errors import PluginError
 from cbrcore.model import JSON, Case
 
-SUMMARY_KEYS = ("store", "revision", "cases", "kinds")
+SUMMARY_KEYS = ("store", "revision", "cases", "kinds", "worlds")
 """The facts ``cbr casebase info`` shows for every store: its registered name, its revision, the
-number of cases and the number of cases of each kind."""
+number of cases, the number of cases of each kind and the worlds the cases belong to."""
 
 
 @attrs.frozen

@@ -25,6 +25,7 @@ from cbrcore.casebase import (
     read_document,
     write_document,
 )
+from cbrcore.casebase.worlds import recorded_worlds, store_policy, world_problems
 from cbrcore.config import Config, load_config, parse_config, parse_yaml
 from cbrcore.engine import Engine
 from cbrcore.errors import CaseBaseError, CbrError, ConfigError
@@ -138,21 +139,28 @@ def info(
     config: ConfigOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the facts as JSON.")] = False,
 ) -> None:
-    """Show a case base's store, revision, case counts by kind, and what its store tells of it
-    (for a SQLite file: path, schema version, sizes and journal mode)."""
+    """Show a case base's store, revision, case counts by kind, the worlds its cases belong to,
+    and what its store tells of it (for a SQLite file: path, schema version, sizes and journal
+    mode)."""
     with _opened(_casebase_slot(file, store, config, reading=True)) as (name, casebase):
+        worlds, _ = recorded_worlds(casebase)
         facts: dict[str, Any] = {"store": name, "revision": casebase.revision,
                                  "cases": casebase.count(), "kinds": casebase.kind_counts(),
+                                 "worlds": [world.to_data() for world in worlds],
                                  **describe(casebase)}
     if as_json:
         typer.echo(json.dumps(facts, indent=2))
         return
     kinds = facts.pop("kinds")
+    facts.pop("worlds")
     lines = []
     for key, value in facts.items():
         lines.append(f"{key.replace('_', ' '):<13} {_shown(value)}")
         if key == "cases":
             lines += [f"  {kind:<11} {n}" for kind, n in kinds.items()]
+            lines += [f"{'world':<13} {world.description} ({world.sha256})" for world in worlds]
+            if not worlds:
+                lines.append(f"{'world':<13} none recorded")
     typer.echo("\n".join(lines))
 
 
@@ -173,7 +181,8 @@ def check(
         with _opened(_casebase_slot(file, store, config, reading=True)) as (_, casebase):
             problems = casebase.check()
             if not problems:  # the families read the cases the store vouched for
-                problems = family_problems(casebase)
+                problems = [f"worlds: {p}" for p in world_problems(casebase)]
+                problems += family_problems(casebase)
             label = str(casebase)
     except UnusableCaseBase as exc:
         typer.echo(str(exc))
@@ -251,10 +260,12 @@ def import_(
     # read and validate first, so that a bad document does not leave an empty case base behind
     loaded = read_document(document, fmt.value if fmt is not None else None)
     selected = _casebase_slot(file, store, config, reading=False)
+    assert selected.casebase is not None
+    worlds = store_policy(selected.casebase.options)
     target = _new_sqlite_file(selected)
     if target is None:
         with _opened(selected) as (_, casebase):
-            added = load_document(casebase, loaded, append=append)
+            added = load_document(casebase, loaded, append=append, worlds=worlds)
             revision = casebase.revision
             label = str(casebase)
     else:
@@ -264,7 +275,7 @@ def import_(
         try:
             with _opened(_with_store_options(selected, path=partial, create=True)) as (
                     _, casebase):
-                added = load_document(casebase, loaded, append=append)
+                added = load_document(casebase, loaded, append=append, worlds=worlds)
                 revision = casebase.revision
             _move_into_place(partial, target)
         except CaseBaseError as exc:

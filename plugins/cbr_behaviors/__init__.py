@@ -46,11 +46,16 @@ def _delivery_experiment(options: object, ctx: Context) -> object:
 
 @hookimpl
 def cbr_register(registry: Registry) -> None:
-    registry.add("retriever", "rupart", RupartRetriever, options=RetrieveOptions)
-    registry.add("reuser", "rupart", RupartReuser, options=ReuseOptions)
-    registry.add("retainer", "rupart_cases", CaseLearner, options=RetainOptions)
-    registry.add("retainer", "rupart_weights", WeightLearner, options=WeightOptions)
-    registry.add("forgetter", "rupart_quality", QualityForgetter, options=ForgetOptions)
+    # situations and behaviors, not a floor's cells: the cases hold on any office floor
+    registry.add("retriever", "rupart", RupartRetriever, options=RetrieveOptions,
+                 world_independent=True)
+    registry.add("reuser", "rupart", RupartReuser, options=ReuseOptions, world_independent=True)
+    registry.add("retainer", "rupart_cases", CaseLearner, options=RetainOptions,
+                 world_independent=True)
+    registry.add("retainer", "rupart_weights", WeightLearner, options=WeightOptions,
+                 world_independent=True)
+    registry.add("forgetter", "rupart_quality", QualityForgetter, options=ForgetOptions,
+                 world_independent=True)
     registry.add("workload", "delivery", Delivery, options=DeliveryOptions)
     registry.add("experiment", "rupart-delivery", _delivery_experiment,
                  doc="004's delivery robot evaluated: a fixed behavior set against CBR "

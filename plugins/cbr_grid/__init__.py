@@ -14,7 +14,7 @@ import numpy as np
 from cbr_grid.formats import load_grid
 from cbr_grid.frame import MapFrame
 from cbr_grid.generate import generate
-from cbr_grid.grid import Grid
+from cbr_grid.grid import Grid, grid_fingerprint
 from cbr_grid.inflation import Inflation, inflate
 from cbr_grid.movingai import load_map
 from cbr_grid.query import Cell, GridQuery
@@ -22,6 +22,7 @@ from cbr_grid.risk import RiskMap, RiskOptions, risk_problems
 from cbr_grid.trips import Trips, TripsOptions
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
+from cbrcore.fingerprint import WorldFingerprint
 from cbrcore.hookspecs import hookimpl
 from cbrcore.options import option
 from cbrcore.registry import Registry
@@ -54,8 +55,12 @@ def movingai_world(options: MovingAIOptions, ctx: Context) -> Grid:
     Passable cells have risk 0 and blocked cells risk 1; moves are 8-connected with steps of
     length 1 and sqrt(2), and by default a diagonal step never cuts a blocked corner.
     """
-    return _inflated(load_map(options.map, corner_cutting=options.corner_cutting),
-                     options.inflation)
+    grid = load_map(options.map, corner_cutting=options.corner_cutting)
+    return _inflated(_named(grid, options.map.name), options.inflation)
+
+
+def _named(grid: Grid, source: str) -> Grid:
+    return attrs.evolve(grid, name=f"{source} ({grid.width}x{grid.height})")
 
 
 _UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
@@ -125,7 +130,7 @@ def map_file_world(options: MapFileOptions, ctx: Context) -> Grid:
     grid = load_grid(options.path, corner_cutting=options.corner_cutting,
                      unknown_risk=options.unknown_risk, threshold=options.threshold,
                      frame=None if options.frame is None else options.frame.frame())
-    return _inflated(grid, options.inflation)
+    return _inflated(_named(grid, options.path.name), options.inflation)
 
 
 @attrs.frozen
@@ -153,7 +158,9 @@ def generated_world(options: GeneratedOptions, ctx: Context) -> Grid:
     grid = generate(options.kind, options.width, options.height, ctx.seed,
                     density=options.density, terrain=options.terrain,
                     corner_cutting=options.corner_cutting)
-    return _inflated(grid, options.inflation)
+    density = f", density {options.density:g}" if options.kind == "random" else ""
+    name = f"{options.kind} {options.width}x{options.height}{density}, seed {ctx.seed}"
+    return _inflated(attrs.evolve(grid, name=name), options.inflation)
 
 
 @hookimpl
@@ -170,6 +177,12 @@ def cbr_check_casebase(casebase: CaseStore) -> list[str]:
     """The invariants of the risks the ``risk_map`` retainer learned
     (:func:`cbr_grid.risk.risk_problems`)."""
     return risk_problems(casebase)
+
+
+@hookimpl
+def cbr_world_fingerprint(world: object) -> WorldFingerprint | None:
+    """A :class:`Grid`'s fingerprint is its map's (:func:`cbr_grid.grid.grid_fingerprint`)."""
+    return grid_fingerprint(world) if isinstance(world, Grid) else None
 
 
 @hookimpl

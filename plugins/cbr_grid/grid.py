@@ -23,6 +23,7 @@ from cbr_grid.frame import MapFrame
 from cbr_grid.query import Cell, path_array
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
+from cbrcore.fingerprint import WorldFingerprint, fingerprint
 
 _LISTED = 5
 """How many offending cells or steps a problem message lists before summarising the rest."""
@@ -77,7 +78,7 @@ class Grid:
     ``risk`` is copied and made read-only: a changed map is a new grid (``attrs.evolve``), so
     the derived ``passable`` and ``factor`` arrays can be computed once. ``frame`` places the
     grid in a metric map frame; ``unknown`` marks (True) the cells the map does not know,
-    whatever risk they were given.
+    whatever risk they were given; ``name`` says where the map came from.
     """
 
     risk: np.ndarray = attrs.field(converter=_risk_array)
@@ -89,6 +90,8 @@ class Grid:
         default=None, validator=attrs.validators.optional(attrs.validators.instance_of(MapFrame)))
     unknown: np.ndarray | None = attrs.field(default=None, converter=_mask,
                                              validator=_same_shape)
+    name: str = attrs.field(default="", validator=attrs.validators.instance_of(str))
+    """Where the map came from, for people (``office 100x100, seed 7``); no part of the map."""
     passable: np.ndarray = attrs.field(init=False)
     """Boolean mask (height, width): True where risk < 1."""
     factor: np.ndarray = attrs.field(init=False)
@@ -316,6 +319,16 @@ class Grid:
                     else "past a blocked corner")
             problems.append(f"diagonal steps {rule} at {_listing(listed)}")
         return problems
+
+
+def grid_fingerprint(grid: Grid) -> WorldFingerprint:
+    """The fingerprint of the map a grid family's cases name cells of: its risks, its unknown
+    cells, its corner rule and its metric frame (not its name or cost model), described by its
+    name and size."""
+    size = f"{grid.width}x{grid.height}"
+    return fingerprint("cbr_grid.Grid", {
+        "risk": grid.risk, "unknown": grid.unknown, "corner_cutting": grid.corner_cutting,
+        "frame": grid.frame}, grid.name or f"{size} grid")
 
 
 def grid_world(ctx: Context, what: str) -> Grid:

@@ -10,7 +10,8 @@ outcome carries a :class:`~cbr_grid.drive.DriveReport`. The workload learns noth
 The random unknown cells are drawn once, uniformly and without repetition, from the cells free
 in the configured map that are neither a listed site's nor a fixed place's, from a generator
 derived from the run's seed (or the workload's own ``seed``), so a seed repeats the same true
-world, also in a later run that continues a case base.
+world, also in a later run that continues a case base; ``trip_seed`` draws the trips apart from
+it, so that robots sharing one world (and case base) drive their own trips.
 """
 
 from __future__ import annotations
@@ -114,6 +115,12 @@ class TripsOptions:
         "presence; null derives one from the run's seed. Give two configurations the same seed "
         "to drive them on the same trips in the same worlds whatever their other components.",
         validator=attrs.validators.optional(attrs.validators.ge(0)))
+    trip_seed: int | None = option(
+        None, "The seed of the trips alone (their starts, goals and headings, and the dynamic "
+        "obstacles present on each), the true world staying that of seed; null draws them "
+        "from seed's stream. Robots sharing one office and its unknown obstacles, each on trips "
+        "of its own, give each robot its own trip_seed.",
+        validator=attrs.validators.optional(attrs.validators.ge(0)))
 
 
 class Trips:
@@ -163,6 +170,10 @@ class Trips:
         own = ctx.spawn_rng() if options.seed is None else np.random.default_rng(options.seed)
         # spawned children depend only on their index: a fourth leaves the first three as they were
         placement, self._query_rng, self._presence_rng, self._heading_rng = own.spawn(4)
+        if options.trip_seed is not None:
+            # the same spawn order as above, so a trip seed equal to seed changes nothing
+            _, self._query_rng, self._presence_rng, self._heading_rng = np.random.default_rng(
+                options.trip_seed).spawn(4)
         chosen = placement.choice(free, size=unknown, replace=False)
         width = self.configured.width
         cells = np.column_stack((chosen % width, chosen // width))

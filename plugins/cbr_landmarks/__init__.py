@@ -46,11 +46,15 @@ def _learning(options: object, ctx: Context) -> object:
 
 @hookimpl
 def cbr_register(registry: Registry) -> None:
-    registry.add("retriever", "landmarks", LandmarkRetriever, options=RetrieveOptions)
-    registry.add("reuser", "landmarks", LandmarkReuser, options=ReuseOptions)
-    registry.add("retainer", "landmark_trouble", TroubleRetainer, options=RetainOptions)
+    # landmark graphs compared by matching, not a world's landmarks: the cases hold in any world
+    registry.add("retriever", "landmarks", LandmarkRetriever, options=RetrieveOptions,
+                 world_independent=True)
+    registry.add("reuser", "landmarks", LandmarkReuser, options=ReuseOptions,
+                 world_independent=True)
+    registry.add("retainer", "landmark_trouble", TroubleRetainer, options=RetainOptions,
+                 world_independent=True)
     registry.add("forgetter", "unhelpful_situations", UnhelpfulSituations,
-                 options=ForgetOptions)
+                 options=ForgetOptions, world_independent=True)
     registry.add("solver", "landmark_detour", LandmarkDetour, options=DetourOptions)
     registry.add("experiment", "landmark-scenarios", _scenarios,
                  doc="002 Figures 6 and 7: the two scenarios with and without the CBR agent "

@@ -30,6 +30,7 @@ from cbr_world2d.workload import Trials, TrialsOptions
 from cbr_world2d.world import World
 from cbr_world2d.worldfile import load_world
 from cbrcore.context import Context
+from cbrcore.fingerprint import WorldFingerprint, fingerprint
 from cbrcore.hookspecs import hookimpl
 from cbrcore.options import option
 from cbrcore.registry import Registry
@@ -105,6 +106,20 @@ def cbr_register(registry: Registry) -> None:
     registry.add("world", "world2d_generated", generated_world, options=GeneratedWorldOptions)
     registry.add("workload", "trials", Trials, options=TrialsOptions)
     registry.add("solver", "rescuer", RescuerSolver, options=RescuerOptions)
+
+
+@hookimpl
+def cbr_world_fingerprint(world: object) -> WorldFingerprint | None:
+    """A 2D world's fingerprint: its bounds, walls, polygons, point obstacles, landmarks, doors
+    with their schedules, people and places (not its name), described by its name and size."""
+    if not isinstance(world, World):
+        return None
+    content = {field.name: getattr(world, field.name) for field in attrs.fields(World)
+               if field.init and field.name != "name"}
+    xmin, ymin, xmax, ymax = world.bounds
+    size = f"{xmax - xmin:g} x {ymax - ymin:g} m"
+    return fingerprint("cbr_world2d.World", content,
+                       f"{world.name} ({size})" if world.name else f"2D world of {size}")
 
 
 @hookimpl
