@@ -223,7 +223,9 @@ class Grid:
         (``unknown_risk`` as in :meth:`blocked_reason`)."""
         try:
             xy = np.asarray(cell)
-            ok = xy.shape == (2,) and np.issubdtype(xy.dtype, np.integer)
+            # integers past 64 bits make an array of objects: on no grid, but integers still
+            ok = xy.shape == (2,) and (np.issubdtype(xy.dtype, np.integer) or (
+                xy.dtype == object and all(type(v) is int for v in xy)))
         except (TypeError, ValueError):
             ok = False
         if not ok:
