@@ -231,7 +231,7 @@ class Grid:
         if not ok:
             raise CbrError(f"{what} must be a cell (x, y) of two integers, got {cell!r}")
         x, y = int(xy[0]), int(xy[1])
-        if not self.in_bounds((x, y)):
+        if not (0 <= x < self.width and 0 <= y < self.height):
             raise CbrError(f"{what} ({x}, {y}) is outside the {self.width}x{self.height} grid "
                            f"(x in 0..{self.width - 1}, y in 0..{self.height - 1})")
         if not self.passable[y, x]:
