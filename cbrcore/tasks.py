@@ -58,6 +58,10 @@ Progress = Callable[[int, int], None]
 CONNECT_SECONDS = 10
 """How long a scheduler address is tried before the run gives up on it."""
 
+WORKERS_PER_CORE = 4
+"""The most worker processes ``--scheduler local`` starts per core of the machine: more only
+share the cores, each with its own memory, and a mistyped count would start thousands."""
+
 _ADDRESS = re.compile(r"^(?:(?P<scheme>[a-z][a-z0-9+.-]*)://)?(?P<host>\[[^\]]+\]|[^:/\s]+)"
                       r"(?::(?P<port>\d{1,5}))?$")
 
@@ -212,11 +216,16 @@ def open_tasks(scheduler: str | None = None, *, workers: int | None = None,
     LocalCluster of ``workers`` processes (default: one per core), else the address of a
     running Dask scheduler. The cluster is shut down, or the client disconnected, on leaving.
 
-    A scheduler that cannot be used raises :class:`CbrError` naming ``option``.
+    A scheduler that cannot be used, or more than :data:`WORKERS_PER_CORE` workers per core,
+    raises :class:`CbrError` naming the option.
     """
     if workers is not None and workers < 1:
         raise CbrError(f"--workers: {workers} is not a number of worker processes; expected "
                        "1 or more")
+    most = WORKERS_PER_CORE * (os.cpu_count() or 1)
+    if workers is not None and workers > most:
+        raise CbrError(f"--workers: {workers} is more than the {most} worker processes this "
+                       f"machine may run (the limit, {WORKERS_PER_CORE} per core)")
     if scheduler is None:
         if workers is not None:
             raise CbrError("--workers goes with --scheduler local")

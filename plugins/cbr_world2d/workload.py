@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import attrs
 import numpy as np
 
+from cbr_world2d import checks
 from cbr_world2d.actions import TRIAL_ENDED, Action, ActionReport
 from cbr_world2d.navigator import Navigator, NavigatorOptions
 from cbr_world2d.pilots.base import PILOT, Pilot
@@ -74,7 +75,8 @@ class TrialsOptions:
     repeat: int = option(1, "How many times the whole list of trials runs.", validator=_COUNT)
     timeout: float = option(600.0, "Seconds after which a trial has failed.",
                             validator=_POSITIVE)
-    dt: float = option(0.1, "The simulation step in seconds.", validator=_POSITIVE)
+    dt: float = option(0.1, "The simulation step in seconds, from 0.0001 to 1.",
+                       validator=checks.step)
     tolerance: float = option(
         0.3, "How close, in metres, the robot's centre must come to the target.",
         validator=_POSITIVE)
@@ -198,6 +200,9 @@ class Trials:
         from cbr_world2d.simulation import Trial, random_trials
 
         o = self.options
+        problem = checks.too_many_steps(o.timeout, o.dt)
+        if problem is not None:
+            raise CbrError(f"workload.timeout: {problem}")
         timing = {"timeout": o.timeout, "tolerance": o.tolerance, "dt": o.dt}
         fixed = []
         for k, entry in enumerate(o.trials):
