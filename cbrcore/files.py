@@ -20,6 +20,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, BinaryIO
 
+
 class NotRegularFile(OSError):
     """An input path that names something other than a regular file.
 

@@ -28,6 +28,10 @@ from cbrcore.errors import CbrError
 MAX_LANDMARKS = 16
 """The most landmarks one graph holds (the matching's search grows with their number)."""
 
+MAX_MEASURE = 1e6
+"""The largest magnitude of a case's measures (distances in metres, angles) and of its action's
+offsets: beyond it an angle wraps to noise and a target lies nowhere in any world."""
+
 
 class GraphError(CbrError):
     """A landmark graph that cannot be used; the message names where and the field."""
@@ -47,11 +51,11 @@ def _check_triangles(values: np.ndarray, n: int, field: str, where: str) -> None
         raise GraphError(f"{where}: {field}: expected {n} x {n} triangles [low, peak, high] "
                          f"(one per ordered pair of the {n} landmarks), got shape "
                          f"{list(values.shape)}")
-    bad = ~np.isfinite(values).all(axis=2)
+    bad = ~(np.isfinite(values) & (np.abs(values) <= MAX_MEASURE)).all(axis=2)
     if bad.any():
         i, j = np.argwhere(bad)[0].tolist()
-        raise GraphError(f"{where}: {field}[{i}][{j}]: every measure must be a finite number, "
-                         f"not {values[i, j].tolist()}")
+        raise GraphError(f"{where}: {field}[{i}][{j}]: every measure must be a finite number "
+                         f"within ±{MAX_MEASURE:g} (the limit), not {values[i, j].tolist()}")
     disorder = (values[..., 0] > values[..., 1]) | (values[..., 1] > values[..., 2])
     if disorder.any():
         i, j = np.argwhere(disorder)[0].tolist()

@@ -147,9 +147,15 @@ def _where(x: float, y: float) -> str:
 def show(world_name: WorldArgument, plot: PlotOption = None,
          at: Annotated[float, typer.Option(
              "--at", metavar="SECONDS",
-             help="Draw doors and people as they are at this time (seconds).")] = 0.0,
+             help="Draw doors and people as they are at this time (seconds, from 0 to "
+             "1e6).")] = 0.0,
          ) -> None:
     """Print a 2D world's bounds and what it holds; draw it with --plot."""
+    from cbr_world2d.worldfile import MAX_MAGNITUDE
+
+    if not 0.0 <= at <= MAX_MAGNITUDE:  # NaN too
+        raise typer.BadParameter(f"expected a time from 0 to {MAX_MAGNITUDE:g} seconds, got "
+                                 f"{at!r}", param_hint="'--at'")
     _writable(plot, "--plot")
     world = load(world_name)
     xmin, ymin, xmax, ymax = world.bounds
