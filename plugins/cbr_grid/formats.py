@@ -128,7 +128,7 @@ def read_image(path: str | Path) -> np.ndarray:
     from PIL import Image, UnidentifiedImageError
 
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise CbrError(f"{path}: cannot read: no such file")
     data = _read(path)
     try:
