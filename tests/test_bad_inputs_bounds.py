@@ -159,6 +159,11 @@ def _landmarks_run(change: Callable[[dict], None] | None = None) -> Case:
     return case
 
 
+def _validate_trials(setting: str) -> Case:
+    return lambda tmp, cli: cli("validate", str(ROOT / "configs" / "world2d_trials.yaml"),
+                                "--set", setting)
+
+
 def _triangle(field: str) -> Callable[[dict], None]:
     def change(case: dict) -> None:
         case["problem"][field][0][1] = [1e308, 1e308, 1e308]
@@ -229,9 +234,12 @@ BOUNDS: dict[str, tuple[Case, str]] = {
                      "'--timeout': a timeout of 1e+12 s in steps of 0.1 s is more than the "
                      "10000000 steps a trial may take"),
     "config dt 1e-9": (
-        lambda tmp, cli: cli("validate", str(ROOT / "configs" / "world2d_trials.yaml"),
-                             "--set", "workload.dt=1e-9"),
-        "workload.dt"),
+        _validate_trials("workload.dt=1.0e-9"),
+        "--set workload.dt=1.0e-9: must lie in [0.0001, 1] seconds, not 1e-09"),
+    "config timeout 1e12": (
+        _validate_trials("workload.timeout=1.0e+12"),
+        "--set workload.timeout=1.0e+12: must be within the step limit: a timeout of 1e+12 s in "
+        "steps of 0.1 s is more than the 10000000 steps a trial may take"),
     ".sexp 100000 lists deep": (
         lambda tmp, cli: cli("rupart", "show", _write(tmp, "deep.sexp",
                                                       "(" * 100_000 + ")" * 100_000)),

@@ -37,7 +37,7 @@ time in steps of 0.1 s, and hours of computing."""
 
 def step(instance: object, attribute: attrs.Attribute, value: float) -> None:
     if not (MIN_DT <= value <= MAX_DT):
-        raise ValueError(f"{attribute.name} must lie in [{MIN_DT:g}, {MAX_DT:g}] seconds, "
+        raise ValueError(f"'{attribute.name}' must lie in [{MIN_DT:g}, {MAX_DT:g}] seconds, "
                          f"not {value!r}")
 
 

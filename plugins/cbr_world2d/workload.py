@@ -96,6 +96,11 @@ class TrialsOptions:
     trajectories: bool = option(
         False, "Also write each trial's true path into trajectories.npz in the run folder.")
 
+    def __attrs_post_init__(self) -> None:
+        problem = checks.too_many_steps(self.timeout, self.dt)
+        if problem is not None:
+            raise ValueError(f"'timeout' must be within the step limit: {problem}")
+
 
 def _array(values: np.ndarray) -> list[float]:
     return [round(float(v), 4) for v in values]
@@ -200,9 +205,6 @@ class Trials:
         from cbr_world2d.simulation import Trial, random_trials
 
         o = self.options
-        problem = checks.too_many_steps(o.timeout, o.dt)
-        if problem is not None:
-            raise CbrError(f"workload.timeout: {problem}")
         timing = {"timeout": o.timeout, "tolerance": o.tolerance, "dt": o.dt}
         fixed = []
         for k, entry in enumerate(o.trials):
