@@ -240,6 +240,13 @@ BOUNDS: dict[str, tuple[Case, str]] = {
         _validate_trials("workload.timeout=1.0e+12"),
         "--set workload.timeout=1.0e+12: must be within the step limit: a timeout of 1e+12 s in "
         "steps of 0.1 s is more than the 10000000 steps a trial may take"),
+    "config repeat 1e9": (
+        _validate_trials("workload.repeat=1000000000"),
+        "--set workload.repeat=1000000000: must keep the trials within 100000 (the limit, "
+        "cbr_world2d.checks.MAX_TRIALS)"),
+    "sim batch a million trials": (
+        _sim("batch", "--trials", "1000000"),
+        "'--trials': Input should be less than or equal to 100000"),
     ".sexp 100000 lists deep": (
         lambda tmp, cli: cli("rupart", "show", _write(tmp, "deep.sexp",
                                                       "(" * 100_000 + ")" * 100_000)),

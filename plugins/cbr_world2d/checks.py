@@ -48,3 +48,7 @@ def too_many_steps(timeout: float, dt: float) -> str | None:
         return None
     return (f"a timeout of {timeout:g} s in steps of {dt:g} s is more than the {MAX_STEPS} "
             "steps a trial may take (the limit, cbr_world2d.checks.MAX_STEPS)")
+
+MAX_TRIALS = 100_000
+"""The most trials one command or workload runs (a workload's listed and random trials times
+its repeats): at a few seconds each, days of computing."""

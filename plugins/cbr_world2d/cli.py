@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
+from cbr_world2d.checks import MAX_TRIALS
 from cbrcore.errors import CbrError
 from cbrcore.tasks import WORKERS_PER_CORE
 
@@ -71,9 +72,6 @@ RescueOption = Annotated[Rescue, typer.Option(
     "--rescue", help="When the Rescuer diverts on its own: never (the pilot alone), when the "
     "robot is blocked (002's navigation system without CBR), or when it is stuck (blocked or "
     "oscillating).")]
-MAX_TRIALS = 100_000
-"""The most trials ``cbr sim batch`` runs: their table is printed whole."""
-
 JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON objects.")]
 
 

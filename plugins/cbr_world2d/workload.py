@@ -100,6 +100,11 @@ class TrialsOptions:
         problem = checks.too_many_steps(self.timeout, self.dt)
         if problem is not None:
             raise ValueError(f"'timeout' must be within the step limit: {problem}")
+        trials = (len(self.trials) + self.random) * self.repeat
+        if trials > checks.MAX_TRIALS:
+            raise ValueError(f"'repeat' must keep the trials within {checks.MAX_TRIALS} (the "
+                             f"limit, cbr_world2d.checks.MAX_TRIALS): (listed + random) x repeat "
+                             f"is {trials}")
 
 
 def _array(values: np.ndarray) -> list[float]:
