@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from cbr_world2d.checks import MAX_TRIALS
+from cbr_world2d.checks import MAX_DT, MAX_TRIALS, MIN_DT, too_many_steps
 from cbrcore.errors import CbrError
 from cbrcore.tasks import WORKERS_PER_CORE
 
@@ -102,8 +102,6 @@ def _positive(value: float, option: str) -> float:
 
 def _timing(timeout: float, dt: float, tolerance: float) -> None:
     """Refuse a trial's timing unless it can be simulated, naming the option at fault."""
-    from cbr_world2d.checks import MAX_DT, MIN_DT, too_many_steps
-
     _positive(timeout, "--timeout")
     _positive(tolerance, "--tolerance")
     if not (MIN_DT <= dt <= MAX_DT):
