@@ -219,6 +219,10 @@ BOUNDS: dict[str, tuple[Case, str]] = {
     "start past 64-bit integers": (
         _plan("small.map", "--start", "100000000000000000000,0", "--goal", "0,0"),
         "start (100000000000000000000, 0) is outside the 3x2 grid"),
+    "start 1e300 m off a ROS map": (
+        _plan("small.yaml", "--frame", "map", "--start", "1e300,0", "--goal", "0.1,0.1"),
+        "--start (1e+300, 0) m is outside the 4x2 grid, which covers x 0 to 0.2 m and y 0 to "
+        "0.1 m"),
     "a million workers": (
         lambda tmp, cli: cli("experiment", "cbr-share", "--out", str(tmp / "out"),
                              "--scheduler", "local", "--workers", "1000000"),
@@ -311,6 +315,8 @@ def _prepare(tmp: Path) -> None:
     _write(tmp, "huge.png", _png_header(20_000, 20_000))
     _write(tmp, "huge.yaml", ROS_YAML.format(image="huge.png"))
     _write(tmp, "pipe.yaml", ROS_YAML.format(image="pipe.pgm"))
+    _write(tmp, "small.pgm", b"P5\n4 2\n255\n" + bytes([255] * 8))
+    _write(tmp, "small.yaml", ROS_YAML.format(image="small.pgm"))
 
 
 def _release(tmp: Path) -> None:
