@@ -174,6 +174,10 @@ def _along(case: dict) -> None:
     case["solution"]["along"] = 1e308
 
 
+def _nul_landmark(case: dict) -> None:
+    case["problem"]["landmarks"][0] = "l\x001"
+
+
 FIFOS: dict[str, tuple[Case, str]] = {
     "config": (lambda tmp, cli: cli("validate", _fifo(tmp, "c.yaml")),
                f"c.yaml: 1 problem:\n  - cannot read the file: {PIPE}"),
@@ -299,6 +303,10 @@ BOUNDS: dict[str, tuple[Case, str]] = {
             tmp, "nul.sexp", _behavior_case("open-area", "open\x00area"))),
         "nul.sexp, line 1: behavior-case: expected a name, but a name holds no control "
         "characters, got U+0000 at character 5"),
+    "NUL in a landmark id of a case": (
+        _landmarks_run(_nul_landmark),
+        "landmark_situation case 1: landmarks[0]: expected a landmark id, but a name holds no "
+        "control characters, got U+0000 at character 2"),
     "NUL in a place name": (
         lambda tmp, cli: cli("sim", "show", _write(
             tmp, "nul.yaml", 'bounds: [0, 0, 8, 6]\nplaces: {"a\\0b": [1, 1]}\n')),

@@ -24,6 +24,7 @@ import numpy as np
 
 from cbr_world2d.fuzzy import TWO_PI
 from cbrcore.errors import CbrError
+from cbrcore.names import name_problem
 
 MAX_LANDMARKS = 16
 """The most landmarks one graph holds (the matching's search grows with their number)."""
@@ -83,6 +84,10 @@ class LandmarkGraph:
                              f"|L| >= 2), got {n}")
         if n > MAX_LANDMARKS:
             raise GraphError(f"{where}: landmarks: at most {MAX_LANDMARKS} landmarks, got {n}")
+        for k, landmark in enumerate(self.ids):
+            problem = name_problem(landmark) if isinstance(landmark, str) else None
+            if problem is not None:
+                raise GraphError(f"{where}: landmarks[{k}]: expected a landmark id, but {problem}")
         if len(set(self.ids)) != n:
             raise GraphError(f"{where}: landmarks: ids must be distinct, got {list(self.ids)}")
         for i, j in self.obstacles:
