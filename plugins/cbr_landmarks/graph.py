@@ -64,6 +64,14 @@ def _check_triangles(values: np.ndarray, n: int, field: str, where: str) -> None
                          f"not {values[i, j].tolist()}")
 
 
+def _check_ids(ids: Sequence[object], where: str) -> None:
+    """Refuse a landmark id with a control character, before anything prints the ids."""
+    for k, landmark in enumerate(ids):
+        problem = name_problem(landmark) if isinstance(landmark, str) else None
+        if problem is not None:
+            raise GraphError(f"{where}: landmarks[{k}]: expected a landmark id, but {problem}")
+
+
 @attrs.frozen(eq=False)
 class LandmarkGraph:
     """Landmarks, linear obstacles between them, and the fuzzy distances and angles of every
@@ -84,10 +92,7 @@ class LandmarkGraph:
                              f"|L| >= 2), got {n}")
         if n > MAX_LANDMARKS:
             raise GraphError(f"{where}: landmarks: at most {MAX_LANDMARKS} landmarks, got {n}")
-        for k, landmark in enumerate(self.ids):
-            problem = name_problem(landmark) if isinstance(landmark, str) else None
-            if problem is not None:
-                raise GraphError(f"{where}: landmarks[{k}]: expected a landmark id, but {problem}")
+        _check_ids(self.ids, where)
         if len(set(self.ids)) != n:
             raise GraphError(f"{where}: landmarks: ids must be distinct, got {list(self.ids)}")
         for i, j in self.obstacles:
@@ -199,6 +204,7 @@ class LandmarkGraph:
         ids = data["landmarks"]
         if not (isinstance(ids, list) and all(isinstance(i, str) for i in ids)):
             raise GraphError(f"{where}: landmarks: expected a list of landmark ids, got {ids!r}")
+        _check_ids(ids, where)
         index = {landmark: k for k, landmark in enumerate(ids)}
         pairs = set()
         for k, pair in enumerate(data.get("obstacles") or []):
