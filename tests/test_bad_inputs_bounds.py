@@ -204,6 +204,9 @@ FIFOS: dict[str, tuple[Case, str]] = {
                    f"w.yaml: 1 problem:\n  - cannot read the file: {PIPE}"),
     ".sexp": (lambda tmp, cli: cli("rupart", "show", _fifo(tmp, "s.sexp")),
               f"s.sexp, cannot read it: {PIPE}"),
+    "run manifest": (lambda tmp, cli: (_fifo(tmp, "manifest.json"),
+                                       cli("rupart", "day", str(tmp)))[1],
+                     f"manifest.json: not a run's manifest ({PIPE})"),
 }
 
 SIM_RUN = ("run", "--start", "start", "--target", "target")

@@ -143,13 +143,15 @@ def _manifest(run_dir: Path) -> dict[str, Any]:
     if not run_dir.is_dir():
         raise CbrError(f"{run_dir}: no such run folder; expected the output folder of "
                        f"'cbr run' with the {DELIVERY} workload")
+    from cbrcore.documents import DocumentError, load_json, read_text
+
     path = run_dir / "manifest.json"
     try:
-        manifest = json.loads(path.read_text(encoding="utf-8"))
+        manifest = load_json(read_text(path), str(path))
     except FileNotFoundError:
         raise CbrError(f"{path}: no such file; expected the manifest 'cbr run' writes into a "
                        f"run folder") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, DocumentError) as exc:
         raise CbrError(f"{path}: not a run's manifest ({exc}); expected the JSON file 'cbr "
                        f"run' writes") from None
     config = manifest.get("config") if isinstance(manifest, dict) else None
