@@ -61,7 +61,9 @@ def open_regular(path: str | os.PathLike[str]) -> BinaryIO:
     read wait; a regular file is then read as usual. Other errors (no such file, no
     permission) are raised as :func:`open` raises them.
     """
-    descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    # Windows has no named pipes in the file system, and no flag
+    nonblocking = getattr(os, "O_NONBLOCK", 0)
+    descriptor = os.open(path, os.O_RDONLY | nonblocking | getattr(os, "O_BINARY", 0))
     try:
         mode = os.fstat(descriptor).st_mode
         if stat.S_ISDIR(mode):
@@ -69,8 +71,8 @@ def open_regular(path: str | os.PathLike[str]) -> BinaryIO:
         if not stat.S_ISREG(mode):
             raise NotRegularFile(path, next((kind for test, kind in _KINDS if test(mode)),
                                             "something else"))
-        # the flag was for the open; a regular file is read as any other
-        os.set_blocking(descriptor, True)
+        if nonblocking:  # the flag was for the open; a regular file is read as any other
+            os.set_blocking(descriptor, True)
         return os.fdopen(descriptor, "rb")
     except BaseException:
         os.close(descriptor)
