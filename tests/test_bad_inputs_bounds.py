@@ -241,6 +241,8 @@ BOUNDS: dict[str, tuple[Case, str]] = {
                 "'--dt': expected a step from 0.0001 to 1 seconds, got 1e-09"),
     "dt 1e308": (_sim(*SIM_RUN, "--dt", "1e308"),
                  "'--dt': expected a step from 0.0001 to 1 seconds, got 1e+308"),
+    "a million GIF frames": (_sim(*SIM_RUN, "--frames", "1000000"),
+                             "'--frames': Input should be less than or equal to 10000"),
     "timeout 1e12": (_sim(*SIM_RUN, "--timeout", "1e12", "--rescue", "off"),
                      "'--timeout': a timeout of 1e+12 s in steps of 0.1 s is more than the "
                      "10000000 steps a trial may take"),

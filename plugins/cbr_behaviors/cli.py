@@ -225,7 +225,8 @@ def day(
 ) -> None:
     """Draw a delivery day: the floor with the path coloured by case, a timeline, a GIF."""
     from cbr_behaviors.daylog import DayLog
-    from cbr_behaviors.dayplot import animate_day, plot_day, plot_timeline
+    from cbr_behaviors.dayplot import animate_day, frame_count, plot_day, plot_timeline
+    from cbr_world2d.checks import MAX_FRAMES
     from cbrcore.engine import output_folder
 
     if not (math.isfinite(speedup) and speedup > 0.0):
@@ -237,6 +238,11 @@ def day(
     if len(log.track()) == 0:
         raise CbrError(f"{path}: the day log holds no steps; expected a day the delivery "
                        "workload ran")
+    frames = frame_count(log.track(), fps, speedup)
+    if gif and frames > MAX_FRAMES:
+        raise CbrError(f"--speedup {speedup:g}: the day's GIF would have {frames} frames at "
+                       f"{fps} a second, more than the {MAX_FRAMES} an animation may have (the "
+                       "limit); give a larger --speedup")
     world = run_world(run_dir)
     out_dir = run_dir if out is None else out
     output_folder(out_dir)

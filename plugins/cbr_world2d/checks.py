@@ -52,3 +52,7 @@ def too_many_steps(timeout: float, dt: float) -> str | None:
 MAX_TRIALS = 100_000
 """The most trials one command or workload runs (a workload's listed and random trials times
 its repeats): at a few seconds each, days of computing."""
+
+MAX_FRAMES = 10_000
+"""The most frames of an animation (``cbr sim run --gif``, ``cbr rupart day``): matplotlib
+draws each, a fraction of a second apiece, and the GIF holds them all."""

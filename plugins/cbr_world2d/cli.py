@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from cbr_world2d.checks import MAX_DT, MAX_TRIALS, MIN_DT, too_many_steps
+from cbr_world2d.checks import MAX_DT, MAX_FRAMES, MAX_TRIALS, MIN_DT, too_many_steps
 from cbrcore.errors import CbrError
 from cbrcore.tasks import WORKERS_PER_CORE
 
@@ -222,7 +222,7 @@ def run(
     fps: Annotated[int, typer.Option("--fps", min=1, metavar="N",
                                      help="Frames a second of the GIF.")] = 10,
     frames: Annotated[int, typer.Option(
-        "--frames", min=1, metavar="N",
+        "--frames", min=1, max=MAX_FRAMES, metavar="N",
         help="The most frames of the GIF, spread evenly over the trial.")]
     = 150,
     as_json: JsonOption = False,
