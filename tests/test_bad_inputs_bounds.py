@@ -3,7 +3,8 @@
 A careless or hostile user can name a named pipe (which nobody writes to) where a file is
 expected, give a file whose header declares an array of exabytes, type numbers that no
 simulation survives or a name with a NUL byte in it. Each row is one such input to the command
-line; each must be refused with the limit it passes, naming the file, option or YAML path.
+line; each must be refused with the limit it passes, naming the file, option or YAML path
+(for a named pipe: the file and what it is, whatever the reader's own wording around them).
 
 The command line runs in a thread guarded against hanging: should it still wait on a named
 pipe after the guard's time, every named pipe of the test gets a writer that closes at once
@@ -178,40 +179,35 @@ def _nul_landmark(case: dict) -> None:
     case["problem"]["landmarks"][0] = "l\x001"
 
 
-FIFOS: dict[str, tuple[Case, str]] = {
+FIFOS: dict[str, tuple[Case, str | tuple[str, ...]]] = {
     "config": (lambda tmp, cli: cli("validate", _fifo(tmp, "c.yaml")),
-               f"c.yaml: 1 problem:\n  - cannot read the file: {PIPE}"),
+               ("c.yaml", PIPE)),
     "import document": (lambda tmp, cli: cli("casebase", "import", str(tmp / "new.sqlite"),
                                              _fifo(tmp, "doc.yaml")),
-                        f"doc.yaml: {PIPE}"),
-    ".map": (_plan_pipe("x.map"),
-             f"x.map: cannot read: {PIPE}"),
+                        ("doc.yaml", PIPE)),
+    ".map": (_plan_pipe("x.map"), ("x.map", PIPE)),
     ".scen": (lambda tmp, cli: cli("plan", str(tmp / "small.map"), "--scen",
                                    _fifo(tmp, "x.scen")),
-              f"x.scen: cannot read: {PIPE}"),
-    "ROS .yaml": (_plan_pipe("ros.yaml"),
-                  f"ros.yaml: cannot read: {PIPE}"),
-    "ROS image": (_plan_pipe("pipe.pgm", "pipe.yaml"),
-                  f"pipe.pgm: cannot read: {PIPE}"),
-    ".grid": (_plan_pipe("x.grid"),
-              f"x.grid: cannot read: {PIPE}"),
-    ".npy": (_plan_pipe("x.npy"),
-             f"x.npy: cannot read: {PIPE}"),
+              ("x.scen", PIPE)),
+    "ROS .yaml": (_plan_pipe("ros.yaml"), ("ros.yaml", PIPE)),
+    "ROS image": (_plan_pipe("pipe.pgm", "pipe.yaml"), ("pipe.pgm", PIPE)),
+    ".grid": (_plan_pipe("x.grid"), ("x.grid", PIPE)),
+    ".npy": (_plan_pipe("x.npy"), ("x.npy", PIPE)),
     "case base": (lambda tmp, cli: cli("casebase", "info", _fifo(tmp, "cb.sqlite")),
-                  f"cb.sqlite: {PIPE}"),
-    "landmark initial": (_landmarks_run(), f"cases.yaml: {PIPE}"),
+                  ("cb.sqlite", PIPE)),
+    "landmark initial": (_landmarks_run(), ("cases.yaml", PIPE)),
     "world file": (lambda tmp, cli: cli("sim", "show", _fifo(tmp, "w.yaml")),
-                   f"w.yaml: 1 problem:\n  - cannot read the file: {PIPE}"),
+                   ("w.yaml", PIPE)),
     ".sexp": (lambda tmp, cli: cli("rupart", "show", _fifo(tmp, "s.sexp")),
-              f"s.sexp, cannot read it: {PIPE}"),
+              ("s.sexp", PIPE)),
     "run manifest": (lambda tmp, cli: (_fifo(tmp, "manifest.json"),
                                        cli("rupart", "day", str(tmp)))[1],
-                     f"manifest.json: not a run's manifest ({PIPE})"),
+                     ("manifest.json", PIPE)),
 }
 
 SIM_RUN = ("run", "--start", "start", "--target", "target")
 
-BOUNDS: dict[str, tuple[Case, str]] = {
+BOUNDS: dict[str, tuple[Case, str | tuple[str, ...]]] = {
     ".npy declaring 100000 x 100000": (
         _plan("huge.npy"),
         "huge.npy: its header declares an array of 10000000000 cells, more than the 268435456 "
@@ -368,14 +364,15 @@ CASES = {**{f"named pipe as {k}": v for k, v in FIFOS.items()}, **BOUNDS}
 
 @pytest.mark.parametrize(("case", "message"), CASES.values(), ids=list(CASES))
 def test_an_input_past_the_bounds_is_one_error_naming_the_limit(
-        cbr_cli: Cli, tmp_path: Path, case: Case, message: str) -> None:
+        cbr_cli: Cli, tmp_path: Path, case: Case, message: str | tuple[str, ...]) -> None:
     _prepare(tmp_path)
 
     result = _guarded(case, tmp_path, cbr_cli)
 
     assert result.exit_code == 2, result
     assert "Traceback" not in result.stderr
-    assert message in result.stderr, result.stderr
+    for fragment in (message,) if isinstance(message, str) else message:
+        assert fragment in result.stderr, result.stderr
     assert "\x00" not in result.stdout + result.stderr
 
 
