@@ -49,6 +49,7 @@ from yaml.constructor import SafeConstructor
 from yaml.events import AliasEvent, CollectionStartEvent
 
 from cbrcore.errors import CbrError
+from cbrcore.files import open_regular
 
 MAX_DEPTH_CEILING = 200
 """The highest depth limit that may be configured: reading and checking a document recurses
@@ -117,11 +118,12 @@ def _mark(mark: yaml.Mark | None) -> str:
 def read_bytes(path: str | os.PathLike[str], limits: Limits | None = None) -> bytes:
     """The content of the file at ``path``, refused when larger than the byte limit.
 
-    No more than the limit is read, so a huge file (or a device that never ends) costs nothing.
-    :class:`OSError` is left to the caller to explain.
+    No more than the limit is read, so a huge file costs nothing; anything but a regular file
+    (a named pipe, a device) is refused by :func:`cbrcore.files.open_regular` without waiting
+    on it. :class:`OSError` is left to the caller to explain.
     """
     limits = limits or Limits.from_environ()
-    with open(path, "rb") as file:
+    with open_regular(path) as file:
         data = file.read(limits.bytes + 1)
     if len(data) > limits.bytes:
         raise DocumentError(str(path), _over("bytes", limits, "the file is larger than {} bytes"))

@@ -1,4 +1,8 @@
-"""Files the program writes appear whole or not at all.
+"""Files the program reads are regular files; files it writes appear whole or not at all.
+
+Every file a user names as input is opened through :func:`open_regular`, which refuses a folder,
+a named pipe, a device or a socket without waiting on it: reading a named pipe that nobody
+writes to would hang for ever, and a device such as ``/dev/zero`` never ends.
 
 A file is written to a temporary file in the same folder, flushed to the disk and renamed over
 its target: a crash, a kill or a full disk leaves either the earlier file or the new one, never
@@ -15,7 +19,65 @@ import stat
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
-from typing import IO
+from typing import IO, BinaryIO
+
+
+class NotRegularFile(OSError):
+    """An input path that names something other than a regular file.
+
+    An :class:`OSError`, so that every reader's handling of unreadable files reports it; its
+    ``strerror`` (and text) says what the path is, e.g. ``a named pipe, not a regular file``.
+    """
+
+    def __init__(self, path: str | os.PathLike[str], kind: str) -> None:
+        super().__init__(errno.EINVAL, f"{kind}, not a regular file", os.fspath(path))
+
+    def __str__(self) -> str:
+        return str(self.strerror)
+
+
+class FolderNotFile(NotRegularFile, IsADirectoryError):
+    """A folder where a file was expected; an :class:`IsADirectoryError` too, as :func:`open`
+    raises."""
+
+    def __init__(self, path: str | os.PathLike[str]) -> None:
+        super().__init__(path, "a folder")
+        self.errno = errno.EISDIR
+
+
+_KINDS = (
+    (stat.S_ISFIFO, "a named pipe"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def open_regular(path: str | os.PathLike[str]) -> BinaryIO:
+    """``path`` opened for reading in binary, refused with :class:`NotRegularFile` unless it
+    is a regular file (a symbolic link is followed).
+
+    The file is opened without blocking and checked by the descriptor it was opened as, so
+    neither a named pipe with no writer nor a file swapped for one after a check can make the
+    read wait; a regular file is then read as usual. Other errors (no such file, no
+    permission) are raised as :func:`open` raises them.
+    """
+    # Windows has no named pipes in the file system, and no flag
+    nonblocking = getattr(os, "O_NONBLOCK", 0)
+    descriptor = os.open(path, os.O_RDONLY | nonblocking | getattr(os, "O_BINARY", 0))
+    try:
+        mode = os.fstat(descriptor).st_mode
+        if stat.S_ISDIR(mode):
+            raise FolderNotFile(path)
+        if not stat.S_ISREG(mode):
+            raise NotRegularFile(path, next((kind for test, kind in _KINDS if test(mode)),
+                                            "something else"))
+        if nonblocking:  # the flag was for the open; a regular file is read as any other
+            os.set_blocking(descriptor, True)
+        return os.fdopen(descriptor, "rb")
+    except BaseException:
+        os.close(descriptor)
+        raise
 
 
 @contextlib.contextmanager

@@ -38,10 +38,14 @@ from __future__ import annotations
 
 import concurrent.futures
 import contextlib
+import errno
 import logging
 import multiprocessing
 import os
 import re
+import socket
+import struct
+import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
@@ -58,8 +62,20 @@ Progress = Callable[[int, int], None]
 CONNECT_SECONDS = 10
 """How long a scheduler address is tried before the run gives up on it."""
 
+WORKERS_PER_CORE = 4
+"""The most worker processes ``--scheduler local`` starts per core of the machine: more only
+share the cores, each with its own memory, and a mistyped count would start thousands."""
+
 _ADDRESS = re.compile(r"^(?:(?P<scheme>[a-z][a-z0-9+.-]*)://)?(?P<host>\[[^\]]+\]|[^:/\s]+)"
                       r"(?::(?P<port>\d{1,5}))?$")
+
+
+_DASK_PORT = 8786
+"""The port of a scheduler address that gives none, as Dask's own default."""
+
+MAX_GREETING_BYTES = 1 << 20
+"""The most bytes a Dask scheduler's first message (its handshake) may take to be believed; a
+scheduler's is about a hundred."""
 
 
 class TaskRunner(Protocol):
@@ -212,11 +228,16 @@ def open_tasks(scheduler: str | None = None, *, workers: int | None = None,
     LocalCluster of ``workers`` processes (default: one per core), else the address of a
     running Dask scheduler. The cluster is shut down, or the client disconnected, on leaving.
 
-    A scheduler that cannot be used raises :class:`CbrError` naming ``option``.
+    A scheduler that cannot be used, or more than :data:`WORKERS_PER_CORE` workers per core,
+    raises :class:`CbrError` naming the option.
     """
     if workers is not None and workers < 1:
         raise CbrError(f"--workers: {workers} is not a number of worker processes; expected "
                        "1 or more")
+    most = WORKERS_PER_CORE * (os.cpu_count() or 1)
+    if workers is not None and workers > most:
+        raise CbrError(f"--workers: {workers} is more than the {most} worker processes this "
+                       f"machine may run (the limit, {WORKERS_PER_CORE} per core)")
     if scheduler is None:
         if workers is not None:
             raise CbrError("--workers goes with --scheduler local")
@@ -231,6 +252,57 @@ def open_tasks(scheduler: str | None = None, *, workers: int | None = None,
                        "workers started on its machines")
     with _remote(scheduler, option) as runner:
         yield runner
+
+
+def _check_greeting(host: str, port: int, said: str) -> None:
+    """Refuse a TCP address whose service does not greet as a Dask scheduler does, within
+    :data:`CONNECT_SECONDS`, before distributed connects to it.
+
+    A Dask peer's first message is a handshake in Dask's framing: the byte count of the frames
+    and, within it, the number of frames, their lengths and the frames. distributed itself
+    trusts the count, and allocates it, whatever service answers: a web server's reply read as
+    a count asks for exabytes. The handshake is read here and its framing checked (in the
+    machine's byte order, as Dask writes it), the count against :data:`MAX_GREETING_BYTES`
+    first; the handshake's content is not interpreted.
+    """
+    expected = ("expected 'local' or the address of a running Dask scheduler (dask scheduler "
+                "prints it)")
+    not_dask = (f"{said}: the service there does not speak Dask's protocol (its first message "
+                f"is not a Dask handshake); {expected}")
+    deadline = time.monotonic() + CONNECT_SECONDS
+    try:
+        connection = socket.create_connection((host, port), timeout=CONNECT_SECONDS)
+    except OSError:  # nothing there yet: distributed retries, and says so when it gives up
+        return
+    try:
+        with connection:
+            size = struct.unpack("Q", _receive(connection, 8, deadline))[0]
+            if not 16 <= size <= MAX_GREETING_BYTES:
+                raise CbrError(not_dask)
+            message = _receive(connection, size, deadline)
+    except TimeoutError:
+        raise CbrError(f"{said}: no Dask scheduler answered within {CONNECT_SECONDS} s (the "
+                       f"service there sent no Dask handshake); {expected}") from None
+    except OSError:  # closed or reset before a whole handshake
+        raise CbrError(not_dask) from None
+    count = struct.unpack("Q", message[:8])[0]
+    lengths = struct.unpack(f"{count}Q", message[8:8 + 8 * count]) if (
+        1 <= count <= (size - 8) // 8) else None
+    if lengths is None or 8 + 8 * count + sum(lengths) != size:
+        raise CbrError(not_dask)
+
+
+def _receive(connection: socket.socket, size: int, deadline: float) -> bytes:
+    """Exactly ``size`` bytes from ``connection`` by the ``deadline`` (of time.monotonic);
+    TimeoutError when it passes, ConnectionResetError when the peer closes first."""
+    data = bytearray()
+    while len(data) < size:
+        connection.settimeout(max(deadline - time.monotonic(), 1e-3))
+        chunk = connection.recv(min(size - len(data), 1 << 16))
+        if not chunk:
+            raise ConnectionResetError(errno.ECONNRESET, "the service closed the connection")
+        data += chunk
+    return bytes(data)
 
 
 LOCAL_CLUSTER_CONFIG: dict[str, Any] = {
@@ -274,9 +346,13 @@ def _local_cluster(workers: int) -> Iterator[TaskRunner]:
 
 @contextlib.contextmanager
 def _remote(address: str, option: str) -> Iterator[TaskRunner]:
-    if not _ADDRESS.match(address) or address.startswith("-"):
+    written = _ADDRESS.match(address)
+    if not written or address.startswith("-"):
         raise CbrError(f"{option} {address!r}: not a scheduler address; expected 'local' or "
                        "the address of a running Dask scheduler, such as tcp://host:8786")
+    if written["scheme"] in (None, "tcp"):
+        _check_greeting(written["host"].strip("[]"), int(written["port"] or _DASK_PORT),
+                        f"{option} {address!r}")
     import distributed
 
     try:

@@ -216,6 +216,10 @@ def test_day_says_what_is_missing_or_wrong(cli: Cli, tmp_path: Path) -> None:
     assert refused(str(run), "--day", "2").startswith(
         f"error: {run / 'day_2.npz'}: no such day log; expected the day_N.npz the delivery "
         "workload writes with workload.log: true (it records none")
+    synthetic(day=1).save(run / "day_1.npz")
+    assert refused(str(run), "--day", "1", "--speedup", "1e-9").startswith(
+        "error: --speedup 1e-09: the day's GIF would have 119000000001 frames at 10 a second, "
+        "more than the 10000 an animation may have (the limit)")
     (run / "day_0.npz").write_bytes(b"PK\x03\x04 not really a zip")
     assert refused(str(run)).startswith(f"error: {run / 'day_0.npz'}: not a day log")
     trials = run_folder(tmp_path / "trials", CONFIGS / "world2d_trials.yaml")

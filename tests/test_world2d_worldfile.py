@@ -237,7 +237,7 @@ CASES = [
      "doors.0.b", "[1, 0], period", "zero-length segment"),
     ("negative speed",
      HEAD + "movers:\n  - {waypoints: [[1, 1], [2, 2]], speed: -1, radius: 0.2}\n",
-     "movers.0.speed", "-1", "expected a non-negative speed, got -1"),
+     "movers.0.speed", "-1", "expected a speed from 0 to 100 m/s (the limit), got -1"),
     ("no waypoints", HEAD + "people:\n  - {waypoints: [], speed: 1, radius: 0.2}\n",
      "people.0.waypoints", "[]", "expected at least one waypoint [x, y], got none"),
     ("waypoint outside", HEAD + "people:\n  - {waypoints: [[1, 1], [20, 2]], speed: 1, "

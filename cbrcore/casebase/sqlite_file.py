@@ -24,6 +24,7 @@ from pathlib import Path
 
 from cbrcore.casebase.data import REVISION_KEY
 from cbrcore.errors import CaseBaseError, UnusableCaseBase
+from cbrcore.files import open_regular
 
 APPLICATION_ID = 0x43425243
 """``PRAGMA application_id`` of a cbrcore case base ("CBRC")."""
@@ -116,7 +117,7 @@ def parse_revision(text: str | None) -> int | None:
 def inspect_file(path: Path, create: bool) -> bool:
     """Refuse what cannot be a case base before SQLite touches it; True for a new file."""
     try:
-        with path.open("rb") as file:
+        with open_regular(path) as file:
             header = file.read(len(HEADER))
     except FileNotFoundError:
         if not create:

@@ -29,6 +29,7 @@ from cbrcore.casebase.exchange import Document
 from cbrcore.documents import found
 from cbrcore.errors import CbrError
 from cbrcore.model import Case
+from cbrcore.names import name_problem
 
 BEHAVIOR = "behavior_case"
 """The case kind of a behavior case."""
@@ -97,6 +98,9 @@ def _thaw(value: Any) -> Any:
 def _name(value: Any) -> str:
     if not isinstance(value, str) or not value:
         raise ValueError(f"expected a name (a non-empty string), got {value!r}")
+    problem = name_problem(value)
+    if problem is not None:
+        raise ValueError(f"expected a name, but {problem}")
     return value
 
 
@@ -544,6 +548,9 @@ def build_case(tree: Located, out: list[str]) -> AnyCase | None:
     if not isinstance(name, str) or not name:
         problems.subject = form
         problems.add(tree.part(form), f"expected a name (a non-empty string), got {name!r}")
+    elif name_problem(name) is not None:
+        problems.subject = form  # the name itself would print the character
+        problems.add(tree.part(form), f"expected a name, but {name_problem(name)}")
     for key in fields:
         if key != form and key not in _KEYS[form]:
             problems.add(tree.part(key), f"unknown key {key!r}; expected {', '.join(_KEYS[form])}")

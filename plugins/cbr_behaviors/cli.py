@@ -144,13 +144,15 @@ def _manifest(run_dir: Path) -> dict[str, Any]:
     if not run_dir.is_dir():
         raise CbrError(f"{run_dir}: no such run folder; expected the output folder of "
                        f"'cbr run' with the {DELIVERY} workload")
+    from cbrcore.documents import DocumentError, load_json, read_text
+
     path = run_dir / "manifest.json"
     try:
-        manifest = json.loads(path.read_text(encoding="utf-8"))
+        manifest = load_json(read_text(path), str(path))
     except FileNotFoundError:
         raise CbrError(f"{path}: no such file; expected the manifest 'cbr run' writes into a "
                        f"run folder") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, DocumentError) as exc:
         raise CbrError(f"{path}: not a run's manifest ({exc}); expected the JSON file 'cbr "
                        f"run' writes") from None
     config = manifest.get("config") if isinstance(manifest, dict) else None
@@ -225,7 +227,8 @@ def day(
 ) -> None:
     """Draw a delivery day: the floor with the path coloured by case, a timeline, a GIF."""
     from cbr_behaviors.daylog import DayLog
-    from cbr_behaviors.dayplot import animate_day, plot_day, plot_timeline
+    from cbr_behaviors.dayplot import animate_day, frame_count, plot_day, plot_timeline
+    from cbr_world2d.checks import MAX_FRAMES
     from cbrcore.engine import output_folder
 
     if not (math.isfinite(speedup) and speedup > 0.0):
@@ -237,6 +240,11 @@ def day(
     if len(log.track()) == 0:
         raise CbrError(f"{path}: the day log holds no steps; expected a day the delivery "
                        "workload ran")
+    frames = frame_count(log.track(), fps, speedup)
+    if gif and frames > MAX_FRAMES:
+        raise CbrError(f"--speedup {speedup:g}: the day's GIF would have {frames} frames at "
+                       f"{fps} a second, more than the {MAX_FRAMES} an animation may have (the "
+                       "limit); give a larger --speedup")
     world = run_world(run_dir)
     out_dir = run_dir if out is None else out
     output_folder(out_dir)

@@ -193,11 +193,13 @@ class DayLog:
         expected = ("expected a day log (day_N.npz) that the delivery workload writes with "
                     "workload.log: true")
         try:
-            loaded = np.load(path, allow_pickle=False)
-            if not isinstance(loaded, np.lib.npyio.NpzFile):  # a lone .npy array
-                raise CbrError(f"{path}: not a day log (one array, not an archive); {expected}")
-            with loaded:
-                arrays = {name: loaded[name] for name in loaded.files}
+            with files.open_regular(path) as handle:
+                loaded = np.load(handle, allow_pickle=False)
+                if not isinstance(loaded, np.lib.npyio.NpzFile):  # a lone .npy array
+                    raise CbrError(f"{path}: not a day log (one array, not an archive); "
+                                   f"{expected}")
+                with loaded:
+                    arrays = {name: loaded[name] for name in loaded.files}
         except FileNotFoundError:
             raise CbrError(f"{path}: no such file; {expected}") from None
         except IsADirectoryError:

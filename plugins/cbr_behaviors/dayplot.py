@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import sys
 import zlib
 from collections import Counter
 from collections.abc import Iterator, Sequence
@@ -334,17 +335,22 @@ def plot_timeline(log: DayLog, path: Path) -> None:
     save_figure(figure, path, dpi=110)
 
 
-def frame_times(track: Track, fps: int, speedup: float) -> np.ndarray:
-    """The simulated times of an animation's frames: ``speedup / fps`` seconds apart from the
-    first step to the last (the last frame at most that much before the last step)."""
+def frame_count(track: Track, fps: int, speedup: float) -> int:
+    """How many frames :func:`frame_times` gives, counted without making them."""
     if fps < 1 or not (math.isfinite(speedup) and speedup > 0):
         raise ValueError(f"fps must be at least 1 and speedup a number > 0, not {fps} and "
                          f"{speedup}")
     if len(track) == 0:
         raise ValueError("the day log has no steps to animate")
-    step = speedup / fps
-    first, last = float(track.t[0]), float(track.t[-1])
-    return first + step * np.arange(math.floor((last - first) / step + 1e-9) + 1)
+    frames = (float(track.t[-1]) - float(track.t[0])) / (speedup / fps) + 1e-9
+    return math.floor(frames) + 1 if math.isfinite(frames) else sys.maxsize
+
+
+def frame_times(track: Track, fps: int, speedup: float) -> np.ndarray:
+    """The simulated times of an animation's frames: ``speedup / fps`` seconds apart from the
+    first step to the last (the last frame at most that much before the last step)."""
+    count = frame_count(track, fps, speedup)
+    return float(track.t[0]) + speedup / fps * np.arange(count)
 
 
 def _clock(t: float) -> str:

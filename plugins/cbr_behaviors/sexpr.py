@@ -7,6 +7,11 @@ The language is small. An *atom* is an integer (``150``, ``-3``), a float (``3.0
 quote or ``;`` (``mod-fast``, ``curr-head``, ``?x``, ``room_1``, ``*``). A *list* is elements in
 parentheses. ``;`` starts a comment that runs to the end of the line.
 
+The reader keeps to the limits of every document (:mod:`cbrcore.documents`): lists nest at
+most ``CBR_MAX_DOCUMENT_DEPTH`` levels (100 by default), an integer has at most the digits
+Python converts (4300 by default), and a float is finite, so that neither Python's stack, which
+whoever walks the lists spends once per level, nor a number that cannot be used gets further.
+
 :func:`read` gives :class:`Node` objects, each with the line and column it starts at, so that
 whoever interprets them can say where a problem lies; :meth:`Node.plain` turns one into plain
 data (symbols and strings both become ``str``). :func:`write` goes the other way, from plain
@@ -18,11 +23,13 @@ from __future__ import annotations
 
 import math
 import re
+import sys
 from collections.abc import Iterator, Sequence
 from typing import Any
 
 import attrs
 
+from cbrcore.documents import Limits
 from cbrcore.errors import CbrError
 
 WIDTH = 100
@@ -94,10 +101,17 @@ _WRITTEN_ESCAPES = {value: "\\" + key for key, value in _ESCAPES.items()}
 
 
 def _atom(token: str) -> Atom:
+    """The atom ``token`` stands for; ValueError when it is a number that cannot be used."""
     if _INTEGER.fullmatch(token):
+        digits = sys.get_int_max_str_digits()
+        if digits and len(token.lstrip("+-")) > digits:
+            raise ValueError(f"an integer of more than {digits} digits")
         return int(token)
     if _FLOAT.fullmatch(token):
-        return float(token)
+        value = float(token)
+        if not math.isfinite(value):
+            raise ValueError(f"a number beyond the largest float ({sys.float_info.max:g})")
+        return value
     return Symbol(token)
 
 
@@ -136,7 +150,11 @@ class _Scanner:
                 start = i
                 while i < n and text[i] not in _DELIMITERS:
                     i += 1
-                yield "atom", _atom(text[start:i]), line, column
+                try:
+                    atom = _atom(text[start:i])
+                except ValueError as exc:
+                    raise SexprError(self.source, line, f"column {column}: {exc}") from None
+                yield "atom", atom, line, column
 
     def _string(self, start: int, line: int) -> tuple[str, int, int]:
         """The string opening at ``start``: its value, the index after it and the line breaks
@@ -162,11 +180,17 @@ class _Scanner:
 
 def read(text: str, source: str = "<text>") -> tuple[Node, ...]:
     """The top-level elements of ``text``; :class:`SexprError` naming ``source`` and the line
-    of an unbalanced parenthesis, an unclosed string or a bad escape."""
+    of an unbalanced parenthesis, an unclosed string, a bad escape, lists nested past the
+    document depth limit or a number that cannot be used."""
+    depth = Limits.from_environ().depth
     stack: list[tuple[int, int, list[Node]]] = []
     top: list[Node] = []
     for kind, value, line, column in _Scanner(text, source).tokens():
         if kind == "(":
+            if len(stack) == depth:
+                raise SexprError(source, line, f"column {column}: lists nested more than "
+                                 f"{depth} levels deep (the limit, set by "
+                                 "CBR_MAX_DOCUMENT_DEPTH)")
             stack.append((line, column, []))
         elif kind == ")":
             if not stack:

@@ -85,10 +85,16 @@ _PILLOW_PROBLEMS = (
 )
 
 
-MAX_IMAGE_PIXELS = 2**30
-"""The most pixels a map image may have: 32768 x 32768, 1.6 km a side in 5 cm cells. Pillow's
-own limit (``PIL.Image.MAX_IMAGE_PIXELS``, about 89 million) guards against images from
-strangers; a map is a trusted local file, and the map of a large site may well have more."""
+MAX_GRID_CELLS = 2**28
+"""The most cells a map read from an image or a ``.npy`` file may have: 16384 x 16384, 820 m a
+side in 5 cm cells. Its risk values alone take 2 GiB, and planning on it several times that; a
+file whose header declares more is refused before its cells are read. (The other formats are
+bounded by the size of a document, :mod:`cbrcore.documents`.)"""
+
+MAX_IMAGE_PIXELS = MAX_GRID_CELLS
+"""The most pixels a map image may have, checked from the image's header before it is decoded.
+Pillow's own limit (``PIL.Image.MAX_IMAGE_PIXELS``, about 89 million) guards against images
+from strangers; a map is a trusted local file, and the map of a large site may well have more."""
 
 _PILLOW_LIMIT = threading.Lock()
 """Held while Pillow's process-wide limit is this module's, for one read."""
@@ -122,7 +128,7 @@ def read_image(path: str | Path) -> np.ndarray:
     from PIL import Image, UnidentifiedImageError
 
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise CbrError(f"{path}: cannot read: no such file")
     data = _read(path)
     try:
@@ -293,6 +299,7 @@ def load_npy(path: str | Path, *, corner_cutting: bool = False) -> Grid:
     """The grid of a ``.npy`` file holding a 2-D risk array ``[y, x]``."""
     path = Path(path)
     data = _read(path)
+    _check_npy_header(path, data)
     try:
         risk = np.load(io.BytesIO(data), allow_pickle=False)
     except (OSError, ValueError, EOFError) as exc:
@@ -306,6 +313,35 @@ def load_npy(path: str | Path, *, corner_cutting: bool = False) -> Grid:
         # converting to risk values would drop the imaginary parts silently
         raise CbrError(f"{path}: expected real risk values, got a complex array")
     return _grid(path, risk, corner_cutting)
+
+
+def _check_npy_header(path: Path, data: bytes) -> None:
+    """Refuse a ``.npy`` file whose header declares more cells than :data:`MAX_GRID_CELLS` or
+    more data than the file holds, before NumPy allocates the array the header declares.
+
+    A file that is not a ``.npy`` file of version 1 or 2 passes, for :func:`numpy.load` to
+    refuse; version 3 only differs in allowing non-ASCII field names, which a risk array has not.
+    """
+    from numpy.lib import format as npy
+
+    stream = io.BytesIO(data)
+    try:
+        version = npy.read_magic(stream)
+        if version == (1, 0):
+            shape, _, dtype = npy.read_array_header_1_0(stream)
+        elif version == (2, 0):
+            shape, _, dtype = npy.read_array_header_2_0(stream)
+        else:
+            return
+    except (OSError, ValueError, EOFError):
+        return
+    cells = math.prod(shape)
+    if cells > MAX_GRID_CELLS:
+        raise CbrError(f"{path}: its header declares an array of {cells} cells, more than the "
+                       f"{MAX_GRID_CELLS} a map may have (cbr_grid.formats.MAX_GRID_CELLS)")
+    if not dtype.hasobject and cells * dtype.itemsize > len(data) - stream.tell():
+        raise CbrError(f"{path}: its data ends before the size its header declares "
+                       f"({cells} cells of {dtype.itemsize} bytes)")
 
 
 _TEXT_RISK = np.full(256, np.nan)

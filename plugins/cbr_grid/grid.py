@@ -226,13 +226,15 @@ class Grid:
         (``unknown_risk`` as in :meth:`blocked_reason`)."""
         try:
             xy = np.asarray(cell)
-            ok = xy.shape == (2,) and np.issubdtype(xy.dtype, np.integer)
+            # integers past 64 bits make an array of objects: on no grid, but integers still
+            ok = xy.shape == (2,) and (np.issubdtype(xy.dtype, np.integer) or (
+                xy.dtype == object and all(type(v) is int for v in xy)))
         except (TypeError, ValueError):
             ok = False
         if not ok:
             raise CbrError(f"{what} must be a cell (x, y) of two integers, got {cell!r}")
         x, y = int(xy[0]), int(xy[1])
-        if not self.in_bounds((x, y)):
+        if not (0 <= x < self.width and 0 <= y < self.height):
             raise CbrError(f"{what} ({x}, {y}) is outside the {self.width}x{self.height} grid "
                            f"(x in 0..{self.width - 1}, y in 0..{self.height - 1})")
         if not self.passable[y, x]:
@@ -245,13 +247,19 @@ class Grid:
         point as written and the cell it falls in, unless that cell is on the grid and free
         (``unknown_risk`` as in :meth:`blocked_reason`)."""
         frame = self._frame(f"{what} in metres")
+        corners = frame.corners(self.width, self.height)
+        (left, bottom), (right, top) = corners.min(0), corners.max(0)
+        outside = (f"outside the {self.width}x{self.height} grid, which covers x {left:g} to "
+                   f"{right:g} m and y {bottom:g} to {top:g} m")
+        # farther off the grid than 2^52 cells, a cell would not fit an integer of 64 bits
+        reach = 2.0**52 * frame.resolution
+        if not (left - reach <= point[0] <= right + reach
+                and bottom - reach <= point[1] <= top + reach):
+            raise CbrError(f"{what} ({point[0]:g}, {point[1]:g}) m is {outside}")
         x, y = (int(v) for v in frame.to_cells(point, self.height)[0])
         said = f"{what} ({point[0]:g}, {point[1]:g}) m falls in cell ({x}, {y}),"
         if not self.in_bounds((x, y)):
-            corners = frame.corners(self.width, self.height)
-            (left, bottom), (right, top) = corners.min(0), corners.max(0)
-            raise CbrError(f"{said} outside the {self.width}x{self.height} grid, which covers "
-                           f"x {left:g} to {right:g} m and y {bottom:g} to {top:g} m")
+            raise CbrError(f"{said} {outside}")
         if not self.passable[y, x]:
             raise CbrError(f"{said} {self.blocked_reason((x, y), unknown_risk)}")
         return x, y

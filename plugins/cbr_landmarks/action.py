@@ -24,7 +24,7 @@ from typing import Any
 import attrs
 import numpy as np
 
-from cbr_landmarks.graph import GraphError
+from cbr_landmarks.graph import MAX_MEASURE, GraphError
 
 
 @attrs.frozen
@@ -97,8 +97,8 @@ class DivertAction:
         for key, default in (("along", None), ("aside", 0.0)):
             value = data.get(key, default)
             if isinstance(value, bool) or not isinstance(value, int | float) or \
-                    not math.isfinite(value):
-                raise GraphError(f"{where}: action.{key}: expected a finite number of metres, "
-                                 f"got {value!r}")
+                    not (math.isfinite(value) and abs(value) <= MAX_MEASURE):
+                raise GraphError(f"{where}: action.{key}: expected a finite number of metres "
+                                 f"within ±{MAX_MEASURE:g} (the limit), got {value!r}")
             numbers[key] = float(value)
         return cls(data["anchor"], data["base"], numbers["along"], numbers["aside"])

@@ -24,9 +24,14 @@ import numpy as np
 
 from cbr_world2d.fuzzy import TWO_PI
 from cbrcore.errors import CbrError
+from cbrcore.names import name_problem
 
 MAX_LANDMARKS = 16
 """The most landmarks one graph holds (the matching's search grows with their number)."""
+
+MAX_MEASURE = 1e6
+"""The largest magnitude of a case's measures (distances in metres, angles) and of its action's
+offsets: beyond it an angle wraps to noise and a target lies nowhere in any world."""
 
 
 class GraphError(CbrError):
@@ -47,16 +52,24 @@ def _check_triangles(values: np.ndarray, n: int, field: str, where: str) -> None
         raise GraphError(f"{where}: {field}: expected {n} x {n} triangles [low, peak, high] "
                          f"(one per ordered pair of the {n} landmarks), got shape "
                          f"{list(values.shape)}")
-    bad = ~np.isfinite(values).all(axis=2)
+    bad = ~(np.isfinite(values) & (np.abs(values) <= MAX_MEASURE)).all(axis=2)
     if bad.any():
         i, j = np.argwhere(bad)[0].tolist()
-        raise GraphError(f"{where}: {field}[{i}][{j}]: every measure must be a finite number, "
-                         f"not {values[i, j].tolist()}")
+        raise GraphError(f"{where}: {field}[{i}][{j}]: every measure must be a finite number "
+                         f"within ±{MAX_MEASURE:g} (the limit), not {values[i, j].tolist()}")
     disorder = (values[..., 0] > values[..., 1]) | (values[..., 1] > values[..., 2])
     if disorder.any():
         i, j = np.argwhere(disorder)[0].tolist()
         raise GraphError(f"{where}: {field}[{i}][{j}]: a triangle needs low <= peak <= high, "
                          f"not {values[i, j].tolist()}")
+
+
+def _check_ids(ids: Sequence[object], where: str) -> None:
+    """Refuse a landmark id with a control character, before anything prints the ids."""
+    for k, landmark in enumerate(ids):
+        problem = name_problem(landmark) if isinstance(landmark, str) else None
+        if problem is not None:
+            raise GraphError(f"{where}: landmarks[{k}]: expected a landmark id, but {problem}")
 
 
 @attrs.frozen(eq=False)
@@ -79,6 +92,7 @@ class LandmarkGraph:
                              f"|L| >= 2), got {n}")
         if n > MAX_LANDMARKS:
             raise GraphError(f"{where}: landmarks: at most {MAX_LANDMARKS} landmarks, got {n}")
+        _check_ids(self.ids, where)
         if len(set(self.ids)) != n:
             raise GraphError(f"{where}: landmarks: ids must be distinct, got {list(self.ids)}")
         for i, j in self.obstacles:
@@ -190,6 +204,7 @@ class LandmarkGraph:
         ids = data["landmarks"]
         if not (isinstance(ids, list) and all(isinstance(i, str) for i in ids)):
             raise GraphError(f"{where}: landmarks: expected a list of landmark ids, got {ids!r}")
+        _check_ids(ids, where)
         index = {landmark: k for k, landmark in enumerate(ids)}
         pairs = set()
         for k, pair in enumerate(data.get("obstacles") or []):

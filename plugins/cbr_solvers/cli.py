@@ -14,6 +14,7 @@ from __future__ import annotations
 import enum
 import functools
 import json
+import math
 import re
 import statistics
 import time
@@ -121,7 +122,8 @@ def _pair(text: str, option: str, number: type[int] | type[float], what: str) ->
     except ValueError:
         raise typer.BadParameter(f"expected {what} X,Y, got {text!r}",
                                  param_hint=f"'{option}'") from None
-    if not (np.isfinite(x) and np.isfinite(y)):
+    # an integer is finite, and may be too large for numpy: the map says whether it is on it
+    if number is float and not (math.isfinite(x) and math.isfinite(y)):
         raise typer.BadParameter(f"expected {what} X,Y, got {text!r}", param_hint=f"'{option}'")
     return x, y
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import enum
 import json
 import math
+import os
 import re
 import statistics
 from pathlib import Path
@@ -20,7 +21,9 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
+from cbr_world2d.checks import MAX_DT, MAX_FRAMES, MAX_TRIALS, MIN_DT, too_many_steps
 from cbrcore.errors import CbrError
+from cbrcore.tasks import WORKERS_PER_CORE
 
 if TYPE_CHECKING:
     from cbr_world2d.robot import RobotSpec
@@ -58,7 +61,8 @@ PilotOption = Annotated[str, typer.Option(
 TimeoutOption = Annotated[float, typer.Option(
     "--timeout", metavar="SECONDS", help="Seconds after which a trial has failed.")]
 DtOption = Annotated[float, typer.Option("--dt", metavar="SECONDS",
-                                         help="The simulation step in seconds.")]
+                                         help="The simulation step in seconds, from 0.0001 "
+                                         "to 1.")]
 ToleranceOption = Annotated[float, typer.Option(
     "--tolerance", metavar="METRES",
     help="How close, in metres, the robot's centre must come to the target.")]
@@ -96,6 +100,18 @@ def _positive(value: float, option: str) -> float:
     return value
 
 
+def _timing(timeout: float, dt: float, tolerance: float) -> None:
+    """Refuse a trial's timing unless it can be simulated, naming the option at fault."""
+    _positive(timeout, "--timeout")
+    _positive(tolerance, "--tolerance")
+    if not (MIN_DT <= dt <= MAX_DT):
+        raise typer.BadParameter(f"expected a step from {MIN_DT:g} to {MAX_DT:g} seconds, got "
+                                 f"{dt!r}", param_hint="'--dt'")
+    problem = too_many_steps(timeout, dt)
+    if problem is not None:
+        raise typer.BadParameter(problem, param_hint="'--timeout'")
+
+
 def _writable(path: Path | None, option: str) -> None:
     """Refuse a picture file whose folder is missing now, rather than after the trials ran."""
     if path is not None and not path.parent.is_dir():
@@ -127,9 +143,15 @@ def _where(x: float, y: float) -> str:
 def show(world_name: WorldArgument, plot: PlotOption = None,
          at: Annotated[float, typer.Option(
              "--at", metavar="SECONDS",
-             help="Draw doors and people as they are at this time (seconds).")] = 0.0,
+             help="Draw doors and people as they are at this time (seconds, from 0 to "
+             "1e6).")] = 0.0,
          ) -> None:
     """Print a 2D world's bounds and what it holds; draw it with --plot."""
+    from cbr_world2d.worldfile import MAX_MAGNITUDE
+
+    if not 0.0 <= at <= MAX_MAGNITUDE:  # NaN too
+        raise typer.BadParameter(f"expected a time from 0 to {MAX_MAGNITUDE:g} seconds, got "
+                                 f"{at!r}", param_hint="'--at'")
     _writable(plot, "--plot")
     world = load(world_name)
     xmin, ymin, xmax, ymax = world.bounds
@@ -200,7 +222,7 @@ def run(
     fps: Annotated[int, typer.Option("--fps", min=1, metavar="N",
                                      help="Frames a second of the GIF.")] = 10,
     frames: Annotated[int, typer.Option(
-        "--frames", min=1, metavar="N",
+        "--frames", min=1, max=MAX_FRAMES, metavar="N",
         help="The most frames of the GIF, spread evenly over the trial.")]
     = 150,
     as_json: JsonOption = False,
@@ -209,9 +231,7 @@ def run(
     from cbr_world2d.robot import Pose
     from cbr_world2d.simulation import PilotRecipe, Trial, run_trial
 
-    _positive(timeout, "--timeout")
-    _positive(dt, "--dt")
-    _positive(tolerance, "--tolerance")
+    _timing(timeout, dt, tolerance)
     if heading is not None and not math.isfinite(heading):
         raise typer.BadParameter(f"expected a finite angle, got {heading!r}",
                                  param_hint="'--heading'")
@@ -257,13 +277,15 @@ def run(
 def batch(
     world_name: WorldArgument,
     trials: Annotated[int, typer.Option(
-        "--trials", min=1, metavar="N", help="How many trials, between random free points.")] = 10,
+        "--trials", min=1, max=MAX_TRIALS, metavar="N",
+        help="How many trials, between random free points.")] = 10,
     seed: Annotated[int, typer.Option(
         "--seed", min=0, metavar="SEED",
         help="The seed of the random points and of every trial's noise.")]
     = 0,
     workers: Annotated[int, typer.Option(
-        "--workers", min=1, metavar="N", help="Processes running trials at once.")] = 2,
+        "--workers", min=1, metavar="N",
+        help="Processes running trials at once (at most 4 per core).")] = 2,
     pilot: PilotOption = "potential_field",
     timeout: TimeoutOption = 300.0,
     dt: DtOption = 0.1,
@@ -278,9 +300,12 @@ def batch(
 
     from cbr_world2d.simulation import PilotRecipe, random_trials, run_batch
 
-    _positive(timeout, "--timeout")
-    _positive(dt, "--dt")
-    _positive(tolerance, "--tolerance")
+    _timing(timeout, dt, tolerance)
+    most = WORKERS_PER_CORE * (os.cpu_count() or 1)
+    if workers > most:
+        raise typer.BadParameter(f"{workers} is more than the {most} processes this machine "
+                                 f"may run (the limit, {WORKERS_PER_CORE} per core)",
+                                 param_hint="'--workers'")
     world = load(world_name)
     spec = _spec(robot)
     recipe = PilotRecipe.named(pilot)

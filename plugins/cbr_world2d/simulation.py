@@ -23,7 +23,7 @@ from typing import Any
 import attrs
 import numpy as np
 
-from cbr_world2d.checks import positive
+from cbr_world2d.checks import positive, step, too_many_steps
 from cbr_world2d.navigator import Navigator, NavigatorOptions
 from cbr_world2d.pilots.base import Pilot
 from cbr_world2d.pilots.monitor import STUCK
@@ -69,13 +69,20 @@ class Event:
 @attrs.frozen
 class Trial:
     """One trial: drive from ``start`` to ``target`` within ``timeout`` seconds, steps of
-    ``dt``; reaching means the robot's centre comes within ``tolerance`` metres of the target."""
+    ``dt``; reaching means the robot's centre comes within ``tolerance`` metres of the target.
+    ``dt`` lies within [:data:`~cbr_world2d.checks.MIN_DT`, :data:`~cbr_world2d.checks.MAX_DT`]
+    and the trial takes at most :data:`~cbr_world2d.checks.MAX_STEPS` steps."""
 
     start: Pose
     target: Point = attrs.field(converter=lambda p: (float(p[0]), float(p[1])))
     timeout: float = attrs.field(default=600.0, converter=float, validator=positive)
     tolerance: float = attrs.field(default=0.3, converter=float, validator=positive)
-    dt: float = attrs.field(default=0.1, converter=float, validator=positive)
+    dt: float = attrs.field(default=0.1, converter=float, validator=step)
+
+    def __attrs_post_init__(self) -> None:
+        problem = too_many_steps(self.timeout, self.dt)
+        if problem is not None:
+            raise ValueError(problem)
 
     @classmethod
     def facing(cls, start: Point, target: Point, **kwargs: float) -> Trial:

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import attrs
 import numpy as np
 
+from cbr_world2d import checks
 from cbr_world2d.actions import TRIAL_ENDED, Action, ActionReport
 from cbr_world2d.navigator import Navigator, NavigatorOptions
 from cbr_world2d.pilots.base import PILOT, Pilot
@@ -74,7 +75,8 @@ class TrialsOptions:
     repeat: int = option(1, "How many times the whole list of trials runs.", validator=_COUNT)
     timeout: float = option(600.0, "Seconds after which a trial has failed.",
                             validator=_POSITIVE)
-    dt: float = option(0.1, "The simulation step in seconds.", validator=_POSITIVE)
+    dt: float = option(0.1, "The simulation step in seconds, from 0.0001 to 1.",
+                       validator=checks.step)
     tolerance: float = option(
         0.3, "How close, in metres, the robot's centre must come to the target.",
         validator=_POSITIVE)
@@ -93,6 +95,16 @@ class TrialsOptions:
         doc="The camera that sees the landmarks.", factory=lambda: CameraOptions())
     trajectories: bool = option(
         False, "Also write each trial's true path into trajectories.npz in the run folder.")
+
+    def __attrs_post_init__(self) -> None:
+        problem = checks.too_many_steps(self.timeout, self.dt)
+        if problem is not None:
+            raise ValueError(f"'timeout' must be within the step limit: {problem}")
+        trials = (len(self.trials) + self.random) * self.repeat
+        if trials > checks.MAX_TRIALS:
+            raise ValueError(f"'repeat' must keep the trials within {checks.MAX_TRIALS} (the "
+                             f"limit, cbr_world2d.checks.MAX_TRIALS): (listed + random) x repeat "
+                             f"is {trials}")
 
 
 def _array(values: np.ndarray) -> list[float]:

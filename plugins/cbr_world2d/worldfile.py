@@ -24,11 +24,12 @@ writes them out as the tables of the user docs). Reading is strict, as for confi
 numbers must be numbers, unknown keys are refused, and every problem is reported in one
 :class:`~cbrcore.errors.ConfigError`, each line naming the YAML path, its line and column, the
 value and what was expected (``landmarks.3.radius (line 12, column 13): expected a positive
-number, got -1``). After the types, the geometry is checked: NaN or infinite numbers,
+number, got -1``). Every number lies within ±:data:`MAX_MAGNITUDE`. After the types, the
+geometry is checked: NaN or infinite numbers,
 zero-length walls and doors, polygons with fewer than three vertices, no area or crossing
 edges, anything outside the bounds, radii that are not positive, duplicate landmark ids, a
-``between`` naming an unknown landmark, a door open longer than its period, a negative speed,
-and a place outside the bounds or inside an obstacle.
+``between`` naming an unknown landmark, a door open longer than its period, a speed below 0
+or above :data:`MAX_SPEED`, and a place outside the bounds or inside an obstacle.
 """
 
 from __future__ import annotations
@@ -49,11 +50,21 @@ from cbr_world2d.world import Door, Landmark, Mover, Point, Wall, World
 from cbrcore.config import read_yaml
 from cbrcore.documents import found
 from cbrcore.errors import ConfigError
+from cbrcore.names import name_problem
 from cbrcore.options import converter, option, option_problems
 
 MIN_LENGTH = 1e-6
 """Walls, doors and polygon edges shorter than this (a micrometre) count as zero-length: the
 geometry kernels divide by their lengths."""
+
+MAX_MAGNITUDE = 1e6
+"""The largest magnitude of a number in a world file: coordinates within a thousand
+kilometres, times within 11 days. Beyond it the geometry's products and the plots' scales
+lose all precision or overflow."""
+
+MAX_SPEED = 100.0
+"""The fastest a person or object of a world file may move, in metres per second: at a larger
+speed one step of the simulation carries it through walls and robots unseen."""
 
 XY = NewType("XY", tuple[float, float])
 """A point ``[x, y]`` of two finite numbers."""
@@ -84,6 +95,9 @@ def _numbers(value: Any, count: int, label: str) -> tuple[float, ...]:
     numbers = tuple(float(v) for v in value)
     if not all(math.isfinite(v) for v in numbers):
         raise ValueError(f"expected {label} of finite numbers, got {_pt(numbers)}")
+    if not all(abs(v) <= MAX_MAGNITUDE for v in numbers):
+        raise ValueError(f"expected {label} of numbers within ±{MAX_MAGNITUDE:g} (the limit), "
+                         f"got {_pt(numbers)}")
     return numbers
 
 
@@ -97,6 +111,9 @@ def _structure_finite(value: Any, _: type) -> float:
         raise TypeError(f"expected a number, got {found(value, setting=True)}")
     if not math.isfinite(value):
         raise ValueError(f"expected a finite number, got {_num(value)}")
+    if abs(value) > MAX_MAGNITUDE:
+        raise ValueError(f"expected a number within ±{MAX_MAGNITUDE:g} (the limit), got "
+                         f"{_num(value)}")
     return float(value)
 
 
@@ -313,6 +330,11 @@ def _structure(data: Mapping[str, Any], problems: Problems) -> dict[str, Any]:
                     problems.append((f"{name}.{key}", f"expected a place name (a non-empty "
                                                       f"string), got {key!r}{hint}"))
                     continue
+                problem = name_problem(key)
+                if problem is not None:
+                    # the path would print the character itself
+                    problems.append((name, f"expected place names, but {problem}"))
+                    continue
                 point = _structure_one(args[1], item, f"{name}.{key}", problems)
                 if point is not None:
                     places[key] = point
@@ -468,6 +490,9 @@ def _build(values: dict[str, Any], raw: Mapping[str, Any], seed: int,
         path = f"landmarks.{i}"
         if not spec.id:
             problems.append((f"{path}.id", "expected a non-empty string, got ''"))
+        elif name_problem(spec.id) is not None:
+            problems.append((f"{path}.id", f"expected a landmark id, but "
+                                           f"{name_problem(spec.id)}"))
         elif spec.id in landmarks:
             first = next(j for j, s in values["landmarks"] if s.id == spec.id)
             problems.append((f"{path}.id", f"expected a unique landmark id, got {spec.id!r} "
@@ -548,9 +573,9 @@ def _build(values: dict[str, Any], raw: Mapping[str, Any], seed: int,
                 fine = False
             for j, point in enumerate(spec.waypoints):
                 _check_point(bounds, point, f"{path}.waypoints.{j}", problems)
-            if spec.speed < 0:
-                problems.append((f"{path}.speed", f"expected a non-negative speed, got "
-                                                  f"{_num(spec.speed)}"))
+            if not 0 <= spec.speed <= MAX_SPEED:
+                problems.append((f"{path}.speed", f"expected a speed from 0 to {MAX_SPEED:g} m/s "
+                                                  f"(the limit), got {_num(spec.speed)}"))
                 fine = False
             if spec.radius <= 0:
                 problems.append((f"{path}.radius", f"expected a positive number, got "

@@ -74,9 +74,17 @@ Converter = Callable[[Any, float], Any]
 unit; raises ValueError saying what was expected."""
 
 
+MAX_ARGUMENT = 1e6
+"""The largest magnitude of a numeric behavior argument, in its own unit (10 km in
+centimetres): a speed, distance or position past it turns the pilot's arithmetic to
+infinities."""
+
+
 def _number(value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise ValueError(f"expected a finite number, got {value!r}")
+    if isinstance(value, bool) or not isinstance(value, int | float) or not (
+            math.isfinite(value) and abs(value) <= MAX_ARGUMENT):
+        raise ValueError(f"expected a finite number within ±{MAX_ARGUMENT:g} (the limit), got "
+                         f"{value!r}")
     return float(value)
 
 
