@@ -978,3 +978,30 @@ def test_a_default_store_from_an_unloaded_plugin_is_named(
             "store 'memory' is used, but plugin 'core', which provides it, is not loaded (see "
             "CBR_PLUGINS and CBR_DISABLE_PLUGINS); load it or name a store; registered stores: "
             "none\n")
+
+
+def test_out_of_memory_is_one_line_and_exit_2(monkeypatch: pytest.MonkeyPatch,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    """A command that runs out of memory ends with one line and exit code 2, the traceback
+    shown on request only."""
+    import cbrcore.cli as cli
+
+    def app() -> typer.Typer:
+        greedy = typer.Typer()
+
+        @greedy.callback()
+        def group() -> None:
+            pass
+
+        @greedy.command()
+        def plan() -> None:
+            raise MemoryError
+
+        return greedy
+
+    monkeypatch.setattr(cli, "build_app", app)
+    assert cli.main(["plan"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: out of memory") and "Traceback" not in err
+    assert "limits.md" in err
+    assert cli.main(["plan", "--traceback"]) != 0

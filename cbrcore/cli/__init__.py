@@ -140,6 +140,13 @@ def _run(args: list[str], err: Console) -> int:
             err.print(traceback.format_exc())
         err.print(f"error: {exc}")
         return 2
+    except MemoryError:
+        # an input within the documented limits can still outgrow a small machine's memory
+        if show_traceback:
+            err.print(traceback.format_exc())
+        err.print("error: out of memory: the input needs more memory than this machine has "
+                  "(the sizes cbr accepts: docs/reference/limits.md)")
+        return 2
     return result if isinstance(result, int) else 0
 
 
