@@ -173,3 +173,25 @@ def test_the_ablation_leaves_out_each_strategy_once(
         assert name.removeprefix("without ") not in kept
         assert "effect" in ablation[name]
     assert set(results["empty"]) == set(EMPTY_ARMS)
+
+
+def test_a_replayed_day_repeats_its_messages_and_its_noise(plugins: Plugins,
+                                                           tmp_path: Path) -> None:
+    """With ``replay`` a robot that learns nothing lives the same day twice, row for row; without
+    it the second day brings other messages."""
+    from cbr_behaviors.experiments.delivery import arm_config, run_arm
+
+    def arrivals(replay: bool) -> tuple[list[dict[str, float]], list[list[str]]]:
+        config = arm_config(BASELINE, 0, days=2, length=300.0)
+        config["workload"]["replay"] = replay
+        rows = run_arm(config, tmp_path / str(replay))
+        with (tmp_path / str(replay) / "deliveries.csv").open(encoding="utf-8") as handle:
+            messages = list(csv.DictReader(handle))
+        return rows, [[m["arrives"] for m in messages if m["day"] == day] for day in ("0", "1")]
+
+    (first, second), (monday, tuesday) = arrivals(True)
+    assert monday and monday == tuesday
+    assert {k: v for k, v in first.items() if k != "day"} == pytest.approx(
+        {k: v for k, v in second.items() if k != "day"}, nan_ok=True)
+    _, (monday, tuesday) = arrivals(False)
+    assert monday != tuesday

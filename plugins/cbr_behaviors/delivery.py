@@ -118,6 +118,10 @@ class DeliveryOptions:
         "it again.", validator=attrs.validators.ge(0.0))
     log: bool = option(False, "Also write each day's log, every step and decision, into "
                               "day_N.npz, which `cbr rupart day` draws.")
+    replay: bool = option(
+        False, "Every day repeats the first: the same messages and the same draws of sensor "
+        "noise (people and doors keep their schedules), so that from one day to the next only "
+        "what the robot learned changes.")
 
 
 @attrs.frozen
@@ -183,6 +187,8 @@ class Delivery:
         self.home = self.world.point(options.start, "workload.start")
         self.planner: Any = None
         self.rng = ctx.spawn_rng()
+        # a replayed day draws from one child seed each time, the next days' streams unused
+        self.replayed = self.rng.bit_generator.seed_seq.spawn(1)[0] if options.replay else None
         self.paths: dict[str, np.ndarray] = {}
         self.records: list[dict[str, Any]] = []
         """The goal manager's records of the last day (:data:`DELIVERY_COLUMNS`)."""
@@ -236,7 +242,8 @@ class Delivery:
         from cbr_world2d.simulation import Simulation
 
         o = self.options
-        rng = self.rng.spawn(1)[0]
+        rng = (self.rng.spawn(1)[0] if self.replayed is None
+               else np.random.default_rng(self.replayed))
         messages = message_day(self.world, rng, length=o.length, rate_per_hour=o.rate,
                                origin=self.home, eta=straight_line(CRUISE / ETA_DETOUR))
         spec = PIONEER_2DX
