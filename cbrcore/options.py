@@ -33,6 +33,7 @@ from typing import Any, Literal, NewType
 
 import attrs
 import cattrs
+from cattrs.cols import list_structure_factory
 from cattrs.errors import ClassValidationError, ForbiddenExtraKeysError, IterableValidationError
 
 from cbrcore.documents import found
@@ -234,9 +235,29 @@ def _mapping_first(converter: cattrs.Converter) -> Callable[[type], Callable[[An
     return factory
 
 
+def _list_first(converter: cattrs.Converter) -> Callable[[type], Callable[[Any, type], Any]]:
+    """A structure hook factory for list options that refuses anything but a list (or tuple):
+    cattrs's own hook takes any iterable, so a string would be read character by character and
+    a mapping by its keys."""
+
+    def factory(kind: type) -> Callable[[Any, type], Any]:
+        structure = list_structure_factory(kind, converter)
+
+        def checked(value: Any, kind: type) -> Any:
+            if not isinstance(value, list | tuple):
+                raise TypeError(f"expected a list, got {found(value, setting=True)}")
+            return structure(value, kind)
+
+        return checked
+
+    return factory
+
+
 def _make_converter() -> cattrs.Converter:
     converter = cattrs.Converter(forbid_extra_keys=True, detailed_validation=True)
     converter.register_structure_hook_factory(attrs.has, _mapping_first(converter))
+    converter.register_structure_hook_factory(lambda t: typing.get_origin(t) is list,
+                                              _list_first(converter))
     converter.register_structure_hook(int, _integer)
     converter.register_structure_hook(float, _strict(float, "a number", (int, float)))
     converter.register_structure_hook(bool, _strict(bool, "true or false", (bool,)))
