@@ -271,6 +271,9 @@ BOUNDS: dict[str, tuple[Case, str | tuple[str, ...]]] = {
                              "--plot", str(tmp / "far.png")),
         "bounds (line 1, column 9): expected bounds [xmin, ymin, xmax, ymax] of numbers within "
         "±1e+06 (the limit), got [0, 0, 1e+308, 6]"),
+    "generated world of a 30-digit seed": (
+        lambda tmp, cli: cli("sim", "show", "generated:office:" + "9" * 30),
+        "SEED an integer >= 0 of at most 19 digits, got 'generated:office:" + "9" * 30),
     "sim show --at nan": (_sim("show", "--at", "nan"),
                           "'--at': expected a time from 0 to 1e+06 seconds, got nan"),
     "person speed 1e308": (
