@@ -171,6 +171,10 @@ def _triangle(field: str) -> Callable[[dict], None]:
     return change
 
 
+def _delta_past_floats(case: dict) -> None:
+    case["problem"]["delta"][0][1] = [10**400] * 3
+
+
 def _along(case: dict) -> None:
     case["solution"]["along"] = 1e308
 
@@ -292,6 +296,10 @@ BOUNDS: dict[str, tuple[Case, str | tuple[str, ...]]] = {
         _landmarks_run(_triangle("alpha")),
         "landmark_situation case 1: alpha[0][1]: every measure must be a finite number within "
         "±1e+06 (the limit), not [1e+308, 1e+308, 1e+308]"),
+    "landmark delta 10^400": (
+        _landmarks_run(_delta_past_floats),
+        "landmark_situation case 1: delta: expected 2 x 2 triangles [low, peak, high] of "
+        "numbers"),
     "landmark along 1e308": (
         _landmarks_run(_along),
         "landmark_situation case 1: action.along: expected a finite number of metres within "
