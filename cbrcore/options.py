@@ -26,6 +26,7 @@ import contextlib
 import contextvars
 import os
 import re
+import sys
 import typing
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
@@ -164,7 +165,11 @@ def _strict(kind: type, label: str, accept: tuple[type, ...]) -> Callable[[Any, 
             raise TypeError(f"expected {label}, got {found(value, setting=True)}")
         if not isinstance(value, accept):
             raise TypeError(f"expected {label}, got {found(value, setting=True)}")
-        return kind(value)
+        try:
+            return kind(value)
+        except OverflowError:  # an integer past the largest float
+            raise ValueError(f"expected {label} within ±{sys.float_info.max:.4g}, got "
+                             f"{found(value, setting=True)}") from None
 
     return structure
 
