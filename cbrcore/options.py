@@ -26,6 +26,7 @@ import contextlib
 import contextvars
 import os
 import re
+import sys
 import typing
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
@@ -33,6 +34,7 @@ from typing import Any, Literal, NewType
 
 import attrs
 import cattrs
+from cattrs.cols import list_structure_factory
 from cattrs.errors import ClassValidationError, ForbiddenExtraKeysError, IterableValidationError
 
 from cbrcore.documents import found
@@ -163,7 +165,11 @@ def _strict(kind: type, label: str, accept: tuple[type, ...]) -> Callable[[Any, 
             raise TypeError(f"expected {label}, got {found(value, setting=True)}")
         if not isinstance(value, accept):
             raise TypeError(f"expected {label}, got {found(value, setting=True)}")
-        return kind(value)
+        try:
+            return kind(value)
+        except OverflowError:  # an integer past the largest float
+            raise ValueError(f"expected {label} within ±{sys.float_info.max:.4g}, got "
+                             f"{found(value, setting=True)}") from None
 
     return structure
 
@@ -234,9 +240,29 @@ def _mapping_first(converter: cattrs.Converter) -> Callable[[type], Callable[[An
     return factory
 
 
+def _list_first(converter: cattrs.Converter) -> Callable[[type], Callable[[Any, type], Any]]:
+    """A structure hook factory for list options that refuses anything but a list (or tuple):
+    cattrs's own hook takes any iterable, so a string would be read character by character and
+    a mapping by its keys."""
+
+    def factory(kind: type) -> Callable[[Any, type], Any]:
+        structure = list_structure_factory(kind, converter)
+
+        def checked(value: Any, kind: type) -> Any:
+            if not isinstance(value, list | tuple):
+                raise TypeError(f"expected a list, got {found(value, setting=True)}")
+            return structure(value, kind)
+
+        return checked
+
+    return factory
+
+
 def _make_converter() -> cattrs.Converter:
     converter = cattrs.Converter(forbid_extra_keys=True, detailed_validation=True)
     converter.register_structure_hook_factory(attrs.has, _mapping_first(converter))
+    converter.register_structure_hook_factory(lambda t: typing.get_origin(t) is list,
+                                              _list_first(converter))
     converter.register_structure_hook(int, _integer)
     converter.register_structure_hook(float, _strict(float, "a number", (int, float)))
     converter.register_structure_hook(bool, _strict(bool, "true or false", (bool,)))

@@ -18,6 +18,7 @@ import yaml
 from cbrcore.casebase import SQLiteStore
 from cbrcore.casebase.worlds import record_world
 from cbrcore.fingerprint import fingerprint
+from cbrcore.model import Case as StoredCase
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult
 
@@ -99,6 +100,19 @@ def _import_from_another_world(tmp: Path, cbr_cli: Cli) -> CliResult:
     return cbr_cli("casebase", "import", str(path), str(document), "--append")
 
 
+def _export_over_the_case_base(tmp: Path, cbr_cli: Cli) -> CliResult:
+    """``export`` to the case base's own file, through a link; the case base keeps its case."""
+    path = tmp / "cb.sqlite"
+    with SQLiteStore(path) as store:
+        store.add(StoredCase({"a": 1}, {"b": 2}))
+    (tmp / "cb.json").symlink_to(path)
+    result = cbr_cli("casebase", "export", str(path), "-o", str(tmp / "cb.json"))
+    with SQLiteStore(path) as store:
+        assert store.count() == 1
+    path.unlink()  # the common check asserts that no case base is left behind
+    return result
+
+
 CASES = {
     "movingai map": (_run("world: {use: movingai, map: ../../secret.txt}"),
                      "secret.txt, line 1: expected the Moving AI header 'type octile'"),
@@ -144,6 +158,10 @@ CASES = {
         _import_from_another_world,
         "the document's cases belong to maze 64x64, seed 3 (world "
         f"{fingerprint('test', 'maze', '').short})"),
+    "export over the case base itself": (
+        _export_over_the_case_base,
+        "cb.json: it is the case base being exported; expected another file (.yaml, .yml or "
+        ".json)"),
     "worlds option of an unknown value": (
         _run("casebase: {use: sqlite, worlds: some}"),
         "casebase.worlds (line 1, column 33): expected one of 'one', 'any', got 'some'"),

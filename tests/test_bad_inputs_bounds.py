@@ -47,6 +47,9 @@ WORLD = "bounds: [0, 0, 8, 6]\nplaces: {start: [1, 3], target: [6, 3]}\n"
 ROS_YAML = ("image: {image}\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\n"
             "occupied_thresh: 0.65\nfree_thresh: 0.2\n")
 PIPE = "a named pipe, not a regular file"
+PAST_FLOATS = "1" + "0" * 400
+"""An integer past the largest float, whose digits are within Python's limit."""
+SHOWN_PAST_FLOATS = PAST_FLOATS[:57] + "..."
 
 
 @pytest.fixture(autouse=True)
@@ -171,6 +174,10 @@ def _triangle(field: str) -> Callable[[dict], None]:
     return change
 
 
+def _delta_past_floats(case: dict) -> None:
+    case["problem"]["delta"][0][1] = [10**400] * 3
+
+
 def _along(case: dict) -> None:
     case["solution"]["along"] = 1e308
 
@@ -271,6 +278,9 @@ BOUNDS: dict[str, tuple[Case, str | tuple[str, ...]]] = {
                              "--plot", str(tmp / "far.png")),
         "bounds (line 1, column 9): expected bounds [xmin, ymin, xmax, ymax] of numbers within "
         "±1e+06 (the limit), got [0, 0, 1e+308, 6]"),
+    "generated world of a 30-digit seed": (
+        lambda tmp, cli: cli("sim", "show", "generated:office:" + "9" * 30),
+        "SEED an integer >= 0 of at most 19 digits, got 'generated:office:" + "9" * 30),
     "sim show --at nan": (_sim("show", "--at", "nan"),
                           "'--at': expected a time from 0 to 1e+06 seconds, got nan"),
     "person speed 1e308": (
@@ -289,6 +299,10 @@ BOUNDS: dict[str, tuple[Case, str | tuple[str, ...]]] = {
         _landmarks_run(_triangle("alpha")),
         "landmark_situation case 1: alpha[0][1]: every measure must be a finite number within "
         "±1e+06 (the limit), not [1e+308, 1e+308, 1e+308]"),
+    "landmark delta 10^400": (
+        _landmarks_run(_delta_past_floats),
+        "landmark_situation case 1: delta: expected 2 x 2 triangles [low, peak, high] of "
+        "numbers"),
     "landmark along 1e308": (
         _landmarks_run(_along),
         "landmark_situation case 1: action.along: expected a finite number of metres within "
@@ -299,6 +313,29 @@ BOUNDS: dict[str, tuple[Case, str | tuple[str, ...]]] = {
         "fast.sexp, line 3: behavior-case open-area, item 0 ((goStraight 1e+308 curr-head) "
         "med): goStraight velocity: expected a finite number within ±1e+06 (the limit), got "
         "1e+308"),
+    "behavior parameter past the floats": (
+        lambda tmp, cli: cli("rupart", "show", _write(
+            tmp, "fast.sexp", _behavior_case("mod-fast", PAST_FLOATS))),
+        "goStraight velocity: expected a finite number within ±1e+06 (the limit), got "
+        + SHOWN_PAST_FLOATS),
+    "behavior index feature past the floats": (
+        lambda tmp, cli: cli("rupart", "show", _write(
+            tmp, "far.sexp", _behavior_case("(front 1.0)", f"(front {PAST_FLOATS})"))),
+        "far.sexp, line 2: behavior-case open-area, index feature front: expected a number in "
+        "[0, 1], got " + SHOWN_PAST_FLOATS),
+    "world radius past the floats": (
+        lambda tmp, cli: cli("sim", "show", _write(
+            tmp, "wide.yaml", WORLD + f"points: [{{at: [4, 3], radius: {PAST_FLOATS}}}]\n")),
+        "points.0.radius (line 3, column 31): expected a number within ±1e+06 (the limit), got "
+        + SHOWN_PAST_FLOATS),
+    "world bounds past the floats": (
+        lambda tmp, cli: cli("sim", "show", _write(
+            tmp, "wide.yaml", f"bounds: [0, 0, {PAST_FLOATS}, 6]\n")),
+        "bounds (line 1, column 9): expected bounds [xmin, ymin, xmax, ymax] of numbers within "
+        f"±1e+06 (the limit), got [0, 0, {SHOWN_PAST_FLOATS}, 6]"),
+    "config number past the floats": (
+        _validate_trials(f"workload.timeout={PAST_FLOATS}"),
+        "expected a number within ±1.798e+308, got " + SHOWN_PAST_FLOATS),
     "NUL in a case name": (
         lambda tmp, cli: cli("rupart", "show", _write(
             tmp, "nul.sexp", _behavior_case("open-area", "open\x00area"))),

@@ -34,6 +34,8 @@ FILES = {
     "tag.json": f'{{"format": "{MARKER}", "schema": 1, "cases": []}}\n',
     "broken.yaml": f"{MARKER}: [unclosed: {MARKER}\n",
     "list.json": f'["{MARKER}"]\n',
+    "waypoints.yaml": ("bounds: [0, 0, 8, 6]\n"
+                       "movers: [{waypoints: nowhere, speed: 1, radius: 0.2}]\n"),
 }
 
 # case id: the command's arguments ({tmp} is the folder of the files), and what the message says
@@ -63,6 +65,14 @@ CASES: dict[str, tuple[tuple[str, ...], str]] = {
     "sim show keys that are no world's": (
         ("sim", "show", "{tmp}/keys.yaml"),
         "keys.yaml: 1 problem:\n  - line 2, column 1: unknown key; expected one of: bounds"),
+    "sim show waypoints that are a string": (
+        ("sim", "show", "{tmp}/waypoints.yaml"),
+        "waypoints.yaml: 1 problem:\n  - movers.0.waypoints (line 2, column 22): expected a "
+        "list, got 'nowhere'"),
+    "validate a workload trigger that is no list": (
+        ("validate", "{tmp}/trials.yaml"),
+        "trials.yaml: 1 problem:\n  - workload.consult_on (line 1, column 49): expected a list, "
+        "got 'blocked'"),
     "run a world2d_file world of text": (
         ("run", "{tmp}/world.yaml", "--out", "{tmp}/out"),
         "line.yaml: 1 problem:\n  - the top level (line 1, column 1): expected a world"),
@@ -124,6 +134,8 @@ def _write_files(tmp: Path) -> None:
         (tmp / name).write_text(text, encoding="utf-8")
     (tmp / "world.yaml").write_text(
         "world: {use: world2d_file, path: line.yaml}\nworkload: trials\n", encoding="utf-8")
+    (tmp / "trials.yaml").write_text(
+        "workload: {use: trials, trials: [], consult_on: blocked}\n", encoding="utf-8")
     (tmp / "initial.yaml").write_text(
         "casebase: {use: memory, initial: tag.yaml}\n", encoding="utf-8")
 

@@ -223,12 +223,14 @@ def export(
     fmt: FormatOption = None,
 ) -> None:
     """Write a case base as YAML or JSON text (YAML on standard output unless told)."""
-    with _opened(_casebase_slot(file, store, config, reading=True)) as (_, casebase):
+    selected = _casebase_slot(file, store, config, reading=True)
+    with _opened(selected) as (_, casebase):
         document = document_of(casebase)
     chosen = fmt.value if fmt is not None else None
     if output is None:
         typer.echo(dump_document(document, chosen or "yaml"), nl=False)
         return
+    _refuse_the_case_base_itself(selected, output)
     write_document(document, output, chosen)
     typer.echo(f"exported {len(document.cases)} cases (revision {document.revision}) "
                f"to {output}")
@@ -306,6 +308,18 @@ def _new_sqlite_file(selected: Config) -> Path | None:
         raise CaseBaseError(f"{path} is not a regular file, so it cannot hold a case base")
     # an empty file is what a process killed while creating a case base leaves behind
     return None if found.st_size else path
+
+
+def _refuse_the_case_base_itself(selected: Config, output: Path) -> None:
+    """Refuse an export over the SQLite file it reads (or a link to it), which the document
+    would replace: the case base would be lost."""
+    casebase = selected.casebase
+    if casebase is None or casebase.name != "sqlite" or casebase.options.path is None:
+        return
+    with contextlib.suppress(OSError):  # an output that does not exist yet is another file
+        if os.path.samefile(output, casebase.options.path):
+            raise CaseBaseError(f"cannot write {output}: it is the case base being exported; "
+                                f"expected another file (.yaml, .yml or .json)")
 
 
 def _move_into_place(partial: Path, target: Path) -> None:

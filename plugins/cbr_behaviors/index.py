@@ -50,6 +50,7 @@ import attrs
 import numpy as np
 
 from cbr_world2d.pilots.behaviors import TOP_SPEED, TOP_TURN_RATE
+from cbrcore.documents import found
 from cbrcore.errors import CbrError
 
 FIGURE_5: tuple[str, ...] = (
@@ -125,7 +126,11 @@ def _number(value: Any, where: str, feature: str, expected: str) -> float:
     """``value`` as a float, refusing what is not a real number (booleans included) and NaN."""
     if isinstance(value, bool) or not isinstance(value, Real):
         raise IndexDataError(where, feature, f"expected {expected}, got {value!r}")
-    number = float(value)
+    try:
+        number = float(value)
+    except OverflowError:  # an integer past the largest float
+        raise IndexDataError(where, feature, f"expected {expected}, got "
+                                             f"{found(value, setting=True)}") from None
     if math.isnan(number):
         raise IndexDataError(where, feature, f"expected {expected}, got NaN")
     return number

@@ -224,7 +224,7 @@ class LandmarkGraph:
         for field in ("delta", "alpha"):
             try:
                 arrays[field] = np.array(data[field], dtype=float)
-            except (TypeError, ValueError):
+            except (TypeError, ValueError, OverflowError):  # overflow: an integer past floats
                 raise GraphError(f"{where}: {field}: expected {len(ids)} x {len(ids)} triangles "
                                  "[low, peak, high] of numbers") from None
         return cls(ids, pairs, arrays["delta"], arrays["alpha"], where)

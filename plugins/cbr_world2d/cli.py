@@ -33,7 +33,10 @@ if TYPE_CHECKING:
 GENERATORS = ("semi_structured", "scenario", "office")
 """The world generators of :mod:`cbr_world2d.generate` that ``generated:KIND:SEED`` names."""
 
-_GENERATED = re.compile(r"generated:([a-z_]+):([0-9]{1,19})")
+SEED_DIGITS = 19
+"""The most digits of the SEED of ``generated:KIND:SEED``: any seed of a 64-bit integer."""
+
+_GENERATED = re.compile(rf"generated:([a-z_]+):([0-9]{{1,{SEED_DIGITS}}})")
 
 
 class RobotName(enum.StrEnum):
@@ -82,7 +85,8 @@ def load(text: str) -> World:
         if found is None or found.group(1) not in GENERATORS:
             raise typer.BadParameter(
                 f"expected generated:KIND:SEED with KIND one of {', '.join(GENERATORS)} and "
-                f"SEED an integer >= 0, got {text!r}", param_hint="'WORLD'")
+                f"SEED an integer >= 0 of at most {SEED_DIGITS} digits, got {text!r}",
+                param_hint="'WORLD'")
         from cbr_world2d import generate
 
         generator = getattr(generate, found.group(1))

@@ -81,7 +81,15 @@ def _number(value: Any) -> bool:
 
 def _num(value: float) -> str:
     """A number as an error shows it: integers without a decimal point, 15 digits at most."""
-    return format(float(value), ".15g")
+    try:
+        return format(float(value), ".15g")
+    except OverflowError:  # an integer past the largest float
+        return found(value, setting=True)
+
+
+def _finite(value: float) -> bool:
+    """Whether ``value`` is finite; an integer always is, even one past the largest float."""
+    return isinstance(value, int) or math.isfinite(value)
 
 
 def _pt(point: Sequence[float]) -> str:
@@ -92,13 +100,12 @@ def _numbers(value: Any, count: int, label: str) -> tuple[float, ...]:
     if not (isinstance(value, list | tuple) and len(value) == count
             and all(_number(v) for v in value)):
         raise TypeError(f"expected {label}, got {found(value, setting=True)}")
-    numbers = tuple(float(v) for v in value)
-    if not all(math.isfinite(v) for v in numbers):
-        raise ValueError(f"expected {label} of finite numbers, got {_pt(numbers)}")
-    if not all(abs(v) <= MAX_MAGNITUDE for v in numbers):
+    if not all(_finite(v) for v in value):
+        raise ValueError(f"expected {label} of finite numbers, got {_pt(value)}")
+    if not all(abs(v) <= MAX_MAGNITUDE for v in value):
         raise ValueError(f"expected {label} of numbers within ±{MAX_MAGNITUDE:g} (the limit), "
-                         f"got {_pt(numbers)}")
-    return numbers
+                         f"got {_pt(value)}")
+    return tuple(float(v) for v in value)
 
 
 def _structure_xy(value: Any, _: type) -> tuple[float, float]:
@@ -109,7 +116,7 @@ def _structure_xy(value: Any, _: type) -> tuple[float, float]:
 def _structure_finite(value: Any, _: type) -> float:
     if not _number(value):
         raise TypeError(f"expected a number, got {found(value, setting=True)}")
-    if not math.isfinite(value):
+    if not _finite(value):
         raise ValueError(f"expected a finite number, got {_num(value)}")
     if abs(value) > MAX_MAGNITUDE:
         raise ValueError(f"expected a number within ±{MAX_MAGNITUDE:g} (the limit), got "

@@ -42,6 +42,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from cbr_world2d.pilots.base import Point, wrap_angle
+from cbrcore.documents import found
 
 TOP_SPEED = 0.4
 """m/s: the speed named ``fast``, an indoor cruising speed for a Pioneer 2 DX, about half the
@@ -81,10 +82,11 @@ infinities."""
 
 
 def _number(value: Any) -> float:
+    # the bound first: an integer past the largest float is no float, finite or not
     if isinstance(value, bool) or not isinstance(value, int | float) or not (
-            math.isfinite(value) and abs(value) <= MAX_ARGUMENT):
+            abs(value) <= MAX_ARGUMENT and math.isfinite(value)):
         raise ValueError(f"expected a finite number within ±{MAX_ARGUMENT:g} (the limit), got "
-                         f"{value!r}")
+                         f"{found(value, setting=True)}")
     return float(value)
 
 
