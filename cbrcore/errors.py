@@ -6,11 +6,31 @@ with code 2 (no traceback unless ``--traceback``). Anything else is a bug and ke
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
+
+_URI_PASSWORD = re.compile(r"([a-zA-Z][a-zA-Z0-9+.-]*://[^\s/:@'\"]*):[^\s@/'\"]*@")
+_KEY_PASSWORD = re.compile(r"\b((?:ssl)?password)\s*=\s*(?:'(?:[^'\\]|\\.)*'?|[^\s'\"]+)",
+                           re.IGNORECASE)
+
+
+def without_credentials(text: str) -> str:
+    """``text`` with the password of every address (``scheme://user:password@host``) and every
+    ``password=`` field of a connection string shown as ``***``."""
+    return _KEY_PASSWORD.sub(r"\1=***", _URI_PASSWORD.sub(r"\1:***@", text))
 
 
 class CbrError(Exception):
-    """A problem with the user's input, files or plugins, explained in the message."""
+    """A problem with the user's input, files or plugins, explained in the message.
+
+    The message never shows a password: a value quoted from the user's input may be a
+    connection string copied where it does not belong (a YAML alias of a DSN under ``seed``, a
+    scheduler address with credentials), so :func:`without_credentials` masks it whoever built
+    the message.
+    """
+
+    def __str__(self) -> str:
+        return without_credentials(super().__str__())
 
 
 class ConfigError(CbrError):

@@ -14,6 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from cbrcore.casebase import SQLiteStore
 from cbrcore.casebase.worlds import record_world
@@ -219,3 +221,31 @@ def test_an_absolute_output_path_may_leave_the_run_folder(cbr_cli: Cli, tmp_path
     result = cbr_cli("validate", str(config))
 
     assert result.exit_code == 0, result
+
+
+@pytest.mark.parametrize("args", [
+    # a YAML alias copies the DSN under a key whose error quotes its value
+    ("validate", "{tmp}/alias.yaml"),
+    ("experiment", "cbr-share", "--scheduler", "tcp://robot:hunter2@127.0.0.1:1"),
+    ("validate", str(HYBRID), "--set", "seed=host=db user=robot password='hunter2 x'"),
+], ids=["dsn alias under seed", "scheduler address", "conninfo under seed"])
+def test_no_message_shows_a_password(tmp_path: Path, cbr_cli: Cli, args: tuple[str, ...]
+                                     ) -> None:
+    (tmp_path / "alias.yaml").write_text(
+        "casebase: {use: postgres, dsn: &x 'postgresql://robot:hunter2@db/cases'}\nseed: *x\n",
+        encoding="utf-8")
+    result = cbr_cli(*(arg.format(tmp=tmp_path) for arg in args))
+    assert result.exit_code == 2
+    assert "hunter2" not in result.stdout + result.stderr
+    assert "***" in result.stderr
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.from_regex(r"[a-z]{1,8}", fullmatch=True), st.from_regex(r"[!-~]{1,12}", fullmatch=True)
+       .filter(lambda p: not set(p) & set("@/'\" ")))
+def test_an_address_keeps_its_user_and_host_and_loses_its_password(user: str,
+                                                                   password: str) -> None:
+    from cbrcore.errors import without_credentials
+
+    shown = without_credentials(f"got 'postgresql://{user}:{password}@db:5432/cases'")
+    assert shown == f"got 'postgresql://{user}:***@db:5432/cases'"
