@@ -249,3 +249,26 @@ def test_an_address_keeps_its_user_and_host_and_loses_its_password(user: str,
 
     shown = without_credentials(f"got 'postgresql://{user}:{password}@db:5432/cases'")
     assert shown == f"got 'postgresql://{user}:***@db:5432/cases'"
+
+
+def test_a_trace_never_appends_to_a_file_that_is_not_a_trace(cbr_cli: Cli,
+                                                              tmp_path: Path) -> None:
+    """A trace named like the run's own case base is refused before the run starts, and the case
+    base is left as it was; an earlier trace is appended to."""
+    (tmp_path / "a" / "b").mkdir(parents=True)
+    casebase = tmp_path / "cb.sqlite"
+    with SQLiteStore(casebase) as store, store.transaction():
+        store.add(StoredCase({"a": 1}, {"b": 2}))
+    before = casebase.read_bytes()
+    config = _config(tmp_path / "a" / "b", f"observers: [{{use: trace, file: {casebase}}}]")
+
+    result = cbr_cli("run", str(config), "--out", str(tmp_path / "out"),
+                     "--set", f"casebase.path={casebase}")
+
+    assert result.exit_code == 2, result
+    assert f"trace file: {casebase} exists and is not a trace" in result.stderr
+    assert casebase.read_bytes() == before
+    trace = tmp_path / "earlier.jsonl"
+    trace.write_text('{"step": 0}\n', encoding="utf-8")
+    config = _config(tmp_path / "a" / "b", f"observers: [{{use: trace, file: {trace}}}]")
+    assert cbr_cli("validate", str(config)).exit_code == 0

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import json
+import stat
 import time
 from collections.abc import Generator
+from pathlib import Path
 from typing import IO, Any
 
 import attrs
@@ -36,6 +38,23 @@ def _summary(result: Any) -> dict[str, Any]:
     return {}
 
 
+def _appendable(path: Path) -> bool:
+    """Whether ``path`` is missing, empty or a trace: a regular file whose first byte opens a
+    JSON object (a named pipe or a device is not, and is not opened)."""
+    try:
+        info = path.stat()
+    except FileNotFoundError:
+        return True
+    except OSError:
+        return False
+    if not stat.S_ISREG(info.st_mode):
+        return False
+    if info.st_size == 0:
+        return True
+    with path.open("rb") as handle:
+        return handle.read(1) == b"{"
+
+
 class Trace:
     """Trace every phase: query index, phase, wall time in ms, outcome and a result summary.
 
@@ -51,6 +70,11 @@ class Trace:
                 "observers: trace needs a 'file' when the engine has no output folder"])
         else:
             path = ctx.out_dir / "trace.jsonl"
+        if not _appendable(path):
+            raise ConfigError("observers", [
+                f"observers: trace file: {path} exists and is not a trace (its first line is "
+                "not a JSON object); a trace appends to an earlier trace only, so that it "
+                "cannot damage another file (a case base, say): name another file"])
         path.parent.mkdir(parents=True, exist_ok=True)
         self._handle: IO[str] = path.open("a", encoding="utf-8")
 
