@@ -163,7 +163,8 @@ class LandmarkGraph:
         r = uncertainty[:, None] + uncertainty[None, :]
         delta = np.stack((np.maximum(d - r, 0.0), d, d + r), axis=-1)
         peak = np.arctan2(gap[..., 1], gap[..., 0])
-        with np.errstate(divide="ignore", invalid="ignore"):
+        # r / d overflows for landmarks a denormal apart; the clip and the where discard it
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             half = np.where(r < d, np.arcsin(np.clip(r / np.where(d > 0, d, 1.0), 0.0, 1.0)),
                             math.pi)
         alpha = np.stack((peak - half, peak, peak + half), axis=-1)
