@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import subprocess
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -61,10 +62,17 @@ def keep_experiment(name: str, run: Path) -> Path:
                            f"{manifest.get('experiment')!r}, not {name!r}")
     seed = manifest.get("seed")
     data = {"command": f"cbr experiment {name} --size {size} --seed {seed}",
+            "commit": _head(),
             "table": read(run / "results.md"),
             "results": TRIMS.get(name, lambda kept: kept)(results)}
     # a run with another seed is kept beside seed 0's, for pages that quote both
     return _commit(f"{name}.json" if not seed else f"{name}-seed-{seed}.json", data)
+
+
+def _head() -> str:
+    """The commit checked out, which the results are kept from right after their run."""
+    return subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                          cwd=KEPT, check=False).stdout.strip()
 
 
 def _commit(file: str, data: dict[str, Any]) -> Path:
