@@ -132,8 +132,11 @@ def test_an_experiment_run_is_kept_with_its_command_table_and_trimmed_results(
     target = keep.keep_experiment("path-cases-learning", run)
     assert target == tmp_path / "kept" / "path-cases-learning.json"
     # the pages quote the curves of two robots only, to four decimals
+    head = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                          cwd=Path(__file__).parent, check=False).stdout.strip()
     assert json.loads(target.read_text(encoding="utf-8")) == {
         "command": "cbr experiment path-cases-learning --size full --seed 0",
+        "commit": head,
         "table": "| a |\n|---|\n| 1 |\n",
         "results": {"curves": {"map-only": [[1.2346, 2.0]], "cbr": [[1.0, 1.5]]}, "trips": 2}}
     manifest("path-cases-learning", 1)

@@ -72,7 +72,7 @@ def keep_experiment(name: str, run: Path) -> Path:
 def _head() -> str:
     """The commit checked out, which the results are kept from right after their run."""
     return subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                          cwd=KEPT, check=False).stdout.strip()
+                          cwd=Path(__file__).parent, check=False).stdout.strip()
 
 
 def _commit(file: str, data: dict[str, Any]) -> Path:
