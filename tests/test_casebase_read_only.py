@@ -96,7 +96,7 @@ def installed(cbr_plugins: Callable[..., Plugins], cbr_cli: Cli, tmp_path: Path)
 @pytest.mark.parametrize("locked", ["folder", "file", "both"])
 def test_a_case_base_that_may_not_be_written_is_read(cbr_cli: Cli, place: Path,
                                                       locked: str) -> None:
-    folder = place / "shared"
+    folder = place / "library"
     folder.mkdir()
     path = folder / "cb.sqlite"
     _case_base(path)
