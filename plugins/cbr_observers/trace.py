@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import stat
 import time
 from collections.abc import Generator
 from pathlib import Path
@@ -13,6 +12,7 @@ import attrs
 
 from cbrcore.context import Context
 from cbrcore.errors import ConfigError
+from cbrcore.files import open_regular
 from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Retrieval, Revision, Solution
 from cbrcore.options import OutputPath, in_run_folder, option
@@ -40,19 +40,15 @@ def _summary(result: Any) -> dict[str, Any]:
 
 def _appendable(path: Path) -> bool:
     """Whether ``path`` is missing, empty or a trace: a regular file whose first byte opens a
-    JSON object (a named pipe or a device is not, and is not opened)."""
+    JSON object (a named pipe or a device is not, and is never waited on)."""
     try:
-        info = path.stat()
+        with open_regular(path) as handle:
+            first = handle.read(1)
     except FileNotFoundError:
         return True
     except OSError:
         return False
-    if not stat.S_ISREG(info.st_mode):
-        return False
-    if info.st_size == 0:
-        return True
-    with path.open("rb") as handle:
-        return handle.read(1) == b"{"
+    return first in (b"", b"{")
 
 
 class Trace:
