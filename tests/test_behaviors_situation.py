@@ -24,6 +24,7 @@ from cbr_behaviors.situation import (
     progress,
     sectors,
 )
+from cbr_world2d.crowd import Crowd
 from cbr_world2d.robot import Pose
 from cbr_world2d.world import Door, Mover, Wall, World
 from cbr_world2d.worldfile import world_from_data
@@ -129,7 +130,7 @@ def open_world(*movers: Mover, walls: tuple[Wall, ...] = (),
 def test_a_person_in_the_open_is_reported_with_distance_to_the_rim_and_bearing() -> None:
     world = open_world(person((3.0, 4.0)))
     here = Pose(0.0, 0.0, 0.0)
-    [seen] = people_in_view(world, here, here, 10.0, DT, 0.0)
+    [seen] = people_in_view(Crowd(world, 10.0, DT), here, here, DT, 0.0)
     # the centre lies 5 m away, the rim 5 - 0.25; the bearing is atan2(4, 3) to the left
     assert seen.distance == pytest.approx(5.0 - RADIUS)
     assert seen.bearing == pytest.approx(math.atan2(4.0, 3.0))
@@ -137,11 +138,11 @@ def test_a_person_in_the_open_is_reported_with_distance_to_the_rim_and_bearing()
     assert (seen.x, seen.y) == pytest.approx((3.0, 4.0))
     # facing +y, the same person lies to the right
     facing = Pose(0.0, 0.0, math.pi / 2)
-    [seen] = people_in_view(world, facing, facing, 10.0, DT, 0.0)
+    [seen] = people_in_view(Crowd(world, 10.0, DT), facing, facing, DT, 0.0)
     assert seen.bearing == pytest.approx(math.atan2(4.0, 3.0) - math.pi / 2)
     # facing -x, the bearing wraps into (-pi, pi]: 180 - 53.13 degrees to the right
     back = Pose(0.0, 0.0, math.pi)
-    [seen] = people_in_view(world, back, back, 10.0, DT, 0.0)
+    [seen] = people_in_view(Crowd(world, 10.0, DT), back, back, DT, 0.0)
     assert seen.bearing == pytest.approx(math.atan2(4.0, 3.0) - math.pi)
 
 
@@ -149,37 +150,38 @@ def test_a_person_walking_straight_at_a_standing_robot_closes_at_their_speed() -
     # from (4, 0) toward the robot at the origin at 1.1 m/s (the loop turns back at (1, 0))
     walker = person((4.0, 0.0), (1.0, 0.0), speed=1.1)
     here = Pose(0.0, 0.0, math.radians(30.0))
-    [seen] = people_in_view(open_world(walker), here, here, 1.0, DT, 0.0)
+    [seen] = people_in_view(Crowd(open_world(walker), 1.0, DT), here, here, DT, 0.0)
     # at t = 1 the walker is at (2.9, 0)
     assert seen.distance == pytest.approx(2.9 - RADIUS)
     assert seen.closing == pytest.approx(1.1)
     assert seen.bearing == pytest.approx(math.radians(-30.0))
     # walking away (on the way back after the turn at (1, 0), t = 3/1.1 + 1): parting
     later = 3.0 / 1.1 + 1.0
-    [seen] = people_in_view(open_world(walker), here, here, later, DT, 0.0)
+    [seen] = people_in_view(Crowd(open_world(walker), later, DT), here, here, DT, 0.0)
     assert seen.closing == pytest.approx(-1.1)
 
 
 def test_a_robot_driving_at_a_standing_person_closes_at_its_speed() -> None:
     world = open_world(person((3.0, 0.0)))
     ahead = Pose(0.0, 0.0, 0.0)
-    [seen] = people_in_view(world, ahead, ahead, 5.0, DT, 0.4)
+    [seen] = people_in_view(Crowd(world, 5.0, DT), ahead, ahead, DT, 0.4)
     assert seen.closing == pytest.approx(0.4)
     # heading 60 degrees off the line to the person: half the speed along it
     slanted = Pose(0.0, 0.0, math.radians(60.0))
-    [seen] = people_in_view(world, slanted, slanted, 5.0, DT, 0.4)
+    [seen] = people_in_view(Crowd(world, 5.0, DT), slanted, slanted, DT, 0.4)
     assert seen.closing == pytest.approx(0.2)
     # across the line: no closing; backing away from them: parting
     across = Pose(0.0, 0.0, math.pi / 2)
-    assert people_in_view(world, across, across, 5.0, DT, 0.4)[0].closing == pytest.approx(0.0)
-    assert people_in_view(world, ahead, ahead, 5.0, DT, -0.3)[0].closing == pytest.approx(-0.3)
+    crowd = Crowd(world, 5.0, DT)
+    assert people_in_view(crowd, across, across, DT, 0.4)[0].closing == pytest.approx(0.0)
+    assert people_in_view(crowd, ahead, ahead, DT, -0.3)[0].closing == pytest.approx(-0.3)
 
 
 def test_both_moving_close_at_the_sum_of_their_speeds_along_the_line() -> None:
     # the walker comes down the x axis at 0.8 m/s, the robot drives up it at 0.4 m/s
     walker = person((6.0, 0.0), (-6.0, 0.0), speed=0.8)
     here = Pose(0.0, 0.0, 0.0)
-    [seen] = people_in_view(open_world(walker), here, here, 2.0, DT, 0.4)
+    [seen] = people_in_view(Crowd(open_world(walker), 2.0, DT), here, here, DT, 0.4)
     assert seen.closing == pytest.approx(1.2)
     assert seen.distance == pytest.approx(6.0 - 1.6 - RADIUS)
 
@@ -188,15 +190,17 @@ def test_a_person_behind_a_wall_or_a_shut_door_is_not_reported() -> None:
     hidden = person((3.0, 0.0))
     wall = Wall((1.5, -2.0), (1.5, 2.0))
     here = Pose(0.0, 0.0, 0.0)
-    assert people_in_view(open_world(hidden, walls=(wall,)), here, here, 0.0, DT, 0.0) == []
+    hides = Crowd(open_world(hidden, walls=(wall,)), 0.0, DT)
+    assert people_in_view(hides, here, here, DT, 0.0) == []
     # a wall off to the side hides nothing
     aside = Wall((1.5, 1.0), (1.5, 3.0))
-    assert len(people_in_view(open_world(hidden, walls=(aside,)), here, here, 0.0, DT, 0.0)) == 1
+    beside = Crowd(open_world(hidden, walls=(aside,)), 0.0, DT)
+    assert len(people_in_view(beside, here, here, DT, 0.0)) == 1
     # a door across the line of sight: open for t in [0, 5) of every 10 s, shut after
     door = Door((1.5, -1.0), (1.5, 1.0), period=10.0, open_for=5.0, phase=0.0)
     world = open_world(hidden, doors=(door,))
-    assert len(people_in_view(world, here, here, 2.0, DT, 0.0)) == 1
-    assert people_in_view(world, here, here, 7.0, DT, 0.0) == []
+    assert len(people_in_view(Crowd(world, 2.0, DT), here, here, DT, 0.0)) == 1
+    assert people_in_view(Crowd(world, 7.0, DT), here, here, DT, 0.0) == []
 
 
 def test_the_tracker_reaches_as_far_as_its_reach_to_the_rim() -> None:
@@ -204,25 +208,25 @@ def test_the_tracker_reaches_as_far_as_its_reach_to_the_rim() -> None:
     here = Pose(0.0, 0.0, 0.0)
     # rim at 4.95 m: reported; rim at 5.05 m: not
     near, far = person((5.2, 0.0)), person((0.0, -5.3))
-    seen = people_in_view(open_world(near, far), here, here, 0.0, DT, 0.0)
+    seen = people_in_view(Crowd(open_world(near, far), 0.0, DT), here, here, DT, 0.0)
     assert [round(p.distance, 6) for p in seen] == [4.95]
     # a shorter reach of the caller's
-    assert people_in_view(open_world(near), here, here, 0.0, DT, 0.0, reach=4.0) == []
+    assert people_in_view(Crowd(open_world(near), 0.0, DT), here, here, DT, 0.0, reach=4.0) == []
 
 
 def test_objects_and_people_not_yet_there_are_not_reported() -> None:
     here = Pose(0.0, 0.0, 0.0)
     cart = person((2.0, 0.0), kind="object")
-    assert people_in_view(open_world(cart), here, here, 0.0, DT, 0.0) == []
+    assert people_in_view(Crowd(open_world(cart), 0.0, DT), here, here, DT, 0.0) == []
     late = person((2.0, 1.0), appears=30.0)
-    assert people_in_view(open_world(late), here, here, 10.0, DT, 0.0) == []
-    assert len(people_in_view(open_world(late), here, here, 30.0, DT, 0.0)) == 1
+    assert people_in_view(Crowd(open_world(late), 10.0, DT), here, here, DT, 0.0) == []
+    assert len(people_in_view(Crowd(open_world(late), 30.0, DT), here, here, DT, 0.0)) == 1
 
 
 def test_people_are_reported_nearest_first() -> None:
     here = Pose(0.0, 0.0, 0.0)
     world = open_world(person((4.0, 0.0)), person((0.0, 2.0)), person((-3.0, 0.0)))
-    seen = people_in_view(world, here, here, 0.0, DT, 0.0)
+    seen = people_in_view(Crowd(world, 0.0, DT), here, here, DT, 0.0)
     assert [round(p.distance, 6) for p in seen] == [1.75, 2.75, 3.75]
 
 
@@ -231,14 +235,14 @@ def test_positions_are_reported_in_the_believed_frame() -> None:
     # stands at (1, 2) facing +y: it puts the person 3 m ahead of that, at (1, 5)
     world = open_world(person((3.0, 0.0)))
     true, believed = Pose(0.0, 0.0, 0.0), Pose(1.0, 2.0, math.pi / 2)
-    [seen] = people_in_view(world, true, believed, 0.0, DT, 0.0)
+    [seen] = people_in_view(Crowd(world, 0.0, DT), true, believed, DT, 0.0)
     assert (seen.x, seen.y) == pytest.approx((1.0, 5.0))
     # distance and bearing are measured from the true pose, whatever the belief
     assert seen.distance == pytest.approx(3.0 - RADIUS)
     assert seen.bearing == pytest.approx(0.0)
     # a person 2 m to the true left (bearing +90 degrees): to the believed pose's left
     world = open_world(person((0.0, 2.0)))
-    [seen] = people_in_view(world, true, believed, 0.0, DT, 0.0)
+    [seen] = people_in_view(Crowd(world, 0.0, DT), true, believed, DT, 0.0)
     assert (seen.x, seen.y) == pytest.approx((1.0 - 2.0, 2.0))
 
 
@@ -252,14 +256,14 @@ def test_believed_positions_keep_distance_and_bearing(px: float, py: float, thet
         return
     world = open_world(person((px, py)))
     true, believed = Pose(0.0, 0.0, theta), Pose(bx, by, btheta)
-    [seen] = people_in_view(world, true, believed, 0.0, DT, 0.0)
+    [seen] = people_in_view(Crowd(world, 0.0, DT), true, believed, DT, 0.0)
     # the reported point lies the centre distance from the believed pose, at the bearing off
     # the believed heading
     assert math.hypot(seen.x - bx, seen.y - by) == pytest.approx(math.hypot(px, py))
     direction = math.atan2(seen.y - by, seen.x - bx) - btheta
     assert math.cos(direction - seen.bearing) == pytest.approx(1.0)
     # with the belief equal to the truth, the true position
-    [same] = people_in_view(world, true, true, 0.0, DT, 0.0)
+    [same] = people_in_view(Crowd(world, 0.0, DT), true, true, DT, 0.0)
     assert (same.x, same.y) == pytest.approx((px, py), abs=1e-9)
 
 
@@ -272,11 +276,11 @@ def test_a_world_read_from_a_file_reports_its_people() -> None:
     here = Pose(3.0, 2.0, 0.0)
     # from (3, 2) the line to (7, 2) meets the wall (x = 5, y up to 4) at y = 2 and the line to
     # (7, 5) at y = 3.5: both hidden; the object at (2, 3) is no person
-    assert people_in_view(world, here, here, 0.0, DT, 0.0) == []
+    assert people_in_view(Crowd(world, 0.0, DT), here, here, DT, 0.0) == []
     # from (3, 4.5) the line to (7, 5) passes x = 5 at y = 4.75, over the wall's end; the one
     # to (7, 2) at y = 3.25, still hidden
     high = Pose(3.0, 4.5, 0.0)
-    [p] = people_in_view(world, high, high, 0.0, DT, 0.0)
+    [p] = people_in_view(Crowd(world, 0.0, DT), high, high, DT, 0.0)
     assert p.distance == pytest.approx(math.hypot(4.0, 0.5) - 0.25)
 
 

@@ -98,6 +98,9 @@ class DayLog:
     retrievals: list[Retrieval] = attrs.field(factory=list)
     events: list[Event] = attrs.field(factory=list)
     _steps: list[tuple[Any, ...]] = attrs.field(factory=list, alias="steps")
+    clocks: np.ndarray | None = attrs.field(default=None, eq=False)
+    """Each mover's own clock at each step, ``(steps, movers)``, when people yielded to the
+    robot (None: every mover's clock was the time); the day's GIF draws them from it."""
     _index: dict[str, int] = attrs.field(factory=dict, init=False, repr=False, eq=False)
 
     def __attrs_post_init__(self) -> None:
@@ -180,6 +183,8 @@ class DayLog:
             "event_xy": np.array([(e.x, e.y) for e in events], dtype=float).reshape(-1, 2),
             "event_text": _strings([e.text for e in events]),
         }
+        if self.clocks is not None:
+            arrays["mover_clocks"] = np.asarray(self.clocks, dtype=float)
         try:
             with files.replacing(path, "wb") as handle:
                 np.savez_compressed(handle, **arrays)
@@ -248,9 +253,12 @@ class DayLog:
             arrays["event_text"], strict=True)]
         if step_case and not 0 <= min(step_case) <= max(step_case) < len(cases):
             raise IndexError("a step names a case past the list of cases")
+        clocks = arrays.get("mover_clocks")
+        if clocks is not None and (clocks.ndim != 2 or len(clocks) != len(rows)):
+            raise ValueError(f"mover clocks of shape {clocks.shape}, expected one row a step")
         return cls(day=int(arrays["day"]), cases=cases, retrievals=retrievals, events=events,
                    steps=[(*row, case, busy) for row, case, busy
-                          in zip(rows, step_case, step_busy, strict=True)])
+                          in zip(rows, step_case, step_busy, strict=True)], clocks=clocks)
 
 
 def _strings(values: list[str]) -> np.ndarray:

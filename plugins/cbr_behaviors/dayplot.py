@@ -430,7 +430,7 @@ def animate_day(world: World, log: DayLog, path: Path, fps: int = 10,
                              [y, y + radius * math.sin(theta)])
             tx, ty = track.target[i]
             steer.set_data(([x, tx], [y, ty]) if math.isfinite(tx) else ([], []))
-            motion.at(now)
+            motion.at(now, None if log.clocks is None else log.clocks[i])
             _mark_events(marks, world, [e for e in events if e.t <= now])
             name = case_label(log.cases[track.case[i]])
             title.set_text(f"day {log.day}  {_clock(now)}  case: {name}"

@@ -287,6 +287,9 @@ class Delivery:
         if o.trajectories:
             self.paths[f"day_{day}"] = sim.trajectory[:, :4].copy()
         if state.log is not None and self.ctx.out_dir is not None:
+            clocks = sim.mover_clocks
+            if clocks is not None:
+                state.log.clocks = clocks[np.rint(state.log.track().t / sim.dt).astype(int)]
             state.log.save(self.ctx.out_dir / f"day_{day}.npz")
         return self._summary(day, state, counts)
 
@@ -304,7 +307,7 @@ class Delivery:
             state.note("delivered", d.message.point, d.message.place)
         for m in decided.missed:
             state.note("missed", m.message.point, m.message.place)
-        state.people = people_in_view(sim.world, true, obs.pose, t, sim.dt, obs.v)
+        state.people = people_in_view(sim.crowd, true, obs.pose, sim.dt, obs.v)
         seen = np.array([(p.x, p.y) for p in state.people]).reshape(-1, 2)
         change = state.gmap.update(obs.pose, obs.sonar, obs.sonar_angles, t, seen)
         if getattr(self.pilot, "localizing", False) and len(obs.sightings) >= 2:
@@ -648,13 +651,13 @@ class _DayState:
     def _closing(self, obs: Observation) -> float:
         """How fast the nearest person or object within :data:`MOVER_REACH` of the robot came
         toward it over the last step, m/s (0 with none: walls and doors stand still)."""
-        world, t, dt = self.sim.world, obs.t, self.sim.dt
+        crowd, t, dt = self.sim.crowd, obs.t, self.sim.dt
         x, y = obs.true_pose.x, obs.true_pose.y
         closing, nearest = 0.0, MOVER_REACH
-        for mover in world.movers:
+        for mover, (x1, y1), (x0, y0) in zip(crowd.world.movers, crowd.now, crowd.before,
+                                             strict=True):
             if not mover.present(t):
                 continue
-            (x1, y1), (x0, y0) = mover.position(t), mover.position(t - dt)
             gap = math.hypot(x - x1, y - y1) - mover.radius
             if gap < nearest:
                 nearest = gap

@@ -32,6 +32,7 @@ import numpy as np
 from cbr_behaviors.index import SONAR_MAX
 
 if TYPE_CHECKING:
+    from cbr_world2d.crowd import Crowd
     from cbr_world2d.robot import Pose
     from cbr_world2d.world import Door, Point, World
 
@@ -96,23 +97,22 @@ class PersonSeen:
     y: float
 
 
-def people_in_view(world: World, true: Pose, believed: Pose, t: float, dt: float,
-                   robot_v: float, reach: float = PERSON_REACH) -> list[PersonSeen]:
-    """The people whose rim lies within ``reach`` of the robot's centre and whom no wall or shut
-    door hides,
-    nearest first. ``true`` is where the robot is (the tracker measures from it), ``believed``
-    where it thinks it is (the positions are reported in its frame), ``robot_v`` its speed:
-    the closing speed is the robot's and the person's velocities along the line between
-    them."""
+def people_in_view(crowd: Crowd, true: Pose, believed: Pose, dt: float, robot_v: float,
+                   reach: float = PERSON_REACH) -> list[PersonSeen]:
+    """The people of ``crowd`` whose rim lies within ``reach`` of the robot's centre and whom no
+    wall or shut door hides, nearest first. ``true`` is where the robot is (the tracker
+    measures from it), ``believed`` where it thinks it is (the positions are reported in its
+    frame), ``robot_v`` its speed: the closing speed is the robot's and the person's
+    velocities (over the last step, ``dt``) along the line between them."""
     from cbr_world2d.geometry import visible
 
+    world, t = crowd.world, crowd.t
     seen: list[PersonSeen] = []
     segments = None
     heading = (math.cos(true.theta), math.sin(true.theta))
-    for mover in world.movers:
+    for mover, (px, py), (qx, qy) in zip(world.movers, crowd.now, crowd.before, strict=True):
         if mover.kind != "person" or not mover.present(t):
             continue
-        px, py = mover.position(t)
         dx, dy = px - true.x, py - true.y
         centre = math.hypot(dx, dy)
         gap = centre - mover.radius
@@ -123,9 +123,7 @@ def people_in_view(world: World, true: Pose, believed: Pose, t: float, dt: float
         if not visible(true.x, true.y, px, py, segments):
             continue
         ux, uy = dx / centre, dy / centre
-        before = max(0.0, t - dt)
-        qx, qy = mover.position(before)
-        person_v = ((px - qx) * ux + (py - qy) * uy) / (t - before) if t > before else 0.0
+        person_v = ((px - qx) * ux + (py - qy) * uy) / dt if t > 0.0 else 0.0
         closing = robot_v * (heading[0] * ux + heading[1] * uy) - person_v
         bearing = math.atan2(dy, dx) - true.theta
         bearing = (bearing + math.pi) % (2.0 * math.pi) - math.pi

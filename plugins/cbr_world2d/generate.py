@@ -260,7 +260,8 @@ def office(seed: Seed, *, rooms: int = 4, room_width: float = 4.0, room_depth: f
     seeded schedule (a third of them always open), a landmark ``sign_k`` on the hallway side
     beside it and, with probability ``furniture``, a desk (a polygon) against its far wall and
     a chair or bin (a point obstacle). ``people`` people walk the hallway (the loop with two
-    hallways, back and forth with one) at 0.5 to 1.3 m/s; ``objects`` transient objects (carts,
+    hallways, back and forth with one) at 0.5 to 1.3 m/s and stop for a robot in their way (a
+    mover that ``yields``); ``objects`` transient objects (carts,
     boxes) stand in a hallway for a while. Places: ``room_1`` ... at the rooms' centres (the
     bottom row first, left to right) and the hallway ends ``hall_west``, ``hall_east`` (with
     two hallways ``hall_1_west``, ... ``hall_2_east``, and ``hall_west``, ``hall_east`` for
@@ -375,7 +376,8 @@ def office(seed: Seed, *, rooms: int = 4, room_width: float = 4.0, room_depth: f
             turn = int(rng.integers(len(path)))
             path = path[turn:] + path[:turn]
         movers.append({"waypoints": path, "speed": round(rng.uniform(0.5, 1.3), 2),
-                       "radius": 0.25, "kind": "person", "appears": round(rng.uniform(0, 20), 1)})
+                       "radius": 0.25, "kind": "person", "appears": round(rng.uniform(0, 20), 1),
+                       "yields": True})
     for _ in range(objects):
         y0, y1 = lanes[int(rng.integers(len(lanes)))]
         appears = round(rng.uniform(0, 60), 1)

@@ -75,9 +75,14 @@ def door_rows(world: World, t: float) -> tuple[np.ndarray, np.ndarray]:
     return rows[shut], rows[~shut]
 
 
-def mover_centres(world: World, t: float) -> tuple[np.ndarray, np.ndarray]:
-    """The movers' centres ``(m, 2)`` at time ``t`` and whether each is present ``(m,)``."""
-    centres = np.array([mover.position(t) for mover in world.movers], dtype=float).reshape(-1, 2)
+def mover_centres(world: World, t: float,
+                  clocks: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The movers' centres ``(m, 2)`` at time ``t`` and whether each is present ``(m,)``;
+    ``clocks`` are the movers' own clocks then when some yielded to a robot (None: ``t``)."""
+    if clocks is None:
+        clocks = np.full(len(world.movers), t)
+    centres = np.array([mover.position(float(clock)) for mover, clock
+                        in zip(world.movers, clocks, strict=True)], dtype=float).reshape(-1, 2)
     present = np.array([mover.present(t) for mover in world.movers], dtype=bool)
     return centres, present
 
@@ -249,7 +254,7 @@ def animate_trial(world: World, result: TrialResult, path: Path, fps: int = 10,
 
     if fps < 1 or max_frames < 1:
         raise ValueError(f"fps and max_frames must be at least 1, not {fps} and {max_frames}")
-    trajectory = result.trajectory
+    trajectory, clocks = result.trajectory, result.mover_clocks
     count = min(max_frames, trajectory.shape[0])
     rows = np.unique(np.linspace(0, trajectory.shape[0] - 1, count).round().astype(int))
     radius = result.spec.radius
@@ -284,7 +289,7 @@ def animate_trial(world: World, result: TrialResult, path: Path, fps: int = 10,
         trail.set_data(trajectory[:i + 1, 1], trajectory[:i + 1, 2])
         body.center = (x, y)
         heading.set_data([x, x + radius * math.cos(theta)], [y, y + radius * math.sin(theta)])
-        motion.at(float(t))
+        motion.at(float(t), None if clocks is None else clocks[i])
         title.set_text(f"t = {t:.1f} s")
         canvas.restore_region(background)
         for artist in moving:
@@ -317,15 +322,16 @@ class WorldMotion:
         self.artists: list[Any] = [self.shut, self.opened, *self.people]
         """The artists to mark animated and redraw per frame, in their drawing order."""
 
-    def at(self, t: float) -> None:
-        """Move the doors and people to time ``t``."""
+    def at(self, t: float, clocks: np.ndarray | None = None) -> None:
+        """Move the doors and people to time ``t``, the people to their own ``clocks`` when
+        some yielded to a robot (:func:`mover_centres`)."""
         world = self.world
         if world.doors:
             now_shut, now_open = door_rows(world, t)
             self.shut.set_segments(list(now_shut))
             self.opened.set_segments(list(now_open))
         if self.people:
-            centres, present = mover_centres(world, t)
+            centres, present = mover_centres(world, t, clocks)
             for person, centre, here in zip(self.people, centres, present, strict=True):
                 person.center = (centre[0], centre[1])
                 person.set_visible(bool(here))

@@ -24,6 +24,7 @@ import attrs
 import numpy as np
 
 from cbr_world2d.checks import positive, step, too_many_steps
+from cbr_world2d.crowd import Crowd
 from cbr_world2d.navigator import Navigator, NavigatorOptions
 from cbr_world2d.pilots.base import Pilot
 from cbr_world2d.pilots.monitor import STUCK
@@ -150,7 +151,9 @@ class TrialResult:
     at the start (t = 0), then one per step. ``time`` is when the trial ended (reaching the
     target or the timeout), ``distance`` the path length driven, ``collisions`` how many times
     the robot ran into something (a contact counts once however long it pushes), ``reason``
-    :data:`REACHED` or :data:`TIMEOUT`. ``events`` are all of the trial's events in order;
+    :data:`REACHED` or :data:`TIMEOUT`. ``mover_clocks`` holds each mover's clock at each
+    row of the trajectory when some mover yielded to the robot (None: their clocks were the
+    time). ``events`` are all of the trial's events in order;
     :attr:`stuck` and :attr:`diverting` pick out where the robot got stuck and the diverting
     targets it was given. ``spec`` is the robot and ``seed`` the seed the trial ran with.
     """
@@ -166,6 +169,8 @@ class TrialResult:
     steps: int
     trajectory: np.ndarray = attrs.field(eq=attrs.cmp_using(eq=_array_eq), repr=False)
     events: tuple[Event, ...] = ()
+    mover_clocks: np.ndarray | None = attrs.field(
+        default=None, eq=attrs.cmp_using(eq=_array_eq), repr=False)
 
     @property
     def stuck(self) -> tuple[Event, ...]:
@@ -223,6 +228,9 @@ class Simulation:
         self._rows = 1
         # a world without doors or movers hands out the same arrays at every time
         self._static = None if world.dynamic else (world.segments_at(0.0), world.discs_at(0.0))
+        self.crowd = Crowd(world)
+        """Where the movers are now (people stop for the robot when they ``yield``)."""
+        self._clocks: list[np.ndarray] | None = [self.crowd.clocks] if self.crowd.yields else None
         navigator.start(self.target)
         sensors.reset()
         self.observation: Observation = self._sense(0.0, False)
@@ -253,10 +261,16 @@ class Simulation:
         return math.hypot(self.state.x - self.target[0],
                           self.state.y - self.target[1]) <= self.tolerance
 
+    @property
+    def mover_clocks(self) -> np.ndarray | None:
+        """Each mover's clock at each row of :attr:`trajectory`, ``(steps + 1, movers)``, when
+        some mover yields (None: every mover's clock is the time)."""
+        return None if self._clocks is None else np.asarray(self._clocks)
+
     def _obstacles(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         if self._static is not None:
             return self._static
-        return self.world.segments_at(t), self.world.discs_at(t)
+        return self.world.segments_at(t), self.crowd.discs()
 
     def _sense(self, t: float, bumped: bool) -> Observation:
         segments, discs = self._obstacles(t)
@@ -297,6 +311,9 @@ class Simulation:
             self._buffer = grown
         self._buffer[self._rows] = (t_next, after.x, after.y, after.theta, after.v, after.w)
         self._rows += 1
+        self.crowd.advance(t_next, (after.x, after.y), self.spec.radius)
+        if self._clocks is not None:
+            self._clocks.append(self.crowd.clocks)
         self.observation = self._sense(t_next, collided)
         self.reached = self._within()
         return self.observation
@@ -306,7 +323,7 @@ class Simulation:
         return TrialResult(trial, self.spec, seed, self.reached,
                            REACHED if self.reached else TIMEOUT, self.t, self.distance,
                            self.collisions, self.steps, self._buffer[:self._rows].copy(),
-                           tuple(self.history))
+                           tuple(self.history), self.mover_clocks)
 
 
 @attrs.frozen

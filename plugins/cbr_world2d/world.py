@@ -67,7 +67,9 @@ class Mover:
     """A person or transient object walking a closed loop of ``waypoints`` at ``speed``.
 
     It starts at the first waypoint at ``t = appears`` and is present until ``leaves`` (None: to
-    the end of time); a mover with one waypoint stands still.
+    the end of time); a mover with one waypoint stands still. :meth:`position` takes the
+    mover's own clock, which is the world's time unless it ``yields`` to a robot in its way
+    (:mod:`cbr_world2d.crowd`).
     """
 
     waypoints: tuple[Point, ...]
@@ -76,6 +78,7 @@ class Mover:
     kind: str = "person"
     appears: float = 0.0
     leaves: float | None = None
+    yields: bool = False
     _legs: np.ndarray = attrs.field(init=False, repr=False, eq=False)
     _cumulative: np.ndarray = attrs.field(init=False, repr=False, eq=False)
 
@@ -90,7 +93,7 @@ class Mover:
         return t >= self.appears and (self.leaves is None or t < self.leaves)
 
     def position(self, t: float) -> Point:
-        """Where the mover is at time ``t`` (its first waypoint before it appears)."""
+        """Where the mover is at clock ``t`` (its first waypoint before it appears)."""
         loop = self._cumulative[-1]
         if loop <= 0.0 or self.speed <= 0.0:
             return float(self._legs[0, 0]), float(self._legs[0, 1])

@@ -204,6 +204,9 @@ class MoverSpec:
     appears: Finite = option(0.0, "When it appears, at its first waypoint (seconds).")
     leaves: Finite | None = option(None, "When it leaves (seconds, after `appears`); left "
                                    "out, it stays.")
+    yields: bool = option(False, "Whether it stops while the robot is in its way, as people "
+                                 "do (up to 5 s, then it walks on); false: it walks its loop "
+                                 "regardless.")
 
 
 @attrs.frozen
@@ -594,7 +597,7 @@ def _build(values: dict[str, Any], raw: Mapping[str, Any], seed: int,
                                                    f"{_num(spec.leaves)}"))
             if fine:
                 movers.append(Mover(tuple(spec.waypoints), spec.speed, spec.radius, spec.kind,
-                                    spec.appears, spec.leaves))
+                                    spec.appears, spec.leaves, spec.yields))
     if bounds is None:
         return None
     world = World(bounds, tuple(walls), tuple(polygons), tuple(points), tuple(marks),
@@ -697,7 +700,8 @@ def dump_world(world: World) -> dict[str, Any]:
         data["movers"] = [{"waypoints": [_plain(p) for p in m.waypoints],
                            "speed": float(m.speed), "radius": float(m.radius), "kind": m.kind,
                            "appears": float(m.appears),
-                           **({"leaves": float(m.leaves)} if m.leaves is not None else {})}
+                           **({"leaves": float(m.leaves)} if m.leaves is not None else {}),
+                           **({"yields": True} if m.yields else {})}
                           for m in world.movers]
     if world.places:
         data["places"] = {name: _plain(point) for name, point in world.places.items()}
@@ -841,7 +845,7 @@ def _wall_label(wall: Wall, index: int) -> str:
 
 _TYPE_TEXT: dict[Any, str] = {
     XY: "[x, y]", Finite: "number", Pair: "[id, id]", Box: "[xmin, ymin, xmax, ymax]",
-    str: "string", int: "integer", float: "number"}
+    str: "string", int: "integer", float: "number", bool: "true or false"}
 
 
 def _type_text(kind: Any) -> str:
