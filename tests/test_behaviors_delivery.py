@@ -416,7 +416,33 @@ def test_map_fires_once_enough_cells_changed() -> None:
     assert "map" in replan.check(snap(t=0.3, added=1))  # 2 + 1 + 1 = 4 cells
 
 
-def test_within_the_hold_only_messages_and_impasses_fire() -> None:
+def situation_with(person: float, bearing: float) -> np.ndarray:
+    """Every situation feature 1 (nothing near) but the person ``person`` metres off,
+    ``bearing`` degrees from the heading."""
+    values = np.ones(len(SITUATION))
+    values[SITUATION.index("person")] = person / 5.0
+    values[SITUATION.index("person-bearing")] = bearing / 180.0
+    return values
+
+
+def test_person_fires_at_once_when_someone_comes_into_the_way() -> None:
+    clear = situation_with(5.0, 180.0)
+    replan = ReplanMonitor(TriggerOptions(hold=12.0))
+    replan.retrieved(snap(t=0.0, situation=clear))
+    # 1.4 m ahead, 50 degrees off: within 1.5 m and 60 degrees, inside the hold
+    assert replan.check(snap(t=0.5, situation=situation_with(1.4, 50.0))) == ["person"]
+    # beside the robot, or farther, is not in the way
+    for person, bearing in ((1.0, 70.0), (1.6, 0.0)):
+        aside = ReplanMonitor(TriggerOptions(hold=12.0))
+        aside.retrieved(snap(t=0.0, situation=clear))
+        assert aside.check(snap(t=0.5, situation=situation_with(person, bearing))) == []
+    # someone already in the way at the retrieval fires nothing more
+    stays = ReplanMonitor(TriggerOptions(hold=12.0))
+    stays.retrieved(snap(t=0.0, situation=situation_with(1.0, 10.0)))
+    assert stays.check(snap(t=0.5, situation=situation_with(0.5, 0.0))) == []
+
+
+def test_within_the_hold_only_the_critical_triggers_fire() -> None:
     replan = ReplanMonitor(TriggerOptions(map_cells=1, hold=5.0))
     replan.retrieved(snap(t=0.0))
     assert replan.check(snap(t=0.5, added=3, critical=1, plan_installed=True)) == ["message"]

@@ -18,6 +18,9 @@ the next retrieval. The triggers, in the order :meth:`~ReplanMonitor.check` list
   retrieval by more than ``change``, and has for ``settle`` seconds (004's "sudden change to
   the raw sonar readings", read as a change of what the readings mean: one walker passing
   changes every raw range, a sonar flicker none of these);
+- ``person``: a person came into the way: within ``near`` metres (rim to rim) and
+  ``ahead`` degrees of the heading, when none was at the last retrieval; a case chosen for a
+  clear way is not kept driving at its speed into someone for the rest of its hold;
 - ``map``: a snapshot since the last retrieval reported object cells added to or removed from
   the global map;
 - ``message``: a snapshot since the last retrieval reported a new critical message;
@@ -34,9 +37,9 @@ the next retrieval. The triggers, in the order :meth:`~ReplanMonitor.check` list
   retrieval, and no other trigger fired. Before the first retrieval the period has always
   passed.
 
-*Hysteresis*: within ``hold`` seconds of a retrieval only the critical triggers (``message``,
-``impasse``) fire; the others are remembered until the hold has passed, so that an installed
-case acts for a while before it is judged again.
+*Hysteresis*: within ``hold`` seconds of a retrieval only the critical triggers (``person``,
+``message``, ``impasse``) fire; the others are remembered until the hold has passed, so that
+an installed case acts for a while before it is judged again.
 
 The events (``map``, ``message``, ``plan``) come as what happened since the previous snapshot;
 the monitor remembers them until a retrieval. A retrieval's own snapshot sets the baselines
@@ -55,6 +58,7 @@ import attrs
 import numpy as np
 
 from cbr_behaviors.index import SITUATION
+from cbr_behaviors.situation import PERSON_REACH
 from cbr_world2d.pilots.monitor import STUCK
 from cbrcore.options import option
 
@@ -62,8 +66,8 @@ if TYPE_CHECKING:
     from cbr_world2d.robot import Pose
     from cbr_world2d.world import Point
 
-TRIGGERS: tuple[str, ...] = ("situation", "map", "message", "plan", "impasse", "location",
-                             "period")
+TRIGGERS: tuple[str, ...] = ("situation", "person", "map", "message", "plan", "impasse",
+                             "location", "period")
 """The trigger names, in the order a check lists those that fired."""
 WATCHED: tuple[str, ...] = ("front", "width", "person", "person-bearing", "closing", "door",
                             "door-shut")
@@ -71,7 +75,9 @@ WATCHED: tuple[str, ...] = ("front", "width", "person", "person-bearing", "closi
 chosen for. The side and rear readings change with every piece of furniture passed, and the
 progress with every metre driven."""
 _WATCHED = np.array([SITUATION.index(f) for f in WATCHED])
-CRITICAL: frozenset[str] = frozenset({"message", "impasse"})
+_PERSON = SITUATION.index("person")
+_BEARING = SITUATION.index("person-bearing")
+CRITICAL: frozenset[str] = frozenset({"person", "message", "impasse"})
 """The triggers that fire within the hold after a retrieval."""
 
 _POSITIVE = attrs.validators.gt(0.0)
@@ -109,10 +115,16 @@ class TriggerOptions:
         "since the last retrieval (12: a cart or two seen from a few sides; single cells come "
         "and go with the sonar's noise and the odometry's drift).",
         validator=attrs.validators.ge(1))
+    near: float = option(
+        1.5, "'person' fires when a person comes within this many metres (rim to rim) ahead "
+        "and none was at the last retrieval.", validator=_POSITIVE)
+    ahead: float = option(
+        60.0, "Degrees off the heading within which a person counts as ahead for 'person'.",
+        validator=attrs.validators.and_(attrs.validators.gt(0.0), attrs.validators.le(180.0)))
     hold: float = option(
-        12.0, "Seconds after a retrieval during which only the critical triggers ('message', "
-        "'impasse') fire: the installed case acts for a while before it is judged again (its "
-        "avoid behaviors meet what comes up meanwhile).",
+        12.0, "Seconds after a retrieval during which only the critical triggers ('person', "
+        "'message', 'impasse') fire: the installed case acts for a while before it is judged "
+        "again (its avoid behaviors meet what comes up meanwhile).",
         validator=attrs.validators.ge(0.0))
     period: float = option(
         20.0, "Seconds since the last retrieval after which 'period' fires when nothing else "
@@ -229,6 +241,8 @@ class ReplanMonitor:
                     fired.add("situation")
             else:
                 self._moved = None
+            if self._in_way(snapshot) and not self._in_way(base):
+                fired.add("person")
             if (snapshot.status in STUCK and base.status not in STUCK
                     and not snapshot.waiting):
                 fired.add("impasse")
@@ -242,6 +256,14 @@ class ReplanMonitor:
                           or snapshot.distance - base.distance >= o.distance):
             fired.add("period")
         return [name for name in TRIGGERS if name in fired]
+
+    def _in_way(self, snapshot: Snapshot) -> bool:
+        """Whether a person stands within ``near`` metres and ``ahead`` degrees ahead."""
+        situation = snapshot.situation
+        if situation is None:
+            return False
+        return (situation[_PERSON] * PERSON_REACH < self.options.near
+                and situation[_BEARING] * 180.0 < self.options.ahead)
 
     def retrieved(self, snapshot: Snapshot) -> None:
         """A retrieval happened at ``snapshot``: it becomes the baseline and the events
