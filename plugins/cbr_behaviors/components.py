@@ -13,7 +13,8 @@ and "Adaptation and Learning of Behavior Cases").
   or merge it with a second case that matches its worst features) and becomes an
   :class:`~cbr_behaviors.moment.InstallBehaviors`.
 - :class:`CaseLearner` (retainer ``rupart_cases``): the quality counters of the cases
-  retrieved and used, and the adapted cases whose spell went well, stored under the index of
+  retrieved and used, and the adapted cases whose spell went well while the case they were
+  adapted from is failing (:func:`~cbr_behaviors.quality.failing`), stored under the index of
   the situation they started in.
 - :class:`WeightLearner` (retainer ``rupart_weights``): the index weights learned from
   outcomes (:mod:`cbr_behaviors.weights`).
@@ -24,16 +25,24 @@ and "Adaptation and Learning of Behavior Cases").
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import attrs
 import numpy as np
 
 from cbr_behaviors.cases import BEHAVIOR, META, PLAN, BehaviorCase, PlanCase
-from cbr_behaviors.index import FEATURES, IndexDataError, Scales, weight_vector
+from cbr_behaviors.index import (
+    ATTRIBUTES,
+    FEATURES,
+    Index,
+    IndexDataError,
+    Scales,
+    weight_vector,
+)
 from cbr_behaviors.memory import Found, memory_of
 from cbr_behaviors.moment import InstallBehaviors, InstallPlan, Moment, SpellReport
-from cbr_behaviors.quality import Quality
+from cbr_behaviors.quality import Quality, failing
 from cbr_behaviors.weights import store_weights, stored_weights, updated
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
@@ -72,10 +81,11 @@ class RetrieveOptions:
         10.0, "Metres at which the location and task-loc distances reach 1.",
         validator=_POSITIVE)
     quality_band: float = option(
-        0.01, "Cases whose distances lie within this of each other are told apart by their "
-        "quality (how often their spells went well) rather than by distance: 0.01 breaks near "
-        "ties only; wider, the robot's experience of which case works chooses among the "
-        "cases that match about as well.", validator=_UNIT)
+        0.01, "Within this of the nearest case's distance, a case whose record of spells "
+        "shows it better than the nearest one's (used at least 3 times, Newcombe's 95% bound "
+        "on the difference of their success rates above 0; see docs/rupart.md) is installed "
+        "instead: 0.01 decides near ties only; wider, the robot's experience of which case "
+        "works chooses among the cases that match about as well.", validator=_UNIT)
 
     @property
     def scales(self) -> Scales:
@@ -195,8 +205,9 @@ class RupartReuser:
 @attrs.frozen
 class RetainOptions:
     retain_adapted: bool = option(
-        True, "Store an adapted behavior case when its spell went well (004: adapted cases are "
-        "retained).")
+        True, "Store an adapted behavior case when its spell went well and the case it was "
+        "adapted from is failing, used at least 3 times and fewer than half of them well (004: "
+        "adapted cases are retained).")
     duplicate: float = option(
         0.02, "An adapted case this near (overall distance) an existing behavior case with the "
         "same behaviors is not stored again.", validator=_UNIT)
@@ -207,7 +218,8 @@ def _spell(outcome: Outcome) -> SpellReport | None:
 
 
 class CaseLearner:
-    """004: quality counters of the retrieved and used cases; adapted cases retained."""
+    """004: quality counters of the retrieved and used cases; adapted cases of failing cases
+    retained."""
 
     def __init__(self, options: RetainOptions, ctx: Context) -> None:
         self.options = options
@@ -221,6 +233,9 @@ class CaseLearner:
         memory = memory_of(ctx)
         matched = tuple(solution.detail.get("retrieved", ()))
         used = set(solution.cases)
+        parent = memory.get(solution.cases[0]) if solution.cases else None
+        # the record the adapted case is judged against leaves out the spell it was in
+        record = Quality.of(parent.meta) if parent is not None else None
         for case_id in dict.fromkeys((*matched, *solution.cases)):
             case = None if case_id is None else memory.get(case_id)
             if case is None:
@@ -233,17 +248,31 @@ class CaseLearner:
             memory.update_meta(case_id, q.to_meta())
         value = solution.value
         if (self.options.retain_adapted and report.good and isinstance(value, InstallBehaviors)
-                and value.adapted is not None):
-            self._retain(memory, value.adapted, problem, ctx)
+                and value.adapted is not None and record is not None and failing(record)):
+            sources = [memory.stored(i) for i in solution.cases]
+            self._retain(memory, value.adapted, retained_index(problem.index, sources))
 
-    def _retain(self, memory: Any, adapted: BehaviorCase, problem: Moment, ctx: Context) -> None:
-        near = memory.nearest(problem.index, np.ones(len(FEATURES)), (BEHAVIOR,), 1,
-                              memory.scales)
+    def _retain(self, memory: Any, adapted: BehaviorCase, index: Index) -> None:
+        near = memory.nearest(index, np.ones(len(FEATURES)), (BEHAVIOR,), 1, memory.scales)
         if (near and near[0].distance <= self.options.duplicate
                 and near[0].stored.behaviors == adapted.behaviors):
             return
-        stored = attrs.evolve(adapted, index=problem.index, origin="adapted")
+        stored = attrs.evolve(adapted, index=index, origin="adapted")
         memory.add(stored.to_case())
+
+
+def retained_index(situation: Index, sources: Sequence[object]) -> Index:
+    """The index an adapted case is retained under: the values of ``situation`` (where its
+    spell began) for the features the cases it was adapted from (``sources``) specify. A case
+    indexed by every feature of a situation would be compared with every later query on all
+    of them, most of which (the confidences, the urgencies, the goal) agree between unrelated
+    situations, so it would lie near situations its parent does not speak of; indexed by its
+    parent's features it is that case where it went well."""
+    keep = {f for source in sources if isinstance(source, BehaviorCase)
+            for f in source.index.specified()}
+    if not keep:
+        return situation
+    return attrs.evolve(situation, **{ATTRIBUTES[f]: None for f in FEATURES if f not in keep})
 
 
 @attrs.frozen

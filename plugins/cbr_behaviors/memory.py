@@ -30,7 +30,7 @@ from cbr_behaviors.cases import (
     freeze,
 )
 from cbr_behaviors.index import Index, Scales
-from cbr_behaviors.quality import TIE, Quality
+from cbr_behaviors.quality import TIE, Quality, better, margin
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.model import Case
@@ -110,8 +110,8 @@ class CaseMemory:
                 scales: Scales, exclude: Collection[int] = (), tie: float = TIE
                 ) -> list[Found]:
         """The ``k`` cases of ``kinds`` nearest ``query`` under ``weights``, best first; near
-        ties (distances within ``tie``, default :data:`~cbr_behaviors.quality.TIE`) go to the
-        case of higher quality."""
+        ties (distances within ``tie``, default :data:`~cbr_behaviors.quality.TIE`) go to a case
+        whose record shows it better than the nearest one's (:func:`_by_quality`)."""
         rows = self.rows(kinds, exclude)
         if not len(rows):
             return []
@@ -128,6 +128,13 @@ class CaseMemory:
     def _found(self, hit: Hit) -> Found:
         return Found(self.cases[hit.row], self.decoded[hit.row], hit.distance,
                      dict(hit.features))
+
+    def stored(self, case_id: int) -> Stored | None:
+        """The decoded form of the case ``case_id``, None when the memory has none."""
+        for case, decoded in zip(self.cases, self.decoded, strict=True):
+            if case.id == case_id:
+                return decoded
+        return None
 
     def get(self, case_id: int) -> Case | None:
         for case in self.cases:
@@ -163,17 +170,30 @@ class CaseMemory:
 
 
 def _by_quality(hits: Sequence[Hit], cases: Sequence[Case], tie: float) -> list[Hit]:
-    """``hits`` (best first) with runs of distances within ``tie`` of the run's first ordered
-    by quality."""
+    """``hits`` (best first) with, in each run of distances within ``tie`` of the run's first,
+    the case whose record shows it best better than that first one's
+    (:func:`~cbr_behaviors.quality.better`, the largest margin winning) moved to the front;
+    the others keep their order."""
     out: list[Hit] = []
     group: list[Hit] = []
     for hit in hits:
         if group and hit.distance - group[0].distance > tie:
-            out += sorted(group, key=lambda h: -Quality.of(cases[h.row].meta).score())
+            out += _preferred(group, cases)
             group = []
         group.append(hit)
-    out += sorted(group, key=lambda h: -Quality.of(cases[h.row].meta).score())
-    return out
+    return out + _preferred(group, cases)
+
+
+def _preferred(group: list[Hit], cases: Sequence[Case]) -> list[Hit]:
+    if len(group) < 2:
+        return group
+    nearest = Quality.of(cases[group[0].row].meta)
+    proven = [(margin(q, nearest), k) for k, h in enumerate(group[1:], start=1)
+              if better(q := Quality.of(cases[h.row].meta), nearest)]
+    if not proven:
+        return group
+    _, k = max(proven, key=lambda mk: (mk[0], -mk[1]))
+    return [group[k], *group[:k], *group[k + 1:]]
 
 
 _MEMORY = StashKey[CaseMemory]()
