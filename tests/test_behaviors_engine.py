@@ -36,7 +36,16 @@ from cbr_behaviors.cases import BEHAVIOR, BehaviorCase, Change, PlanCase, Strate
 from cbr_behaviors.components import retained_index
 from cbr_behaviors.index import FEATURES, Index
 from cbr_behaviors.moment import InstallBehaviors, InstallPlan, Moment, SpellReport
-from cbr_behaviors.quality import Quality, better, failing, margin, wilson
+from cbr_behaviors.quality import (
+    RIVALS,
+    Quality,
+    against,
+    better,
+    failing,
+    margin,
+    wilson,
+    with_rivals,
+)
 from cbr_behaviors.weights import KEY, store_weights
 from cbr_world2d.pilots.behaviors import TOP_TURN_RATE
 from cbrcore.casebase import SQLiteStore
@@ -216,37 +225,76 @@ def recorded(engine: Engine, **records: tuple[int, int]) -> Engine:
     return engine
 
 
-def _proven(engine: Engine) -> Engine:
-    """``engine`` with open's three spells gone badly and crowd's three well."""
-    return recorded(engine, open=(0, 3), crowd=(3, 3))
+def rivals(engine: Engine, open_record: tuple[int, int], crowd_record: tuple[int, int],
+           ) -> Engine:
+    """``engine`` with open's record against crowd and crowd's against open set to ``(good,
+    used)``: the spells each was installed while the other matched within the band."""
+    store = engine.casebase
+    assert store is not None
+    with store.transaction():
+        for name, rival, (good, used) in (("open", "crowd", open_record),
+                                          ("crowd", "open", crowd_record)):
+            case = store.get(IDS[name])
+            store.replace(attrs.evolve(case, meta={**case.meta,
+                                                   RIVALS: {str(IDS[rival]): [used, good]}}))
+    return engine
 
 
-def test_the_quality_band_lets_experience_choose_among_near_matches(
-        make: Callable[..., Engine]) -> None:
-    # open (0.2) and crowd (0.4) lie 0.2 apart: a band of 0.25 takes them as one group, and
-    # crowd, whose spells went well, comes first, nearer or not
-    wide = {"quality_band": 0.25, "meta_threshold": 0.5}
-    assert names(_proven(make(retrieve=wide)).solve(moment(QUERY)))[:2] == ["crowd", "open"]
-    # the default band breaks near ties only
-    narrow = {"meta_threshold": 0.5}
-    assert names(_proven(make(retrieve=narrow)).solve(moment(QUERY)))[:2] == ["open", "crowd"]
+WIDE = {"quality_band": 0.25, "meta_threshold": 0.5}
+"""open (0.2) and crowd (0.4) lie 0.2 apart: one group in a band of 0.25."""
 
 
 @pytest.mark.parametrize(("records", "first"), [
-    # crowd 3 of 3 against open 0 of 3: margin 0.3293 (see the worked margins below)
-    pytest.param({"open": (0, 3), "crowd": (3, 3)}, "crowd", id="shown-better"),
+    # crowd 3 of 3 against open, open 0 of 3 against crowd: margin 0.3293 (worked below)
+    pytest.param(((0, 3), (3, 3)), "crowd", id="shown-better"),
     # crowd 2 of 2: fewer uses than EVIDENCE (3), however well they went
-    pytest.param({"open": (0, 5), "crowd": (2, 2)}, "open", id="too-few-uses"),
-    # open never used: nothing shows it worse, it is tried first
-    pytest.param({"crowd": (3, 3)}, "open", id="nearest-untried"),
+    pytest.param(((0, 5), (2, 2)), "open", id="too-few-uses"),
+    # open never installed with crowd in its band: nothing shows it worse, it is tried first
+    pytest.param(((0, 0), (3, 3)), "open", id="nearest-untried"),
     # crowd 8 of 10 against open 6 of 10: margin -0.131, not shown better
-    pytest.param({"open": (6, 10), "crowd": (8, 10)}, "open", id="within-chance"),
+    pytest.param(((6, 10), (8, 10)), "open", id="within-chance"),
 ])
-def test_a_near_match_displaces_the_nearest_only_on_evidence(
-        make: Callable[..., Engine], records: dict[str, tuple[int, int]], first: str) -> None:
-    # open (0.2) and crowd (0.4) in one band of 0.25
-    engine = recorded(make(retrieve={"quality_band": 0.25, "meta_threshold": 0.5}), **records)
+def test_a_near_match_displaces_the_nearest_only_on_evidence_against_it(
+        make: Callable[..., Engine], records: tuple[tuple[int, int], tuple[int, int]],
+        first: str) -> None:
+    engine = rivals(make(retrieve=WIDE), *records)
     assert names(engine.solve(moment(QUERY)))[:2] == [first, ({"open", "crowd"} - {first}).pop()]
+
+
+def test_whole_records_gathered_elsewhere_displace_nothing(make: Callable[..., Engine]) -> None:
+    # crowd went well 30 times in 30, open badly 30 times in 30, but never with the other
+    # in the band: their situations differed, and open keeps its place
+    engine = recorded(make(retrieve=WIDE), open=(0, 30), crowd=(30, 30))
+    assert names(engine.solve(moment(QUERY)))[:2] == ["open", "crowd"]
+
+
+def test_the_default_band_decides_near_ties_only(make: Callable[..., Engine]) -> None:
+    engine = rivals(make(retrieve={"meta_threshold": 0.5}), (0, 3), (3, 3))
+    assert names(engine.solve(moment(QUERY)))[:2] == ["open", "crowd"]
+
+
+def test_the_installed_case_keeps_its_record_against_the_rivals_in_its_band(
+        make: Callable[..., Engine]) -> None:
+    engine = make(retrieve=WIDE, reuse={"threshold": 0.25}, retain=["rupart_cases"])
+    store = engine.casebase
+    assert store is not None
+    problem = moment(QUERY)
+    engine.learn(problem, engine.solve(problem), GOOD)
+    engine.learn(problem, engine.solve(problem), BAD)
+    # open installed twice, crowd 0.2 from it within the band (route, 2/3, is not): one good
+    # spell of two against crowd; crowd, never installed, has no record
+    assert store.get(IDS["open"]).meta[RIVALS] == {str(IDS["crowd"]): [2, 1]}
+    assert RIVALS not in store.get(IDS["crowd"]).meta
+    assert against(store.get(IDS["open"]).meta, IDS["crowd"]) == Quality(used=2, good=1)
+
+
+@pytest.mark.parametrize("meta", [
+    {}, {RIVALS: [1, 2]}, {RIVALS: {"2": [3]}}, {RIVALS: {"2": "3 of 3"}},
+    {RIVALS: {"2": [-1, True]}},
+])
+def test_malformed_records_against_a_rival_count_as_none(meta: dict[str, Any]) -> None:
+    assert against(meta, 2) == Quality()
+    assert with_rivals(meta, [2], True) == {"2": [1, 1]}
 
 
 REWEIGHED = {"motors": 4.0, "map": 0.0, "location": 0.0}
@@ -452,6 +500,24 @@ def test_an_adapted_case_whose_spell_went_badly_is_not_stored(
     engine.learn(problem, proposal, BAD)
     assert [c.id for c in store.cases(BEHAVIOR)] == [IDS["open"], IDS["crowd"]]
     assert quality(store, "open") == Quality(retrieved=1, used=1, good=0, active=3.0)
+
+
+@pytest.mark.parametrize(("threshold", "installed"), [
+    # open (0.2) is farther than the threshold: the learned variant (0) fills the gap
+    (0.15, "open-variant"),
+    # open is near enough to be used as it is: the learned variant does not take its place
+    (0.25, "open"),
+])
+def test_a_learned_case_does_not_take_the_place_of_an_authored_case_that_matches_well(
+        make: Callable[..., Engine], threshold: float, installed: str) -> None:
+    engine = make(reuse={"threshold": threshold})
+    assert engine.casebase is not None
+    engine.casebase.add(attrs.evolve(OPEN, name="open-variant", index=QUERY,
+                                     origin="adapted").to_case())
+    proposal = engine.solve(moment(QUERY))
+    assert names(proposal)[:2] == ["open-variant", "open"]
+    assert proposal.solution is not None
+    assert proposal.solution.value.name == installed
 
 
 def test_a_merged_case_is_retained_under_the_features_of_both_its_cases() -> None:

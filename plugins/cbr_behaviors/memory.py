@@ -30,7 +30,7 @@ from cbr_behaviors.cases import (
     freeze,
 )
 from cbr_behaviors.index import Index, Scales
-from cbr_behaviors.quality import TIE, Quality, better, margin
+from cbr_behaviors.quality import TIE, against, better, margin
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.model import Case
@@ -171,9 +171,9 @@ class CaseMemory:
 
 def _by_quality(hits: Sequence[Hit], cases: Sequence[Case], tie: float) -> list[Hit]:
     """``hits`` (best first) with, in each run of distances within ``tie`` of the run's first,
-    the case whose record shows it best better than that first one's
-    (:func:`~cbr_behaviors.quality.better`, the largest margin winning) moved to the front;
-    the others keep their order."""
+    the case whose record against that first one shows it better than the first one's record
+    against it (:func:`~cbr_behaviors.quality.better`, the largest margin winning) moved to the
+    front; the others keep their order."""
     out: list[Hit] = []
     group: list[Hit] = []
     for hit in hits:
@@ -187,9 +187,13 @@ def _by_quality(hits: Sequence[Hit], cases: Sequence[Case], tie: float) -> list[
 def _preferred(group: list[Hit], cases: Sequence[Case]) -> list[Hit]:
     if len(group) < 2:
         return group
-    nearest = Quality.of(cases[group[0].row].meta)
-    proven = [(margin(q, nearest), k) for k, h in enumerate(group[1:], start=1)
-              if better(q := Quality.of(cases[h.row].meta), nearest)]
+    nearest = cases[group[0].row]
+    proven = []
+    for k, hit in enumerate(group[1:], start=1):
+        challenger = cases[hit.row]
+        mine, theirs = against(challenger.meta, nearest.id), against(nearest.meta, challenger.id)
+        if better(mine, theirs):
+            proven.append((margin(mine, theirs), k))
     if not proven:
         return group
     _, k = max(proven, key=lambda mk: (mk[0], -mk[1]))

@@ -21,10 +21,16 @@ quality first.
 
 Retrieval does not rank by this score: a smoothed score puts a case used once, and well, above
 one that went well nine times in ten, and a near match installed on such luck is as often worse
-as better. Among cases whose distances lie within a band of the nearest one's, a case takes the
-nearest one's place only when its record shows it better (:func:`better`): it was used at least
-:data:`EVIDENCE` times, and the lower bound of Newcombe's interval for the difference of the two
-success rates (built from each rate's Wilson score interval at :data:`Z`) lies above 0::
+as better. Nor does it compare two cases' whole records: each was gathered in the situations
+where that case was the nearest, and a case for crowded hallways goes badly more often than one
+for clear ones because its situations are harder. A case therefore also keeps, under
+:data:`RIVALS`, its record *against* each rival: the spells it was installed while the rival
+matched within the retrieval's band (:func:`against`). Among cases whose distances lie within a
+band of the nearest one's, a case takes the nearest one's place only when its record against the
+nearest shows it better than the nearest's record against it (:func:`better`): it was used at
+least :data:`EVIDENCE` times, and the lower bound of Newcombe's interval for the difference of
+the two success rates (built from each rate's Wilson score interval at :data:`Z`) lies above
+0::
 
     p = good / used                                       each case's success rate
     l, u = (p + z²/2n -+ z sqrt(p(1 - p)/n + z²/4n²)) / (1 + z²/n)     Wilson, n = used
@@ -38,7 +44,7 @@ experience overrides it.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 import attrs
@@ -57,6 +63,9 @@ Z = 1.645
 nearer one only when the difference in their success rates would arise by chance less than one
 time in twenty."""
 COUNTERS = ("retrieved", "used", "good")
+RIVALS = "rivals"
+"""The meta key of a case's records against its rivals: rival case id (as text) -> ``[used,
+good]``."""
 
 
 def _count(meta: Mapping[str, Any], key: str) -> int:
@@ -91,6 +100,30 @@ class Quality:
         staying = mean / (mean + STAY)
         uniqueness = min(1.0, max(nearest, 0.0) / UNIQUE)
         return success * (1.0 + use) / 2.0 * (1.0 + staying) / 2.0 * uniqueness
+
+
+def against(meta: Mapping[str, Any], rival: int | None) -> Quality:
+    """The record (``used`` and ``good``) of the case of ``meta`` in the spells it was
+    installed while the case ``rival`` matched within the band; none when malformed."""
+    records = meta.get(RIVALS)
+    entry = records.get(str(rival)) if isinstance(records, Mapping) else None
+    if not isinstance(entry, list | tuple) or len(entry) != 2:
+        return Quality()
+    used, good = (_count({"n": n}, "n") for n in entry)
+    return Quality(used=used, good=min(good, used))
+
+
+def with_rivals(meta: Mapping[str, Any], rivals: Iterable[int], good: bool
+                ) -> dict[str, list[int]]:
+    """The records against rivals of the case of ``meta`` after one more spell, ``good`` or
+    not, installed while ``rivals`` matched within the band."""
+    records = meta.get(RIVALS)
+    out = {key: [q.used, q.good] for key in (records if isinstance(records, Mapping) else ())
+           if (q := against(meta, key)).used}
+    for rival in rivals:
+        q = against(meta, rival)
+        out[str(rival)] = [q.used + 1, q.good + bool(good)]
+    return out
 
 
 def wilson(good: int, used: int, z: float = Z) -> tuple[float, float]:
