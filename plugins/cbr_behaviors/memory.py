@@ -111,12 +111,12 @@ class CaseMemory:
                 ) -> list[Found]:
         """The ``k`` cases of ``kinds`` nearest ``query`` under ``weights``, best first; near
         ties (distances within ``tie``, default :data:`~cbr_behaviors.quality.TIE`) go to a case
-        whose record shows it better than the nearest one's (:func:`_by_quality`)."""
+        whose record shows it better than the nearest one's (:func:`_by_record`)."""
         rows = self.rows(kinds, exclude)
         if not len(rows):
             return []
         hits = self.table(scales).nearest(query, weights, k + 8, rows=rows)
-        return [self._found(h) for h in _by_quality(hits, self.cases, tie)][:k]
+        return [self._found(h) for h in _by_record(hits, self.cases, tie)][:k]
 
     def ids_with(self, behaviors: Sequence[object]) -> tuple[int, ...]:
         """The ids of the behavior cases and meta-plans whose behavior set is ``behaviors``."""
@@ -169,7 +169,7 @@ class CaseMemory:
         self._table = None
 
 
-def _by_quality(hits: Sequence[Hit], cases: Sequence[Case], tie: float) -> list[Hit]:
+def _by_record(hits: Sequence[Hit], cases: Sequence[Case], tie: float) -> list[Hit]:
     """``hits`` (best first) with, in each run of distances within ``tie`` of the run's first,
     the case whose record against that first one shows it better than the first one's record
     against it (:func:`~cbr_behaviors.quality.better`, the largest margin winning) moved to the
@@ -185,6 +185,7 @@ def _by_quality(hits: Sequence[Hit], cases: Sequence[Case], tie: float) -> list[
 
 
 def _preferred(group: list[Hit], cases: Sequence[Case]) -> list[Hit]:
+    """One run of :func:`_by_record`."""
     if len(group) < 2:
         return group
     nearest = cases[group[0].row]

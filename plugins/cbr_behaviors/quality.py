@@ -27,18 +27,18 @@ for clear ones because its situations are harder. A case therefore also keeps, u
 :data:`RIVALS`, its record *against* each rival: the spells it was installed while the rival
 matched within the retrieval's band (:func:`against`). Among cases whose distances lie within a
 band of the nearest one's, a case takes the nearest one's place only when its record against the
-nearest shows it better than the nearest's record against it (:func:`better`): it was used at
-least :data:`EVIDENCE` times, and the lower bound of Newcombe's interval for the difference of
-the two success rates (built from each rate's Wilson score interval at :data:`Z`) lies above
-0::
+nearest shows it better than the nearest's record against it (:func:`better`): it was installed
+with the nearest in its band at least :data:`EVIDENCE` times, and the lower bound of Newcombe's
+interval for the difference of the two success rates (built from each rate's Wilson score
+interval at :data:`Z`) lies above 0::
 
     p = good / used                                       each case's success rate
     l, u = (p + z²/2n -+ z sqrt(p(1 - p)/n + z²/4n²)) / (1 + z²/n)     Wilson, n = used
     margin = (p_c - p_n) - sqrt((p_c - l_c)² + (u_n - p_n)²)            c: challenger,
                                                                         n: nearest
 
-A nearest case never used has no record to be beaten: what has not been tried is tried before
-experience overrides it.
+A nearest case never installed with the challenger in its band has no record against it to be
+beaten: what has not been tried there is tried before experience overrides it.
 """
 
 from __future__ import annotations
