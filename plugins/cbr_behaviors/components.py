@@ -11,10 +11,14 @@ and "Adaptation and Learning of Behavior Cases").
   :class:`~cbr_behaviors.moment.InstallPlan`; a behavior case or meta-plan farther than
   ``threshold`` is adapted by the strategies the memory holds for it (alter its parameters,
   or merge it with a second case that matches its worst features) and becomes an
-  :class:`~cbr_behaviors.moment.InstallBehaviors`.
+  :class:`~cbr_behaviors.moment.InstallBehaviors`. A learned case is passed over for a
+  hand-made behavior case among the matches that lies within ``threshold``.
 - :class:`CaseLearner` (retainer ``rupart_cases``): the quality counters of the cases
-  retrieved and used, and the adapted cases whose spell went well, stored under the index of
-  the situation they started in.
+  retrieved and used, and the adapted cases whose spell went well while the case they were
+  adapted from is failing (:func:`~cbr_behaviors.quality.failing`), stored under the index of
+  the situation they started in, cut to the features of the cases they were adapted from
+  (:func:`retained_index`); and each installed case's record against its rivals in the band
+  (:func:`~cbr_behaviors.quality.against`).
 - :class:`WeightLearner` (retainer ``rupart_weights``): the index weights learned from
   outcomes (:mod:`cbr_behaviors.weights`).
 - :class:`QualityForgetter` (forgetter ``rupart_quality``): keeps at most ``capacity``
@@ -24,16 +28,24 @@ and "Adaptation and Learning of Behavior Cases").
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import attrs
 import numpy as np
 
-from cbr_behaviors.cases import BEHAVIOR, META, PLAN, BehaviorCase, PlanCase
-from cbr_behaviors.index import FEATURES, IndexDataError, Scales, weight_vector
+from cbr_behaviors.cases import BEHAVIOR, HAND_MADE, META, PLAN, BehaviorCase, PlanCase
+from cbr_behaviors.index import (
+    ATTRIBUTES,
+    FEATURES,
+    Index,
+    IndexDataError,
+    Scales,
+    weight_vector,
+)
 from cbr_behaviors.memory import Found, memory_of
 from cbr_behaviors.moment import InstallBehaviors, InstallPlan, Moment, SpellReport
-from cbr_behaviors.quality import Quality
+from cbr_behaviors.quality import RIVALS, TIE, Quality, failing, with_rivals
 from cbr_behaviors.weights import store_weights, stored_weights, updated
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
@@ -72,10 +84,12 @@ class RetrieveOptions:
         10.0, "Metres at which the location and task-loc distances reach 1.",
         validator=_POSITIVE)
     quality_band: float = option(
-        0.01, "Cases whose distances lie within this of each other are told apart by their "
-        "quality (how often their spells went well) rather than by distance: 0.01 breaks near "
-        "ties only; wider, the robot's experience of which case works chooses among the "
-        "cases that match about as well.", validator=_UNIT)
+        0.01, "Within this of the nearest case's distance, a case whose spells installed "
+        "with the nearest in its band went better than the nearest's with it (at least 3 of "
+        "them, Newcombe's 95% bound on the difference of the success rates above 0; see "
+        "docs/rupart.md) is installed instead: 0.01 decides near ties only; wider, the "
+        "robot's experience of which case works chooses among the cases that match about as "
+        "well.", validator=_UNIT)
 
     @property
     def scales(self) -> Scales:
@@ -88,12 +102,14 @@ def _match(found: Found) -> Match:
 
 @attrs.frozen(eq=False)
 class Retrieved:
-    """The retriever's payload: the found cases in the order of the matches, and the weights
-    and scales they were found with (the reuser's second retrieval uses the same)."""
+    """The retriever's payload: the found cases in the order of the matches, the weights and
+    scales they were found with (the reuser's second retrieval uses the same) and the quality
+    band (the installed case's rivals are the found cases within it)."""
 
     found: tuple[Found, ...]
     weights: np.ndarray
     scales: Scales
+    band: float = TIE
 
 
 def weights_of(options: RetrieveOptions, ctx: Context) -> np.ndarray:
@@ -137,7 +153,7 @@ class RupartRetriever:
         if not found:
             return Retrieval((), reason="no RUPART case stored")
         return Retrieval(tuple(_match(f) for f in found),
-                         payload=Retrieved(tuple(found), weights, scales))
+                         payload=Retrieved(tuple(found), weights, scales, band))
 
 
 @attrs.frozen
@@ -168,11 +184,21 @@ class RupartReuser:
                    and (problem.index.plan_conf or 0.0) >= self.options.plan_trust)
         best = next((f for f in found.found
                      if not (trusted and isinstance(f.stored, PlanCase))), found.found[0])
+        if best.stored.origin != HAND_MADE:
+            # a learned case fills a gap where no authored case matched well; where one does
+            # (near enough to be used as it is), the learned one does not take its place
+            authored = next((f for f in found.found if isinstance(f.stored, BehaviorCase)
+                             and f.stored.origin == HAND_MADE
+                             and f.distance <= self.options.threshold), None)
+            best = authored if authored is not None else best
         stored = best.stored
         ids = (best.case.id,) if best.case.id is not None else ()
         # the learn step sees the solution, not the retrieval: what it needs travels here
+        rivals = [f.case.id for f in found.found if f is not best and f.case.id is not None
+                  and abs(f.distance - best.distance) <= found.band]
         facts = {"kind": best.case.kind, "distance": best.distance,
-                 "retrieved": [f.case.id for f in found.found], "features": best.features}
+                 "retrieved": [f.case.id for f in found.found], "features": best.features,
+                 "rivals": rivals}
         if isinstance(stored, PlanCase):
             return Solution(InstallPlan(stored.route, stored.name, stored.localize), cases=ids,
                             detail=facts)
@@ -195,8 +221,9 @@ class RupartReuser:
 @attrs.frozen
 class RetainOptions:
     retain_adapted: bool = option(
-        True, "Store an adapted behavior case when its spell went well (004: adapted cases are "
-        "retained).")
+        True, "Store an adapted behavior case when its spell went well and the case it was "
+        "adapted from is failing, used at least 3 times and fewer than half of them well (004: "
+        "adapted cases are retained).")
     duplicate: float = option(
         0.02, "An adapted case this near (overall distance) an existing behavior case with the "
         "same behaviors is not stored again.", validator=_UNIT)
@@ -207,7 +234,8 @@ def _spell(outcome: Outcome) -> SpellReport | None:
 
 
 class CaseLearner:
-    """004: quality counters of the retrieved and used cases; adapted cases retained."""
+    """004: quality counters of the retrieved and used cases; adapted cases of failing cases
+    retained."""
 
     def __init__(self, options: RetainOptions, ctx: Context) -> None:
         self.options = options
@@ -221,6 +249,10 @@ class CaseLearner:
         memory = memory_of(ctx)
         matched = tuple(solution.detail.get("retrieved", ()))
         used = set(solution.cases)
+        installed = solution.cases[0] if solution.cases else None
+        parent = None if installed is None else memory.get(installed)
+        # the record the adapted case is judged against leaves out the spell it was in
+        record = Quality.of(parent.meta) if parent is not None else None
         for case_id in dict.fromkeys((*matched, *solution.cases)):
             case = None if case_id is None else memory.get(case_id)
             if case is None:
@@ -230,20 +262,38 @@ class CaseLearner:
             if case_id in used:
                 q = attrs.evolve(q, used=q.used + 1, good=q.good + report.good,
                                  active=q.active + report.active)
-            memory.update_meta(case_id, q.to_meta())
+            meta: dict[str, Any] = q.to_meta()
+            rivals = solution.detail.get("rivals", ())
+            if case_id == installed and rivals:
+                meta[RIVALS] = with_rivals(case.meta, rivals, report.good)
+            memory.update_meta(case_id, meta)
         value = solution.value
         if (self.options.retain_adapted and report.good and isinstance(value, InstallBehaviors)
-                and value.adapted is not None):
-            self._retain(memory, value.adapted, problem, ctx)
+                and value.adapted is not None and record is not None and failing(record)):
+            sources = [memory.stored(i) for i in solution.cases]
+            self._retain(memory, value.adapted, retained_index(problem.index, sources))
 
-    def _retain(self, memory: Any, adapted: BehaviorCase, problem: Moment, ctx: Context) -> None:
-        near = memory.nearest(problem.index, np.ones(len(FEATURES)), (BEHAVIOR,), 1,
-                              memory.scales)
+    def _retain(self, memory: Any, adapted: BehaviorCase, index: Index) -> None:
+        near = memory.nearest(index, np.ones(len(FEATURES)), (BEHAVIOR,), 1, memory.scales)
         if (near and near[0].distance <= self.options.duplicate
                 and near[0].stored.behaviors == adapted.behaviors):
             return
-        stored = attrs.evolve(adapted, index=problem.index, origin="adapted")
+        stored = attrs.evolve(adapted, index=index, origin="adapted")
         memory.add(stored.to_case())
+
+
+def retained_index(situation: Index, sources: Sequence[object]) -> Index:
+    """The index an adapted case is retained under: the values of ``situation`` (where its
+    spell began) for the features the cases it was adapted from (``sources``) specify. A case
+    indexed by every feature of a situation would be compared with every later query on all
+    of them, most of which (the confidences, the urgencies, the goal) agree between unrelated
+    situations, so it would lie near situations its parent does not speak of; indexed by its
+    parent's features it is that case where it went well."""
+    keep = {f for source in sources if isinstance(source, BehaviorCase)
+            for f in source.index.specified()}
+    if not keep:
+        return situation
+    return attrs.evolve(situation, **{ATTRIBUTES[f]: None for f in FEATURES if f not in keep})
 
 
 @attrs.frozen

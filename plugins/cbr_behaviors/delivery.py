@@ -161,6 +161,8 @@ class DayRow:
 class _Spell:
     decision: Decision
     started: float
+    heading: Point
+    """Where the robot was sent when the spell began: its goal, home when it had none."""
     progress_from: float
     collisions: int
     impasses: int
@@ -373,13 +375,15 @@ class Delivery:
                                      if solution is not None else math.nan)
             adapted = isinstance(value, InstallBehaviors) and value.adapted is not None
             state.log.retrieval(t, getattr(value, "name", ""), kind, fired, similarity, adapted)
-        return _Spell(decision, t, state.to_target(obs), state.collisions,
+        heading = state.goal if state.goal is not None else self.home
+        return _Spell(decision, t, heading, state.to_goal(obs, heading), state.collisions,
                       state.impasses, len(state.goals.delivered), state.door_wait)
 
     def _learn(self, session: Session, state: _DayState, spell: _Spell) -> None:
         sim = state.sim
         report = SpellReport(round(sim.t - spell.started, 4),
-                             round(spell.progress_from - state.to_target(sim.observe()), 4),
+                             round(spell.progress_from
+                                   - state.to_goal(sim.observe(), spell.heading), 4),
                              state.collisions - spell.collisions, state.impasses - spell.impasses,
                              len(state.goals.delivered) - spell.delivered,
                              round(state.door_wait - spell.waited, 4))
@@ -611,6 +615,12 @@ class _DayState:
         if target is None:
             return 0.0
         return math.dist((obs.pose.x, obs.pose.y), target)
+
+    def to_goal(self, obs: Observation, goal: Point) -> float:
+        """Metres of route from the robot to ``goal`` over the permanent map: a spell's
+        progress is measured by it, not by the distance to the next waypoint, which jumps
+        back each time a waypoint is passed."""
+        return self.eta.length((obs.pose.x, obs.pose.y), goal)
 
     def track(self, obs: Observation, case: str) -> None:
         true = obs.true_pose

@@ -30,7 +30,7 @@ from cbr_behaviors.cases import (
     freeze,
 )
 from cbr_behaviors.index import Index, Scales
-from cbr_behaviors.quality import TIE, Quality
+from cbr_behaviors.quality import TIE, against, better, margin
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.model import Case
@@ -110,13 +110,13 @@ class CaseMemory:
                 scales: Scales, exclude: Collection[int] = (), tie: float = TIE
                 ) -> list[Found]:
         """The ``k`` cases of ``kinds`` nearest ``query`` under ``weights``, best first; near
-        ties (distances within ``tie``, default :data:`~cbr_behaviors.quality.TIE`) go to the
-        case of higher quality."""
+        ties (distances within ``tie``, default :data:`~cbr_behaviors.quality.TIE`) go to a case
+        whose record shows it better than the nearest one's (:func:`_by_record`)."""
         rows = self.rows(kinds, exclude)
         if not len(rows):
             return []
         hits = self.table(scales).nearest(query, weights, k + 8, rows=rows)
-        return [self._found(h) for h in _by_quality(hits, self.cases, tie)][:k]
+        return [self._found(h) for h in _by_record(hits, self.cases, tie)][:k]
 
     def ids_with(self, behaviors: Sequence[object]) -> tuple[int, ...]:
         """The ids of the behavior cases and meta-plans whose behavior set is ``behaviors``."""
@@ -128,6 +128,13 @@ class CaseMemory:
     def _found(self, hit: Hit) -> Found:
         return Found(self.cases[hit.row], self.decoded[hit.row], hit.distance,
                      dict(hit.features))
+
+    def stored(self, case_id: int) -> Stored | None:
+        """The decoded form of the case ``case_id``, None when the memory has none."""
+        for case, decoded in zip(self.cases, self.decoded, strict=True):
+            if case.id == case_id:
+                return decoded
+        return None
 
     def get(self, case_id: int) -> Case | None:
         for case in self.cases:
@@ -162,18 +169,36 @@ class CaseMemory:
         self._table = None
 
 
-def _by_quality(hits: Sequence[Hit], cases: Sequence[Case], tie: float) -> list[Hit]:
-    """``hits`` (best first) with runs of distances within ``tie`` of the run's first ordered
-    by quality."""
+def _by_record(hits: Sequence[Hit], cases: Sequence[Case], tie: float) -> list[Hit]:
+    """``hits`` (best first) with, in each run of distances within ``tie`` of the run's first,
+    the case whose record against that first one shows it better than the first one's record
+    against it (:func:`~cbr_behaviors.quality.better`, the largest margin winning) moved to the
+    front; the others keep their order."""
     out: list[Hit] = []
     group: list[Hit] = []
     for hit in hits:
         if group and hit.distance - group[0].distance > tie:
-            out += sorted(group, key=lambda h: -Quality.of(cases[h.row].meta).score())
+            out += _preferred(group, cases)
             group = []
         group.append(hit)
-    out += sorted(group, key=lambda h: -Quality.of(cases[h.row].meta).score())
-    return out
+    return out + _preferred(group, cases)
+
+
+def _preferred(group: list[Hit], cases: Sequence[Case]) -> list[Hit]:
+    """One run of :func:`_by_record`."""
+    if len(group) < 2:
+        return group
+    nearest = cases[group[0].row]
+    proven = []
+    for k, hit in enumerate(group[1:], start=1):
+        challenger = cases[hit.row]
+        mine, theirs = against(challenger.meta, nearest.id), against(nearest.meta, challenger.id)
+        if better(mine, theirs):
+            proven.append((margin(mine, theirs), k))
+    if not proven:
+        return group
+    _, k = max(proven, key=lambda mk: (mk[0], -mk[1]))
+    return [group[k], *group[:k], *group[k + 1:]]
 
 
 _MEMORY = StashKey[CaseMemory]()

@@ -20,10 +20,11 @@ from cbr_behaviors.index import Index
 Point = tuple[float, float]
 
 GOOD_PROGRESS = 0.5
-"""Metres nearer its target a spell must get the robot to count as good (with no collision and
-no impasse): a few seconds of driving, more than the sway of a robot standing still."""
+"""Metres nearer its goal (along the route) a spell must get the robot to count as good (with no
+collision and no impasse): a few seconds of driving, more than the sway of a robot standing
+still."""
 GOOD_RATE = 0.1
-"""m/s toward the target a spell must average to count as good: half the ``moderate`` speed,
+"""m/s toward the goal a spell must average to count as good: half the ``moderate`` speed,
 so that a case that keeps the robot crawling proves worse than one that gets it on."""
 
 
@@ -73,7 +74,8 @@ class InstallPlan:
 @attrs.frozen
 class SpellReport:
     """How the installed case fared until the next retrieval (or the day's end): seconds it
-    stayed active, metres gained toward the target, collisions and impasses meanwhile,
+    stayed active, metres of route gained toward the goal the robot was sent to when it began
+    (home when it had none), collisions and impasses meanwhile,
     messages delivered, and seconds spent waiting before a shut door on the route."""
 
     active: float
@@ -86,7 +88,7 @@ class SpellReport:
     @property
     def good(self) -> bool:
         """A spell went well when it had no collision and no impasse and got the robot on: at
-        least :data:`GOOD_PROGRESS` metres nearer its target, and at least
+        least :data:`GOOD_PROGRESS` metres nearer its goal, and at least
         :data:`GOOD_RATE` m/s over the time it did not wait before a shut door, or a message
         delivered. A spell with nothing to do (the robot waiting at home) is not good: what it
         installed proved nothing; nor is one that crawled."""

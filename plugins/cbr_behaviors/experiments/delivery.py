@@ -118,8 +118,9 @@ ADAPTING = "cbr-adapting"
 """The ablation's arm: CBR with adaptation and nothing learned, so that a strategy's effect is
 its own."""
 QUALITY_BAND = 0.05
-"""The learning arms' ``quality_band``: among the cases within this of the nearest, the one whose
-spells went best is installed."""
+"""The learning arms' ``quality_band``: a case within this of the nearest is installed instead
+when its spells with the nearest in its band went demonstrably better than the nearest's with
+it (docs/rupart.md, "Which near match is installed")."""
 
 EMPTY_FLOOR = {"use": "world2d_generated", "kind": "office", "people": 0, "objects": 0,
                "doors_open": True}
