@@ -81,6 +81,11 @@ def test_a_saved_day_loads_as_it_was_recorded(tmp_path: Path) -> None:
     expected = [(math.nan, math.nan) if target is None else target for target in columns[7]]
     np.testing.assert_array_equal(track.target, expected)
     np.testing.assert_array_equal(track.busy, columns[8])
+    assert log.clocks is None  # nobody yielded: every mover's clock was the time
+    clocked = synthetic()
+    clocked.clocks = np.tile(np.array([[step[0]] for step in STEPS]), (1, 2))
+    clocked.save(path)
+    np.testing.assert_array_equal(DayLog.load(path).clocks, clocked.clocks)
     # a loaded log records on, and saves the same again
     log.step(12.0, 4.6, 5.0, 0.0, 0.0, 0.0, "corridor", None, False)
     assert log.cases.count("corridor") == 1 and len(log.track()) == len(STEPS) + 1
@@ -238,6 +243,10 @@ def test_a_delivery_run_with_log_writes_a_day_the_command_draws(cli: Cli,
     assert result.exit_code == 0, result.stderr
     log = DayLog.load(run / "day_0.npz")
     assert len(log.track()) == 30  # a step every 0.1 s of the 3 s day
+    # the office's people yield to the robot: each one's clock at each step is recorded, and
+    # none runs ahead of the day's time
+    assert log.clocks is not None and log.clocks.shape[0] == 30
+    assert np.all(log.clocks <= log.track().t[:, None] + 1e-9)
     drawn = cli("rupart", "day", str(run), "--no-gif")
     assert drawn.exit_code == 0, drawn.stderr
     assert_png(run / "day_0.png")

@@ -370,3 +370,24 @@ def test_the_simulation_honours_the_robot_limits() -> None:
     assert np.abs(trajectory[:, 5]).max() <= 0.5 + 1e-12
     speeds = np.hypot(np.diff(trajectory[:, 1]), np.diff(trajectory[:, 2])) / sim.dt
     assert speeds.max() <= 0.05 + 1e-9
+
+
+@pytest.mark.parametrize("yields", [True, False])
+def test_a_person_who_yields_stops_short_of_a_standing_robot(yields: bool) -> None:
+    person = Mover(((-4.0, 0.0), (4.0, 0.0)), 1.0, 0.25, "person", yields=yields)
+    world = World((-6.0, -3.0, 6.0, 3.0), movers=(person,))
+    sim = simulation(world, Constant(0.0, 0.0), Pose(0.0, 0.0, 0.0), (5.0, 2.0))
+    closest = math.inf
+    for _ in range(60):
+        sim.step()
+        closest = min(closest, math.dist(sim.crowd.now[0], (sim.state.x, sim.state.y)))
+    clocks = sim.mover_clocks
+    if yields:
+        # it waits where one more step would bring its rim within 0.3 m of the robot's
+        assert closest >= RADIUS + 0.25 + 0.3 - 0.1 - 1e-9
+        assert clocks is not None and clocks.shape == (61, 1)
+        assert clocks[-1, 0] < sim.t
+        assert np.all(np.diff(clocks[:, 0]) >= 0.0)
+    else:
+        assert closest < RADIUS + 0.25
+        assert clocks is None
