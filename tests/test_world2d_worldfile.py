@@ -249,6 +249,9 @@ CASES = [
     ("leaves before it appears", HEAD + "movers:\n  - {waypoints: [[1, 1]], speed: 0, "
      "radius: 0.2, appears: 5, leaves: 3}\n",
      "movers.0.leaves", "3}", "expected a time after appears (5), got 3"),
+    ("yields not a boolean", HEAD + "people:\n  - {waypoints: [[1, 1], [5, 1]], speed: 1, "
+     "radius: 0.2, yields: maybe}\n", "people.0.yields", "maybe", "expected true or false, "
+     "got 'maybe'"),
     ("place outside", HEAD + "places:\n  start: [11, 1]\n",
      "places.start", "[11, 1]", "expected a free point, got [11, 1], which is outside the bounds"),
     ("place in a polygon", HEAD + "polygons: [[[1, 1], [3, 1], [3, 3], [1, 3]]]\n"
