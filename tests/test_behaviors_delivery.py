@@ -436,6 +436,10 @@ def test_person_fires_at_once_when_someone_comes_into_the_way() -> None:
         aside = ReplanMonitor(TriggerOptions(hold=12.0))
         aside.retrieved(snap(t=0.0, situation=clear))
         assert aside.check(snap(t=0.5, situation=situation_with(person, bearing))) == []
+    # critical once per hold: the next person stepping into the way waits for the hold
+    replan.retrieved(snap(t=0.6, situation=clear))
+    assert replan.check(snap(t=1.0, situation=situation_with(1.0, 0.0))) == []
+    assert "person" in replan.check(snap(t=12.6, situation=situation_with(1.0, 0.0)))
     # someone already in the way at the retrieval fires nothing more
     stays = ReplanMonitor(TriggerOptions(hold=12.0))
     stays.retrieved(snap(t=0.0, situation=situation_with(1.0, 10.0)))
@@ -461,6 +465,16 @@ def test_no_impasse_while_waiting_before_a_shut_door() -> None:
     # the window starts when the waiting ends
     assert "impasse" not in replan.check(snap(t=21.0, target=TARGET))
     assert "impasse" in replan.check(snap(t=22.0, target=TARGET))
+
+
+def test_no_impasse_while_idle() -> None:
+    replan = monitor(target=TARGET, busy=False)
+    for t in (5.0, 10.0, 19.0):
+        assert replan.check(snap(t=t, target=TARGET, busy=False)) == []
+    assert replan.check(snap(t=19.5, target=TARGET, status="blocked", busy=False)) == []
+    # the window starts when a message makes the robot busy
+    assert "impasse" not in replan.check(snap(t=29.0, target=TARGET))
+    assert "impasse" in replan.check(snap(t=29.5, target=TARGET))
 
 
 def test_a_retrieval_does_not_restart_the_impasse_window_and_an_impasse_does() -> None:

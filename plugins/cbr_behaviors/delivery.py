@@ -701,7 +701,7 @@ class _DayState:
                         critical=sum(m.priority == "critical" for m in arrived),
                         plan_installed=self.plan_installed, distance=self.sim.distance,
                         target=self.target, status=status, situation=self.situation(obs),
-                        waiting=self.waiting(obs))
+                        waiting=self.waiting(obs), busy=self.goal is not None)
 
 
 def _length(route: list[Point]) -> float:

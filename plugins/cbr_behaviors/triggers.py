@@ -20,7 +20,9 @@ the next retrieval. The triggers, in the order :meth:`~ReplanMonitor.check` list
   changes every raw range, a sonar flicker none of these);
 - ``person``: a person came into the way: within ``near`` metres (rim to rim) and
   ``ahead`` degrees of the heading, when none was at the last retrieval; a case chosen for a
-  clear way is not kept driving at its speed into someone for the rest of its hold;
+  clear way is not kept driving at its speed into someone for the rest of its hold. It is
+  critical once per ``hold``: people stepping in and out of the way in a crowd would
+  otherwise retrieve every few seconds;
 - ``map``: a snapshot since the last retrieval reported object cells added to or removed from
   the global map;
 - ``message``: a snapshot since the last retrieval reported a new critical message;
@@ -38,8 +40,9 @@ the next retrieval. The triggers, in the order :meth:`~ReplanMonitor.check` list
   passed.
 
 *Hysteresis*: within ``hold`` seconds of a retrieval only the critical triggers (``person``,
-``message``, ``impasse``) fire; the others are remembered until the hold has passed, so that
-an installed case acts for a while before it is judged again.
+unless it fired within the last ``hold``; ``message``, ``impasse``) fire; the others are
+remembered until the hold has passed, so that an installed case acts for a while before it is
+judged again.
 
 The events (``map``, ``message``, ``plan``) come as what happened since the previous snapshot;
 the monitor remembers them until a retrieval. A retrieval's own snapshot sets the baselines
@@ -122,7 +125,7 @@ class TriggerOptions:
         60.0, "Degrees off the heading within which a person counts as ahead for 'person'.",
         validator=attrs.validators.and_(attrs.validators.gt(0.0), attrs.validators.le(180.0)))
     hold: float = option(
-        12.0, "Seconds after a retrieval during which only the critical triggers ('person', "
+        14.0, "Seconds after a retrieval during which only the critical triggers ('person', "
         "'message', 'impasse') fire: the installed case acts for a while before it is judged "
         "again (its avoid behaviors meet what comes up meanwhile).",
         validator=attrs.validators.ge(0.0))
@@ -151,7 +154,8 @@ class Snapshot:
     then; ``distance`` the distance driven so far (an odometer, metres); ``target`` the point
     the robot heads for (None: none); ``status`` the progress monitor's status;
     ``situation`` the values of :data:`cbr_behaviors.index.SITUATION` (None: not known);
-    ``waiting`` whether the robot waits before a shut door on its route.
+    ``waiting`` whether the robot waits before a shut door on its route; ``busy`` whether it
+    has a message to deliver (an idle robot on its way home is on no errand to be stuck on).
     """
 
     t: float
@@ -167,6 +171,7 @@ class Snapshot:
     status: str = "moving"
     situation: np.ndarray | None = None
     waiting: bool = False
+    busy: bool = True
 
 
 class ReplanMonitor:
@@ -178,6 +183,7 @@ class ReplanMonitor:
         self._events: set[str] = set()
         self._changed = 0
         self._moved: float | None = None
+        self._person: float | None = None
         self._target: Point | None = None
         # (t, distance to the target) since the last target change or impasse
         self._progress: deque[tuple[float, float]] = deque()
@@ -202,7 +208,7 @@ class ReplanMonitor:
     def _no_progress(self, snapshot: Snapshot) -> bool:
         """Record the distance to the target; whether it shrank by less than ``progress`` over
         a whole window ending now."""
-        if snapshot.waiting:
+        if snapshot.waiting or not snapshot.busy:
             self._progress.clear()
         distance = self._record(snapshot)
         if distance is None:
@@ -244,13 +250,17 @@ class ReplanMonitor:
             if self._in_way(snapshot) and not self._in_way(base):
                 fired.add("person")
             if (snapshot.status in STUCK and base.status not in STUCK
-                    and not snapshot.waiting):
+                    and not snapshot.waiting and snapshot.busy):
                 fired.add("impasse")
             if (snapshot.confidence < o.confidence <= base.confidence
                     or base.confidence - snapshot.confidence >= o.confidence_drop):
                 fired.add("location")
         if base is not None and snapshot.t - base.t < o.hold:
             fired &= CRITICAL
+            if self._person is not None and snapshot.t - self._person < o.hold:
+                fired.discard("person")
+            if "person" in fired:
+                self._person = snapshot.t
             return [name for name in TRIGGERS if name in fired]
         if not fired and (base is None or snapshot.t - base.t >= o.period
                           or snapshot.distance - base.distance >= o.distance):
