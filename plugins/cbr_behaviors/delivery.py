@@ -624,7 +624,9 @@ class _DayState:
 
     def track(self, obs: Observation, case: str) -> None:
         true = obs.true_pose
-        stuck = sum(e.name in STUCK for e in self.sim.events)
+        busy = self.goal is not None
+        # an idle robot short of its home spot is on no errand to be stuck on
+        stuck = sum(e.name in STUCK for e in self.sim.events) if busy else 0
         self.impasses += stuck
         if stuck:
             self.note("impasse", (true.x, true.y))
@@ -633,7 +635,6 @@ class _DayState:
                 and self._speed * math.cos(obs.bump_bearing) > self._closing(obs)):
             self.collisions += 1
             self.note("collision", (true.x, true.y))
-        busy = self.goal is not None
         dt = self.sim.dt
         if busy:
             self.busy_time += dt
