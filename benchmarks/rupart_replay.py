@@ -32,6 +32,9 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results")
     args = parser.parse_args()
     floors = [int(s) for s in args.floors.split(",")]
+    # the commit that runs, read before the runs: one made meanwhile did not
+    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                            cwd=Path(__file__).parent, check=False).stdout.strip()
     with tempfile.TemporaryDirectory() as scratch:
         jobs = []
         for seed in floors:
@@ -41,8 +44,6 @@ def main() -> None:
         runs = list(LocalTasks().map(run_job, jobs, processes=2))
     per_day = [[row["delivered"] for row in rows] for rows in runs]
     gain = interval([days[-1] - days[0] for days in per_day])
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                            cwd=Path(__file__).parent, check=False).stdout.strip()
     record = {"command": f"python benchmarks/rupart_replay.py --floors {args.floors} "
               f"--days {args.days} --length {args.length:g}", "commit": commit, "arm": ARM,
               "floors": floors, "delivered": per_day, "gain": gain}

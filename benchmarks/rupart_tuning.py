@@ -56,6 +56,9 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results")
     args = parser.parse_args()
     seeds = list(TUNING_SEEDS)[:args.floors]
+    # the commit that runs, read before the runs: one made meanwhile did not
+    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                            cwd=Path(__file__).parent, check=False).stdout.strip()
     candidates = [behavior_set(*c) for c in itertools.product(SPEEDS, OBSTACLE, COLLISION)]
     with tempfile.TemporaryDirectory() as scratch:
         jobs = []
@@ -75,8 +78,6 @@ def main() -> None:
     results.sort(key=lambda r: (r["collisions"] > SAFE_COLLISIONS, -r["delivered"],
                                 r["collisions"]))
     args.out.mkdir(parents=True, exist_ok=True)
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                            cwd=Path(__file__).parent, check=False).stdout.strip()
     record = {"command": "python benchmarks/rupart_tuning.py "
               f"--floors {args.floors} --length {args.length:g}", "commit": commit,
               "floors": seeds, "results": results}
