@@ -5,8 +5,8 @@ stops while the robot stands in its way: its next step would bring its rim withi
 :data:`YIELD_GAP` of the robot's, and the robot lies across its line of walking (less than
 :data:`PASSING` between their rims across it; a robot beside the line is passed). It walks on
 when the way is clear, or after :data:`PATIENCE` seconds of waiting, when it pushes past as the
-scripted loop would. The clock of a mover that does not yield is the
-world's time, so worlds without yielding movers run exactly as :meth:`World.discs_at` says.
+scripted loop would. The clock of a mover that does not yield is the world's time, so worlds
+without yielding movers run exactly as :meth:`World.discs_at` says.
 """
 
 from __future__ import annotations
