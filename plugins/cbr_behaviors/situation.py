@@ -123,7 +123,7 @@ def people_in_view(crowd: Crowd, true: Pose, believed: Pose, dt: float, robot_v:
         if not visible(true.x, true.y, px, py, segments):
             continue
         ux, uy = dx / centre, dy / centre
-        person_v = ((px - qx) * ux + (py - qy) * uy) / dt if t > 0.0 else 0.0
+        person_v = ((px - qx) * ux + (py - qy) * uy) / dt
         closing = robot_v * (heading[0] * ux + heading[1] * uy) - person_v
         bearing = math.atan2(dy, dx) - true.theta
         bearing = (bearing + math.pi) % (2.0 * math.pi) - math.pi

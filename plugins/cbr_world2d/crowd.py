@@ -47,13 +47,7 @@ class Crowd:
 
     def discs(self) -> np.ndarray:
         """The discs that block now: the world's static discs and the movers present."""
-        world = self.world
-        if not world.movers:
-            return world.static_discs
-        moving = [(*p, m.radius) for p, m in zip(self.now, world.movers, strict=True)
-                  if m.present(self.t)]
-        return np.concatenate([world.static_discs,
-                               np.asarray(moving, dtype=float).reshape(-1, 3)])
+        return self.world.discs_at(self.t, self.now)
 
     def advance(self, t: float, robot: Point, radius: float) -> None:
         """Move every mover to time ``t``, the robot at ``robot`` with ``radius`` in the way

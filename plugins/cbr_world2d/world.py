@@ -170,11 +170,15 @@ class World:
         shut = [not d.is_open(t) for d in self.doors]
         return np.concatenate([self.static_segments, self.door_segments[shut]])
 
-    def discs_at(self, t: float) -> np.ndarray:
-        """The discs that block at time ``t``: point obstacles, landmarks, movers present."""
+    def discs_at(self, t: float, centres: Sequence[Point] | None = None) -> np.ndarray:
+        """The discs that block at time ``t``: point obstacles, landmarks, movers present, at
+        ``centres`` (one per mover; None: where their loops put them at ``t``)."""
         if not self.movers:
             return self.static_discs
-        moving = [(*m.position(t), m.radius) for m in self.movers if m.present(t)]
+        if centres is None:
+            centres = [m.position(t) for m in self.movers]
+        moving = [(*c, m.radius) for c, m in zip(centres, self.movers, strict=True)
+                  if m.present(t)]
         return np.concatenate([self.static_discs, _discs(moving)])
 
     def obstacles_between(self, ids: Collection[str]) -> tuple[tuple[str, str], ...]:

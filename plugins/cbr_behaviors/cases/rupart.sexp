@@ -25,7 +25,8 @@
 ; nobody is in the way, fast (goToPos 70 cm/s, avoidObstacle at 30 cm only, so that the walls of
 ; a hallway 2 m wide do not hold it to 20 cm/s, and slowAvoid slowing it for what comes within
 ; 80 cm straight ahead); with a person ahead, careful (slowAvoid from 1.2 m, backOff). No fixed
-; set can be both: the fast one alone drives into people three times a day on the tuning floors.
+; set can be both: the fast one alone drives into someone or something three times a day on
+; the tuning floors.
 
 ; 004 Figure 4 (a): an open area with few obstacles, as printed (moderately fast, turning away
 ; from obstacles 1.5 m off, avoiding collisions half a metre off)
