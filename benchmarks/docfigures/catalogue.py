@@ -82,6 +82,7 @@ def _blocks() -> list[Block]:
                bench_tables("landmarks_retrieval", 1)),
         _bench("rupart-retrieval", "rupart_retrieval.md",
                bench_columns("rupart_retrieval", 0, ["what", "median ms per query", "p90 ms"])),
+        _bench("rupart-ceiling", "rupart_ceiling.md", bench_tables("rupart_ceiling", 0)),
         _bench("kinematics-pooled", "kinematics_speed.md",
                bench_columns("kinematics_speed", 1,
                              ["model", "solved", "edge A* / A*", "edge Dijkstra / A*",
