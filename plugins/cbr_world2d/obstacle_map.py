@@ -1,0 +1,185 @@
+"""The robot's own map of linear obstacles between landmarks, learned from what it senses.
+
+002 section 2: the navigation system keeps a map of the landmarks it has seen and of the linear
+obstacles between them, which it "identifies when the robot bumps against them". An
+:class:`ObstacleMap` is that map. It places each landmark the camera has seen, in the frame of
+the odometry, at the mean of its sightings weighted by their precision; it takes every pair of
+known landmarks as a hypothesis (a linear obstacle along the segment between them) and keeps,
+stretch by stretch along the segment, what the sonar ring and the bumper said about it (the
+rule is :mod:`cbr_world2d.obstacle_evidence`'s). The robot perceives an obstacle between two
+landmarks when the stretches last seen occupied outnumber those last seen free by at least
+``coverage`` of the stretches: it must have sensed the obstacle along a good part of its
+length, not at one point where something else crosses the line.
+
+Evidence does not fade with time; a stretch's verdict is replaced only by a newer one, so a
+robot that never comes back keeps what it learned, and one that senses a gap where it believed
+an obstacle forgets it. The map is kept by whoever holds it (the ``trials`` workload keeps one
+for the whole run, across its trials); a world's ``between`` declarations never enter it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import attrs
+import numpy as np
+
+from cbrcore.options import option
+
+if TYPE_CHECKING:
+    from cbr_world2d.sensors import Observation, Sighting, SonarRing
+
+BINS = 16
+"""Stretches each hypothetical obstacle's interior is cut into."""
+
+SCAN_STEP = 0.05
+"""Metres the robot must have moved since the last scan the map took before it takes another
+(or turned :data:`SCAN_TURN`, or bumped): consecutive readings of a slow robot say the same."""
+
+SCAN_TURN = math.radians(5.0)
+"""Radians the robot must have turned since the last scan the map took before it takes
+another."""
+
+_POSITIVE = attrs.validators.gt(0.0)
+
+
+@attrs.frozen
+class PerceptionOptions:
+    """How the robot learns linear obstacles between landmarks from its sonar and bumper."""
+
+    near: float = option(
+        0.2, "How well, in metres, a reading must agree with what an obstacle between two "
+        "landmarks would give (and how near a bump or a third landmark must lie to it).",
+        validator=_POSITIVE)
+    margin: float = option(
+        0.35, "Metres left out at each end of the segment between two landmarks, where the "
+        "landmarks' own discs answer the sonar.", validator=attrs.validators.ge(0.0))
+    coverage: float = option(
+        0.5, "The share of the segment that must be sensed occupied (less what was sensed "
+        "free) for the robot to perceive an obstacle there.",
+        validator=attrs.validators.and_(_POSITIVE, attrs.validators.le(1.0)))
+    longest: float = option(
+        8.0, "The longest linear obstacle between two landmarks, in metres; farther pairs are "
+        "never joined.", validator=_POSITIVE)
+
+
+def _place(sighting: Sighting) -> tuple[float, float, float]:
+    """A sighting's place in the robot's frame at the peaks and its uncertainty (metres)."""
+    d, b = sighting.distance, sighting.bearing
+    spread = max(d.peak - d.low, d.high - d.peak) + d.peak * min(
+        max(b.peak - b.low, b.high - b.peak), math.pi)
+    return d.peak * math.cos(b.peak), d.peak * math.sin(b.peak), max(spread, 1e-3)
+
+
+class ObstacleMap:
+    """The linear obstacles between landmarks a robot with ``sonar`` (its ring, mounted on its
+    rim) has perceived, by ``options``' rule. Feed it every observation (:meth:`sense`); ask it
+    which pairs of landmarks it knows an obstacle between (:meth:`between`)."""
+
+    def __init__(self, options: PerceptionOptions, sonar: SonarRing | None) -> None:
+        # the kernels load numba: imported when a map is made, not with the workload's options
+        from cbr_world2d import obstacle_evidence
+
+        self.options = options
+        self.sonar = sonar
+        self._kernels = obstacle_evidence
+        self._index: dict[str, int] = {}
+        self._ids: list[str] = []
+        self._sums = np.zeros((8, 2))
+        self._weights = np.zeros(8)
+        self.places = np.zeros((8, 2))
+        self.marks = np.zeros((8, 8, BINS), dtype=np.int8)
+        self._last: tuple[float, float, float] | None = None
+        if sonar is not None:
+            self._directions = np.asarray(sonar.directions, dtype=float)
+            self._half = 0.5 * sonar.beam_width if sonar.rays_per_beam > 1 else 0.0
+
+    @property
+    def landmarks(self) -> tuple[str, ...]:
+        """The landmarks seen so far, in the order they were first seen."""
+        return tuple(self._ids)
+
+    def place(self, id: str) -> tuple[float, float] | None:
+        """Where the robot believes landmark ``id`` is (None: never seen)."""
+        k = self._index.get(id)
+        return None if k is None else (float(self.places[k, 0]), float(self.places[k, 1]))
+
+    def _grow(self) -> None:
+        size = 2 * self.places.shape[0]
+        n = self.places.shape[0]
+        sums, weights, places = np.zeros((size, 2)), np.zeros(size), np.zeros((size, 2))
+        marks = np.zeros((size, size, BINS), dtype=np.int8)
+        sums[:n], weights[:n], places[:n], marks[:n, :n] = (
+            self._sums, self._weights, self.places, self.marks)
+        self._sums, self._weights, self.places, self.marks = sums, weights, places, marks
+
+    def sense(self, obs: Observation) -> None:
+        """Take what ``obs`` saw into the map: once the robot has moved :data:`SCAN_STEP` or
+        turned :data:`SCAN_TURN` since the last scan taken (or bumped), its sightings refine
+        the landmarks' places and its sonar and bump the evidence on every pair in reach."""
+        pose = obs.pose
+        if self._last is not None and not obs.bumped:
+            lx, ly, lt = self._last
+            turned = abs(math.remainder(pose.theta - lt, math.tau))
+            if math.hypot(pose.x - lx, pose.y - ly) < SCAN_STEP and turned < SCAN_TURN:
+                return
+        self._last = (pose.x, pose.y, pose.theta)
+        c, s = math.cos(pose.theta), math.sin(pose.theta)
+        for sighting in obs.sightings:
+            k = self._index.get(sighting.id)
+            if k is None:
+                k = len(self._ids)
+                if k == self.places.shape[0]:
+                    self._grow()
+                self._index[sighting.id] = k
+                self._ids.append(sighting.id)
+            px, py, spread = _place(sighting)
+            weight = 1.0 / (spread * spread)
+            self._sums[k, 0] += weight * (pose.x + c * px - s * py)
+            self._sums[k, 1] += weight * (pose.y + s * px + c * py)
+            self._weights[k] += weight
+            self.places[k] = self._sums[k] / self._weights[k]
+        count = len(self._ids)
+        if count < 2 or self.sonar is None:
+            return
+        o = self.options
+        bearing = obs.bump_bearing if obs.bumped else math.nan
+        self._kernels.record_scan(
+            pose.x, pose.y, pose.theta, self._directions, self._half, self.sonar.max_range,
+            self.sonar.mount_radius, np.asarray(obs.sonar, dtype=float), bearing, self.places,
+            count, self.marks, o.near, o.margin, o.longest)
+
+    def evidence(self, first: str, second: str) -> tuple[int, int]:
+        """How many of the stretches between two landmarks were last seen occupied and how many
+        free (0, 0 when either landmark was never seen)."""
+        i, j = self._index.get(first), self._index.get(second)
+        if i is None or j is None or i == j:
+            return 0, 0
+        row = self.marks[min(i, j), max(i, j)]
+        return int(np.count_nonzero(row == 1)), int(np.count_nonzero(row == -1))
+
+    def perceives(self, first: str, second: str) -> bool:
+        """Whether the robot perceives a linear obstacle between two landmarks."""
+        i, j = self._index.get(first), self._index.get(second)
+        if i is None or j is None or i == j:
+            return False
+        o = self.options
+        if not self._kernels.is_candidate(self.places, len(self._ids), min(i, j), max(i, j),
+                                          o.near, o.margin, o.longest):
+            return False
+        hits, frees = self.evidence(first, second)
+        return hits - frees >= o.coverage * BINS - 1e-9
+
+    def between(self, ids: Sequence[str]) -> tuple[tuple[str, str], ...]:
+        """The perceived obstacles joining two of the landmarks ``ids``, as pairs of ids in the
+        order of ``ids``."""
+        known = [id for id in ids if id in self._index]
+        return tuple((a, b) for k, a in enumerate(known) for b in known[k + 1:]
+                     if self.perceives(a, b))
+
+    def perceived(self) -> tuple[tuple[str, str], ...]:
+        """Every perceived obstacle, as pairs of ids in the order the landmarks were first
+        seen."""
+        return self.between(self._ids)
