@@ -1,26 +1,32 @@
-"""Kernels of the perceived-obstacle map (:mod:`cbr_world2d.obstacle_map`): which readings of
-the sonar ring and the bumper a linear obstacle between two landmarks would explain.
+"""Kernels of the perceived-obstacle map (:mod:`cbr_world2d.obstacle_map`): what the sonar ring
+and the bumper say about a linear obstacle between two landmarks.
 
 A pair of known landmarks is a hypothesis: a linear obstacle along the segment between their
 estimated places. Its *interior*, the segment less ``margin`` metres at each end (where the
-landmarks' own discs answer the sonar), is cut into ``bins`` equal stretches, and ``marks``
-``(K, K, bins)`` (``int8``, only ``[i, j]`` with ``i < j`` used) holds each stretch's latest
-verdict: 1 seen occupied, -1 seen free, 0 never sensed. A scan gives, for every pair in reach:
+landmarks' own discs answer the sonar), is cut into ``bins`` equal stretches, and ``scores``
+``(K, K, bins)`` (``int8``, only ``[i, j]`` with ``i < j`` used) holds each stretch's evidence:
+positive when it was sensed occupied more often than free (of late), negative the other way, 0
+when never sensed or undecided. A sonar beam reads the nearest obstacle anywhere in its cone, so
+for each stretch whose middle lies inside a beam's cone, at ``expected`` metres from the rim:
 
-- **occupied**, the stretch where the segment comes nearest the robot inside a beam's cone,
-  when the beam's reading is within ``near`` metres of what the segment would give there (the
-  sonar reads the nearest obstacle anywhere in its cone, so that is where the return came
-  from if the obstacle is there);
-- **occupied**, the stretch within ``near`` of the contact point when the robot bumped;
-- **free**, the stretch the beam's axis crosses, when the beam reads more than ``near``
-  metres past the crossing (the axis passed through where the obstacle would be), the
-  crossing is nearer than the range less ``near`` and the axis meets the segment at 30
-  degrees or more (a grazing axis crosses far along the segment for a small error in the
-  landmarks' places).
+- the beam reads more than ``near`` past ``expected``: nothing was there, a vote **free**;
+- the beam reads within ``near`` of ``expected``, at most ``reach`` metres, and no known
+  landmark in its cone (a disc of radius up to ``margin``) may be what it read: what it read
+  may be the obstacle, a vote **occupied** (a far reading's wide cone explains too much, and
+  from afar the landmarks at the segment's ends lie about as far as its middle);
+- the beam reads nearer: something else hides the stretch, no vote;
+- ``expected`` is not less than the ring's range less ``near``: the sonar cannot tell.
 
-A pair is no hypothesis when its landmarks lie more than ``longest`` apart, less than two
-margins apart, or when another known landmark lies within ``near`` of its interior: an
-obstacle along three landmarks is two obstacles, each between neighbours.
+A free vote of any beam outweighs the occupied votes of others in the same scan. A bump whose
+contact point lies within ``near`` of a stretch is a vote occupied worth :data:`LIMIT` (002's
+robot identifies obstacles by bumping into them). Each vote moves the score by one and the
+score is clamped to ``[-LIMIT, LIMIT]``, so that older evidence is outweighed by at most
+``LIMIT + 1`` newer votes against it, and never forgotten by time alone.
+
+Only pairs whose segment passes within ``reach`` (plus the robot's radius and ``near``) of the
+robot are voted on. A pair is no hypothesis when its landmarks lie more than ``longest``
+apart, less than two margins apart, or when another known landmark lies within ``near`` of its
+interior: an obstacle along three landmarks is two obstacles, each between neighbours.
 """
 
 from __future__ import annotations
@@ -31,9 +37,9 @@ import numpy as np
 
 from cbrcore.compiled import njit
 
-FREE_INCIDENCE = 0.5
-"""The least sine of the angle at which a beam's axis must meet a segment to see it free
-(30 degrees)."""
+LIMIT = 8
+"""The largest score a stretch holds either way: the most votes newer evidence needs (plus one)
+to turn it."""
 
 
 @njit
@@ -58,57 +64,50 @@ def is_candidate(places: np.ndarray, count: int, i: int, j: int, near: float, ma
     return True
 
 
-@njit(inline="always")
-def _bin(s: float, lo: float, hi: float, bins: int) -> int:
-    return min(max(int((s - lo) / (hi - lo) * bins), 0), bins - 1)
-
-
 @njit
-def nearest_in_cone(x: float, y: float, ux: float, uy: float, cos_half: float,
-                     half: float, ax: float, ay: float, ex: float, ey: float
-                     ) -> tuple[float, float]:
-    """``(distance, s)``: the point ``a + s e`` of the segment nearest ``(x, y)`` inside the
-    cone of axis ``u`` and half-width ``half`` (inf when none lies in it)."""
-    best = np.inf
-    best_s = -1.0
-    length2 = ex * ex + ey * ey
-    foot = min(max(((x - ax) * ex + (y - ay) * ey) / length2, 0.0), 1.0)
-    candidates = [0.0, 1.0, foot]
-    # where the cone's two edges cross the segment bound its part inside the cone
-    for sign in (-1.0, 1.0):
-        c, s_ = math.cos(sign * half), math.sin(sign * half)
-        dx, dy = c * ux - s_ * uy, s_ * ux + c * uy
-        denom = dx * ey - dy * ex
-        if denom != 0.0:
-            wx, wy = ax - x, ay - y
-            t = (wx * ey - wy * ex) / denom
-            s = (wx * dy - wy * dx) / denom
-            if t >= 0.0 and 0.0 <= s <= 1.0:
-                candidates.append(s)
-    for s in candidates:
-        px, py = ax + s * ex - x, ay + s * ey - y
+def _landmark_returns(x: float, y: float, ux: np.ndarray, uy: np.ndarray, half: float,
+                      radius: float, ranges: np.ndarray, places: np.ndarray, count: int,
+                      near: float, margin: float) -> np.ndarray:
+    """For each beam, whether a known landmark (a disc of radius up to ``margin``) inside its
+    cone may be what it read."""
+    out = np.zeros(ux.shape[0], dtype=np.bool_)
+    for k in range(count):
+        px, py = places[k, 0] - x, places[k, 1] - y
         d = math.sqrt(px * px + py * py)
-        if d < best and px * ux + py * uy >= d * cos_half - 1e-12:
-            best = d
-            best_s = s
-    return best, best_s
+        if d <= margin:
+            continue
+        threshold = d * math.cos(min(half + math.asin(margin / d), math.pi))
+        for b in range(ux.shape[0]):
+            if (px * ux[b] + py * uy[b] >= threshold
+                    and d - radius - margin - near <= ranges[b] <= d - radius + near):
+                out[b] = True
+    return out
 
 
 @njit
 def record_scan(x: float, y: float, theta: float, directions: np.ndarray, half: float,
                 max_range: float, radius: float, ranges: np.ndarray, bump_bearing: float,
-                places: np.ndarray, count: int, marks: np.ndarray, near: float, margin: float,
-                longest: float) -> None:
-    """Write one scan's verdicts into ``marks`` (see the module's docstring).
+                places: np.ndarray, count: int, scores: np.ndarray, near: float, margin: float,
+                longest: float, reach: float) -> None:
+    """Add one scan's votes to ``scores`` (see the module's docstring).
 
     ``(x, y, theta)`` is the robot's estimated pose; the ring's beams point at ``directions``
     relative to the heading, ``half`` wide each side, read from the rim of ``radius`` up to
     ``max_range``, and read ``ranges``. ``bump_bearing`` is where the robot touched something,
     relative to the heading (nan: no bump).
     """
-    bins = marks.shape[2]
+    bins = scores.shape[2]
     cos_half = math.cos(half)
-    reach = max_range + radius + near
+    ux = np.cos(theta + directions)
+    uy = np.sin(theta + directions)
+    # an obstacle no nearer than reach gets no occupied vote; the free votes it could get
+    # are not worth the time of every pair in the sonar's range
+    within = reach + radius + near
+    explained = _landmark_returns(x, y, ux, uy, half, radius, ranges, places, count, near,
+                                  margin)
+    bumped = not math.isnan(bump_bearing)
+    cx = x + radius * math.cos(theta + bump_bearing) if bumped else 0.0
+    cy = y + radius * math.sin(theta + bump_bearing) if bumped else 0.0
     for i in range(count):
         for j in range(i + 1, count):
             ax, ay = places[i, 0], places[i, 1]
@@ -119,37 +118,31 @@ def record_scan(x: float, y: float, theta: float, directions: np.ndarray, half: 
                 continue
             foot = min(max(((x - ax) * ex + (y - ay) * ey) / length2, 0.0), 1.0)
             fx, fy = ax + foot * ex - x, ay + foot * ey - y
-            if fx * fx + fy * fy > reach * reach:
+            if fx * fx + fy * fy > within * within:
                 continue
             if not is_candidate(places, count, i, j, near, margin, longest):
                 continue
             lo = margin / length
-            hi = 1.0 - lo
-            if not math.isnan(bump_bearing):
-                cx = x + radius * math.cos(theta + bump_bearing)
-                cy = y + radius * math.sin(theta + bump_bearing)
-                s = ((cx - ax) * ex + (cy - ay) * ey) / length2
-                qx, qy = ax + s * ex - cx, ay + s * ey - cy
-                if lo <= s <= hi and qx * qx + qy * qy <= near * near:
-                    marks[i, j, _bin(s, lo, hi, bins)] = 1
-            for b in range(directions.shape[0]):
-                ux = math.cos(theta + directions[b])
-                uy = math.sin(theta + directions[b])
-                d, s = nearest_in_cone(x, y, ux, uy, cos_half, half, ax, ay, ex, ey)
+            step = (1.0 - 2.0 * lo) / bins
+            for k in range(bins):
+                s = lo + (k + 0.5) * step
+                px, py = ax + s * ex - x, ay + s * ey - y
+                d = math.sqrt(px * px + py * py)
                 expected = d - radius
-                if (expected < max_range - near and abs(ranges[b] - expected) <= near
-                        and lo <= s <= hi):
-                    marks[i, j, _bin(s, lo, hi, bins)] = 1
-            for b in range(directions.shape[0]):
-                ux = math.cos(theta + directions[b])
-                uy = math.sin(theta + directions[b])
-                denom = ux * ey - uy * ex
-                if abs(denom) < FREE_INCIDENCE * length:
-                    continue
-                wx, wy = ax - x, ay - y
-                t = (wx * ey - wy * ex) / denom
-                s = (wx * uy - wy * ux) / denom
-                crossing = t - radius
-                if (lo <= s <= hi and 0.0 <= crossing < max_range - near
-                        and ranges[b] > crossing + near):
-                    marks[i, j, _bin(s, lo, hi, bins)] = -1
+                vote = 0
+                if bumped:
+                    qx, qy = ax + s * ex - cx, ay + s * ey - cy
+                    if qx * qx + qy * qy <= max(near, 0.5 * step * length) ** 2:
+                        vote = LIMIT
+                if vote == 0 and expected < max_range - near:
+                    threshold = d * cos_half
+                    for b in range(ux.shape[0]):
+                        if px * ux[b] + py * uy[b] < threshold:
+                            continue
+                        if ranges[b] > expected + near:
+                            vote = -1
+                            break
+                        if expected - near <= ranges[b] <= reach and not explained[b]:
+                            vote = 1
+                if vote != 0:
+                    scores[i, j, k] = min(max(scores[i, j, k] + vote, -LIMIT), LIMIT)

@@ -7,14 +7,15 @@ the odometry, at the mean of its sightings weighted by their precision; it takes
 known landmarks as a hypothesis (a linear obstacle along the segment between them) and keeps,
 stretch by stretch along the segment, what the sonar ring and the bumper said about it (the
 rule is :mod:`cbr_world2d.obstacle_evidence`'s). The robot perceives an obstacle between two
-landmarks when the stretches last seen occupied outnumber those last seen free by at least
-``coverage`` of the stretches: it must have sensed the obstacle along a good part of its
+landmarks when the stretches the evidence holds occupied outnumber those it holds free by at
+least ``coverage`` of the stretches: it must have sensed the obstacle along a good part of its
 length, not at one point where something else crosses the line.
 
-Evidence does not fade with time; a stretch's verdict is replaced only by a newer one, so a
-robot that never comes back keeps what it learned, and one that senses a gap where it believed
-an obstacle forgets it. The map is kept by whoever holds it (the ``trials`` workload keeps one
-for the whole run, across its trials); a world's ``between`` declarations never enter it.
+Evidence does not fade with time; a stretch's score is turned only by newer votes against it,
+so a robot that never comes back keeps what it learned, and one that senses a gap where it
+believed an obstacle forgets it. The map is kept by whoever holds it (the ``trials`` workload
+keeps one for the whole run, across its trials); a world's ``between`` declarations never
+enter it.
 """
 
 from __future__ import annotations
@@ -34,11 +35,11 @@ if TYPE_CHECKING:
 BINS = 16
 """Stretches each hypothetical obstacle's interior is cut into."""
 
-SCAN_STEP = 0.05
+SCAN_STEP = 0.1
 """Metres the robot must have moved since the last scan the map took before it takes another
 (or turned :data:`SCAN_TURN`, or bumped): consecutive readings of a slow robot say the same."""
 
-SCAN_TURN = math.radians(5.0)
+SCAN_TURN = math.radians(10.0)
 """Radians the robot must have turned since the last scan the map took before it takes
 another."""
 
@@ -63,14 +64,22 @@ class PerceptionOptions:
     longest: float = option(
         8.0, "The longest linear obstacle between two landmarks, in metres; farther pairs are "
         "never joined.", validator=_POSITIVE)
+    reach: float = option(
+        3.0, "The farthest sonar reading, in metres, taken as a sign of an obstacle (farther, "
+        "a beam's cone is too wide to say where the return came from; it still shows what is "
+        "free).", validator=_POSITIVE)
 
 
-def _place(sighting: Sighting) -> tuple[float, float, float]:
-    """A sighting's place in the robot's frame at the peaks and its uncertainty (metres)."""
-    d, b = sighting.distance, sighting.bearing
-    spread = max(d.peak - d.low, d.high - d.peak) + d.peak * min(
-        max(b.peak - b.low, b.high - b.peak), math.pi)
-    return d.peak * math.cos(b.peak), d.peak * math.sin(b.peak), max(spread, 1e-3)
+def _places(sightings: Sequence[Sighting]) -> tuple[np.ndarray, np.ndarray]:
+    """The sightings' places in the robot's frame at the peaks ``(n, 2)`` and the weight of
+    each ``(n,)``: the inverse square of its uncertainty, the wider side of the distance
+    triangle plus the arc the wider side of the bearing triangle spans at that distance."""
+    m = np.array([(s.distance.low, s.distance.peak, s.distance.high, s.bearing.low,
+                   s.bearing.peak, s.bearing.high) for s in sightings], dtype=float)
+    d, b = m[:, 1], m[:, 4]
+    spread = (np.maximum(d - m[:, 0], m[:, 2] - d)
+              + d * np.minimum(np.maximum(b - m[:, 3], m[:, 5] - b), math.pi))
+    return d[:, None] * np.column_stack((np.cos(b), np.sin(b))), 1.0 / np.maximum(spread, 1e-3) ** 2
 
 
 class ObstacleMap:
@@ -90,7 +99,7 @@ class ObstacleMap:
         self._sums = np.zeros((8, 2))
         self._weights = np.zeros(8)
         self.places = np.zeros((8, 2))
-        self.marks = np.zeros((8, 8, BINS), dtype=np.int8)
+        self.scores = np.zeros((8, 8, BINS), dtype=np.int8)
         self._last: tuple[float, float, float] | None = None
         if sonar is not None:
             self._directions = np.asarray(sonar.directions, dtype=float)
@@ -110,10 +119,10 @@ class ObstacleMap:
         size = 2 * self.places.shape[0]
         n = self.places.shape[0]
         sums, weights, places = np.zeros((size, 2)), np.zeros(size), np.zeros((size, 2))
-        marks = np.zeros((size, size, BINS), dtype=np.int8)
-        sums[:n], weights[:n], places[:n], marks[:n, :n] = (
-            self._sums, self._weights, self.places, self.marks)
-        self._sums, self._weights, self.places, self.marks = sums, weights, places, marks
+        scores = np.zeros((size, size, BINS), dtype=np.int8)
+        sums[:n], weights[:n], places[:n], scores[:n, :n] = (
+            self._sums, self._weights, self.places, self.scores)
+        self._sums, self._weights, self.places, self.scores = sums, weights, places, scores
 
     def sense(self, obs: Observation) -> None:
         """Take what ``obs`` saw into the map: once the robot has moved :data:`SCAN_STEP` or
@@ -126,21 +135,8 @@ class ObstacleMap:
             if math.hypot(pose.x - lx, pose.y - ly) < SCAN_STEP and turned < SCAN_TURN:
                 return
         self._last = (pose.x, pose.y, pose.theta)
-        c, s = math.cos(pose.theta), math.sin(pose.theta)
-        for sighting in obs.sightings:
-            k = self._index.get(sighting.id)
-            if k is None:
-                k = len(self._ids)
-                if k == self.places.shape[0]:
-                    self._grow()
-                self._index[sighting.id] = k
-                self._ids.append(sighting.id)
-            px, py, spread = _place(sighting)
-            weight = 1.0 / (spread * spread)
-            self._sums[k, 0] += weight * (pose.x + c * px - s * py)
-            self._sums[k, 1] += weight * (pose.y + s * px + c * py)
-            self._weights[k] += weight
-            self.places[k] = self._sums[k] / self._weights[k]
+        if obs.sightings:
+            self._see(obs.sightings, pose.x, pose.y, pose.theta)
         count = len(self._ids)
         if count < 2 or self.sonar is None:
             return
@@ -149,16 +145,36 @@ class ObstacleMap:
         self._kernels.record_scan(
             pose.x, pose.y, pose.theta, self._directions, self._half, self.sonar.max_range,
             self.sonar.mount_radius, np.asarray(obs.sonar, dtype=float), bearing, self.places,
-            count, self.marks, o.near, o.margin, o.longest)
+            count, self.scores, o.near, o.margin, o.longest, o.reach)
+
+    def _see(self, sightings: Sequence[Sighting], x: float, y: float, theta: float) -> None:
+        rows = []
+        for sighting in sightings:
+            k = self._index.get(sighting.id)
+            if k is None:
+                k = len(self._ids)
+                if k == self.places.shape[0]:
+                    self._grow()
+                self._index[sighting.id] = k
+                self._ids.append(sighting.id)
+            rows.append(k)
+        local, weight = _places(sightings)
+        c, s = math.cos(theta), math.sin(theta)
+        world = np.column_stack((x + c * local[:, 0] - s * local[:, 1],
+                                 y + s * local[:, 0] + c * local[:, 1]))
+        # a landmark is sighted once per observation, so the rows are distinct
+        self._sums[rows] += weight[:, None] * world
+        self._weights[rows] += weight
+        self.places[rows] = self._sums[rows] / self._weights[rows, None]
 
     def evidence(self, first: str, second: str) -> tuple[int, int]:
-        """How many of the stretches between two landmarks were last seen occupied and how many
-        free (0, 0 when either landmark was never seen)."""
+        """How many of the stretches between two landmarks the evidence holds occupied and how
+        many free (0, 0 when either landmark was never seen)."""
         i, j = self._index.get(first), self._index.get(second)
         if i is None or j is None or i == j:
             return 0, 0
-        row = self.marks[min(i, j), max(i, j)]
-        return int(np.count_nonzero(row == 1)), int(np.count_nonzero(row == -1))
+        row = self.scores[min(i, j), max(i, j)]
+        return int(np.count_nonzero(row > 0)), int(np.count_nonzero(row < 0))
 
     def perceives(self, first: str, second: str) -> bool:
         """Whether the robot perceives a linear obstacle between two landmarks."""
