@@ -24,8 +24,8 @@ from hypothesis import strategies as st
 import cbr_world2d
 import cbrcore.builtins
 from cbr_world2d.obstacle_map import BINS, ObstacleMap, PerceptionOptions
-from cbr_world2d.robot import RobotState
-from cbr_world2d.sensors import Camera, Sensors
+from cbr_world2d.robot import Pose, RobotState
+from cbr_world2d.sensors import Camera, Observation, Sensors, SonarRing
 from cbr_world2d.workload import Situation, situation
 from cbr_world2d.world import Point, World
 from cbr_world2d.worldfile import load_world, world_from_data
@@ -56,6 +56,7 @@ def drive(world: World, path: Sequence[Point], known: ObstacleMap | None = None,
     world into ``known`` (a new map by default)."""
     sensors = Sensors(camera=Camera(fov=2 * math.pi, max_range=camera_range, noise=0.5)
                       ).fitted(RADIUS)
+    assert sensors.sonar is not None
     if known is None:
         known = ObstacleMap(PerceptionOptions(), sensors.sonar)
     rng = np.random.default_rng(0)
@@ -176,6 +177,26 @@ def test_a_gap_found_where_an_obstacle_was_perceived_unlearns_it() -> None:
 
     assert not known.perceives("l1", "l2")
     assert known.evidence("l1", "l2")[1] >= BINS // 2
+
+
+def test_bumps_along_a_wall_alone_make_it_perceived() -> None:
+    # the sonar reads 0 all round (something touching hides everything): only the bumps vote
+    world = make_world((12.0, 15.0), (16.0, 15.0), [{"between": ["l1", "l2"]}])
+    camera = Camera(fov=2 * math.pi, max_range=12.0)
+    ring = SonarRing().fitted(RADIUS)
+    known = ObstacleMap(PerceptionOptions(), ring)
+    rng = np.random.default_rng(0)
+    for x in np.arange(12.0, 16.05, 0.1):
+        pose = Pose(float(x), 15.0 - RADIUS, 0.0)
+        sightings = camera.see(pose, world.landmark_array, ["l1", "l2"], world.static_segments,
+                               rng)
+        known.sense(Observation(t=0.0, pose=pose, true_pose=pose,
+                                sonar=np.zeros(len(ring.directions)),
+                                sonar_angles=ring.directions, bumped=True, sightings=sightings,
+                                confidence=1.0, v=0.0, w=0.0, bump_bearing=math.pi / 2))
+
+    assert known.perceived() == (("l1", "l2"),)
+    assert known.evidence("l1", "l2") == (BINS, 0)
 
 
 def test_a_landmark_between_two_others_splits_the_obstacle() -> None:

@@ -87,7 +87,7 @@ class ObstacleMap:
     rim) has perceived, by ``options``' rule. Feed it every observation (:meth:`sense`); ask it
     which pairs of landmarks it knows an obstacle between (:meth:`between`)."""
 
-    def __init__(self, options: PerceptionOptions, sonar: SonarRing | None) -> None:
+    def __init__(self, options: PerceptionOptions, sonar: SonarRing) -> None:
         # the kernels load numba: imported when a map is made, not with the workload's options
         from cbr_world2d import obstacle_evidence
 
@@ -101,9 +101,8 @@ class ObstacleMap:
         self.places = np.zeros((8, 2))
         self.scores = np.zeros((8, 8, BINS), dtype=np.int8)
         self._last: tuple[float, float, float] | None = None
-        if sonar is not None:
-            self._directions = np.asarray(sonar.directions, dtype=float)
-            self._half = 0.5 * sonar.beam_width if sonar.rays_per_beam > 1 else 0.0
+        self._directions = np.asarray(sonar.directions, dtype=float)
+        self._half = 0.5 * sonar.beam_width if sonar.rays_per_beam > 1 else 0.0
 
     @property
     def landmarks(self) -> tuple[str, ...]:
@@ -138,7 +137,7 @@ class ObstacleMap:
         if obs.sightings:
             self._see(obs.sightings, pose.x, pose.y, pose.theta)
         count = len(self._ids)
-        if count < 2 or self.sonar is None:
+        if count < 2:
             return
         o = self.options
         bearing = obs.bump_bearing if obs.bumped else math.nan
