@@ -11,7 +11,9 @@ is already avoiding (002 section 3.3).
 
 Besides the run's ``results.csv`` (one row per decision), the workload writes ``trials.csv`` in
 the run folder: one row per trial with its success, time, distance, collisions and
-consultations; and, when asked (``trajectories``), ``trajectories.npz``: each trial's true
+consultations; ``obstacles.csv``, the linear obstacles between landmarks the robot perceived
+(:mod:`cbr_world2d.obstacle_map`; its map is kept across the run's trials) beside those the
+world declares; and, when asked (``trajectories``), ``trajectories.npz``: each trial's true
 path as an array ``trial_<k>`` of rows ``t, x, y, theta``.
 """
 
@@ -214,7 +216,8 @@ class Trials:
         self.paths: dict[str, np.ndarray] = {}
         from cbr_world2d.sensors import SonarRing
 
-        # one map for the whole run: what a trial taught the robot, the next one knows
+        # one map for the whole run: what a trial taught the robot, the next one knows; its
+        # ring is the one the trials' sensors carry
         self.obstacles = ObstacleMap(options.perception, SonarRing().fitted(self.spec.radius))
 
     def _plan(self) -> list[Trial]:
