@@ -11,7 +11,9 @@ is already avoiding (002 section 3.3).
 
 Besides the run's ``results.csv`` (one row per decision), the workload writes ``trials.csv`` in
 the run folder: one row per trial with its success, time, distance, collisions and
-consultations; and, when asked (``trajectories``), ``trajectories.npz``: each trial's true
+consultations; ``obstacles.csv``, the linear obstacles between landmarks the robot perceived
+(:mod:`cbr_world2d.obstacle_map`; its map is kept across the run's trials) beside those the
+world declares; and, when asked (``trajectories``), ``trajectories.npz``: each trial's true
 path as an array ``trial_<k>`` of rows ``t, x, y, theta``.
 """
 
@@ -20,6 +22,7 @@ from __future__ import annotations
 import csv
 import math
 from collections.abc import Mapping
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 import attrs
@@ -28,6 +31,7 @@ import numpy as np
 from cbr_world2d import checks
 from cbr_world2d.actions import TRIAL_ENDED, Action, ActionReport
 from cbr_world2d.navigator import Navigator, NavigatorOptions
+from cbr_world2d.obstacle_map import ObstacleMap, PerceptionOptions
 from cbr_world2d.pilots.base import PILOT, Pilot
 from cbr_world2d.pilots.monitor import STUCK
 from cbr_world2d.world import Point, World, world_of
@@ -93,6 +97,9 @@ class TrialsOptions:
                            validator=_POSITIVE)
     camera: CameraOptions = option(
         doc="The camera that sees the landmarks.", factory=lambda: CameraOptions())
+    perception: PerceptionOptions = option(
+        doc="How the robot learns the linear obstacles between landmarks from its sonar and "
+        "bumper (its map is kept across the run's trials).", factory=PerceptionOptions)
     trajectories: bool = option(
         False, "Also write each trial's true path into trajectories.npz in the run folder.")
 
@@ -117,7 +124,8 @@ class Situation:
 
     ``pose`` is the odometry estimate (what the robot believes), ``target`` the trial's final
     target, ``sightings`` what the camera sees (fuzzy distance and bearing per landmark),
-    ``obstacles`` the linear obstacles it sees between two of those landmarks (pairs of ids),
+    ``obstacles`` the linear obstacles the robot knows between two of those landmarks (pairs
+    of ids),
     ``sonar`` the ring's ranges in metres (``sonar_angles`` relative to the heading).
     """
 
@@ -147,11 +155,13 @@ class Situation:
         }
 
 
-def situation(world: World, trial: int, trigger: str, obs: Observation,
-              target: Point) -> Situation:
-    """The situation the robot observes: its obstacles are the linear obstacles of ``world``
-    between two landmarks in view (the camera sees the obstacle joining two landmarks it sees)."""
-    obstacles = world.obstacles_between([s.id for s in obs.sightings])
+def situation(world: World, trial: int, trigger: str, obs: Observation, target: Point,
+              known: ObstacleMap | None = None) -> Situation:
+    """The situation the robot observes. Its obstacles are those the robot perceived between
+    two landmarks in view, by its map ``known``; without a map, the linear obstacles ``world``
+    declares between them (the ground truth: for hand-made cases and tests)."""
+    ids = [s.id for s in obs.sightings]
+    obstacles = world.obstacles_between(ids) if known is None else known.between(ids)
     return Situation(trial, obs.t, trigger, obs.pose, target, obs.sightings, obstacles,
                      obs.sonar, obs.sonar_angles, obs.bumped, obs.confidence)
 
@@ -204,6 +214,11 @@ class Trials:
         self.rng = ctx.spawn_rng()
         self.plan = self._plan()
         self.paths: dict[str, np.ndarray] = {}
+        from cbr_world2d.sensors import SonarRing
+
+        # one map for the whole run: what a trial taught the robot, the next one knows; its
+        # ring is the one the trials' sensors carry
+        self.obstacles = ObstacleMap(options.perception, SonarRing().fitted(self.spec.radius))
 
     def _plan(self) -> list[Trial]:
         from cbr_world2d.robot import Pose
@@ -246,6 +261,25 @@ class Trials:
         if self.options.trajectories:
             with files.replacing(self.ctx.out_dir / "trajectories.npz", "wb") as out:
                 np.savez_compressed(out, **self.paths)
+        self._write_obstacles(self.ctx.out_dir / "obstacles.csv")
+
+    def _write_obstacles(self, path: Path) -> None:
+        """``obstacles.csv``: each pair of landmarks the robot sensed something between or the
+        world declares an obstacle between, the robot's evidence beside the declaration."""
+        known = self.obstacles.landmarks
+        declared = [w.between for w in self.world.walls if w.between is not None]
+        pairs = [(a, b) for k, a in enumerate(known) for b in known[k + 1:]]
+        pairs += [pair for pair in declared if not (pair[0] in known and pair[1] in known)]
+        truth = {frozenset(pair) for pair in declared}
+        with files.replacing(path) as handle:
+            writer = csv.writer(handle)
+            writer.writerow(["first", "second", "occupied", "free", "perceived", "declared"])
+            for a, b in pairs:
+                occupied, free = self.obstacles.evidence(a, b)
+                is_declared = frozenset((a, b)) in truth
+                if occupied or free or is_declared:
+                    writer.writerow([a, b, occupied, free, self.obstacles.perceives(a, b),
+                                     is_declared])
 
     def _trial(self, session: Session, index: int, trial: Trial) -> TrialRow:
         from cbr_world2d.sensors import Camera, Sensors
@@ -261,6 +295,7 @@ class Trials:
         seen: frozenset[str] = frozenset()
         next_period = options.period
         obs = sim.observe()
+        self.obstacles.sense(obs)
         last = math.ceil(trial.timeout / trial.dt - 1e-9)
         while not sim.reached and sim.steps < last:
             in_view = frozenset(s.id for s in obs.sightings)
@@ -275,6 +310,7 @@ class Trials:
             if sim.t >= next_period:
                 next_period += options.period
             obs = sim.step()
+            self.obstacles.sense(obs)
             if opened is not None and opened.action is not None:
                 reason = opened.action.ended(sim)
                 if reason is not None:
@@ -299,7 +335,8 @@ class Trials:
         return None
     def _consult(self, session: Session, sim: Simulation, index: int, trigger: str,
                  obs: Observation, target: Point) -> _Open | None:
-        decision = session.consult(situation(self.world, index, trigger, obs, target))
+        decision = session.consult(situation(self.world, index, trigger, obs, target,
+                                             self.obstacles))
         solution = decision.proposal.solution
         action = None if solution is None else solution.value
         if action is not None and not isinstance(action, Action):
