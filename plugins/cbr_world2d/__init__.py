@@ -63,8 +63,8 @@ OFFICES = ("office", "office_floor")
 class GeneratedWorldOptions:
     kind: Literal["semi_structured", "scenario", "office", "office_floor"] = option(
         doc="The layout: landmarks joined by linear obstacles into walls, corners, U-shapes and "
-        "dead ends (002 Figure 1); one V, U or wall across the way from start to target, like "
-        "002's scenarios (Figure 7); an office floor of a hallway with four rooms a side, "
+        "dead ends (002 Figure 1); one V, U, wall, dead-end corridor, wall with a gap or room "
+        "round the start in the way from start to target, like 002's scenarios (Figure 7); an office floor of a hallway with four rooms a side, "
         "doors on schedules and people (004's building, the reproduction's floor); or an "
         "office floor whose layout (rooms, one or two hallways, widths) is drawn from the "
         "seed as well.")
