@@ -168,15 +168,17 @@ def test_each_scenario_shape_is_the_trap_it_says(kind: str, seed: int) -> None:
         (_, b), (c, _) = walls
         assert math.dist(marks[b], marks[c]) - 0.3 > 2 * ROBOT
     if kind == "room":
-        # the robot starts inside; the door (the one gap in the walls) faces away from the
-        # target, and shut, the room is closed
+        # the door (the one gap in the walls) faces away from the target, toward the start;
+        # the robot gets in and out through it, and with it shut the room is closed
         door = next((walls[k][1], walls[k + 1][0]) for k in range(len(walls) - 1)
                     if walls[k][1] != walls[k + 1][0])
+        centre = np.mean([marks[w[0]] for w in walls], axis=0)
         middle = np.add(marks[door[0]], marks[door[1]]) / 2
-        assert np.dot(middle - np.asarray(start), np.subtract(target, start)) < 0
+        assert np.dot(middle - centre, np.subtract(target, start)) < 0
+        assert joined_for(world, ROBOT, tuple(centre), start)
         shut = world_from_data({**dump_world(world), "walls": [
             *dump_world(world)["walls"], {"between": list(door)}]}, "shut")
-        assert not joined_for(shut, ROBOT, start, target)
+        assert not joined_for(shut, ROBOT, tuple(centre), start)
 
 
 def test_an_unknown_scenario_shape_is_refused() -> None:

@@ -107,8 +107,8 @@ def _free_spot(rng: np.random.Generator, low: Sequence[float], high: Sequence[fl
 SCENES = ("v", "u", "wall", "corridor", "gap", "room")
 """The obstacles :func:`scenario` puts in the way, by seed: a V open towards the start (002's
 scenario 2), a U open towards the start, a straight wall (002's scenario 1), a dead-end corridor
-open towards the start, a wall with a gap to one side, and a room round the start whose door
-faces away from the target."""
+open towards the start, a wall with a gap to one side, and a room whose door faces away from
+the target (toward the start)."""
 
 
 def _scene_shape(kind: str, rng: np.random.Generator, size: float
@@ -139,9 +139,10 @@ def _scene_shape(kind: str, rng: np.random.Generator, size: float
         ys = [-near, near, near + gap, near + gap + short]
         return [(0.0, y) for y in ys], [(0, 1), (2, 3)]
     # a room: corners (counter-clockwise from the far bottom) and the door's posts in the
-    # wall facing away from the target (x < 0), off its middle by a drawn amount
+    # wall facing away from the target (x < 0, toward the start), off its middle by a drawn
+    # amount: pulled toward the target, the robot goes in and finds no way on
     half_w, half_h = size / 2 + 0.2, rng.uniform(1.2, 1.6)
-    door = rng.uniform(1.0, 1.3)
+    door = rng.uniform(1.2, 1.5)
     low = rng.uniform(-half_h + 0.3, half_h - 0.3 - door)
     marks = [(half_w, -half_h), (half_w, half_h), (-half_w, half_h), (-half_w, low + door),
              (-half_w, low), (-half_w, -half_h)]
@@ -153,9 +154,9 @@ def scenario(seed: Seed, *, width: float = 12.0, height: float = 9.0, free: int 
     """A world like 002's scenarios (Figure 7): between a ``start`` on the left and a ``target``
     on the right, one shape of linear obstacles between landmarks is in the way (see
     :data:`SCENES`), in turn by seed unless ``shape`` names one; its size, place and turn
-    (within 20 degrees) are drawn from the seed. A room stands round the start, every other
-    shape between start and target. ``free`` landmarks with no obstacle stand elsewhere, at
-    least 0.9 m from everything and 1.5 m from each other and the places.
+    (within 20 degrees) are drawn from the seed. ``free`` landmarks with no obstacle stand
+    elsewhere (never inside the room), at least 0.9 m from everything and 1.5 m from each
+    other and the places.
 
     It is the family of worlds 002 means to learn across: the same kinds of situation, never
     twice the same layout.
@@ -173,11 +174,6 @@ def scenario(seed: Seed, *, width: float = 12.0, height: float = 9.0, free: int 
     turn = math.radians(rng.uniform(-20.0, 20.0))
     size = rng.uniform(2.2, 3.0)
     shape_marks, joins = _scene_shape(kind, rng, size)
-    if kind == "room":
-        # the room stands 1.2 m clear of the left side, the robot starts in its middle
-        cx = 1.2 + size / 2 + 0.2 + 0.4
-        cy = start_y
-        start = (_mm(cx), _mm(start_y))
     if kind == "gap" and cy > height / 2:
         shape_marks = [(x, -y) for x, y in shape_marks]
     c, s = math.cos(turn), math.sin(turn)
@@ -191,6 +187,9 @@ def scenario(seed: Seed, *, width: float = 12.0, height: float = 9.0, free: int 
     }
     world = world_from_data(data, data["name"])
     avoid = [(*start, 1.5), (*target, 1.5)]
+    if kind == "room":
+        # no free landmark inside the room
+        avoid.append((cx, cy, max(math.hypot(x, y) for x, y in shape_marks)))
     for k in range(free):
         spot = _free_spot(rng, (1.0, 1.0), (width - 1.0, height - 1.0), 0.15, 0.9,
                           world.static_segments, world.static_discs, avoid)
