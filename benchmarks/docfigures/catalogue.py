@@ -119,6 +119,8 @@ def _blocks() -> list[Block]:
                     landmarks.scenarios_differences),
         _experiment("landmark-scenarios-in-short", "landmark-scenarios",
                     landmarks.scenarios_in_short),
+        _experiment("landmark-scenarios-robustness", "landmark-scenarios",
+                    landmarks.scenarios_robustness),
         _experiment("path-cases-learning-header", "path-cases-learning",
                     pathcases.learning_header),
         _experiment("path-cases-learning-paired", "path-cases-learning",
