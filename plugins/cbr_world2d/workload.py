@@ -96,16 +96,19 @@ class TrialsOptions:
         validator=_POSITIVE)
     turn: float = option(
         30.0, "Degrees the heading must turn from where it pointed at the last consultation "
-        "for the 'heading' trigger: more than the half-width of a fuzzy angle between "
-        "landmarks a few metres apart (about 20 degrees), so the problem case has changed.",
+        "for the 'heading' trigger: more than the half-width of a fuzzy angle between two "
+        "landmarks 3 m away and 2 to 4 m apart (11 to 23 degrees), so the problem case, "
+        "measured against the heading, has changed.",
         validator=attrs.validators.and_(_POSITIVE, attrs.validators.le(180.0)))
     settle: float = option(
         0.5, "Seconds a landmark must be in view without a break to count as come into view "
-        "(a glimpse as the robot swerves does not consult); those in view at a trial's "
-        "start count at once.", validator=attrs.validators.ge(0.0))
+        "for the 'landmarks' trigger (a glimpse as the robot swerves does not consult); "
+        "those in view at a trial's start count at once.",
+        validator=attrs.validators.ge(0.0))
     absence: float = option(
-        5.0, "Seconds a landmark must be out of view before it can come into view again (one "
-        "that flickers at the edge of the camera's view does not consult each time).",
+        30.0, "Seconds a landmark must be out of view before it can come into view again for "
+        "the 'landmarks' trigger: a robot swinging in a dead end sees the same landmarks "
+        "leave and come back within 30 s; the 'period' trigger looks again meanwhile.",
         validator=attrs.validators.ge(0.0))
     camera: CameraOptions = option(
         doc="The camera that sees the landmarks.", factory=lambda: CameraOptions())
