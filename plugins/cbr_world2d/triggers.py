@@ -63,7 +63,7 @@ class LandmarksInView:
         for gone in [i for i in self._run_since if i not in now]:
             del self._run_since[gone]
         for i in [i for i in self._in_view if i not in now]:
-            # the step's length is the tolerance: with absence 0, one step out is gone
+            # counted from the last step it was seen: with absence 0, one step out is enough
             if t - self._last_seen[i] >= self.absence - 1e-9:
                 self._in_view.discard(i)
         come: set[str] = set()
