@@ -218,10 +218,11 @@ def test_the_second_trial_diverts_from_the_case_base(
 def test_every_consultation_is_learned_once_with_what_its_action_did(
         plugins: Plugins, tmp_path: Path) -> None:
     with engine_for(plugins, tmp_path, {"retain": ["record"], "solver": "rescuer"}, repeat=1,
-                    consult_on=["blocked", "landmarks", "period"], period=5.0) as engine:
+                    consult_on=["blocked", "landmarks", "heading", "period"],
+                    period=5.0) as engine:
         run_workload(engine, tmp_path)
     decisions = rows(tmp_path / "results.csv")
-    assert {d["q_trigger"] for d in decisions} >= {"blocked", "landmarks", "period"}
+    assert {d["q_trigger"] for d in decisions} >= {"blocked", "landmarks", "heading", "period"}
     # the rescuer solver answers a blocked robot only; a decision without an action has
     # nothing to retain
     acted = [d for d in decisions if d["source"] != "none"]

@@ -80,6 +80,8 @@ def _blocks() -> list[Block]:
                              ["what", "median ms per query", "p90 ms", "note"])),
         _bench("landmarks-retrieval-by-size", "landmarks_retrieval.md",
                bench_tables("landmarks_retrieval", 1)),
+        _bench("landmarks-consultation", "landmarks_consultation.md",
+               bench_tables("landmarks_consultation", 0, 1, 2)),
         _bench("rupart-retrieval", "rupart_retrieval.md",
                bench_columns("rupart_retrieval", 0, ["what", "median ms per query", "p90 ms"])),
         _bench("kinematics-pooled", "kinematics_speed.md",

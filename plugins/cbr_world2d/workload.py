@@ -2,12 +2,12 @@
 
 Each trial runs one :class:`~cbr_world2d.simulation.Simulation` from its start to its target
 until the robot reaches it or the timeout. While it runs, a trigger (the progress monitor
-reporting the robot blocked, the set of landmarks in view changing, a period passing) consults
-the engine with a :class:`Situation`; the proposal's solution is an
-:class:`~cbr_world2d.actions.Action` the simulation carries out. The decision is learned when the
-action ends, or when the trial ends first; no consultation is made while an action is under
-way or a diverting target is set, so the agent does not ask again for the situation the robot
-is already avoiding (002 section 3.3).
+reporting the robot blocked, a landmark coming into view, the heading turning, a period
+passing; see :mod:`cbr_world2d.triggers`) consults the engine with a :class:`Situation`; the
+proposal's solution is an :class:`~cbr_world2d.actions.Action` the simulation carries out.
+The decision is learned when the action ends, or when the trial ends first; no consultation is
+made while an action is under way or a diverting target is set, so the agent does not ask
+again for the situation the robot is already avoiding (002 section 3.3).
 
 Besides the run's ``results.csv`` (one row per decision), the workload writes ``trials.csv`` in
 the run folder: one row per trial with its success, time, distance, collisions and
@@ -33,7 +33,7 @@ from cbr_world2d.actions import TRIAL_ENDED, Action, ActionReport
 from cbr_world2d.navigator import Navigator, NavigatorOptions
 from cbr_world2d.obstacle_map import ObstacleMap, PerceptionOptions
 from cbr_world2d.pilots.base import PILOT, Pilot
-from cbr_world2d.pilots.monitor import STUCK
+from cbr_world2d.triggers import TRIGGERS, Trigger, Triggers
 from cbr_world2d.world import Point, World, world_of
 from cbrcore import files
 from cbrcore.context import Context
@@ -46,8 +46,6 @@ if TYPE_CHECKING:
     from cbr_world2d.robot import Pose
     from cbr_world2d.sensors import Observation, Sighting
     from cbr_world2d.simulation import Simulation, Trial
-
-Trigger = Literal["blocked", "landmarks", "period"]
 
 _POSITIVE = attrs.validators.gt(0.0)
 _COUNT = attrs.validators.and_(attrs.validators.instance_of(int), attrs.validators.ge(0))
@@ -91,10 +89,31 @@ class TrialsOptions:
         "the Rescuer diverts on its own.", factory=NavigatorOptions)
     consult_on: list[Trigger] = option(
         doc="What consults the agent: 'blocked' (the progress monitor reports the robot "
-        "blocked or oscillating), 'landmarks' (a landmark came into view), 'period' (every "
-        "'period' seconds).", factory=lambda: ["blocked", "landmarks"])
-    period: float = option(10.0, "Seconds between consultations of the 'period' trigger.",
-                           validator=_POSITIVE)
+        "blocked or oscillating), 'landmarks' (a landmark came into view, see 'settle' and "
+        "'absence'), 'heading' (the heading turned 'turn' degrees since the last "
+        "consultation), 'period' ('period' seconds passed since the last consultation).",
+        factory=lambda: list(TRIGGERS))
+    period: float = option(
+        5.0, "Seconds after the last consultation at which the 'period' trigger consults "
+        "again: under the 8 s a Pioneer at full speed takes to cross the camera's 6 m, so "
+        "a situation that comes into view is looked at again before the robot is in it.",
+        validator=_POSITIVE)
+    turn: float = option(
+        30.0, "Degrees the heading must turn from where it pointed at the last consultation "
+        "for the 'heading' trigger: more than the half-width of a fuzzy angle between two "
+        "landmarks 3 m away and 2 to 4 m apart (11 to 23 degrees), so the problem case, "
+        "measured against the heading, has changed.",
+        validator=attrs.validators.and_(_POSITIVE, attrs.validators.le(180.0)))
+    settle: float = option(
+        0.5, "Seconds a landmark must be in view without a break to count as come into view "
+        "for the 'landmarks' trigger (a glimpse as the robot swerves does not consult); "
+        "those in view at a trial's start count at once.",
+        validator=attrs.validators.ge(0.0))
+    absence: float = option(
+        30.0, "Seconds a landmark must be out of view before it can come into view again for "
+        "the 'landmarks' trigger: a robot swinging in a dead end sees the same landmarks "
+        "leave and come back within 30 s; the 'period' trigger looks again meanwhile.",
+        validator=attrs.validators.ge(0.0))
     camera: CameraOptions = option(
         doc="The camera that sees the landmarks.", factory=lambda: CameraOptions())
     perception: PerceptionOptions = option(
@@ -292,23 +311,19 @@ class Trials:
                          dt=trial.dt, rng=self.rng.spawn(1)[0], tolerance=trial.tolerance)
         opened: _Open | None = None
         consultations = 0
-        seen: frozenset[str] = frozenset()
-        next_period = options.period
         obs = sim.observe()
         self.obstacles.sense(obs)
+        triggers = Triggers(options.consult_on, obs, period=options.period, turn=options.turn,
+                            settle=options.settle, absence=options.absence)
         last = math.ceil(trial.timeout / trial.dt - 1e-9)
         while not sim.reached and sim.steps < last:
-            in_view = frozenset(s.id for s in obs.sightings)
+            trigger = triggers.update(obs, sim.events)
             # no consultation while a diverting target is set: the robot is avoiding a situation
             # already, and asking again would only repeat the message (002 section 3.3)
-            if opened is None and not sim.navigator.diverting:
-                trigger = self._trigger(sim, in_view - seen, next_period)
-                if trigger is not None:
-                    opened = self._consult(session, sim, index, trigger, obs, trial.target)
-                    consultations += 1
-            seen = in_view
-            if sim.t >= next_period:
-                next_period += options.period
+            if trigger is not None and opened is None and not sim.navigator.diverting:
+                opened = self._consult(session, sim, index, trigger, obs, trial.target)
+                triggers.consulted(obs)
+                consultations += 1
             obs = sim.step()
             self.obstacles.sense(obs)
             if opened is not None and opened.action is not None:
@@ -324,15 +339,6 @@ class Trials:
                         "reached" if sim.reached else "timeout", round(sim.t, 4),
                         round(sim.distance, 4), sim.collisions, consultations)
 
-    def _trigger(self, sim: Simulation, new: frozenset[str], next_period: float) -> str | None:
-        triggers = self.options.consult_on
-        if "blocked" in triggers and any(e.name in STUCK for e in sim.events):
-            return "blocked"
-        if "landmarks" in triggers and new:
-            return "landmarks"
-        if "period" in triggers and sim.t >= next_period:
-            return "period"
-        return None
     def _consult(self, session: Session, sim: Simulation, index: int, trigger: str,
                  obs: Observation, target: Point) -> _Open | None:
         decision = session.consult(situation(self.world, index, trigger, obs, target,
