@@ -38,15 +38,33 @@ class Action(Protocol):
 
 
 @attrs.frozen
+class GiveUp:
+    """When a diverting target is given up: ``slack`` times the time a way of ``metres`` takes
+    at the robot's top speed, plus ``margin`` seconds (the pilot swerves, turns, slows)."""
+
+    metres: float = attrs.field(validator=attrs.validators.ge(0.0))
+    slack: float = attrs.field(validator=attrs.validators.gt(0.0))
+    margin: float = attrs.field(validator=attrs.validators.ge(0.0))
+
+    def seconds(self, speed: float) -> float:
+        """The give-up time, in seconds, of a robot whose top speed is ``speed`` m/s."""
+        return self.margin + self.slack * self.metres / speed
+
+
+@attrs.frozen
 class Divert:
     """Ask the Rescuer to lead the robot to ``(x, y)`` before it heads for its target again
-    (002 section 3.3); it ends when the Rescuer restores the original target."""
+    (002 section 3.3); it ends when the Rescuer restores the original target. It is given up
+    after ``give_up`` (None: the Rescuer's fixed ``give_up`` seconds)."""
 
     x: float
     y: float
+    give_up: GiveUp | None = None
 
     def start(self, simulation: Simulation) -> None:
-        simulation.navigator.divert((self.x, self.y))
+        seconds = (None if self.give_up is None
+                   else self.give_up.seconds(simulation.spec.max_speed))
+        simulation.navigator.divert((self.x, self.y), give_up=seconds)
 
     def ended(self, simulation: Simulation) -> str | None:
         for event in simulation.events:
