@@ -30,7 +30,7 @@ from cbr_landmarks.base import SituationBase, base_of
 from cbr_landmarks.case import LandmarkCase
 from cbr_landmarks.graph import LandmarkGraph
 from cbr_landmarks.problem import RegionOptions, View, problem_view, sub_view
-from cbr_landmarks.reach import known_walls, way
+from cbr_landmarks.reach import sighted_places, walls_between, way
 from cbr_landmarks.similarity import Matching, SimilarityOptions
 from cbr_world2d.actions import GIVEN_UP, REACHED, TRIAL_ENDED, ActionReport, Divert, GiveUp
 from cbr_world2d.workload import Situation
@@ -191,7 +191,7 @@ class LandmarkReuser:
             self._failed[:] = [f for f in self._failed if f.trial == problem.trial]
         found: MatchedView = retrieval.payload
         here = (problem.pose.x, problem.pose.y)
-        walls, pairs = known_walls(problem) if o.safe else (None, [])
+        seen = sighted_places(problem) if o.safe else {}
         refused: list[dict[str, Any]] = []
         for match, case, matching in zip(retrieval.matches, found.cases, found.matchings,
                                          strict=True):
@@ -206,16 +206,22 @@ class LandmarkReuser:
             if self._near_failure(problem.trial, point):
                 refused.append({"case": case_id, "why": "near a target that failed"})
                 continue
+            current = {case.graph.ids[j]: found.view.graph.ids[i]
+                       for i, j in enumerate(matching.mapping) if j >= 0}
             metres: float | None = math.dist(point, here)
-            if walls is not None:
+            if o.safe:
+                # the case's own walls, laid on the landmarks it was matched with: a target
+                # inside the trap the case describes is no way out of it
+                said = [(current.get(case.graph.ids[a]), current.get(case.graph.ids[b]))
+                        for a, b in sorted(case.graph.obstacles)]
+                walls, pairs = walls_between(
+                    [*problem.obstacles, *((a, b) for a, b in said if a and b)], seen)
                 metres, how = way(here, point, walls, pairs, o.clearance, o.detour)
                 if metres is None:
                     refused.append({"case": case_id, "why": how})
                     continue
                 detail["way"] = how
             assert case.action is not None and metres is not None
-            current = {case.graph.ids[j]: found.view.graph.ids[i]
-                       for i, j in enumerate(matching.mapping) if j >= 0}
             detail["anchor"] = current[case.action.anchor]
             detail["refused"] = refused
             self._used.add(case_id)
@@ -312,7 +318,7 @@ class TroubleRetainer:
         o = self.options
         report = outcome.report if isinstance(outcome.report, ActionReport) else None
         trouble = problem.trigger == "blocked"
-        self._settle(base, problem, trouble, solution.no_action)
+        blamed = self._settle(base, problem, trouble, solution.no_action)
         reused, self._reused = self._reused, None
         if reused is not None and reused.trial == problem.trial:
             if trouble and problem.t - reused.ended <= o.window:
@@ -322,8 +328,9 @@ class TroubleRetainer:
                 self._reused = reused
         if solution.no_action:
             if trouble:
-                # a positive case said the robot would be fine where it is in trouble
-                self._count(base, solution.cases, helped=False)
+                # a positive case said the robot would be fine where it is in trouble (blamed
+                # once, if it was blamed for the quiet before too)
+                self._count(base, tuple(set(solution.cases) - blamed), helped=False)
             elif o.positive is not None:
                 view = None if solution.cases else problem_view(problem, o.region,
                                                                 course=o.course)
@@ -339,29 +346,35 @@ class TroubleRetainer:
             self._learn(base, view, solution.value)
 
     def _settle(self, base: SituationBase, problem: Situation, trouble: bool,
-                quiet: bool) -> None:
+                quiet: bool) -> set[int]:
         """Decide the consultations that needed no action, now that ``problem`` came: safe
         once ``positive`` seconds of its trial passed without trouble or diversion (a new
         positive case, or credit for the positive cases reused), a trap when trouble came
         sooner (blame for those cases); undecided ones of another trial are dropped, since the
-        retainer does not hear how a trial ended without a decision open."""
+        retainer does not hear how a trial ended without a decision open. A case is credited
+        or blamed once per decision, however many quiet consultations reused it; returns the
+        cases blamed."""
         horizon = self.options.positive
         if horizon is None:
-            return
+            return set()
         waiting = []
+        credited: set[int] = set()
+        blamed: set[int] = set()
         for q in self._quiet:
             if q.trial != problem.trial:
                 continue
             if problem.t - q.t >= horizon:
-                if q.cases:
-                    self._count(base, q.cases, helped=True)
-                elif q.view is not None:
+                credited.update(q.cases)
+                if q.view is not None:
                     self._learn(base, q.view, None)
             elif trouble:
-                self._count(base, q.cases, helped=False)
+                blamed.update(q.cases)
             elif quiet:
                 waiting.append(q)
         self._quiet = waiting
+        self._count(base, tuple(sorted(credited)), helped=True)
+        self._count(base, tuple(sorted(blamed)), helped=False)
+        return blamed
 
     def _credit(self, base: SituationBase, solution: Solution, report: ActionReport | None,
                 problem: Situation) -> None:

@@ -2,9 +2,10 @@
 
 A case's action carried onto the current landmarks can land where the robot should not go: a
 case matched onto a layout of another shape or turn lays its target inside the dead end it was
-meant to avoid. Before diverting, the reuser checks the target against the *known walls*: the
-linear obstacles of the situation between two landmarks the robot sees, each the segment
-between the landmarks' places (:func:`known_walls`). A target is
+meant to avoid. Before diverting, the reuser checks the target against the *known walls*, each
+the segment between the places of two landmarks in view (:func:`sighted_places`,
+:func:`walls_between`): the linear obstacles of the situation, and those the matched case says
+stand between the landmarks it was matched with. A target is
 
 - **refused** when it lies inside a known obstacle chain (strictly inside the convex hull of
   the landmarks of a chain of two or more walls joined end to end: the inside of a V or a U,
@@ -24,7 +25,7 @@ from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -39,19 +40,30 @@ Point = tuple[float, float]
 _EPS = 1e-9
 
 
-def known_walls(problem: Situation) -> tuple[np.ndarray, list[tuple[str, str]]]:
-    """The known walls of ``problem`` in the world's frame, ``(m, 2, 2)``, and the landmark
-    pair of each: the situation's linear obstacles whose two landmarks are in view, placed at
-    the peaks of their sightings."""
-    sightings = {s.id: k for k, s in enumerate(problem.sightings)}
-    pairs = [(a, b) for a, b in problem.obstacles if a in sightings and b in sightings]
-    if not pairs:
-        return np.empty((0, 2, 2)), []
+def sighted_places(problem: Situation) -> dict[str, Point]:
+    """Where the landmarks ``problem`` sees stand, in the world's frame (the peaks of their
+    sightings)."""
+    if not problem.sightings:
+        return {}
     points, _ = places(problem.sightings)
     pose = problem.pose
     world = to_world(points, (pose.x, pose.y, pose.theta))
-    walls = np.array([[world[sightings[a]], world[sightings[b]]] for a, b in pairs], dtype=float)
-    return walls, pairs
+    return {s.id: (float(world[k, 0]), float(world[k, 1]))
+            for k, s in enumerate(problem.sightings)}
+
+
+def walls_between(pairs: Iterable[tuple[str, str]], where: Mapping[str, Point]
+                  ) -> tuple[np.ndarray, list[tuple[str, str]]]:
+    """The walls between the landmark ``pairs`` whose two landmarks have a place in ``where``,
+    ``(m, 2, 2)``, and their pairs (each once, in the order first given)."""
+    kept: dict[tuple[str, str], None] = {}
+    for a, b in pairs:
+        if a in where and b in where and a != b:
+            kept.setdefault((min(a, b), max(a, b)), None)
+    chosen = list(kept)
+    if not chosen:
+        return np.empty((0, 2, 2)), []
+    return np.array([[where[a], where[b]] for a, b in chosen], dtype=float), chosen
 
 
 def chains(pairs: Sequence[tuple[str, str]]) -> list[list[int]]:
