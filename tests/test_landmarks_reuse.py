@@ -70,18 +70,22 @@ def test_distances_and_crossings_of_walls() -> None:
     assert distance_to_walls(points, U_WALLS) == pytest.approx([0.2, 1.0, math.sqrt(2.0)])
     starts = np.array([[1.0, 1.0], [1.0, 1.0], [3.0, 1.0]])
     ends = np.array([[5.0, 1.0], [1.5, 3.0], [2.0, 2.0]])
-    # through the closed end; clear of the U; exactly through the end d: touching is no crossing
-    assert crossing(starts, ends, U_WALLS).tolist() == [True, False, False]
+    # through the closed end; clear of the U; out of the U through its corner d, between the
+    # two walls that meet there: touching counts
+    assert crossing(starts, ends, U_WALLS).tolist() == [True, False, True]
+    # along a wall, through both its ends
+    assert crossing(np.array([[1.0, 0.0]]), np.array([[5.0, 0.0]]), U_WALLS).tolist() == [True]
 
 
 def test_the_way_round_a_wall_passes_the_waypoints_beside_its_end() -> None:
     """A wall from (0, -1) to (0, 1) between (-1, 0) and (1, 0), clearance 0.5: the waypoints
-    stand 1 m from each end; the shortest way through them is (-1, 0), (-1, 1), (1, 1), (1, 0)
-    (or its mirror below), 1 + 2 + 1 = 4 m, twice the straight distance."""
+    stand 1 m from each end in eight directions; the shortest way through them is (-1, 0),
+    (0, 2), (1, 0) (or its mirror below), 2 sqrt(5) m, 2.24 times the straight distance (the
+    way through (-1, 1) and (1, 1) grazes the wall's end and does not count)."""
     wall = np.array([[[0.0, -1.0], [0.0, 1.0]]])
-    assert route((-1.0, 0.0), (1.0, 0.0), wall, 0.5) == pytest.approx(4.0)
+    assert route((-1.0, 0.0), (1.0, 0.0), wall, 0.5) == pytest.approx(2.0 * math.sqrt(5.0))
     assert way((-1.0, 0.0), (1.0, 0.0), wall, [("p", "q")], 0.5, 3.0) == (
-        pytest.approx(4.0), "route")
+        pytest.approx(2.0 * math.sqrt(5.0)), "route")
     assert way((-1.0, 0.0), (1.0, 0.0), wall, [("p", "q")], 0.5, 1.5)[0] is None
     assert way((-1.0, 0.0), (-1.0, 3.0), wall, [("p", "q")], 0.5, 1.5) == (3.0, "line of sight")
     assert way((-1.0, 0.0), (0.2, 0.5), wall, [("p", "q")], 0.5, 3.0)[0] is None  # too near

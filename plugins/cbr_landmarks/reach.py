@@ -143,9 +143,19 @@ def distance_to_walls(points: np.ndarray, walls: np.ndarray) -> np.ndarray:
     return np.hypot(*(points[:, None, :] - nearest).transpose(2, 0, 1)).min(axis=1)
 
 
+def _point_to_segments(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The distance from ``points`` ``(..., 2)`` to the segments ``a``-``b`` (broadcast)."""
+    ab = b - a
+    length2 = np.maximum((ab * ab).sum(axis=-1), _EPS)
+    t = np.clip(((points - a) * ab).sum(axis=-1) / length2, 0.0, 1.0)
+    return np.hypot(*np.moveaxis(points - (a + t[..., None] * ab), -1, 0))
+
+
 def crossing(starts: np.ndarray, ends: np.ndarray, walls: np.ndarray) -> np.ndarray:
-    """Whether each way from ``starts[k]`` to ``ends[k]`` (``(n, 2)`` each) properly crosses
-    one of ``walls`` ``(m, 2, 2)``, ``(n,)`` bool. Touching a wall's end is no crossing."""
+    """Whether each way from ``starts[k]`` to ``ends[k]`` (``(n, 2)`` each) meets one of
+    ``walls`` ``(m, 2, 2)``, ``(n,)`` bool: crosses it, touches it (through a wall's end
+    too, where two walls meet and a way through the corner would slip between them) or runs
+    along it."""
     if len(walls) == 0 or len(starts) == 0:
         return np.zeros(len(starts), dtype=bool)
     p, r = starts[:, None, :], (ends - starts)[:, None, :]
@@ -159,8 +169,13 @@ def crossing(starts: np.ndarray, ends: np.ndarray, walls: np.ndarray) -> np.ndar
     with np.errstate(divide="ignore", invalid="ignore"):
         t = cross(qp, s) / denominator
         u = cross(qp, r) / denominator
-    hit = (np.abs(denominator) > _EPS) & (t > _EPS) & (t < 1 - _EPS) & (u > _EPS) & (u < 1 - _EPS)
-    return hit.any(axis=1)
+    inner = (np.abs(denominator) > _EPS) & (t >= 0.0) & (t <= 1.0) & (u >= 0.0) & (u <= 1.0)
+    # touching and running along: an end of one within reach of the other
+    e, f = starts[:, None, :], ends[:, None, :]
+    near = np.minimum.reduce([
+        _point_to_segments(e, q, q + s), _point_to_segments(f, q, q + s),
+        _point_to_segments(q, e, f), _point_to_segments(q + s, e, f)]) <= 1e-7
+    return (inner | near).any(axis=1)
 
 
 def waypoints(walls: np.ndarray, clearance: float) -> np.ndarray:
