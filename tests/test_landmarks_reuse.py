@@ -29,12 +29,16 @@ from cbr_landmarks.action import DivertAction
 from cbr_landmarks.case import SITUATION, LandmarkCase
 from cbr_landmarks.components import FAILED, linked
 from cbr_landmarks.problem import RegionOptions, problem_view
-from cbr_landmarks.reach import crossing, distance_to_walls, hull, inside_chain, route, way
+from cbr_landmarks.reach import Way, crossing, distance_to_walls, hull, inside_chain, route, way
 from cbr_world2d.actions import GIVEN_UP, REACHED, ActionReport, Divert, GiveUp
+from cbr_world2d.navigator import Navigator
+from cbr_world2d.pilots import PotentialFieldOptions, potential_field_pilot
 from cbr_world2d.pilots.rescuer import Rescuer
-from cbr_world2d.robot import RobotState
+from cbr_world2d.robot import PIONEER_2DX, Pose, RobotState
 from cbr_world2d.sensors import Camera, Sensors
+from cbr_world2d.simulation import Simulation
 from cbr_world2d.workload import Situation, situation
+from cbr_world2d.world import World
 from cbr_world2d.worldfile import load_world
 from cbrcore.config import parse_config
 from cbrcore.engine import Engine
@@ -82,17 +86,20 @@ def test_the_way_round_a_wall_passes_the_waypoints_beside_its_end() -> None:
     stand 1 m from each end in eight directions; the shortest way through them is (-1, 0),
     (0, 2), (1, 0) (or its mirror below), 2 sqrt(5) m, 2.24 times the straight distance (the
     way through (-1, 1) and (1, 1) grazes the wall's end and does not count)."""
-    wall = np.array([[[0.0, -1.0], [0.0, 1.0]]])
-    assert route((-1.0, 0.0), (1.0, 0.0), wall, 0.5) == pytest.approx(2.0 * math.sqrt(5.0))
-    assert way((-1.0, 0.0), (1.0, 0.0), wall, [("p", "q")], 0.5, 3.0) == (
-        pytest.approx(2.0 * math.sqrt(5.0)), "route")
-    assert way((-1.0, 0.0), (1.0, 0.0), wall, [("p", "q")], 0.5, 1.5)[0] is None
-    assert way((-1.0, 0.0), (-1.0, 3.0), wall, [("p", "q")], 0.5, 1.5) == (3.0, "line of sight")
-    assert way((-1.0, 0.0), (0.2, 0.5), wall, [("p", "q")], 0.5, 3.0)[0] is None  # too near
+    wall, pairs = np.array([[[0.0, -1.0], [0.0, 1.0]]]), [("p", "q")]
+    length, via = route((-1.0, 0.0), (1.0, 0.0), wall, 0.5)
+    assert length == pytest.approx(2.0 * math.sqrt(5.0))
+    assert len(via) == 1 and abs(via[0][0]) < 1e-9 and abs(via[0][1]) == pytest.approx(2.0)
+    found = way((-1.0, 0.0), (1.0, 0.0), wall, pairs, 0.5, 3.0)
+    assert (found.metres, found.how, found.via) == (pytest.approx(length), "route", via)
+    assert way((-1.0, 0.0), (1.0, 0.0), wall, pairs, 0.5, 1.5).metres is None
+    assert way((-1.0, 0.0), (-1.0, 3.0), wall, pairs, 0.5, 1.5) == Way(3.0, "line of sight")
+    too_near = way((-1.0, 0.0), (0.2, 0.5), wall, pairs, 0.5, 3.0)
+    assert (too_near.metres, too_near.how) == (None, "within 0.5 m of a known wall")
 
 
 def test_a_target_inside_the_u_is_refused_however_short_the_way_in() -> None:
-    assert way((1.0, 1.0), (3.0, 1.0), U_WALLS, U_PAIRS, 0.3, 3.0) == (
+    assert way((1.0, 1.0), (3.0, 1.0), U_WALLS, U_PAIRS, 0.3, 3.0) == Way(
         None, "inside a known obstacle chain")
 
 
@@ -106,6 +113,44 @@ def test_a_diversion_may_have_its_own_give_up_time() -> None:
     assert rescuer.update(0.0, 0.0, 130.0).reason == GIVEN_UP
     # 002's robot: 5 m at 5 cm/s is 100 s, twice that and 30 s more
     assert GiveUp(5.0, 2.0, 30.0).seconds(0.05) == pytest.approx(230.0)
+
+
+def divert_in_open_space(divert: Divert, steps: int = 3000) -> tuple[str | None, Simulation]:
+    """Start ``divert`` on a Pioneer at (1, 5) facing (9, 5) in an empty 10 m square, and step
+    until it ends; why it ended, and the simulation."""
+    world = World((0.0, 0.0, 10.0, 10.0), name="open")
+    pilot = potential_field_pilot(PotentialFieldOptions(), None)  # type: ignore[arg-type]
+    sim = Simulation(world, PIONEER_2DX, Sensors().fitted(PIONEER_2DX.radius), Navigator(pilot),
+                     Pose(1.0, 5.0, 0.0), (9.0, 5.0))
+    sim.step()
+    divert.start(sim)
+    for _ in range(steps):
+        sim.step()
+        reason = divert.ended(sim)
+        if reason is not None:
+            return reason, sim
+    return None, sim
+
+
+def test_a_diversion_through_waypoints_reaches_each_in_turn() -> None:
+    reason, sim = divert_in_open_space(Divert(5.0, 8.0, via=((2.0, 8.0),)))
+    assert reason == REACHED
+    tolerance = sim.navigator.rescuer.options.tolerance
+    diverted = [e.point for e in sim.history if e.name == "diverted"]
+    assert diverted == [(2.0, 8.0), (5.0, 8.0)]
+    path = sim.trajectory[:, 1:3]
+    near_via = np.flatnonzero(np.hypot(*(path - (2.0, 8.0)).T) <= tolerance + 1e-9)
+    near_end = np.flatnonzero(np.hypot(*(path - (5.0, 8.0)).T) <= tolerance + 1e-9)
+    assert near_via.size and near_end.size and near_via[0] < near_end[0]
+    assert not sim.navigator.diverting
+
+
+def test_a_diversion_is_given_up_when_its_time_for_the_whole_way_is_out() -> None:
+    # 1 m at the Pioneer's 0.75 m/s: 4/3 s; the way is far longer
+    reason, sim = divert_in_open_space(Divert(9.0, 9.0, GiveUp(1.0, 1.0, 0.0),
+                                              via=((1.0, 9.0),)))
+    assert reason == GIVEN_UP
+    assert sim.t == pytest.approx(1.0 / PIONEER_2DX.max_speed + sim.dt, abs=2 * sim.dt)
 
 
 # --- the reuser on a U turned 40 degrees ----------------------------------------------------------
@@ -243,8 +288,29 @@ def test_the_next_match_is_reused_when_the_best_lays_its_target_inside(
     here = (problem.pose.x, problem.pose.y)
     assert proposal.solution.detail["way"] == "line of sight"
     assert divert.give_up is not None
-    assert (divert.give_up.slack, divert.give_up.margin) == (2.0, 30.0)
+    assert (divert.give_up.slack, divert.give_up.margin, divert.via) == (1.5, 30.0, ())
     assert divert.give_up.metres == pytest.approx(math.dist(here, OUTSIDE), abs=1e-3)
+
+
+def test_a_target_behind_a_known_wall_is_reached_round_its_end(
+        plugins: Plugins, world_file: Path) -> None:
+    """Beyond the U's closed end the straight way crosses the wall l1-l2 the robot sees; the
+    way round passes a waypoint 0.6 m (twice the clearance) from l2, the wall's free end, and
+    the diversion is led through it and given up after the time of the whole way."""
+    problem = observe(world_file)
+    behind = to_world((1.0, 0.0))
+    with engine_for(plugins, world_file) as engine:
+        assert engine.casebase is not None
+        engine.casebase.add(case_toward(problem, behind).to_case())
+        proposal = engine.solve(problem)
+    divert = proposal.solution.value
+    here = (problem.pose.x, problem.pose.y)
+    assert proposal.solution.detail["way"] == "route"
+    assert len(divert.via) == 1
+    assert math.dist(divert.via[0], to_world(U_SHAPE[1])) == pytest.approx(0.6, abs=1e-3)
+    assert divert.give_up.metres == pytest.approx(
+        math.dist(here, divert.via[0]) + math.dist(divert.via[0], (divert.x, divert.y)),
+        abs=1e-3)
 
 
 def test_a_target_near_one_that_failed_is_not_used_again_in_the_trial(
@@ -324,3 +390,32 @@ def test_positive_cases_are_not_learned_by_default(plugins: Plugins, world_file:
             quietly(engine, observe(world_file, t=t))
         assert stored(engine) == []
 
+
+
+# --- bad options --------------------------------------------------------------------------------
+
+LANDMARKS = Path(__file__).resolve().parents[1] / "configs" / "landmarks.yaml"
+
+BAD_OPTIONS = {
+    "detour under 1": ("reuse={use: landmarks, detour: 0.5}", "reuse.detour: must be >= 1.0"),
+    "clearance 0": ("reuse={use: landmarks, clearance: 0}", "reuse.clearance: must be > 0.0"),
+    "slack 0": ("reuse={use: landmarks, slack: 0}", "reuse.slack: must be > 0.0"),
+    "margin negative": ("reuse={use: landmarks, margin: -1}", "reuse.margin: must be >= 0.0"),
+    "safe not a flag": ("reuse={use: landmarks, safe: maybe}",
+                        "reuse.safe: expected true or false, got 'maybe'"),
+    "positive 0": ("retain=[{use: landmark_trouble, positive: 0}]",
+                   "retain.0.positive: must be > 0.0"),
+}
+
+
+@pytest.fixture
+def installed(cbr_plugins: Any) -> Plugins:
+    return cbr_plugins(entry_points=True)
+
+
+@pytest.mark.parametrize(("setting", "message"), BAD_OPTIONS.values(), ids=list(BAD_OPTIONS))
+def test_a_bad_reuse_or_retain_option_is_refused_naming_it(
+        installed: Plugins, cbr_cli: Any, setting: str, message: str) -> None:
+    result = cbr_cli("validate", str(LANDMARKS), "--set", setting)
+    assert result.exit_code == 2, result
+    assert message in result.stderr and "Traceback" not in result.stderr

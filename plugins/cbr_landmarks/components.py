@@ -30,7 +30,7 @@ from cbr_landmarks.base import SituationBase, base_of
 from cbr_landmarks.case import LandmarkCase
 from cbr_landmarks.graph import LandmarkGraph
 from cbr_landmarks.problem import RegionOptions, View, problem_view, sub_view
-from cbr_landmarks.reach import sighted_places, walls_between, way
+from cbr_landmarks.reach import Way, sighted_places, walls_between, way
 from cbr_landmarks.similarity import Matching, SimilarityOptions
 from cbr_world2d.actions import GIVEN_UP, REACHED, TRIAL_ENDED, ActionReport, Divert, GiveUp
 from cbr_world2d.workload import Situation
@@ -129,7 +129,7 @@ class ReuseOptions:
         3.0, "The longest way round the known walls to a diverting target out of sight, as a "
         "multiple of the straight distance.", validator=attrs.validators.ge(1.0))
     slack: float = option(
-        2.0, "A diverting target is given up after 'slack' times the time its way takes at "
+        1.5, "A diverting target is given up after 'slack' times the time its way takes at "
         "the robot's top speed, plus 'margin'.", validator=attrs.validators.gt(0.0))
     margin: float = option(
         30.0, "Seconds added to a diverting target's give-up time (the pilot turns, swerves "
@@ -208,7 +208,7 @@ class LandmarkReuser:
                 continue
             current = {case.graph.ids[j]: found.view.graph.ids[i]
                        for i, j in enumerate(matching.mapping) if j >= 0}
-            metres: float | None = math.dist(point, here)
+            found_way = Way(math.dist(point, here), "unchecked")
             if o.safe:
                 # the case's own walls, laid on the landmarks it was matched with: a target
                 # inside the trap the case describes is no way out of it
@@ -216,17 +216,18 @@ class LandmarkReuser:
                         for a, b in sorted(case.graph.obstacles)]
                 walls, pairs = walls_between(
                     [*problem.obstacles, *((a, b) for a, b in said if a and b)], seen)
-                metres, how = way(here, point, walls, pairs, o.clearance, o.detour)
-                if metres is None:
-                    refused.append({"case": case_id, "why": how})
+                found_way = way(here, point, walls, pairs, o.clearance, o.detour)
+                if found_way.metres is None:
+                    refused.append({"case": case_id, "why": found_way.how})
                     continue
-                detail["way"] = how
-            assert case.action is not None and metres is not None
+            assert case.action is not None and found_way.metres is not None
+            detail["way"] = found_way.how
             detail["anchor"] = current[case.action.anchor]
             detail["refused"] = refused
             self._used.add(case_id)
-            give_up = GiveUp(round(metres, 4), o.slack, o.margin)
-            return Solution(Divert(*point, give_up=give_up), cases=(case_id,), detail=detail)
+            give_up = GiveUp(round(found_way.metres, 4), o.slack, o.margin)
+            return Solution(Divert(*point, give_up=give_up, via=found_way.via),
+                            cases=(case_id,), detail=detail)
         return None
 
 

@@ -18,7 +18,9 @@ stand between the landmarks it was matched with. A target is
 - **refused** otherwise (no way, or only a long one: the robot would rather be led by its
   navigation system than sent on a long detour on what it merely believes).
 
-:func:`way` returns the length of the way (metres), which sets how long the diversion may take.
+:func:`way` returns the way: its length (metres), which sets how long the diversion may take,
+and, for a way round, the waypoints the robot is led through first (the pilot heads straight
+for its target, so a way round is only taken by following it).
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING
 
+import attrs
 import numpy as np
 
 from cbr_landmarks.problem import places, to_world
@@ -190,9 +193,11 @@ def waypoints(walls: np.ndarray, clearance: float) -> np.ndarray:
     return points[distance_to_walls(points, walls) >= clearance - _EPS]
 
 
-def route(start: Point, goal: Point, walls: np.ndarray, clearance: float) -> float | None:
-    """The length of the shortest way from ``start`` to ``goal`` that crosses none of
-    ``walls``, through the :func:`waypoints`, or None when there is none."""
+def route(start: Point, goal: Point, walls: np.ndarray, clearance: float
+          ) -> tuple[float, tuple[Point, ...]] | None:
+    """The shortest way from ``start`` to ``goal`` that meets none of ``walls``, through the
+    :func:`waypoints`: its length and the waypoints it passes between them; None when there
+    is none."""
     nodes = np.vstack((np.array([start, goal], dtype=float), waypoints(walls, clearance)))
     n = len(nodes)
     i, j = np.triu_indices(n, 1)
@@ -204,38 +209,55 @@ def route(start: Point, goal: Point, walls: np.ndarray, clearance: float) -> flo
         graph[a].append((b, length))
         graph[b].append((a, length))
     best = [math.inf] * n
+    came = [-1] * n
     best[0] = 0.0
     queue = [(0.0, 0)]
     while queue:
         so_far, node = heapq.heappop(queue)
         if node == 1:
-            return so_far
+            via: list[Point] = []
+            k = came[1]
+            while k > 0:
+                via.append((float(nodes[k, 0]), float(nodes[k, 1])))
+                k = came[k]
+            return so_far, tuple(reversed(via))
         if so_far > best[node]:
             continue
         for nxt, length in graph[node]:
             if so_far + length < best[nxt]:
-                best[nxt] = so_far + length
+                best[nxt], came[nxt] = so_far + length, node
                 heapq.heappush(queue, (best[nxt], nxt))
     return None
 
 
+@attrs.frozen
+class Way:
+    """How the robot gets to a diverting target: ``metres`` to drive, ``how`` (``line of
+    sight`` or ``route``) and the waypoints ``via`` to pass first; a refused target has
+    ``metres`` None and ``how`` says why."""
+
+    metres: float | None
+    how: str
+    via: tuple[Point, ...] = ()
+
+
 def way(start: Point, target: Point, walls: np.ndarray, pairs: Sequence[tuple[str, str]],
-        clearance: float, detour: float) -> tuple[float | None, str]:
-    """How far the robot at ``start`` has to drive to ``target`` round the known ``walls``
-    (of landmark ``pairs``), and how that was found: ``(metres, "line of sight")`` or
-    ``(metres, "route")``; ``(None, why)`` when the target is refused (see the module
-    docstring)."""
+        clearance: float, detour: float) -> Way:
+    """How the robot at ``start`` gets to ``target`` round the known ``walls`` (of landmark
+    ``pairs``), or why it is refused (see the module docstring)."""
     if inside_chain(target, walls, pairs):
-        return None, "inside a known obstacle chain"
+        return Way(None, "inside a known obstacle chain")
     goal = np.array([target], dtype=float)
     if distance_to_walls(goal, walls)[0] < clearance:
-        return None, f"within {clearance:g} m of a known wall"
+        return Way(None, f"within {clearance:g} m of a known wall")
     straight = math.dist(start, target)
     if not crossing(np.array([start], dtype=float), goal, walls)[0]:
-        return straight, "line of sight"
-    length = route(start, target, walls, clearance)
-    if length is None:
-        return None, "no way round the known walls"
+        return Way(straight, "line of sight")
+    found = route(start, target, walls, clearance)
+    if found is None:
+        return Way(None, "no way round the known walls")
+    length, via = found
     if length > detour * straight:
-        return None, f"the way round the known walls is over {detour:g} times the straight one"
-    return length, "route"
+        return Way(None, f"the way round the known walls is over {detour:g} times the "
+                   "straight one")
+    return Way(length, "route", via)

@@ -51,24 +51,47 @@ class GiveUp:
         return self.margin + self.slack * self.metres / speed
 
 
+@attrs.define
+class _Legs:
+    """Where a diversion under way is: the points still to reach, and when it is given up."""
+
+    points: list[tuple[float, float]] = attrs.field(factory=list)
+    deadline: float | None = None
+
+
 @attrs.frozen
 class Divert:
     """Ask the Rescuer to lead the robot to ``(x, y)`` before it heads for its target again
-    (002 section 3.3); it ends when the Rescuer restores the original target. It is given up
-    after ``give_up`` (None: the Rescuer's fixed ``give_up`` seconds)."""
+    (002 section 3.3), through the waypoints ``via`` first (each a diverting target in turn:
+    the pilot heads straight for its target, so a way round walls is followed point by point);
+    it ends when the Rescuer restores the original target after the last point. It is given
+    up after ``give_up`` for the whole way (None: the Rescuer's fixed ``give_up`` seconds for
+    each point)."""
 
     x: float
     y: float
     give_up: GiveUp | None = None
+    via: tuple[tuple[float, float], ...] = attrs.field(default=(), converter=tuple)
+    _legs: _Legs = attrs.field(factory=_Legs, init=False, eq=False, repr=False)
 
     def start(self, simulation: Simulation) -> None:
-        seconds = (None if self.give_up is None
-                   else self.give_up.seconds(simulation.spec.max_speed))
-        simulation.navigator.divert((self.x, self.y), give_up=seconds)
+        self._legs.points = [*self.via, (self.x, self.y)]
+        self._legs.deadline = (None if self.give_up is None else
+                               simulation.t + self.give_up.seconds(simulation.spec.max_speed))
+        self._next(simulation)
+
+    def _next(self, simulation: Simulation) -> None:
+        point = self._legs.points.pop(0)
+        deadline = self._legs.deadline
+        left = None if deadline is None else max(deadline - simulation.t, 0.0)
+        simulation.navigator.divert(point, give_up=left)
 
     def ended(self, simulation: Simulation) -> str | None:
         for event in simulation.events:
             if event.name == "restored":
+                if event.detail == REACHED and self._legs.points:
+                    self._next(simulation)
+                    return None
                 return REACHED if event.detail == REACHED else GIVEN_UP
         return None
 
