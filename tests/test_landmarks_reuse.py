@@ -295,17 +295,20 @@ def test_the_next_match_is_reused_when_the_best_lays_its_target_inside(
 def test_a_target_behind_a_known_wall_is_reached_round_its_end(
         plugins: Plugins, world_file: Path) -> None:
     """Beyond the U's closed end the straight way crosses the wall l1-l2 the robot sees; the
-    way round passes a waypoint 0.6 m (twice the clearance) from l2, the wall's free end, and
-    the diversion is led through it and given up after the time of the whole way."""
+    way round passes a waypoint 0.6 m (twice the clearance) from l2, the wall's free end; the
+    diversion is given up after the time of the whole way, and with ``follow`` the robot is
+    led through the waypoint."""
     problem = observe(world_file)
     behind = to_world((1.0, 0.0))
-    with engine_for(plugins, world_file) as engine:
-        assert engine.casebase is not None
-        engine.casebase.add(case_toward(problem, behind).to_case())
-        proposal = engine.solve(problem)
-    divert = proposal.solution.value
+    for follow in (False, True):
+        with engine_for(plugins, world_file, {"follow": follow}) as engine:
+            assert engine.casebase is not None
+            engine.casebase.add(case_toward(problem, behind).to_case())
+            proposal = engine.solve(problem)
+        divert = proposal.solution.value
+        assert proposal.solution.detail["way"] == "route"
+        assert len(divert.via) == follow  # without follow, straight at the target
     here = (problem.pose.x, problem.pose.y)
-    assert proposal.solution.detail["way"] == "route"
     assert len(divert.via) == 1
     assert math.dist(divert.via[0], to_world(U_SHAPE[1])) == pytest.approx(0.6, abs=1e-3)
     assert divert.give_up.metres == pytest.approx(

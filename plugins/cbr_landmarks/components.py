@@ -134,6 +134,11 @@ class ReuseOptions:
     margin: float = option(
         30.0, "Seconds added to a diverting target's give-up time (the pilot turns, swerves "
         "and slows).", validator=attrs.validators.ge(0.0))
+    follow: bool = option(
+        False, "Lead the robot through the waypoints of a way round the known walls, rather "
+        "than straight at the target. Off by default: the potential-field pilot slides along a "
+        "wall it meets, and a way planned past the free end of a wall whose other walls are not "
+        "known yet can lead into the trap they make.")
     failed_radius: float = option(
         1.0, "A carried-over diverting target within this many metres of one that failed in "
         "the same trial (given up, or trouble soon after) is not used again.",
@@ -168,7 +173,7 @@ class LandmarkReuser:
     (:mod:`cbr_landmarks.reach`) is skipped too; the next match is tried, and when none is left
     the case base has no answer. A diversion is given up after the time its way takes
     (:class:`~cbr_world2d.actions.GiveUp`: ``slack`` times the way at the robot's top speed,
-    plus ``margin``).
+    plus ``margin``); with ``follow`` it leads the robot through the way's waypoints.
     """
 
     def __init__(self, options: ReuseOptions, ctx: Context) -> None:
@@ -226,8 +231,9 @@ class LandmarkReuser:
             detail["refused"] = refused
             self._used.add(case_id)
             give_up = GiveUp(round(found_way.metres, 4), o.slack, o.margin)
-            return Solution(Divert(*point, give_up=give_up, via=found_way.via),
-                            cases=(case_id,), detail=detail)
+            via = found_way.via if o.follow else ()
+            return Solution(Divert(*point, give_up=give_up, via=via), cases=(case_id,),
+                            detail=detail)
         return None
 
 
