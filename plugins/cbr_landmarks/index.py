@@ -43,6 +43,7 @@ from cbr_landmarks.graph import MAX_LANDMARKS, LandmarkGraph
 from cbr_landmarks.kernels import coded_normaliser, height, match_rows
 from cbr_landmarks.similarity import (
     CONSTRAINT,
+    MATCHING,
     NORMALISE,
     Matching,
     SimilarityOptions,
@@ -192,11 +193,14 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
 # the index
 
 
-def _classes(na: int, threshold: float, normalise: str) -> list[int]:
+def _classes(na: int, threshold: float, options: SimilarityOptions) -> list[int]:
     """The landmark counts of the stored graphs that can reach ``threshold`` against a
-    situation of ``na`` landmarks: a matching scores at most ``min(na, nb) - 1`` over ``N``."""
+    situation of ``na`` landmarks: ``na`` alone in ``paper`` matching; else those where
+    ``min(na, nb) - 1`` matched landmarks over ``N`` can."""
+    if options.matching == "paper":
+        return [na]
     return [nb for nb in range(2, MAX_LANDMARKS + 1)
-            if min(na, nb) - 1 >= threshold * normaliser(na, nb, normalise) - SLACK]
+            if min(na, nb) - 1 >= threshold * normaliser(na, nb, options.normalise) - SLACK]
 
 
 def prefilter_level(threshold: float) -> float:
@@ -321,7 +325,7 @@ class SituationIndex:
         if not options.prefilter:
             rows = np.arange(len(self), dtype=np.int64)
             return rows, np.ones((len(rows), na, width), bool), 0
-        classes = _classes(na, threshold, options.normalise)
+        classes = _classes(na, threshold, options)
         if threshold <= 0.5:
             rows = np.flatnonzero(np.isin(self.counts, classes)).astype(np.int64)
             return rows, np.ones((len(rows), na, width), bool), 0
@@ -360,8 +364,9 @@ class SituationIndex:
         if k:
             match_rows(qd, qa, adj, query.n, rows, references, self.counts, self.pair_starts,
                         self.key_start, self.delta, self.alpha, self.adjacency,
-                        NORMALISE.index(options.normalise), CONSTRAINT.index(options.constraint),
-                        float(threshold), similarity, reference, mapping, nodes)
+                        MATCHING.index(options.matching), NORMALISE.index(options.normalise),
+                        CONSTRAINT.index(options.constraint), float(threshold), similarity,
+                        reference, mapping, nodes)
         keep = np.flatnonzero(similarity >= 0.0)
         keep = keep[np.lexsort((rows[keep], -similarity[keep]))][:limit]
         # whole columns to Python at once: a query may find hundreds of cases
