@@ -88,20 +88,40 @@ def _allowed_pair(i: int, j: int, adj_a: np.ndarray, adj_b: np.ndarray, base_b: 
 
 
 @njit(inline="always")
-def _rest(depth: int, m: int, order: np.ndarray, cands: np.ndarray, ncand: np.ndarray,
-          s: np.ndarray, used: int) -> float:
-    """What the landmarks from ``depth`` on could still add: each one's best similarity to a
-    landmark of ``B`` not ``used`` (its candidates are sorted best first, so the first unused
-    one gives it). Admissible: it drops the injectivity among them and the constraint."""
+def _top_sum(values: np.ndarray, count: int, q: int) -> float:
+    """The sum of the ``q`` largest of ``values[:count]`` (which it reorders)."""
     total = 0.0
+    if q >= count:
+        for k in range(count):
+            total += values[k]
+        return total
+    for k in range(q):
+        top = k
+        for e in range(k + 1, count):
+            if values[e] > values[top]:
+                top = e
+        values[k], values[top] = values[top], values[k]
+        total += values[k]
+    return total
+
+
+@njit(inline="always")
+def _rest(depth: int, m: int, order: np.ndarray, cands: np.ndarray, ncand: np.ndarray,
+          s: np.ndarray, used: int, need: int, buffer: np.ndarray) -> float:
+    """What the landmarks from ``depth`` on could still add when ``need`` more are matched:
+    the ``need`` largest of each one's best similarity to a landmark of ``B`` not ``used``
+    (its candidates are sorted best first, so the first unused one gives it). Admissible: it
+    drops the injectivity among them and the constraint."""
+    count = 0
     for d in range(depth, m):
         i = order[d]
         for k in range(ncand[d]):
             j = cands[d, k]
             if (used >> j) & 1 == 0:
-                total += s[i, j]
+                buffer[count] = s[i, j]
+                count += 1
                 break
-    return total
+    return _top_sum(buffer, count, need)
 
 
 @njit
@@ -120,7 +140,7 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
     :data:`~cbr_landmarks.similarity.CONSTRAINT`.
     Only the reference pairs ``(ra, rb)`` with ``references[ra, rb]`` set are tried (the
     retrieval index rules the others out). ``sims`` ``(na * nb, na, nb)``, ``fwork``
-    ``(na * nb + 3 na,)`` and ``iwork`` ``(9 + na, max(na, nb))`` (int) are scratch, at least
+    ``(na * nb + 4 na + nb,)`` and ``iwork`` ``(9 + na, max(na, nb))`` (int) are scratch, at least
     that large.
 
     Every matching tried matches ``min(na, nb) - 1`` landmarks besides the references: all of
@@ -147,6 +167,8 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
     partial = fwork[pairs:pairs + na]
     frees = fwork[pairs + na:pairs + 2 * na]
     keys = fwork[pairs + 2 * na:pairs + 3 * na]
+    tops = fwork[pairs + 3 * na:pairs + 4 * na]
+    columns = fwork[pairs + 4 * na:pairs + 4 * na + nb]
     order = iwork[0]
     ncand = iwork[1]
     chosen = iwork[2]
@@ -161,9 +183,11 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
     best = -1.0
     best_ra = -1
     best_rb = -1
-    # 002's heuristic h for every reference pair: the sum of each landmark's best similarity.
-    # A pair is given up part way once one per landmark still to add cannot reach the
-    # threshold.
+    # 002's heuristic h for every reference pair, the sum of each landmark's best similarity,
+    # made tighter where only q of them are matched: the q largest, and no more than the q
+    # largest of B's landmarks' best. A pair is given up part way once one per landmark still
+    # to add cannot reach the threshold.
+    q = min(na, nb) - 1
     for ra in range(na):
         for rb in range(nb):
             p = ra * nb + rb
@@ -173,6 +197,7 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
             s = sims[p]
             h = 0.0
             left = m
+            columns[:nb] = 0.0
             for i in range(na):
                 if i == ra:
                     continue
@@ -183,12 +208,14 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
                         value = _similarity(da, aa, ra * na + i, db, ab, pair_b + rb * nb + j)
                     s[i, j] = value
                     top = max(top, value)
+                    columns[j] = max(columns[j], value)
+                tops[m - left] = top
                 h += top
                 left -= 1
                 if h + left < target - EPSILON:
                     break
             else:
-                bounds[p] = h
+                bounds[p] = min(_top_sum(tops, m, q), _top_sum(columns, nb, q))
     # the pairs best bound first, so that a good matching is found early and prunes the rest
     visit = np.argsort(-bounds, kind="mergesort")
     for t in range(pairs):
@@ -237,7 +264,7 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
         pointer[0] = 0
         partial[0] = 0.0
         spare[0] = skips
-        frees[0] = _rest(1, m, order, cands, ncand, s, used)
+        frees[0] = _rest(1, m, order, cands, ncand, s, used, q, tops)
         while d >= 0:
             k = pointer[d]
             if k > ncand[d] or (k == ncand[d] and spare[d] == 0):
@@ -261,7 +288,8 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
                 if not _allowed_pair(i, j, adj_a, adj_b, base_b, matched_a, matched_b,
                                      count[d], constraint):
                     continue
-                rest = _rest(d + 1, m, order, cands, ncand, s, used | (1 << j))
+                rest = _rest(d + 1, m, order, cands, ncand, s, used | (1 << j),
+                             q - count[d], tops)
             else:
                 # i left out, as one of A's landmarks beyond B's count
                 j = -1
@@ -294,7 +322,7 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
             partial[d + 1] = score
             d += 1
             pointer[d] = 0
-            frees[d] = _rest(d + 1, m, order, cands, ncand, s, used)
+            frees[d] = _rest(d + 1, m, order, cands, ncand, s, used, q - (count[d] - 1), tops)
     if best < 0.0 or best / n < threshold:
         return -1.0, -1, -1, nodes
     mapping[:na] = best_map[:na]
@@ -314,7 +342,7 @@ def match_rows(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, rows:
     reference pairs ``references[k]``; the results go to row ``k`` of the outputs."""
     width = max(na, counts.max())
     sims = np.empty((na * width, na, width))
-    fwork = np.empty(na * width + 3 * na)
+    fwork = np.empty(na * width + 4 * na + width)
     iwork = np.empty((9 + na, width), dtype=np.int64)
     for k in range(rows.shape[0]):
         r = rows[k]
