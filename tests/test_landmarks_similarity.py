@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cbr_landmarks.graph import GraphError, LandmarkGraph
-from cbr_landmarks.index import SituationIndex, prefilter_level
+from cbr_landmarks.index import SituationIndex, prefilter_level, raised
 from cbr_landmarks.kernels import height
 from cbr_landmarks.similarity import (
     CONSTRAINT,
@@ -498,6 +498,31 @@ def test_the_prefilter_changes_nothing(seed: int, threshold: float,
     assert [f.row for f in with_it] == [f.row for f in without]
     for x, y in zip(with_it, without, strict=True):
         assert x.matching.similarity == pytest.approx(y.matching.similarity, abs=1e-12)
+
+
+@given(st.integers(0, 2 ** 16), st.sampled_from([0.6, 0.75, 0.8, 0.9]),
+       st.sampled_from(MODES), st.integers(1, 4), st.integers(2, 6))
+@settings(max_examples=40, deadline=None)
+def test_the_best_few_are_the_first_of_all(seed: int, threshold: float,
+                                           options: SimilarityOptions, limit: int,
+                                           n: int) -> None:
+    # a search for the best few looks at stricter thresholds first: exact copies of the query
+    # reach them, near copies may not
+    rng = np.random.default_rng(seed)
+    query = _graph(rng.uniform(-3, 3, (n, 2)).tolist(), rng.uniform(0.05, 0.6, n).tolist())
+    stored = _store(rng, query) + [query] * int(rng.integers(0, 4))
+    index = SituationIndex.build(stored)
+    every = index.search(query, threshold, options)
+    best = index.search(query, threshold, options, limit=limit)
+    assert [f.row for f in best] == [f.row for f in every[:limit]]
+    for x, y in zip(best, every, strict=False):
+        assert x.matching.similarity == pytest.approx(y.matching.similarity, abs=1e-12)
+        _check_matching(query, stored[x.row], x.matching, options)
+
+
+def test_stricter_thresholds() -> None:
+    assert raised(0.8) == pytest.approx([0.99, 0.95])
+    assert raised(0.5) == [] and raised(1.0) == []
 
 
 @pytest.mark.parametrize("threshold", [0.51, 0.6, 0.75, 0.8, 0.9, 1.0])

@@ -54,7 +54,7 @@ from cbr_landmarks.similarity import (
 from cbr_world2d.fuzzy import TWO_PI
 from cbrcore.compiled import njit
 
-BIN = 0.5
+BIN = 0.1
 """Metres of distance peak per bin of stored pairs."""
 WIDTHS = np.array([0.3, 0.6])
 """Angle half-widths (radians) that split a bin further."""
@@ -78,7 +78,8 @@ class Found:
 
 @njit(error_model="numpy")
 def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: float,
-          normalise: int, classes: np.ndarray, class_bins: np.ndarray, bin_start: np.ndarray,
+          normalise: int, classes: np.ndarray, class_bins: np.ndarray,
+          class_reach: np.ndarray, bin_distance: np.ndarray, bin_start: np.ndarray,
           bin_box: np.ndarray, tri: np.ndarray, key: np.ndarray, key_row: np.ndarray,
           key_rb: np.ndarray, counts: np.ndarray, keys: tuple[int, int], pairs: int,
           widest: int) -> tuple[np.ndarray, int]:
@@ -123,7 +124,13 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
             dhi = d3 - level * (d3 - d2) + SLACK
             nmet = 0
             for c in classes:
-                for b in range(class_bins[c], class_bins[c + 1]):
+                # the bins whose distance peaks lie near enough for a cut to meet [dlo, dhi]
+                b0, b1 = class_bins[c], class_bins[c + 1]
+                lowest = np.floor((dlo - keep * class_reach[c, 1]) / BIN)
+                highest = np.floor((dhi + keep * class_reach[c, 0]) / BIN)
+                first_bin = b0 + np.searchsorted(bin_distance[b0:b1], lowest)
+                last_bin = b0 + np.searchsorted(bin_distance[b0:b1], highest, side="right")
+                for b in range(first_bin, last_bin):
                     box = bin_box[b]
                     if keep * box[0] + level * box[1] > dhi or keep * box[3] + level * box[2] < dlo:
                         continue
@@ -217,6 +224,21 @@ def prefilter_level(threshold: float) -> float:
     return max(0.0, 2.0 * threshold - 1.2)
 
 
+RAISED = (0.95, 0.75)
+"""How far from the threshold toward 1 the stricter thresholds of a search for the best few
+lie (0.99 and 0.95 at 0.8)."""
+
+
+def raised(threshold: float) -> list[float]:
+    """The stricter thresholds a search for the best few looks at first, strictest first
+    (:data:`RAISED`; none over 1/2 or at 1). The higher the threshold, the narrower the
+    prefilter's cuts and the fewer graphs the branch and bound is left with; a view of many
+    landmarks finds hundreds of stored situations over 0.8, and often a few over 0.95."""
+    if not 0.5 < threshold < 1.0:
+        return []
+    return [threshold + share * (1.0 - threshold) for share in RAISED]
+
+
 @attrs.frozen(eq=False)
 class SituationIndex:
     """The stored landmark graphs as flat arrays, searched in one kernel call.
@@ -234,7 +256,10 @@ class SituationIndex:
     angle's half-width at :data:`WIDTHS` (pairs ``bin_start[b]`` to ``bin_start[b + 1]``), and
     sorted by angle peak in a bin. ``bin_box[b]`` bounds the bin's triangles: least distance
     low and peak, largest distance peak and high, largest angle half-widths below and above
-    the peak.
+    the peak; ``bin_distance[b]`` is its distance bin (``floor(peak / BIN)``, ascending within
+    a count) and ``class_reach[n]`` the largest distance half-widths below and above the peak
+    of count ``n``'s pairs, so that a search finds a count's bins near a distance by binary
+    search.
     """
 
     counts: np.ndarray
@@ -249,6 +274,8 @@ class SituationIndex:
     key_rb: np.ndarray
     class_keys: np.ndarray
     class_bins: np.ndarray
+    class_reach: np.ndarray
+    bin_distance: np.ndarray
     bin_start: np.ndarray
     bin_box: np.ndarray
 
@@ -300,6 +327,10 @@ class SituationIndex:
             bin_box = np.empty((0, 6))
         class_bins = np.searchsorted(pair_count[starts], np.arange(MAX_LANDMARKS + 2)
                                      ).astype(np.int64)
+        bin_distance = (distance_bin[starts] // len(WIDTHS)).astype(np.float64)
+        class_reach = np.zeros((MAX_LANDMARKS + 2, 2))
+        np.maximum.at(class_reach[:, 0], pair_count, tri[:, 1] - tri[:, 0])
+        np.maximum.at(class_reach[:, 1], pair_count, tri[:, 2] - tri[:, 1])
         class_keys = np.searchsorted(counts[landmark_row[by_count]],
                                      np.arange(MAX_LANDMARKS + 2)).astype(np.int64)
         # read-only as a graph's own triangles are, so that the kernel compiled for one case
@@ -308,7 +339,8 @@ class SituationIndex:
         alpha.flags.writeable = False
         return cls(counts, pair_starts, key_start, delta, alpha, adjacency,
                    np.ascontiguousarray(tri.T), key, landmark_row[by_count],
-                   landmark_rb[by_count], class_keys, class_bins, bin_start, bin_box)
+                   landmark_rb[by_count], class_keys, class_bins, class_reach, bin_distance,
+                   bin_start, bin_box)
 
     def __len__(self) -> int:
         return int(self.counts.shape[0])
@@ -335,8 +367,8 @@ class SituationIndex:
         keys, compared = _vote(
             qd, qa, na, prefilter_level(threshold), threshold,
             NORMALISE.index(options.normalise), np.array(classes, dtype=np.int64),
-            self.class_bins, self.bin_start, self.bin_box, self.tri, self.key, self.key_row,
-            self.key_rb, self.counts,
+            self.class_bins, self.class_reach, self.bin_distance, self.bin_start, self.bin_box,
+            self.tri, self.key, self.key_row, self.key_rb, self.counts,
             (int(self.class_keys[classes[0]]), int(self.class_keys[classes[-1] + 1])),
             int(self.bin_start[self.class_bins[classes[-1] + 1]]
                 - self.bin_start[self.class_bins[classes[0]]]),
@@ -351,9 +383,23 @@ class SituationIndex:
                limit: int | None = None) -> list[Found]:
         """Every stored graph whose similarity to ``query`` reaches ``threshold``, best first
         (ties by row), at most ``limit``: the prefilter's candidates go through the branch and
-        bound in one kernel call."""
+        bound in one kernel call.
+
+        With a ``limit`` and the prefilter, the search first looks at the stricter thresholds
+        :func:`raised` gives, strictest first: when ``limit`` graphs reach one, they are the
+        best ``limit`` (every other graph scores under it), and the search stops there."""
         if limit is not None and limit < 0:
             raise ValueError(f"limit must be None or >= 0, got {limit!r}")
+        threshold = check_threshold(threshold)
+        if limit and options.prefilter:
+            for stricter in raised(threshold):
+                found = self._search(query, stricter, options, limit)
+                if len(found) == limit:
+                    return found
+        return self._search(query, threshold, options, limit)
+
+    def _search(self, query: LandmarkGraph, threshold: float, options: SimilarityOptions,
+                limit: int | None) -> list[Found]:
         rows, references, _ = self.candidates(query, threshold, options)
         qd, qa, adj = flattened(query)
         k = rows.shape[0]
