@@ -44,6 +44,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import statistics
 import subprocess
 import time
@@ -241,6 +242,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     # the commit that runs, read before the runs: one made meanwhile did not
     commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
                             cwd=Path(__file__).parent).stdout.strip()
+    load_before = os.getloadavg()[0]
     began = time.perf_counter()
     stored = store(args.stored, args.seed)
     asked = queries(args.queries, stored, args.seed)
@@ -359,7 +361,11 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                    "met_at_every_count": (max(aim["by_landmarks"].values()) <= TARGET_MS
                                           and len(stored) >= FULL["stored"])},
         "generate_s": generate_s, "build_s": build_s, "first_call_s": first_s,
-        "elapsed_s": time.perf_counter() - began}
+        "elapsed_s": time.perf_counter() - began,
+        # the 1-minute load average before and after: the other work the timings shared the
+        # machine with
+        "load_average": {"before": load_before, "after": os.getloadavg()[0],
+                         "cpus": os.cpu_count()}}
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "landmarks_retrieval.json").write_text(json.dumps(result, indent=2) + "\n")
     text = report(result)
@@ -419,7 +425,10 @@ def report(result: dict[str, Any]) -> str:
         f"{result['threshold']}, {result['repeats']} timed calls per query and search (their "
         f"median; the scan once). Generating the situations {result['generate_s']:.0f} s, "
         f"building the index {result['build_s']:.2f} s, first calls (numba cache load or "
-        f"compile) {result['first_call_s']:.2f} s, whole run {result['elapsed_s']:.0f} s."]
+        f"compile) {result['first_call_s']:.2f} s, whole run {result['elapsed_s']:.0f} s; "
+        f"load average {result['load_average']['before']:.1f} before, "
+        f"{result['load_average']['after']:.1f} after, on {result['load_average']['cpus']} "
+        f"CPUs."]
     return "\n\n".join(["\n".join(lines), "\n".join(by_count), *notes])
 
 

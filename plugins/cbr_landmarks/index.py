@@ -216,12 +216,14 @@ def prefilter_level(threshold: float) -> float:
     The lower the level, the more pairs are compared (their cuts are wider) but the tighter
     the bound on a reference pair (a pair not compared adds at most ``(1 + level) / 2``), so
     the fewer reference pairs the branch and bound is left with; the level must stay under
-    ``2 threshold - 1`` for the bound to rule any out. 0.2 under it: at 0.8, level 0.4
-    compares about half the pairs level 0 does and leaves about three times the reference
-    pairs, and searched faster on the benchmark's situations (benchmarks/landmarks_retrieval.py),
-    though not by much.
+    ``2 threshold - 1`` for the bound to rule any out. ``1 - threshold`` under it: at 0.8,
+    level 0.4 compares about half the pairs level 0 does and leaves about three times the
+    reference pairs, and searched faster on the benchmark's situations
+    (benchmarks/landmarks_retrieval.py); near 1 the situations over the threshold are few and
+    alike, the cuts narrow, and the bound need not rule out much (0.85 at 0.95, the stricter
+    threshold of a search for the best few).
     """
-    return max(0.0, 2.0 * threshold - 1.2)
+    return max(0.0, 3.0 * threshold - 2.0 - SLACK)
 
 
 RAISED = (0.95, 0.75)
