@@ -492,7 +492,8 @@ def test_the_prefilter_changes_nothing(seed: int, threshold: float,
                                        options: SimilarityOptions, n: int) -> None:
     rng = np.random.default_rng(seed)
     query = _graph(rng.uniform(-3, 3, (n, 2)).tolist(), rng.uniform(0.05, 0.6, n).tolist())
-    index = SituationIndex.build(_store(rng, query))
+    # near copies score near 1, where the cuts are narrow
+    index = SituationIndex.build(_store(rng, query) + [_near(query, rng) for _ in range(4)])
     with_it = index.search(query, threshold, options)
     without = index.search(query, threshold, attrs.evolve(options, prefilter=False))
     assert [f.row for f in with_it] == [f.row for f in without]
@@ -521,7 +522,7 @@ def test_the_best_few_are_the_first_of_all(seed: int, threshold: float,
 
 
 def test_stricter_thresholds() -> None:
-    assert raised(0.8) == pytest.approx([0.99, 0.95])
+    assert raised(0.8) == pytest.approx([0.98, 0.95])
     assert raised(0.5) == [] and raised(1.0) == []
 
 
