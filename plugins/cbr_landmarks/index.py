@@ -9,7 +9,8 @@ call, with no Python per case.
 For a threshold ``t`` over 1/2 a prefilter picks the candidates, and is exact: it leaves out
 only reference pairs ``(ra, rb)`` that cannot reach ``t``, so the search finds what the branch
 and bound over every graph finds. First, a matching scores at most ``min(n_A, n_B) - 1`` over
-``N``, which rules out the landmark counts too far from the situation's. Then a cut level
+``N``, which rules out the landmark counts too far from the situation's (in ``paper`` matching
+every count but the situation's). Then a cut level
 ``c`` under ``2t - 1`` is taken (:func:`prefilter_level`) and ``sigma = (1 + c) / 2 < t``. Two
 triangles overlap by ``c`` or more exactly when their cuts at ``c`` (where each is at least
 ``c``) meet, so a pair ``(i, j)`` whose similarity is over ``sigma``, both overlaps then being
