@@ -29,7 +29,7 @@ from cbrcore.errors import (
 from cbrcore.fingerprint import WorldFingerprint, fingerprint
 from cbrcore.hookimpls import implemented_hooks, unknown_hooks
 from cbrcore.hookspecs import PHASE_HOOKS
-from cbrcore.model import CASEBASE, Outcome, Proposal, Retrieval, Revision, Solution
+from cbrcore.model import CASEBASE, Outcome, Proposal, Retrieval, Revision, Solution, no_action
 from cbrcore.options import unstructure
 from cbrcore.plugins import Plugins, current, new_plugin_manager
 from cbrcore.registry import KIND_HOOK
@@ -512,6 +512,9 @@ class Engine:
               then: LearnDone | None = None) -> dict[str, float] | None:
         """Retain and forget after ``proposal`` was carried out.
 
+        Every learn step reaches the retainers, a proposal without a solution too: they are
+        then handed :func:`~cbrcore.model.no_action` (``solution.no_action``), since going on
+        without an action is an outcome worth learning (a situation that needed nothing).
         One case base transaction: a crash inside keeps nothing of this step and everything
         before it. The step is all or nothing for what the run derives from the case base too:
         it runs inside the store mirror's transaction, which first catches up with what other
@@ -582,7 +585,9 @@ class Engine:
         started = time.perf_counter()
         timings: dict[str, float] = {}
         proposal, outcome = step.proposal, step.outcome
-        solution = outcome.solution or proposal.solution
+        # a proposal without a solution is still an outcome: going on with no action worked
+        # or did not, and a retainer may learn that (a safe place, a positive case)
+        solution = outcome.solution or proposal.solution or no_action()
         current, self.ctx.step = self.ctx.step, step.step
         try:
             with self.ctx.mirror.transaction():
@@ -593,9 +598,8 @@ class Engine:
                                  store_policy(self.config.casebase.options))
                 if proposal.from_casebase and proposal.solution is not None:
                     _touch_stored(self.casebase, proposal.solution.cases)
-                if solution is not None:
-                    self.hooks.retain(step.problem, solution, outcome, self.casebase, self.ctx,
-                                      timings)
+                self.hooks.retain(step.problem, solution, outcome, self.casebase, self.ctx,
+                                  timings)
                 self.hooks.forget(self.casebase, self.ctx, timings)
             self._unrecorded = None
         finally:

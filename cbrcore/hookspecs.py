@@ -171,7 +171,12 @@ def cbr_retain(problem: Any, solution: Solution, outcome: Outcome, casebase: Cas
     Collect-all: every configured retainer runs, in the order the configuration lists them and
     in the same case base transaction as the forget step that follows, so a crash keeps all or
     none of one learn step. ``solution`` is what was executed (the outcome's solution when it
-    has one, else the proposal's). Return value ignored.
+    has one, else the proposal's). Every learn step calls it: when the proposal had no solution
+    (nothing matched and the solver had no answer, or the answer was to do nothing), the robot
+    went on as it was and ``solution`` is :func:`~cbrcore.model.no_action`, whose ``no_action``
+    is true (``value`` None), with ``outcome`` telling how going on fared. A retainer that keeps
+    what was carried out checks ``solution.no_action`` first; one may learn from it that a
+    situation needed nothing (a positive case). Return value ignored.
     """
 
 

@@ -87,6 +87,19 @@ class Solution:
     cases: tuple[int, ...] = ()
     detail: Mapping[str, Any] = attrs.field(factory=dict)
 
+    @property
+    def no_action(self) -> bool:
+        """Whether the solution asks for nothing (``value`` is None): the robot goes on as it
+        was. The learn step passes such a solution to the retainers when the proposal had none
+        (see :func:`no_action`)."""
+        return self.value is None
+
+
+def no_action() -> Solution:
+    """The solution the learn step hands the retainers for a proposal without one: nothing was
+    carried out, and the outcome tells how going on without an action fared."""
+    return Solution(None)
+
 
 @attrs.frozen
 class Revision:

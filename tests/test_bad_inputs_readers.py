@@ -73,6 +73,13 @@ CASES: dict[str, tuple[tuple[str, ...], str]] = {
         ("validate", "{tmp}/trials.yaml"),
         "trials.yaml: 1 problem:\n  - workload.consult_on (line 1, column 49): expected a list, "
         "got 'blocked'"),
+    "validate a heading trigger's turn of 0": (
+        ("validate", "{tmp}/turn.yaml"),
+        "turn.yaml: 1 problem:\n  - workload.turn (line 1, column 43): must be > 0.0: 0.0"),
+    "validate a negative margin of the region in front": (
+        ("validate", "{tmp}/margin.yaml"),
+        "margin.yaml: 1 problem:\n  - retrieve.region.margin (line 1, column 45): must be >= "
+        "0.0: -1.0"),
     "run a world2d_file world of text": (
         ("run", "{tmp}/world.yaml", "--out", "{tmp}/out"),
         "line.yaml: 1 problem:\n  - the top level (line 1, column 1): expected a world"),
@@ -136,6 +143,11 @@ def _write_files(tmp: Path) -> None:
         "world: {use: world2d_file, path: line.yaml}\nworkload: trials\n", encoding="utf-8")
     (tmp / "trials.yaml").write_text(
         "workload: {use: trials, trials: [], consult_on: blocked}\n", encoding="utf-8")
+    (tmp / "turn.yaml").write_text(
+        "workload: {use: trials, trials: [], turn: 0}\n", encoding="utf-8")
+    (tmp / "margin.yaml").write_text(
+        "retrieve: {use: landmarks, region: {margin: -1}}\nworkload: {use: trials, trials: []}\n",
+        encoding="utf-8")
     (tmp / "initial.yaml").write_text(
         "casebase: {use: memory, initial: tag.yaml}\n", encoding="utf-8")
 

@@ -32,6 +32,7 @@ from cbrcore.config import parse_config
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.fingerprint import WorldFingerprint, fingerprint
+from cbrcore.model import Proposal, no_action
 from cbrcore.options import option
 from cbrcore.plugins import Plugins, load_plugins, new_plugin_manager, use_plugins
 from cbrcore.reference import config_reference, hook_reference
@@ -383,7 +384,9 @@ class Tags(_Component):
     def cbr_retain(self, problem: int, solution: Solution, outcome: Outcome,
                    casebase: CaseStore) -> None:
         self._log(("retain", self.options.tag, solution.value, outcome.success))
-        casebase.add(Case(problem, solution.value, kind="tagged", meta={"tag": self.options.tag}))
+        if not solution.no_action:
+            casebase.add(Case(problem, solution.value, kind="tagged",
+                              meta={"tag": self.options.tag}))
 
 
 class Trims(_Component):
@@ -493,6 +496,25 @@ def test_hook_cbr_retain() -> None:
     assert sorted(stored) == [(3, 9, "a"), (3, 9, "b"), (4, 15, "a"), (4, 15, "b")]
 
 
+def test_hook_cbr_retain_no_action() -> None:
+    """A proposal without a solution is learned too: every retainer gets a solution that asks
+    for nothing (``no_action``, value None) with the outcome of going on without an action, as
+    it gets a reused solution that asks for nothing."""
+    config = "solver: declines\nretain: [{use: tags, tag: a}, {use: tags, tag: b}]\n"
+    with engine_for(load(), config) as engine:
+        unsolved = engine.solve(101)
+        assert unsolved.solution is None
+        engine.learn(101, unsolved, Outcome(success=True, cost=2.0))
+        engine.learn(102, Proposal(Solution(None), "casebase"), Outcome(success=False))
+        retained = [e for e in engine.ctx.stash[LOG] if e[0] == "retain"]
+        # the retainers kept nothing: they saw no_action
+        assert engine.casebase.count("tagged") == 0
+    assert retained == [("retain", "a", None, True), ("retain", "b", None, True),
+                        ("retain", "a", None, False), ("retain", "b", None, False)]
+    assert no_action().no_action and no_action() == Solution(None)
+    assert not Solution(0).no_action  # a falsy answer is still an action
+
+
 def test_hook_cbr_forget() -> None:
     """``cbr_forget`` is collect-all: every configured forgetter runs after all retainers, inside
     the same transaction, and it runs even when nothing was retained."""
@@ -501,11 +523,11 @@ def test_hook_cbr_forget() -> None:
     with engine_for(load(), config) as engine:
         for x in (1, 2):
             engine.learn(x, engine.solve(x), Outcome(success=True))
-        engine.learn(101, engine.solve(101), Outcome(success=False))  # no solution: no retain
+        # no solution: the retainers get no action and keep nothing; the forgetters still run
+        engine.learn(101, engine.solve(101), Outcome(success=False))
         log = [entry for entry in engine.ctx.stash[LOG] if entry[0] != "solve"]
         stored = sorted((c.problem, c.meta["tag"]) for c in engine.casebase.cases())
-    assert [entry[0] for entry in log] == ["retain"] * 2 + ["forget"] * 2 + ["retain"] * 2 + [
-        "forget"] * 4
+    assert [entry[0] for entry in log] == (["retain"] * 2 + ["forget"] * 2) * 3
     assert sorted(entry[1] for entry in log if entry[0] == "forget") == ["a"] * 3 + ["b"] * 3
     assert stored == [(2, "a"), (2, "b")]
 

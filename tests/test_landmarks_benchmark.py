@@ -113,7 +113,13 @@ def test_tiny_run_writes_outputs(bench: ModuleType, tmp_path: Path) -> None:
                          "--exhaustive-landmarks", "4", "--seed", "3", "--out", str(tmp_path)])
     written = json.loads((tmp_path / "landmarks_retrieval.json").read_text())
     assert written["stored"] == 60 and written["queries"] == 6
-    assert written["results_equal_without_prefilter"] == "6/6"
+    for mode in ("partial", "paper"):
+        searches = written["searches"][mode]
+        assert searches["all"]["equal_to_scan"] == "6/6"
+        assert searches["best"]["equal_to_scan"] == "6/6"
+        assert set(searches["best"]["by_landmarks"]) == {
+            str(n) for n in range(2, 9) if written["landmarks_queries"][n - 2]}
+    assert len(written["commit"]) in (0, 40)
     brute = written["brute_force"]
     assert brute["results_equal"] == f"{brute['queries']}/{brute['queries']}"
     assert 0 < brute["branch_and_bound_nodes"] <= brute["exhaustive_mappings"]
@@ -122,4 +128,4 @@ def test_tiny_run_writes_outputs(bench: ModuleType, tmp_path: Path) -> None:
     assert 0.0 <= written["prefilter"]["pass_rate_median"] <= 1.0
     text = (tmp_path / "landmarks_retrieval.md").read_text()
     assert "SituationIndex.search" in text and "exhaustive_similarity" in text
-    assert result["search_ms"]["median"] > 0
+    assert result["searches"]["partial"]["best"]["median"] > 0

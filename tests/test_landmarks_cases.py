@@ -209,13 +209,16 @@ def test_a_case_whose_action_names_no_landmark_of_its_graph_is_refused() -> None
 # --- the problem case: the region in front of the robot --------------------------------------
 
 # robot-frame places (x ahead, y to the left), worked by hand against the default sector
-# (6 m, 180 degrees) and a 6 m x 4 m rectangle:
+# (6 m, 180 degrees) and a 6 m x 4 m rectangle, without margin:
 #   A (1, 3)      3.16 m at 71.6 deg: sector yes; rectangle no (|y| = 3 > 2)
 #   B (5.5, 0.5)  5.52 m at 5.2 deg:  both
-#   C (5.9, 1.9)  6.20 m:             sector no (beyond 6 m); rectangle yes
+#   C (5.9, 1.9)  6.20 m at 17.8 deg: sector no (beyond 6 m); rectangle yes
 #   D (-0.5, 0.2) behind the robot:   neither
 #   E (2, -1)     2.24 m at -26.6 deg: both
-# and a 60 degree sector (|angle| <= 30 deg) takes B and E only.
+# and a 60 degree sector (|angle| <= 30 deg) takes B and E only. With the default margin of
+# 1 m the sector reaches 7 m and opens by 1/6 rad (9.55 deg) on each side: it takes C too
+# (within 7 m) but not D (158 deg); the 60 degree sector (|angle| <= 39.55 deg) takes B, C and
+# E; the rectangle with a margin of 0.5 m (6.5 m, |y| <= 2.5) still leaves A out.
 PLACES = {"A": (1.0, 3.0), "B": (5.5, 0.5), "C": (5.9, 1.9), "D": (-0.5, 0.2),
           "E": (2.0, -1.0)}
 OBSTACLES = (("A", "B"), ("C", "E"), ("B", "E"), ("D", "E"))
@@ -224,11 +227,16 @@ POSES = [Pose(0.0, 0.0, 0.0), Pose(3.0, -2.0, 2.3), Pose(-1.0, 4.0, -2.9)]
 
 @pytest.mark.parametrize("pose", POSES, ids=["origin", "turned left", "turned right"])
 @pytest.mark.parametrize(("region", "inside", "kept"), [
-    (RegionOptions(), {"A", "B", "E"}, {("A", "B"), ("B", "E")}),
-    (RegionOptions(shape="rectangle", depth=6.0, width=4.0), {"B", "C", "E"},
+    (RegionOptions(margin=0.0), {"A", "B", "E"}, {("A", "B"), ("B", "E")}),
+    (RegionOptions(shape="rectangle", depth=6.0, width=4.0, margin=0.0), {"B", "C", "E"},
      {("C", "E"), ("B", "E")}),
-    (RegionOptions(angle=60.0), {"B", "E"}, {("B", "E")}),
-], ids=["sector", "rectangle", "narrow sector"])
+    (RegionOptions(angle=60.0, margin=0.0), {"B", "E"}, {("B", "E")}),
+    (RegionOptions(), {"A", "B", "C", "E"}, {("A", "B"), ("C", "E"), ("B", "E")}),
+    (RegionOptions(shape="rectangle", depth=6.0, width=4.0, margin=0.5), {"B", "C", "E"},
+     {("C", "E"), ("B", "E")}),
+    (RegionOptions(angle=60.0), {"B", "C", "E"}, {("C", "E"), ("B", "E")}),
+], ids=["sector", "rectangle", "narrow sector", "sector with margin", "rectangle with margin",
+        "narrow sector with margin"])
 def test_the_problem_case_holds_the_landmarks_in_the_region_and_the_obstacles_between_them(
         pose: Pose, region: RegionOptions, inside: set[str],
         kept: set[tuple[str, str]]) -> None:
@@ -249,14 +257,15 @@ def test_the_problem_case_holds_the_landmarks_in_the_region_and_the_obstacles_be
 def test_fewer_than_two_landmarks_in_the_region_is_no_problem_case() -> None:
     pose = POSES[1]
     world = {k: robot_to_world(pose, *PLACES[k]) for k in ("A", "C", "D")}
-    rectangle = RegionOptions(shape="rectangle", depth=6.0, width=4.0)
+    rectangle = RegionOptions(shape="rectangle", depth=6.0, width=4.0, margin=0.0)
+    sector = RegionOptions(margin=0.0)
     assert problem_view(make_situation(pose, world), rectangle) is None  # C alone inside
-    assert problem_view(make_situation(pose, {"A": world["A"]}), RegionOptions()) is None
-    assert problem_view(make_situation(pose, {}), RegionOptions()) is None
-    # the default sector takes A only of the three: C lies beyond 6 m, D behind
-    assert problem_view(make_situation(pose, world), RegionOptions()) is None
+    assert problem_view(make_situation(pose, {"A": world["A"]}), sector) is None
+    assert problem_view(make_situation(pose, {}), sector) is None
+    # the sector takes A only of the three: C lies beyond 6 m, D behind
+    assert problem_view(make_situation(pose, world), sector) is None
     world["E"] = robot_to_world(pose, *PLACES["E"])
-    view = problem_view(make_situation(pose, world), RegionOptions())
+    view = problem_view(make_situation(pose, world), sector)
     assert view is not None and set(view.graph.ids) == {"A", "E"}
 
 
@@ -306,6 +315,36 @@ def test_a_camera_sighting_places_the_landmark_within_its_uncertainty(
     points, uncertainty = places(seen)
     off = np.hypot(*(points - true).T)
     assert (off <= uncertainty + 1e-9).all(), (off, uncertainty)
+
+
+@pytest.mark.parametrize("fov", [60.0, 180.0, 360.0])
+def test_a_landmark_at_the_edge_of_the_camera_is_in_the_region_whatever_the_noise(
+        fov: float) -> None:
+    """Landmarks at the camera's range and at the edge of its field of view, each measured 200
+    times with the camera's largest noise: the default region (the camera's 6 m and a sector of
+    its field) holds every one the camera sees, through its margin; without the margin the
+    noise drops some, as it would on the edge of a region of the camera's size."""
+    pose = Pose(2.0, 1.0, 0.7)
+    half = math.radians(min(fov, 359.0)) / 2.0 - 1e-6
+    edge = 6.0 - 1e-6
+    polar = [(edge, 0.0), (edge, half), (edge, -half), (3.0, half), (edge, half / 2.0)]
+    world = np.array([[*robot_to_world(pose, d * math.cos(b), d * math.sin(b)), 0.1]
+                      for d, b in polar])
+    ids = [f"l{k}" for k in range(len(polar))]
+    camera = Camera(fov=math.radians(fov), max_range=6.0, noise=0.99)
+    rng = np.random.default_rng(5)
+    region = RegionOptions(angle=fov)
+    dropped = 0
+    for _ in range(200):
+        seen = camera.see(pose, world, ids, np.zeros((0, 4)), rng)
+        assert len(seen) == len(polar)
+        problem = Situation(0, 0.0, "landmarks", pose, (10.0, 0.0), seen, (), np.zeros(0),
+                            np.zeros(0), False, 1.0)
+        view = problem_view(problem, region)
+        assert view is not None and set(view.graph.ids) == set(ids)
+        bare = problem_view(problem, attrs.evolve(region, margin=0.0))
+        dropped += bare is None or len(bare.graph.ids) < len(ids)
+    assert dropped > 100
 
 
 # --- from_points: every true pair lies inside the labels -------------------------------------

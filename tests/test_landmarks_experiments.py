@@ -11,17 +11,24 @@ wrote, and the paper's figures against 002 itself.
 from __future__ import annotations
 
 import csv
+import importlib
 import json
+import math
+import statistics
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
+import yaml
 from PIL import Image
 
 import cbr_landmarks
 import cbr_world2d
 import cbrcore.builtins
+from cbr_landmarks.experiments.figure7 import point_b, point_c
+from cbr_world2d import generate
 from cbrcore.experiment import run_experiment
 from cbrcore.plugins import Plugins, load_plugins, use_plugins
 
@@ -33,6 +40,12 @@ def plugins() -> Iterator[Plugins]:
     # the experiment builds its engines with the current plugins
     with use_plugins(loaded):
         yield loaded
+
+
+ROOT = Path(__file__).resolve().parents[1]
+
+WALLS = {"v": 2, "u": 3, "wall": 1, "corridor": 3, "gap": 2, "room": 5}
+"""How many linear obstacles each scenario shape has."""
 
 
 def trial_rows(path: Path) -> list[dict[str, str]]:
@@ -129,6 +142,89 @@ def test_the_table_and_figure_7_are_written(
             assert (out / scenario / robot / "trajectories.npz").is_file()
 
 
+def test_every_cell_of_the_robustness_table_is_what_its_runs_drove(
+        scenarios: tuple[Path, dict[str, Any], list[Path]]) -> None:
+    out, results, _ = scenarios
+    robust = results["robustness"]
+    assert robust["headings"] == [-30.0, -15.0, 0.0, 15.0, 30.0]
+    assert robust["cameras"] == [60.0, 120.0, 180.0, 360.0]
+    assert len(robust["cells"]) == 20 and robust["trials"] == 2
+    # the paper's pose, from the world file: point A facing the target
+    world = yaml.safe_load((ROOT / "plugins" / "cbr_world2d" / "worlds" /
+                            "scenario2.yaml").read_text(encoding="utf-8"))
+    (sx, sy), (tx, ty) = world["places"]["start"], world["places"]["target"]
+    ahead = math.degrees(math.atan2(ty - sy, tx - sx))
+    folder = out / "robustness"
+    for cell in robust["cells"]:
+        heading, camera = cell["heading"], cell["camera"]
+        agent = folder / f"{heading:+.0f}/{camera:.0f}/cbr-handmade"
+        alone = folder / f"{heading:+.0f}/0/no-cbr"
+        probe = folder / f"{heading:+.0f}/{camera:.0f}/probe"
+        config = json.loads((agent / "manifest.json").read_text(encoding="utf-8"))["config"]
+        assert config["workload"]["camera"]["fov"] == camera
+        assert config["workload"]["trials"][0]["heading"] == pytest.approx(ahead + heading)
+        for run, key in ((agent, "cbr"), (alone, "no_cbr")):
+            rows = trial_rows(run / "trials.csv")
+            assert cell[key] == {"reached": sum(r["success"] == "True" for r in rows),
+                                 "trials": 2}
+        # the probe consults once per trial, at the start, and keeps every case's score
+        assert [float(r["time"]) for r in trial_rows(probe / "trials.csv")] == [0.1, 0.1]
+        best = [0.0, 0.0]
+        for row in trial_rows(probe / "results.csv"):
+            assert float(row["q_t"]) == 0.0
+            if row["best_similarity"]:
+                best[int(row["q_trial"])] = float(row["best_similarity"])
+        assert cell["similarities"] == pytest.approx(best)
+        assert cell["similarity"]["median"] == pytest.approx(statistics.median(best))
+        assert cell["over_threshold"] == sum(b >= robust["threshold"] for b in best)
+    # without CBR the robot never gets out of the V, however it starts
+    assert all(cell["no_cbr"]["reached"] == 0 for cell in robust["cells"])
+    # the paper's pose with a camera that sees the V: the hand-made case matches at point A
+    for camera in (180.0, 360.0):
+        paper = next(c for c in robust["cells"] if c["heading"] == 0 and c["camera"] == camera)
+        assert paper["cbr"]["reached"] == 2
+        assert paper["similarity"]["min"] >= robust["threshold"]
+    table = (out / "results.md").read_text(encoding="utf-8")
+    assert ("| start heading | 60° camera | 120° camera | 180° camera | 360° camera | "
+            "without CBR |") in table
+    assert table.count("\n| +0° | ") == 1
+
+
+def test_figure_7_marks_the_retrievals_and_diverting_targets(
+        scenarios: tuple[Path, dict[str, Any], list[Path]]) -> None:
+    out, results, _ = scenarios
+    marks = results["figure7"]["scenario2"]["cbr-handmade"]
+    rows = trial_rows(out / "scenario2" / "cbr-handmade" / "results.csv")
+    assert len(marks["consultations"]) == len(rows)
+    # every trial retrieves the V's case at point A and is sent beside l3 (002 section 4)
+    at_a = [r for r in rows if float(r["q_t"]) == 0.0]
+    assert sorted(int(r["q_trial"]) for r in at_a) == list(range(results["trials"]))
+    assert all(r["source"] == "casebase" and r["divert_x"] != "nan" for r in at_a)
+    world = yaml.safe_load((ROOT / "plugins" / "cbr_world2d" / "worlds" /
+                            "scenario2.yaml").read_text(encoding="utf-8"))
+    l3 = next(m["at"] for m in world["landmarks"] if m["id"] == "l3")
+    for trial, x, y in marks["diverting_targets"]:
+        if trial == 0:
+            assert math.dist((x, y), l3) < 1.0
+            break
+    assert results["figure7"]["scenario2"]["no-cbr"] == {"consultations": [],
+                                                         "diverting_targets": []}
+
+
+def test_points_b_and_c_are_where_the_paths_say() -> None:
+    # a path heading east for 10 s, then north: B where it turns away from a target east
+    t = np.arange(0, 20, 0.5)
+    path = np.column_stack([t, np.minimum(t, 10.0) * 0.05, np.maximum(t - 10.0, 0) * 0.05,
+                            np.where(t < 10.0, 0.0, math.pi / 2)])
+    assert point_b(path, (5.0, 0.0)) == pytest.approx((0.5, 0.0))
+    assert point_b(path[t < 10.0], (5.0, 0.0)) is None
+    decisions = [{"trial": 0, "source": "solver:landmark_detour", "divert_x": 0.0,
+                  "divert_y": 0.0},
+                 {"trial": 0, "source": "casebase", "divert_x": 0.52, "divert_y": 0.21}]
+    assert point_c(path, decisions, 0) == pytest.approx((0.5, 0.2))
+    assert point_c(path, decisions, 1) is None
+
+
 # --- landmark-learning -----------------------------------------------------------------------
 
 
@@ -151,6 +247,7 @@ def test_learning_from_an_empty_case_base_beats_no_cbr_on_unseen_worlds(
         learning: tuple[Path, dict[str, Any]]) -> None:
     _, results = learning
     unseen = {robot: s["unseen"] for robot, s in results["summary"].items()}
+    assert set(unseen) == {"no-cbr", "detour", "cbr-learning"}
     assert unseen["cbr-learning"]["success"]["mean"] > unseen["no-cbr"]["success"]["mean"]
     assert unseen["cbr-learning"]["time_all"]["mean"] < unseen["no-cbr"]["time_all"]["mean"]
     assert results["summary"]["cbr-learning"]["cases_at_end"]["mean"] >= 1
@@ -162,18 +259,63 @@ def test_learning_from_an_empty_case_base_beats_no_cbr_on_unseen_worlds(
 def test_the_learning_summary_is_what_the_robots_drove(
         learning: tuple[Path, dict[str, Any]]) -> None:
     out, results = learning
-    train, test = results["training_worlds"], results["unseen_worlds"]
+    shapes = results["shapes"]
+    assert shapes == ["v", "u", "wall", "corridor", "gap", "room"]
+    train = results["training_worlds_per_shape"] * len(shapes)
+    test = results["unseen_worlds_per_shape"] * len(shapes)
     trials = results["trials_per_world"]
+    assert trials >= 2  # transfer and repetition both measured
     for robot, curves in results["curves"].items():
         (curve,) = curves  # one seed at ci size
         assert len(curve["success"]) == (train + test) * trials
-        rows = [row for world in sorted((out / f"seed{curve['seed']}" / robot).iterdir(),
-                                        key=lambda p: int(p.name.removeprefix("world")))
-                for row in trial_rows(world / "trials.csv")]
-        assert [row["success"] == "True" for row in rows] == curve["success"]
+        worlds = sorted((out / f"seed{curve['seed']}" / robot).iterdir(),
+                        key=lambda p: int(p.name.removeprefix("world")))
+        assert len(worlds) == train + test
+        rows = [(int(world.name.removeprefix("world")), k, row)
+                for world in worlds for k, row in enumerate(trial_rows(world / "trials.csv"))]
+        assert [row["success"] == "True" for _, _, row in rows] == curve["success"]
         unseen = rows[train * trials:]
-        success = mean([row["success"] == "True" for row in unseen])
+        success = mean([row["success"] == "True" for _, _, row in unseen])
         assert results["summary"][robot]["unseen"]["success"]["mean"] == pytest.approx(success)
         assert results["summary"][robot]["unseen"]["time_all"]["mean"] == pytest.approx(
-            mean([float(row["time"]) for row in unseen]))
+            mean([float(row["time"]) for _, _, row in unseen]))
+        # transfer: the first trial in each unseen world; repetition: the others
+        for phase, first in (("transfer", True), ("repetition", False)):
+            picked = [row for _, k, row in unseen if (k == 0) == first]
+            assert results["summary"][robot][phase]["time_all"]["mean"] == pytest.approx(
+                mean([float(row["time"]) for row in picked]))
+        # per shape, from the generated world each folder drove (its name and walls)
+        for shape in shapes:
+            picked = [row for seed, k, row in unseen if k == 0
+                      and len(generate.scenario(seed).walls) == WALLS[shape]
+                      and generate.SCENES[seed % len(generate.SCENES)] == shape]
+            measured = results["by_shape"][shape][robot]["transfer"]["success"]["mean"]
+            assert measured == pytest.approx(mean([row["success"] == "True" for row in picked]))
+    # every shape is driven in training and unseen worlds alike
+    (curve,) = results["curves"]["cbr-learning"]
+    for part in (slice(0, train * trials), slice(train * trials, None)):
+        assert set(curve["shape"][part]) == set(shapes)
     assert (out / "learning_curves.png").is_file()
+
+
+def test_the_docs_blocks_render_from_these_results(
+        scenarios: tuple[Path, dict[str, Any], list[Path]],
+        learning: tuple[Path, dict[str, Any]], monkeypatch: pytest.MonkeyPatch) -> None:
+    # the blocks of docs/landmarks.md, rendered from the results of a run of this design as
+    # benchmarks/figures.py renders them from kept results
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    blocks = importlib.import_module("docfigures.landmark_experiments")
+    kept = {"landmark-scenarios": scenarios[1], "landmark-learning": learning[1]}
+    monkeypatch.setattr(blocks, "kept_results", kept.__getitem__)
+    robust = blocks.scenarios_robustness()
+    assert robust.startswith("| start heading | 60° camera |")
+    assert "Not measured yet" not in robust
+    assert f"({scenarios[1]['robustness']['trials']} trials per cell; threshold 0.75." in robust
+    assert blocks.learning_setup().startswith("For each of 1 seeds the three robots drive 2 times")
+    tables = blocks.learning_tables()
+    assert "| shape | robot | success | time | distance |" in tables
+    assert tables.count("| room | ") == 3
+    assert blocks.learning_reading().startswith("- **Against its fallback**")
+    # results of the earlier design render as not measured yet, naming how to measure them
+    monkeypatch.setattr(blocks, "kept_results", lambda name: {"summary": {}})
+    assert blocks.learning_tables().startswith("*Not measured yet")

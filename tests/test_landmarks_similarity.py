@@ -5,6 +5,7 @@ search (with and without its prefilter) against the enumeration over a list of g
 
 from __future__ import annotations
 
+import itertools
 import math
 import re
 
@@ -15,10 +16,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cbr_landmarks.graph import GraphError, LandmarkGraph
-from cbr_landmarks.index import SituationIndex, prefilter_level
+from cbr_landmarks.index import SituationIndex, prefilter_level, raised
 from cbr_landmarks.kernels import height
 from cbr_landmarks.similarity import (
     CONSTRAINT,
+    MATCHING,
     NORMALISE,
     Matching,
     SimilarityOptions,
@@ -27,10 +29,11 @@ from cbr_landmarks.similarity import (
     exhaustive_similarity,
     landmark_similarities,
 )
-from cbr_world2d.fuzzy import Triangle, angle_overlap, overlap, overlap_arrays
+from cbr_world2d.fuzzy import Triangle, angle_overlap, overlap, overlap_arrays, unchecked
 from cbrcore.errors import CbrError
 
-MODES = [SimilarityOptions(normalise=n, constraint=c) for n in NORMALISE for c in CONSTRAINT]
+MODES = [SimilarityOptions(matching=m, normalise=n, constraint=c)
+         for m in MATCHING for n in NORMALISE for c in CONSTRAINT]
 DEG = math.radians(1.0)
 
 
@@ -187,8 +190,12 @@ def graphs(draw: st.DrawFn, most: int = 6) -> LandmarkGraph:
 @st.composite
 def graph_pairs(draw: st.DrawFn) -> tuple[LandmarkGraph, LandmarkGraph]:
     a = draw(graphs())
-    if draw(st.booleans()):
+    choice = draw(st.sampled_from(["any", "near", "equal"]))
+    if choice == "any":
         return a, draw(graphs())
+    if choice == "equal":
+        # paper matching compares equal counts only
+        return a, draw(graphs().filter(lambda b: b.n == a.n))
     # a near copy of a, some landmarks dropped or added, so that high similarities (and
     # their pruning) are exercised
     seed = draw(st.integers(0, 2 ** 16))
@@ -209,79 +216,187 @@ def _near(graph: LandmarkGraph, rng: np.random.Generator) -> LandmarkGraph:
                          alpha[index])
 
 
-def _check_matching(a: LandmarkGraph, b: LandmarkGraph, found: Matching,
-                    options: SimilarityOptions) -> None:
-    """The matching is a partial injection sending ra to rb, keeps the constraint and scores
-    what is reported."""
-    ra, rb = found.reference
-    assert len(found.mapping) == a.n and found.mapping[ra] == rb
-    images = [j for j in found.mapping if j >= 0]
-    assert len(images) == len(set(images)) and all(0 <= j < b.n for j in images)
-    mapping = {i: j for i, j in enumerate(found.mapping) if j >= 0}
-    assert allowed(a, b, mapping, options.constraint)
-    similar = landmark_similarities(a, b, ra, rb)
-    n = _normaliser(a, b, options.normalise)
-    score = sum(similar[i, j] for i, j in mapping.items() if i != ra) / n
-    assert found.similarity == pytest.approx(score, abs=1e-9)
-    assert 0.0 <= found.similarity <= 1.0
-
-
 def _normaliser(a: LandmarkGraph, b: LandmarkGraph, normalise: str) -> int:
     return {"larger": max(a.n, b.n), "case": b.n, "problem": a.n}[normalise] - 1
 
 
+def _sim(a: LandmarkGraph, b: LandmarkGraph, ra: int, rb: int, i: int, j: int) -> float:
+    """002 section 3.1 from the scalar fuzzy overlaps: sim(l_A, l_B) given the references."""
+    return 0.5 * (overlap(unchecked(*a.delta[ra, i]), unchecked(*b.delta[rb, j]))
+                  + angle_overlap(unchecked(*a.alpha[ra, i]), unchecked(*b.alpha[rb, j])))
+
+
+def _keeps(a: LandmarkGraph, b: LandmarkGraph, pairs: list[tuple[int, int]],
+           constraint: str) -> bool:
+    """002 Figure 4 over every two matched pairs: an obstacle between l_i and l_j of A needs
+    one between their matches in B ('both': and the other way)."""
+    in_a = {frozenset(o) for o in a.obstacles}
+    in_b = {frozenset(o) for o in b.obstacles}
+    for (i, k), (j, m) in itertools.combinations(pairs, 2):
+        seen, stored = frozenset((i, j)) in in_a, frozenset((k, m)) in in_b
+        if constraint != "none" and seen and not stored:
+            return False
+        if constraint == "both" and stored and not seen:
+            return False
+    return True
+
+
+def brute_force(a: LandmarkGraph, b: LandmarkGraph, matching: str,
+                constraint: str) -> float | None:
+    """The best summed similarity (divide by N for the score) over every matching, written
+    from 002's formulas independently of the package: every injection of the smaller graph's
+    landmarks into the larger's (a bijection when the counts are equal; 'paper' takes equal
+    counts only), every matched pair as the reference pair, the sum over the other matched
+    pairs; matchings that break the constraint do not count. None when no matching is left."""
+    if matching == "paper" and a.n != b.n:
+        return None
+    small, large = (a, b) if a.n <= b.n else (b, a)
+    table = {(ra, rb, i, j): _sim(a, b, ra, rb, i, j)
+             for ra in range(a.n) for rb in range(b.n) for i in range(a.n) for j in range(b.n)}
+    best = None
+    for images in itertools.permutations(range(large.n), small.n):
+        pairs = [(u, x) if small is a else (x, u) for u, x in enumerate(images)]
+        if not _keeps(a, b, pairs, constraint):
+            continue
+        for ra, rb in pairs:
+            total = sum(table[ra, rb, i, j] for i, j in pairs if i != ra)
+            best = total if best is None else max(best, total)
+    return best
+
+
+def _check_matching(a: LandmarkGraph, b: LandmarkGraph, found: Matching,
+                    options: SimilarityOptions) -> None:
+    """The matching sends ra to rb, matches every landmark of the smaller graph injectively
+    (a bijection in paper matching), keeps the constraint and scores what is reported."""
+    ra, rb = found.reference
+    assert len(found.mapping) == a.n and found.mapping[ra] == rb
+    pairs = [(i, j) for i, j in enumerate(found.mapping) if j >= 0]
+    images = [j for _, j in pairs]
+    assert len(images) == len(set(images)) and all(0 <= j < b.n for j in images)
+    assert len(pairs) == min(a.n, b.n)
+    if options.matching == "paper":
+        assert a.n == b.n
+    assert _keeps(a, b, pairs, options.constraint)
+    assert allowed(a, b, dict(pairs), options.constraint)
+    score = sum(_sim(a, b, ra, rb, i, j) for i, j in pairs if i != ra)
+    assert found.similarity == pytest.approx(score / _normaliser(a, b, options.normalise),
+                                             abs=1e-9)
+    assert 0.0 <= found.similarity <= 1.0
+
+
 @given(graph_pairs())
-@settings(max_examples=50, deadline=None)
-def test_branch_and_bound_equals_the_enumeration(pair: tuple[LandmarkGraph, LandmarkGraph]
+@settings(max_examples=60, deadline=None)
+def test_branch_and_bound_equals_the_brute_force(pair: tuple[LandmarkGraph, LandmarkGraph]
                                                  ) -> None:
     a, b = pair
-    for constraint in CONSTRAINT:
-        # the normalisation divides the same best sum (test_normalisations_divide_the_sum), so
-        # one enumeration per constraint serves the three
-        exhaustive = exhaustive_similarity(a, b, SimilarityOptions(constraint=constraint))
-        best_sum = exhaustive.similarity * _normaliser(a, b, "larger")
-        _check_matching(a, b, exhaustive, SimilarityOptions(constraint=constraint))
-        for normalise in NORMALISE:
-            options = SimilarityOptions(normalise=normalise, constraint=constraint)
-            found = case_similarity(a, b, options)
-            assert found is not None
-            assert found.similarity == pytest.approx(best_sum / _normaliser(a, b, normalise),
-                                                     abs=1e-9)
-            assert found.nodes <= exhaustive.nodes
-            _check_matching(a, b, found, options)
-            # a threshold at the similarity keeps it, one above it finds nothing
-            kept = case_similarity(a, b, options, threshold=max(0.0, found.similarity - 1e-9))
-            assert kept is not None
-            assert kept.similarity == pytest.approx(found.similarity, abs=1e-9)
-            assert case_similarity(a, b, options, threshold=found.similarity + 1e-6) is None
+    for matching in MATCHING:
+        for constraint in CONSTRAINT:
+            # the normalisation divides the same best sum, so one enumeration serves the three
+            best_sum = brute_force(a, b, matching, constraint)
+            exhaustive = exhaustive_similarity(
+                a, b, SimilarityOptions(matching=matching, constraint=constraint))
+            for normalise in NORMALISE:
+                options = SimilarityOptions(matching=matching, normalise=normalise,
+                                            constraint=constraint)
+                found = case_similarity(a, b, options)
+                if best_sum is None:
+                    assert found is None and exhaustive is None
+                    continue
+                expected = best_sum / _normaliser(a, b, normalise)
+                assert found is not None and exhaustive is not None
+                assert found.similarity == pytest.approx(expected, abs=1e-9)
+                assert exhaustive.similarity * _normaliser(a, b, "case") == pytest.approx(
+                    best_sum, abs=1e-9)
+                assert found.nodes <= exhaustive.nodes
+                _check_matching(a, b, found, options)
+                # a threshold at the similarity keeps it, one above it finds nothing
+                kept = case_similarity(a, b, options,
+                                       threshold=max(0.0, found.similarity - 1e-9))
+                assert kept is not None
+                assert kept.similarity == pytest.approx(found.similarity, abs=1e-9)
+                assert case_similarity(a, b, options, threshold=found.similarity + 1e-6) is None
 
 
-def test_normalisations_divide_the_sum() -> None:
-    # unequal counts: the best sum over the larger count, the case's or the problem's less one
+def _random_pair(rng: np.random.Generator, n: int) -> tuple[LandmarkGraph, LandmarkGraph]:
+    pairs = [(u, v) for u in range(n) for v in range(u + 1, n)]
+
+    def one() -> LandmarkGraph:
+        chosen = rng.choice(len(pairs), int(rng.integers(0, min(3, len(pairs)) + 1)),
+                            replace=False)
+        return _graph(rng.uniform(-3, 3, (n, 2)).tolist(), rng.uniform(0.05, 0.6, n).tolist(),
+                      [pairs[k] for k in chosen])
+    return one(), one()
+
+
+def test_no_valid_matching_scores_nothing() -> None:
+    # equal counts drawn at random, obstacles included: where the constraint breaks every
+    # bijection (002 Figure 4 read strictly) there is no similarity in either matching, and
+    # the index finds nothing, at any threshold
+    rng = np.random.default_rng(5)
+    none = 0
+    for draw in range(150):
+        a, b = _random_pair(rng, int(rng.integers(2, 7)))
+        if brute_force(a, b, "paper", "problem") is not None:
+            continue
+        none += 1
+        for matching in MATCHING:
+            options = SimilarityOptions(matching=matching)
+            assert case_similarity(a, b, options) is None, draw
+            assert exhaustive_similarity(a, b, options) is None
+            assert SituationIndex.build([b]).search(a, 0.0, options) == []
+    assert none >= 10  # such pairs are common: 002's constraint rules many out
+
+
+def test_paper_matching_needs_equal_counts() -> None:
     a = _graph([(0, 0), (1, 0), (0, 2)], 0.3)
-    b = _graph([(0, 0), (1.1, 0), (0, 2.1), (2, 2), (-1, 1)], 0.3)
-    sums = {}
-    for options in MODES:
-        for x, y in ((a, b), (b, a)):
-            found = exhaustive_similarity(x, y, options)
-            _check_matching(x, y, found, options)
-            sums.setdefault((options.constraint, x.n), set()).add(
-                round(found.similarity * _normaliser(x, y, options.normalise), 9))
-    assert all(len(values) == 1 for values in sums.values())
-    # with equal counts every normalisation is 002's mean over the n - 1 landmarks
-    c = _near(a, np.random.default_rng(3))
-    if c.n == a.n:
-        values = {exhaustive_similarity(a, c, SimilarityOptions(normalise=n)).similarity
-                  for n in NORMALISE}
-        assert len(values) == 1
+    b = _graph([(0, 0), (1, 0), (0, 2), (2, 2)], 0.3)
+    paper = SimilarityOptions(matching="paper")
+    assert case_similarity(a, b, paper) is None and case_similarity(b, a, paper) is None
+    assert SituationIndex.build([b]).search(a, 0.0, paper) == []
+    assert case_similarity(a, a, paper).similarity == 1.0
+
+
+def test_extra_landmarks_in_view_cost_nothing() -> None:
+    # the case is the view's first three landmarks: by the case's count the view holds it
+    # whole; by the larger count one extra landmark caps it at 2/3
+    view = _graph([(0, 0), (1, 0), (0, 2), (2, 2)], 0.3, [(0, 1)])
+    case = _graph([(0, 0), (1, 0), (0, 2)], 0.3, [(0, 1)])
+    found = case_similarity(view, case)
+    assert found is not None and found.similarity == 1.0
+    assert found.mapping == (0, 1, 2, -1)
+    assert case_similarity(view, case, SimilarityOptions(normalise="larger")
+                           ).similarity == pytest.approx(2 / 3)
+    # the case's landmarks missing from view count 0
+    assert case_similarity(case, view).similarity == pytest.approx(2 / 3)
+
+
+def test_the_constraint_is_hard_for_matched_pairs() -> None:
+    # a 5-landmark view whose obstacle l0-l1 the case has between l2 and l3 instead: leaving
+    # l1 out of the identity would have lost only a quarter of the score; now every landmark
+    # is matched and the obstacle must land on l2-l3
+    places = [(0, 0), (1, 0), (0, 2), (2, 2), (-1, 1)]
+    view = _graph(places, 0.1, [(0, 1)])
+    case = _graph(places, 0.1, [(2, 3)])
+    assert case_similarity(view, case, SimilarityOptions(constraint="none")).similarity == 1.0
+    held = case_similarity(view, case)
+    best = brute_force(view, case, "partial", "problem")
+    assert held is not None and held.similarity == pytest.approx(best / 4)
+    assert {held.mapping[0], held.mapping[1]} == {2, 3}
+    assert held.similarity < 0.75
+    # a sixth landmark in view beyond the case's count may be the one left out, obstacle and all
+    wider = _graph([*places, (3, 0)], 0.1, [(2, 3), (4, 5)])
+    found = case_similarity(wider, case)
+    assert found is not None and found.similarity == 1.0 and found.mapping[5] == -1
 
 
 def test_counts_the_enumerated_matchings() -> None:
-    # 3 and 4 landmarks: for each of the 12 reference pairs, partial injections of 2 landmarks
-    # into 3: 1 + 2 * 3 + 3 * 2 = 13
+    # 3 and 4 landmarks: for each of the 12 reference pairs, the injections of the other 2
+    # landmarks into the other 3: 3 * 2
     a = _graph([(0, 0), (1, 0), (0, 2)])
     b = _graph([(0, 0), (1, 0), (0, 2), (2, 2)])
-    assert exhaustive_similarity(a, b).nodes == 12 * 13
+    assert exhaustive_similarity(a, b).nodes == 12 * 6
+    # 4 into 3: each reference pair matches 2 of the other 3 into the other 2: 3 * 2
+    assert exhaustive_similarity(b, a).nodes == 12 * 6
 
 
 # --------------------------------------------------------------------------------------------
@@ -296,15 +411,20 @@ def test_figure_4_an_obstacle_must_match_an_obstacle() -> None:
     free = case_similarity(a, b, SimilarityOptions(constraint="none"))
     assert free is not None and free.similarity == 1.0
     assert free.mapping == (0, 1, 2)
-    for constraint in ("problem", "both"):
-        held = case_similarity(a, b, SimilarityOptions(constraint=constraint))
-        assert held is not None and held.similarity < 1.0
-        assert not (held.mapping[1] == 1 and held.mapping[2] == 2)
-        assert held.similarity == pytest.approx(
-            exhaustive_similarity(a, b, SimilarityOptions(constraint=constraint)).similarity)
+    # every bijection maps l1, l2 onto two landmarks of B, none joined: no matching at all
+    for matching in MATCHING:
+        for constraint in ("problem", "both"):
+            options = SimilarityOptions(matching=matching, constraint=constraint)
+            assert case_similarity(a, b, options) is None
+            assert exhaustive_similarity(a, b, options) is None
     # "problem" constrains only A's obstacles: B's obstacle with none in A is allowed
     assert case_similarity(b, a, SimilarityOptions(constraint="problem")).similarity == 1.0
-    assert case_similarity(b, a, SimilarityOptions(constraint="both")).similarity < 1.0
+    assert case_similarity(b, a, SimilarityOptions(constraint="both")) is None
+    # with a fourth landmark in view beyond the case's count, l1 or l2 may be left out
+    c = _graph([*places, (4.0, 0.0)], 0.1, [(1, 2)])
+    found = case_similarity(c, b)
+    assert found is not None and 0.0 < found.similarity < 1.0
+    assert -1 in found.mapping[1:3]
 
 
 @given(graphs(most=8))
@@ -338,7 +458,9 @@ def _store(rng: np.random.Generator, query: LandmarkGraph) -> list[LandmarkGraph
 
 @pytest.mark.parametrize("threshold", [0.3, 0.8])
 @pytest.mark.parametrize("prefilter", [True, False])
-def test_search_equals_the_enumeration(threshold: float, prefilter: bool) -> None:
+@pytest.mark.parametrize("matching", MATCHING)
+def test_search_equals_the_brute_force(threshold: float, prefilter: bool, matching: str
+                                       ) -> None:
     rng = np.random.default_rng(11)
     for trial in range(3):
         query = _graph(rng.uniform(-3, 3, (4, 2)).tolist(), rng.uniform(0.1, 0.5, 4).tolist(),
@@ -346,12 +468,12 @@ def test_search_equals_the_enumeration(threshold: float, prefilter: bool) -> Non
         stored = _store(rng, query)
         index = SituationIndex.build(stored)
         assert len(index) == len(stored)
-        options = SimilarityOptions(prefilter=prefilter)
+        options = SimilarityOptions(matching=matching, prefilter=prefilter)
         expected = []
         for row, graph in enumerate(stored):
-            similarity = exhaustive_similarity(query, graph, options).similarity
-            if similarity >= threshold:
-                expected.append((row, similarity))
+            best = brute_force(query, graph, matching, options.constraint)
+            if best is not None and best / _normaliser(query, graph, "case") >= threshold:
+                expected.append((row, best / _normaliser(query, graph, "case")))
         expected.sort(key=lambda hit: (-hit[1], hit[0]))
         found = index.search(query, threshold, options)
         assert [f.row for f in found] == [row for row, _ in expected]
@@ -370,12 +492,38 @@ def test_the_prefilter_changes_nothing(seed: int, threshold: float,
                                        options: SimilarityOptions, n: int) -> None:
     rng = np.random.default_rng(seed)
     query = _graph(rng.uniform(-3, 3, (n, 2)).tolist(), rng.uniform(0.05, 0.6, n).tolist())
-    index = SituationIndex.build(_store(rng, query))
+    # near copies score near 1, where the cuts are narrow
+    index = SituationIndex.build(_store(rng, query) + [_near(query, rng) for _ in range(4)])
     with_it = index.search(query, threshold, options)
     without = index.search(query, threshold, attrs.evolve(options, prefilter=False))
     assert [f.row for f in with_it] == [f.row for f in without]
     for x, y in zip(with_it, without, strict=True):
         assert x.matching.similarity == pytest.approx(y.matching.similarity, abs=1e-12)
+
+
+@given(st.integers(0, 2 ** 16), st.sampled_from([0.6, 0.75, 0.8, 0.9]),
+       st.sampled_from(MODES), st.integers(1, 4), st.integers(2, 6))
+@settings(max_examples=40, deadline=None)
+def test_the_best_few_are_the_first_of_all(seed: int, threshold: float,
+                                           options: SimilarityOptions, limit: int,
+                                           n: int) -> None:
+    # a search for the best few looks at stricter thresholds first: exact copies of the query
+    # reach them, near copies may not
+    rng = np.random.default_rng(seed)
+    query = _graph(rng.uniform(-3, 3, (n, 2)).tolist(), rng.uniform(0.05, 0.6, n).tolist())
+    stored = _store(rng, query) + [query] * int(rng.integers(0, 4))
+    index = SituationIndex.build(stored)
+    every = index.search(query, threshold, options)
+    best = index.search(query, threshold, options, limit=limit)
+    assert [f.row for f in best] == [f.row for f in every[:limit]]
+    for x, y in zip(best, every, strict=False):
+        assert x.matching.similarity == pytest.approx(y.matching.similarity, abs=1e-12)
+        _check_matching(query, stored[x.row], x.matching, options)
+
+
+def test_stricter_thresholds() -> None:
+    assert raised(0.8) == pytest.approx([0.98, 0.95])
+    assert raised(0.5) == [] and raised(1.0) == []
 
 
 @pytest.mark.parametrize("threshold", [0.51, 0.6, 0.75, 0.8, 0.9, 1.0])

@@ -218,15 +218,17 @@ def test_the_second_trial_diverts_from_the_case_base(
 def test_every_consultation_is_learned_once_with_what_its_action_did(
         plugins: Plugins, tmp_path: Path) -> None:
     with engine_for(plugins, tmp_path, {"retain": ["record"], "solver": "rescuer"}, repeat=1,
-                    consult_on=["blocked", "landmarks", "period"], period=5.0) as engine:
+                    consult_on=["blocked", "landmarks", "heading", "period"],
+                    period=5.0) as engine:
         run_workload(engine, tmp_path)
     decisions = rows(tmp_path / "results.csv")
-    assert {d["q_trigger"] for d in decisions} >= {"blocked", "landmarks", "period"}
-    # the rescuer solver answers a blocked robot only; a decision without an action has
-    # nothing to retain
+    assert {d["q_trigger"] for d in decisions} >= {"blocked", "landmarks", "heading", "period"}
+    # the rescuer solver answers a blocked robot only; a decision without an action reaches
+    # the retainers too, at once, as no action
     acted = [d for d in decisions if d["source"] != "none"]
     assert {d["q_trigger"] for d in acted} == {"blocked"}
-    assert len(LEARNED) == len(acted) >= 2
+    assert len(LEARNED) == len(decisions)
+    assert sum(o.report.reason != "no_action" for _, o in LEARNED) == len(acted) >= 2
     for problem, outcome in LEARNED:
         report = outcome.report
         assert isinstance(report, ActionReport)

@@ -72,18 +72,52 @@ def _crosses(p: tuple[float, float], q: tuple[float, float], a: tuple[float, flo
     return side(p, q, a) * side(p, q, b) < 0 and side(a, b, p) * side(a, b, q) < 0
 
 
+WALLS = {"v": 2, "u": 3, "wall": 1, "corridor": 3, "gap": 2, "room": 5}
+"""How many linear obstacles each scenario shape has."""
+
+
+def passable(world: World, radius: float, step: float = 0.05) -> np.ndarray:
+    """A raster of the world: True where a robot of ``radius`` fits, rows by y."""
+    xmin, ymin, xmax, ymax = world.bounds
+    gx, gy = np.meshgrid(np.arange(xmin + step / 2, xmax, step),
+                         np.arange(ymin + step / 2, ymax, step))
+    centres = np.stack([gx.ravel(), gy.ravel()], axis=1)
+    room = np.minimum.reduce([centres[:, 0] - xmin, xmax - centres[:, 0],
+                              centres[:, 1] - ymin, ymax - centres[:, 1]])
+    for x0, y0, x1, y1 in world.static_segments:
+        d = np.array([x1 - x0, y1 - y0])
+        u = np.clip(((centres - [x0, y0]) @ d) / (d @ d), 0, 1)
+        room = np.minimum(room, np.hypot(*(centres - [x0, y0] - u[:, None] * d).T))
+    for x, y, r in world.static_discs:
+        room = np.minimum(room, np.hypot(centres[:, 0] - x, centres[:, 1] - y) - r)
+    return (room > radius).reshape(gx.shape)
+
+
+def joined_for(world: World, radius: float, a: tuple[float, float], b: tuple[float, float],
+               step: float = 0.05) -> bool:
+    """Whether a robot of ``radius`` can drive from ``a`` to ``b``."""
+    labels, _ = ndimage.label(passable(world, radius, step))
+
+    def at(p: tuple[float, float]) -> int:
+        return int(labels[int((p[1] - world.bounds[1]) / step),
+                          int((p[0] - world.bounds[0]) / step)])
+
+    return at(a) > 0 and at(a) == at(b)
+
+
 @settings(max_examples=40, deadline=None)
 @given(seed=st.integers(0, 2**31))
 def test_scenario_worlds_put_their_shape_across_the_way(seed: int) -> None:
     world = scenario(seed)
     round_trips(world)
     kind = SCENES[seed % len(SCENES)]
-    assert len(world.walls) == {"v": 2, "u": 3, "wall": 1}[kind]
+    assert len(world.walls) == WALLS[kind]
     start, target = world.places["start"], world.places["target"]
     for name in ("start", "target"):
         assert free_point(world, *world.places[name], ROBOT) is None
-    # the straight way from start to target runs into the shape: through the wall, or into
-    # the dead end, whose far side (the V's arms and apex, the U's bottom) it crosses
+    # the straight way from start to target runs into the shape: through the wall (the gap's
+    # long piece, the room's side toward the target), or into the dead end, whose far side
+    # (the V's arms and apex, the U's and the corridor's bottom) it crosses
     joined = {i for w in world.walls for i in (w.between or ())}
     way = np.subtract(target, start)
     def gap(x: float, y: float) -> float:
@@ -97,6 +131,59 @@ def test_scenario_worlds_put_their_shape_across_the_way(seed: int) -> None:
     for mark in world.landmarks:
         if mark.id not in joined:
             assert all(math.dist((mark.x, mark.y), p) >= 1.5 for p in (start, target))
+    # every landmark within the bounds, and the robot gets from start to target
+    xmin, ymin, xmax, ymax = world.bounds
+    assert all(xmin < m.x - m.radius and m.x + m.radius < xmax and ymin < m.y - m.radius
+               and m.y + m.radius < ymax for m in world.landmarks)
+    assert joined_for(world, ROBOT, start, target)
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("kind", SCENES)
+def test_each_scenario_shape_is_the_trap_it_says(kind: str, seed: int) -> None:
+    world = scenario(seed, shape=kind)
+    assert dump_world(world) == dump_world(scenario(seed, shape=kind))
+    assert len(world.walls) == WALLS[kind]
+    start, target = world.places["start"], world.places["target"]
+    marks = {m.id: (m.x, m.y) for m in world.landmarks}
+    walls = [tuple(w.between) for w in world.walls]
+    assert joined_for(world, ROBOT, start, target)
+    # the straight way meets a linear obstacle, except for the V, whose apex it may pass
+    # (the test above covers it)
+    crossing = [w for w in walls if _crosses(start, target, marks[w[0]], marks[w[1]])]
+    if kind != "v":
+        assert crossing
+    if kind in ("u", "corridor"):
+        # closed on three sides: with the mouth closed the inside is cut off
+        first, last = walls[0][0], walls[-1][1]
+        mouth = (np.add(marks[first], marks[last])) / 2
+        closed = world_from_data({**dump_world(world), "walls": [
+            *dump_world(world)["walls"], {"between": [first, last]}]}, "closed")
+        inside = mouth + 0.5 * (np.subtract(marks[walls[1][0]], marks[first]) +
+                                np.subtract(marks[walls[1][1]], marks[last])) / 2
+        assert joined_for(world, ROBOT, tuple(inside), target)
+        assert not joined_for(closed, ROBOT, tuple(inside), target)
+    if kind == "gap":
+        # the gap between the two pieces lets the robot through, landmarks and all
+        (_, b), (c, _) = walls
+        assert math.dist(marks[b], marks[c]) - 0.3 > 2 * ROBOT
+    if kind == "room":
+        # the door (the one gap in the walls) faces away from the target, toward the start;
+        # the robot gets in and out through it, and with it shut the room is closed
+        door = next((walls[k][1], walls[k + 1][0]) for k in range(len(walls) - 1)
+                    if walls[k][1] != walls[k + 1][0])
+        centre = np.mean([marks[w[0]] for w in walls], axis=0)
+        middle = np.add(marks[door[0]], marks[door[1]]) / 2
+        assert np.dot(middle - centre, np.subtract(target, start)) < 0
+        assert joined_for(world, ROBOT, tuple(centre), start)
+        shut = world_from_data({**dump_world(world), "walls": [
+            *dump_world(world)["walls"], {"between": list(door)}]}, "shut")
+        assert not joined_for(shut, ROBOT, tuple(centre), start)
+
+
+def test_an_unknown_scenario_shape_is_refused() -> None:
+    with pytest.raises(CbrError, match="unknown scenario shape 'maze'; expected one of v, u"):
+        scenario(0, shape="maze")
 
 
 @settings(max_examples=40, deadline=None)

@@ -5,7 +5,6 @@ from __future__ import annotations
 from typing import Any
 
 from .results import kept_results
-from .wording import listed, pm
 
 SCENARIO_ROBOTS = {"no-cbr": "no CBR", "cbr-handmade": "CBR, hand-made cases"}
 
@@ -129,112 +128,83 @@ def scenarios_in_short() -> str:
             "[there too](landmarks.md#learning-across-environments).")
 
 
-LEARNING_ROBOTS = {"no-cbr": "no CBR", "cbr-handmade": "CBR, hand-made cases",
-                   "detour": "detour solver alone",
-                   "cbr-learning": "CBR learning from an empty case base"}
+def _not_yet(experiment: str, what: str) -> str:
+    """The block of a figure the kept results of ``experiment`` do not hold yet."""
+    return (f"*Not measured yet: the kept results (`docs/figures/{experiment}.json`) predate "
+            f"{what}. `cbr experiment {experiment} --size full --out DIR`, then "
+            f"`python benchmarks/figures.py --keep-experiment {experiment} DIR`, fill this "
+            "in.*")
+
+
+def scenarios_robustness() -> str:
+    """Scenario 2 off the paper's pose: success and similarity at the start per heading and
+    camera."""
+    from cbr_landmarks.experiments.robustness import table
+
+    results = _scenarios()
+    if "robustness" not in results:
+        return _not_yet("landmark-scenarios", "the robustness table")
+    robust = results["robustness"]
+    worst = min(c["cbr"]["reached"] / c["cbr"]["trials"] for c in robust["cells"])
+    alone = max(c["no_cbr"]["reached"] for c in robust["cells"])
+    return (table(robust) + f"\n\n({robust['trials']} trials per cell; threshold "
+            f"{robust['threshold']:.2f}. With CBR the worst cell reaches the target in "
+            f"{worst * 100:.0f}% of its trials; without CBR "
+            + ("no trial does" if alone == 0 else f"at most {alone} trials of a cell do")
+            + ".)")
 
 
 def _learning() -> dict[str, Any]:
     return kept_results("landmark-learning")
 
 
-def learning_setup() -> str:
+def _learning_now() -> dict[str, Any] | None:
+    """The kept learning results, or None when they predate the worlds of every shape."""
     results = _learning()
-    seeds, train, test = (len(results["seeds"]), results["training_worlds"],
-                          results["unseen_worlds"])
-    times = {1: "once", 2: "twice"}.get(results["trials_per_world"],
-                                        f"{results['trials_per_world']} times")
-    return (f"For each of {seeds} seeds the four robots drive {times} from start to target in "
-            f"each of {train + test} worlds, the first {train} for training, the last {test} "
-            "unseen.")
+    return results if "by_shape" in results else None
+
+
+def learning_setup() -> str:
+    results = _learning_now()
+    if results is None:
+        return _not_yet("landmark-learning", "the worlds of six shapes")
+    seeds, trials = len(results["seeds"]), results["trials_per_world"]
+    train, test = results["training_worlds_per_shape"], results["unseen_worlds_per_shape"]
+    shapes = len(results["shapes"])
+    return (f"For each of {seeds} seeds the three robots drive {trials} times from start to "
+            f"target in each of {train * shapes} training worlds ({train} of each of the "
+            f"{shapes} shapes), then in {test * shapes} unseen ones ({test} of each).")
 
 
 def learning_tables() -> str:
-    results = _learning()
-    summary = results["summary"]
-    lines = ["| robot | success (%) | time (s) | distance (m) | time, all (s) | cases at the end "
-             "|", "|---|---|---|---|---|---|"]
-    for robot, label in LEARNING_ROBOTS.items():
-        unseen = summary[robot]["unseen"]
-        lines.append(f"| {label} | {pm(unseen['success'], 100)} | {pm(unseen['time'])} | "
-                     f"{pm(unseen['distance'], digits=2)} | {pm(unseen['time_all'])} | "
-                     f"{pm(summary[robot]['cases_at_end'], digits=0).removesuffix(' ± 0')} |")
-    lines += ["", "The first trial in each unseen world alone, which measures what a robot "
-              "brings from the worlds\nit drove before (within a world the learning robot also "
-              "learns from its first trial for the\nsecond):", "",
-              "| robot | success (%) | time, all (s) |", "|---|---|---|"]
-    for robot, label in LEARNING_ROBOTS.items():
-        first = summary[robot]["unseen_first_trials"]
-        lines.append(f"| {label} | {pm(first['success'], 100)} | {pm(first['time_all'])} |")
-    return "\n".join(lines)
+    from cbr_landmarks.experiments.learning import learning_table
 
-
-def _without_cbr_by_kind(results: dict[str, Any]) -> str:
-    """Where the robot without CBR reaches the target, by the kind of obstacle across the way."""
-    from cbr_world2d.generate import SCENES
-
-    worlds = results["training_worlds"] + results["unseen_worlds"]
-    trials = results["trials_per_world"]
-    reached: dict[str, list[bool]] = {kind: [] for kind in SCENES}
-    for k, record in enumerate(results["curves"]["no-cbr"]):
-        for n, success in enumerate(record["success"]):
-            world = n // trials
-            if world >= results["training_worlds"]:
-                # world w of seed k is generated from seed worlds * k + w (the experiment's rule)
-                reached[SCENES[(worlds * k + world) % len(SCENES)]].append(success)
-    rates = {kind: sum(found) / len(found) for kind, found in reached.items() if found}
-    names = {"v": "V", "u": "U", "wall": "wall"}
-    if rates.get("v") == rates.get("u") == 0 and rates.get("wall"):
-        return ("Without CBR the robot is trapped in every V and U (it reaches the target "
-                f"behind a wall only, in {rates['wall'] * 100:.0f}% of those trials).")
-    return ("Without CBR the robot reaches the target in " + listed(
-        [f"{rate * 100:.0f}% of the trials with a {names[kind]}" for kind, rate in rates.items()])
-        + ".")
+    results = _learning_now()
+    if results is None:
+        return _not_yet("landmark-learning", "the worlds of six shapes")
+    return learning_table(results)
 
 
 def learning_reading() -> str:
-    results = _learning()
-    summary, gain = results["summary"], results["learning_over_no_cbr"]
+    results = _learning_now()
+    if results is None:
+        return _not_yet("landmark-learning", "the worlds of six shapes")
+    summary = results["summary"]
     learned, detour = summary["cbr-learning"], summary["detour"]
-    first_learned = learned["unseen_first_trials"]["time_all"]["mean"]
-    first_detour = detour["unseen_first_trials"]["time_all"]["mean"]
-    fails = (1 - learned["unseen"]["success"]["mean"]) * 100
-    detour_fails = (1 - detour["unseen"]["success"]["mean"]) * 100
-    less = detour["unseen"]["distance"]["mean"] - learned["unseen"]["distance"]["mean"]
-    cases = pm(learned["cases_at_end"], digits=0)
-    lines = [
-        "- **Learning from an empty case base against no CBR**, on the unseen worlds: success "
-        f"{pm(gain['success'], 100, sign=True)} points, time of all trials "
-        f"{pm(gain['time_all'], sign=True)} s. {_without_cbr_by_kind(results)}"]
-    if first_learned < first_detour:
-        lines.append(
-            "- **What learning adds to its solver.** On the first trial in an unseen world the "
-            f"learned robot reaches the target {first_detour - first_learned:.0f} s sooner than "
-            f"the detour solver alone ({first_learned:.1f} against {first_detour:.1f} s, all "
-            f"trials), and on the unseen worlds it drives {abs(less):.1f} m "
-            f"{'less' if less > 0 else 'more'}: it recognises a dead end it has not seen, from "
-            "point A, by the layout of others, and diverts before it is in it, where the "
-            "solver alone waits until the robot is blocked inside. It also fails in "
-            f"{fails:.1f} % of the trials, where the solver alone "
-            + ("never does" if detour_fails == 0 else f"fails in {detour_fails:.1f} %")
-            + ": a reused case's diverting target does not always lead round the dead end it "
-            "is matched to, and with the agent inhibited meanwhile and the case not reused "
-            "twice in a trial, the robot can still time out; such a case is blamed and, after "
-            f"two failures, forgotten ({cases} cases remain at the end).")
-    else:
-        lines.append(
-            "- **What learning adds to its solver**: nothing measurable here; on the first "
-            f"trial in an unseen world the learned robot takes {first_learned:.1f} s against "
-            f"the detour solver's {first_detour:.1f} s (all trials), and it fails in "
-            f"{fails:.1f} % of the trials ({cases} cases remain at the end).")
-    if summary["cbr-handmade"]["unseen"] == summary["no-cbr"]["unseen"]:
-        lines.append(
-            "- **The hand-made cases do not transfer**: 002's two cases, measured against the "
-            "heading at its scenarios' point A, match none of these layouts at the threshold, "
-            "so that robot is the robot without CBR here.")
-    else:
-        lines.append(
-            "- **The hand-made cases transfer little**: the robot with 002's two cases succeeds "
-            f"in {pm(summary['cbr-handmade']['unseen']['success'], 100)} % of the unseen "
-            f"trials against {pm(summary['no-cbr']['unseen']['success'], 100)} % without CBR.")
-    return "\n".join(lines)
+    success = learned["unseen"]["success"]["mean"]
+    faster = learned["unseen"]["time_all"]["mean"] < detour["unseen"]["time_all"]["mean"]
+    transfer = learned["transfer"]["time_all"]["mean"]
+    transfer_detour = detour["transfer"]["time_all"]["mean"]
+    weakest = min(results["shapes"], key=lambda shape: (
+        results["by_shape"][shape]["cbr-learning"]["transfer"]["success"]["mean"] or 0.0))
+    weak = results["by_shape"][weakest]["cbr-learning"]["transfer"]["success"]["mean"] or 0.0
+    return (
+        f"- **Against its fallback**: on the unseen worlds the learning robot reaches the "
+        f"target in {success * 100:.1f} % of the trials (the detour solver alone "
+        f"{detour['unseen']['success']['mean'] * 100:.1f} %) and is "
+        + ("faster" if faster else "not faster")
+        + f" on average ({learned['unseen']['time_all']['mean']:.1f} against "
+        f"{detour['unseen']['time_all']['mean']:.1f} s, all trials).\n"
+        f"- **Transfer**: on the first trial in an unseen world it takes {transfer:.1f} s "
+        f"against the solver's {transfer_detour:.1f} s; its weakest shape there is "
+        f"{weakest} ({weak * 100:.0f} % reached).")

@@ -9,7 +9,8 @@ call, with no Python per case.
 For a threshold ``t`` over 1/2 a prefilter picks the candidates, and is exact: it leaves out
 only reference pairs ``(ra, rb)`` that cannot reach ``t``, so the search finds what the branch
 and bound over every graph finds. First, a matching scores at most ``min(n_A, n_B) - 1`` over
-``N``, which rules out the landmark counts too far from the situation's. Then a cut level
+``N``, which rules out the landmark counts too far from the situation's (in ``paper`` matching
+every count but the situation's). Then a cut level
 ``c`` under ``2t - 1`` is taken (:func:`prefilter_level`) and ``sigma = (1 + c) / 2 < t``. Two
 triangles overlap by ``c`` or more exactly when their cuts at ``c`` (where each is at least
 ``c``) meet, so a pair ``(i, j)`` whose similarity is over ``sigma``, both overlaps then being
@@ -43,6 +44,7 @@ from cbr_landmarks.graph import MAX_LANDMARKS, LandmarkGraph
 from cbr_landmarks.kernels import coded_normaliser, height, match_rows
 from cbr_landmarks.similarity import (
     CONSTRAINT,
+    MATCHING,
     NORMALISE,
     Matching,
     SimilarityOptions,
@@ -53,7 +55,7 @@ from cbr_landmarks.similarity import (
 from cbr_world2d.fuzzy import TWO_PI
 from cbrcore.compiled import njit
 
-BIN = 0.5
+BIN = 0.1
 """Metres of distance peak per bin of stored pairs."""
 WIDTHS = np.array([0.3, 0.6])
 """Angle half-widths (radians) that split a bin further."""
@@ -75,12 +77,27 @@ class Found:
 # the prefilter
 
 
+@njit(inline="always")
+def _first_over(values: np.ndarray, start: int, end: int, bound: float, inclusive: bool) -> int:
+    """The first index in ``[start, end)`` of the ascending ``values`` over ``bound`` (at or
+    over it when ``inclusive``), ``end`` if none."""
+    while start < end:
+        middle = (start + end) >> 1
+        if values[middle] < bound or (not inclusive and values[middle] == bound):
+            start = middle + 1
+        else:
+            end = middle
+    return start
+
+
 @njit(error_model="numpy")
 def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: float,
-          normalise: int, classes: np.ndarray, class_bins: np.ndarray, bin_start: np.ndarray,
+          normalise: int, classes: np.ndarray, class_bins: np.ndarray,
+          class_reach: np.ndarray, bin_distance: np.ndarray, bin_start: np.ndarray,
           bin_box: np.ndarray, tri: np.ndarray, key: np.ndarray, key_row: np.ndarray,
-          key_rb: np.ndarray, counts: np.ndarray, keys: tuple[int, int], pairs: int,
-          widest: int) -> tuple[np.ndarray, int]:
+          key_rb: np.ndarray, counts: np.ndarray, best: np.ndarray, excess: np.ndarray,
+          hit: np.ndarray, touched: np.ndarray, buffer: np.ndarray
+          ) -> tuple[np.ndarray, int]:
     """The reference pairs ``(row, ra, rb)`` whose bound reaches ``threshold``, and how many
     stored pairs were compared.
 
@@ -90,25 +107,16 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
     computed at that turn; the largest over the turns is at least the similarity at the
     nearest turn, which the kernel computes, so the bound holds.
 
-    The stored landmarks of those counts are numbered ``keys[0]`` to ``keys[1]``, their
-    pairs are ``pairs`` many; ``widest`` is the most pairs in a bin.
+    Scratch, one entry per stored landmark: ``best`` (the best similarity over sigma of the
+    current ``i``) and ``excess`` (the summed excesses over sigma of the current reference's
+    landmarks so far), both 0 on entry and on return, ``hit`` (the landmarks the current
+    ``i`` met) and ``touched`` (those the current reference met); ``buffer`` holds a bin's
+    similarities (the most pairs in a bin).
     """
     sigma = 0.5 * (1.0 + level)
     keep = 1.0 - level
     d_lo, d_pk, d_hi, a_lo, a_pk, a_hi = tri[0], tri[1], tri[2], tri[3], tri[4], tri[5]
     out = np.empty((64, 3), dtype=np.int64)
-    base = keys[0]
-    # per stored landmark: the best similarity over sigma of the current i (0 if none), and
-    # the summed excesses over sigma of the current reference's landmarks so far
-    best = np.zeros(keys[1] - base)
-    excess = np.zeros(keys[1] - base)
-    # the landmarks the current i met over sigma (repeated when met more than once) and the
-    # similarities, and the landmarks the current reference has met
-    # (a pair may be met at each of the three turns; the gathering writes one past the end)
-    met = np.empty(3 * pairs + 1, dtype=np.int64)
-    value = np.empty(3 * pairs + 1)
-    touched = np.empty(keys[1] - base, dtype=np.int64)
-    buffer = np.empty(widest)
     found = 0
     compared = 0
     for ra in range(na):
@@ -120,9 +128,15 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
             d1, d2, d3 = qd[p, 0], qd[p, 1], qd[p, 2]
             dlo = d1 + level * (d2 - d1) - SLACK
             dhi = d3 - level * (d3 - d2) + SLACK
-            nmet = 0
+            nhit = 0
             for c in classes:
-                for b in range(class_bins[c], class_bins[c + 1]):
+                # the bins whose distance peaks lie near enough for a cut to meet [dlo, dhi]
+                b0, b1 = class_bins[c], class_bins[c + 1]
+                lowest = np.floor((dlo - keep * class_reach[c, 1]) / BIN)
+                highest = np.floor((dhi + keep * class_reach[c, 0]) / BIN)
+                first_bin = _first_over(bin_distance, b0, b1, lowest, True)
+                last_bin = _first_over(bin_distance, first_bin, b1, highest, False)
+                for b in range(first_bin, last_bin):
                     box = bin_box[b]
                     if keep * box[0] + level * box[1] > dhi or keep * box[3] + level * box[2] < dlo:
                         continue
@@ -139,8 +153,8 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
                         high = ahi + keep * box[4]
                         if high < a_pk[start] or low > a_pk[end - 1]:
                             continue
-                        first = start + np.searchsorted(a_pk[start:end], low)
-                        last = start + np.searchsorted(a_pk[start:end], high, side="right")
+                        first = _first_over(a_pk, start, end, low, True)
+                        last = _first_over(a_pk, first, end, high, False)
                         # branch-free, so that it runs on SIMD lanes
                         for e in range(first, last):
                             x1, x2, x3 = d_lo[e], d_pk[e], d_hi[e]
@@ -153,26 +167,26 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
                             s = 0.5 * (height(d1, d2, d3, x1, x2, x3)
                                        + height(b1, b2, b3, y1, y2, y3))
                             buffer[e - first] = s if meets else 0.0
-                        # the pairs over sigma, gathered without branches
                         for e in range(first, last):
-                            met[nmet] = key[e] - base
-                            value[nmet] = buffer[e - first]
-                            nmet += buffer[e - first] > sigma
-            for u in range(nmet):
-                k = met[u]
-                best[k] = max(best[k], value[u])
-            # add i's excesses; a landmark met again finds its best reset to 0
-            for u in range(nmet):
-                k = met[u]
-                gain = best[k]
+                            value = buffer[e - first]
+                            if value > sigma:
+                                k = key[e]
+                                if best[k] == 0.0:
+                                    hit[nhit] = k
+                                    nhit += 1
+                                best[k] = max(best[k], value)
+            # add i's excesses
+            for u in range(nhit):
+                k = hit[u]
                 before = excess[k]
-                excess[k] = before + max(gain - sigma, 0.0)
+                excess[k] = before + (best[k] - sigma)
                 best[k] = 0.0
-                touched[ntouched] = k
-                ntouched += (before == 0.0) & (gain > sigma)
+                if before == 0.0:
+                    touched[ntouched] = k
+                    ntouched += 1
         for u in range(ntouched):
             k = touched[u]
-            nb = counts[key_row[base + k]]
+            nb = counts[key_row[k]]
             bound = sigma * (min(na, nb) - 1) + excess[k]
             excess[k] = 0.0
             if bound < threshold * coded_normaliser(na, nb, normalise) - SLACK:
@@ -181,9 +195,9 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
                 grown = np.empty((2 * found, 3), dtype=np.int64)
                 grown[:found] = out
                 out = grown
-            out[found, 0] = key_row[base + k]
+            out[found, 0] = key_row[k]
             out[found, 1] = ra
-            out[found, 2] = key_rb[base + k]
+            out[found, 2] = key_rb[k]
             found += 1
     return out[:found], compared
 
@@ -192,11 +206,14 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
 # the index
 
 
-def _classes(na: int, threshold: float, normalise: str) -> list[int]:
+def _classes(na: int, threshold: float, options: SimilarityOptions) -> list[int]:
     """The landmark counts of the stored graphs that can reach ``threshold`` against a
-    situation of ``na`` landmarks: a matching scores at most ``min(na, nb) - 1`` over ``N``."""
+    situation of ``na`` landmarks: ``na`` alone in ``paper`` matching; else those where
+    ``min(na, nb) - 1`` matched landmarks over ``N`` can."""
+    if options.matching == "paper":
+        return [na]
     return [nb for nb in range(2, MAX_LANDMARKS + 1)
-            if min(na, nb) - 1 >= threshold * normaliser(na, nb, normalise) - SLACK]
+            if min(na, nb) - 1 >= threshold * normaliser(na, nb, options.normalise) - SLACK]
 
 
 def prefilter_level(threshold: float) -> float:
@@ -205,12 +222,30 @@ def prefilter_level(threshold: float) -> float:
     The lower the level, the more pairs are compared (their cuts are wider) but the tighter
     the bound on a reference pair (a pair not compared adds at most ``(1 + level) / 2``), so
     the fewer reference pairs the branch and bound is left with; the level must stay under
-    ``2 threshold - 1`` for the bound to rule any out. 0.2 under it: at 0.8, level 0.4
-    compares about half the pairs level 0 does and leaves about three times the reference
-    pairs, and searched faster on the benchmark's situations (benchmarks/landmarks_retrieval.py),
-    though not by much.
+    ``2 threshold - 1`` for the bound to rule any out. ``1 - threshold`` under it: at 0.8,
+    level 0.4 compares about half the pairs level 0 does and leaves about three times the
+    reference pairs, and searched faster on the benchmark's situations
+    (benchmarks/landmarks_retrieval.py); near 1 the situations over the threshold are few and
+    alike, the cuts narrow, and the bound need not rule out much (0.85 at 0.95, the stricter
+    threshold of a search for the best few).
     """
-    return max(0.0, 2.0 * threshold - 1.2)
+    return max(0.0, 3.0 * threshold - 2.0 - SLACK)
+
+
+RAISED = (0.9, 0.75)
+"""How far from the threshold toward 1 the stricter thresholds of a search for the best few
+lie (0.98 and 0.95 at 0.8): the third best situation of a query of the benchmark
+(benchmarks/landmarks_retrieval.py) is most often between 0.97 and 0.99."""
+
+
+def raised(threshold: float) -> list[float]:
+    """The stricter thresholds a search for the best few looks at first, strictest first
+    (:data:`RAISED`; none over 1/2 or at 1). The higher the threshold, the narrower the
+    prefilter's cuts and the fewer graphs the branch and bound is left with; a view of many
+    landmarks finds hundreds of stored situations over 0.8, and often a few over 0.95."""
+    if not 0.5 < threshold < 1.0:
+        return []
+    return [threshold + share * (1.0 - threshold) for share in RAISED]
 
 
 @attrs.frozen(eq=False)
@@ -223,14 +258,23 @@ class SituationIndex:
 
     For the prefilter every ordered pair of distinct landmarks is also a column of ``tri``
     (rows: its distance low, peak, high, its angle low, peak, high) and an entry of ``key``
-    (its first landmark; the stored landmarks are numbered by landmark count, from
-    ``class_keys[n]`` for count ``n``, and ``key_row``, ``key_rb`` name their graph and
-    index). The pairs are grouped by their graph's landmark count (bins ``class_bins[n]`` to
-    ``class_bins[n + 1]``), then by distance peak in bins of :data:`BIN` metres split by the
-    angle's half-width at :data:`WIDTHS` (pairs ``bin_start[b]`` to ``bin_start[b + 1]``), and
-    sorted by angle peak in a bin. ``bin_box[b]`` bounds the bin's triangles: least distance
+    (its first landmark; the stored landmarks are numbered by landmark count, so that the
+    prefilter's scratch for the counts a search looks at lies together, and ``key_row``,
+    ``key_rb`` name their graph and index). The pairs are grouped by their graph's landmark
+    count (bins ``class_bins[n]`` to ``class_bins[n + 1]``), then by distance peak in bins of
+    :data:`BIN` metres split by the angle's half-width at :data:`WIDTHS` (pairs
+    ``bin_start[b]`` to ``bin_start[b + 1]``), and sorted by angle peak in a bin.
+    ``bin_box[b]`` bounds the bin's triangles: least distance
     low and peak, largest distance peak and high, largest angle half-widths below and above
-    the peak.
+    the peak; ``bin_distance[b]`` is its distance bin (``floor(peak / BIN)``, ascending within
+    a count) and ``class_reach[n]`` the largest distance half-widths below and above the peak
+    of count ``n``'s pairs, so that a search finds a count's bins near a distance by binary
+    search.
+
+    ``scratch`` is the prefilter's working memory (:func:`_vote`), made once: its per-landmark
+    sums are kept at 0 between searches, so that a search touches only the stored landmarks
+    it meets (the index is not for concurrent searches from threads that release the GIL;
+    the kernels do not).
     """
 
     counts: np.ndarray
@@ -243,10 +287,12 @@ class SituationIndex:
     key: np.ndarray
     key_row: np.ndarray
     key_rb: np.ndarray
-    class_keys: np.ndarray
     class_bins: np.ndarray
+    class_reach: np.ndarray
+    bin_distance: np.ndarray
     bin_start: np.ndarray
     bin_box: np.ndarray
+    scratch: tuple[np.ndarray, ...]
 
     @classmethod
     def build(cls, graphs: Sequence[LandmarkGraph]) -> SituationIndex:
@@ -276,7 +322,8 @@ class SituationIndex:
         # bins of distance peak, each split by the angle's half-width so that the few wide
         # angles (landmarks close together) do not widen every window of their bin
         half = np.maximum(tri[:, 4] - tri[:, 3], tri[:, 5] - tri[:, 4])
-        distance_bin = (np.floor(tri[:, 1] / BIN).astype(np.int64) * len(WIDTHS)
+        # (a half-width falls in one of len(WIDTHS) + 1 classes)
+        distance_bin = (np.floor(tri[:, 1] / BIN).astype(np.int64) * (len(WIDTHS) + 1)
                         + np.searchsorted(WIDTHS, half))
         order = np.lexsort((tri[:, 4], distance_bin, pair_count))
         tri = np.ascontiguousarray(tri[order])
@@ -296,15 +343,22 @@ class SituationIndex:
             bin_box = np.empty((0, 6))
         class_bins = np.searchsorted(pair_count[starts], np.arange(MAX_LANDMARKS + 2)
                                      ).astype(np.int64)
-        class_keys = np.searchsorted(counts[landmark_row[by_count]],
-                                     np.arange(MAX_LANDMARKS + 2)).astype(np.int64)
+        bin_distance = (distance_bin[starts] // (len(WIDTHS) + 1)).astype(np.float64)
+        class_reach = np.zeros((MAX_LANDMARKS + 2, 2))
+        np.maximum.at(class_reach[:, 0], pair_count, tri[:, 1] - tri[:, 0])
+        np.maximum.at(class_reach[:, 1], pair_count, tri[:, 2] - tri[:, 1])
+        landmarks = len(landmark_row)
+        scratch = (np.zeros(landmarks), np.zeros(landmarks), np.empty(landmarks, np.int64),
+                   np.empty(landmarks, np.int64),
+                   np.empty(int(np.diff(bin_start).max(initial=0))))
         # read-only as a graph's own triangles are, so that the kernel compiled for one case
         # serves the index too
         delta.flags.writeable = False
         alpha.flags.writeable = False
         return cls(counts, pair_starts, key_start, delta, alpha, adjacency,
                    np.ascontiguousarray(tri.T), key, landmark_row[by_count],
-                   landmark_rb[by_count], class_keys, class_bins, bin_start, bin_box)
+                   landmark_rb[by_count], class_bins, class_reach, bin_distance, bin_start,
+                   bin_box, scratch)
 
     def __len__(self) -> int:
         return int(self.counts.shape[0])
@@ -321,7 +375,7 @@ class SituationIndex:
         if not options.prefilter:
             rows = np.arange(len(self), dtype=np.int64)
             return rows, np.ones((len(rows), na, width), bool), 0
-        classes = _classes(na, threshold, options.normalise)
+        classes = _classes(na, threshold, options)
         if threshold <= 0.5:
             rows = np.flatnonzero(np.isin(self.counts, classes)).astype(np.int64)
             return rows, np.ones((len(rows), na, width), bool), 0
@@ -331,12 +385,8 @@ class SituationIndex:
         keys, compared = _vote(
             qd, qa, na, prefilter_level(threshold), threshold,
             NORMALISE.index(options.normalise), np.array(classes, dtype=np.int64),
-            self.class_bins, self.bin_start, self.bin_box, self.tri, self.key, self.key_row,
-            self.key_rb, self.counts,
-            (int(self.class_keys[classes[0]]), int(self.class_keys[classes[-1] + 1])),
-            int(self.bin_start[self.class_bins[classes[-1] + 1]]
-                - self.bin_start[self.class_bins[classes[0]]]),
-            int(np.diff(self.bin_start).max(initial=0)))
+            self.class_bins, self.class_reach, self.bin_distance, self.bin_start, self.bin_box,
+            self.tri, self.key, self.key_row, self.key_rb, self.counts, *self.scratch)
         rows, where = np.unique(keys[:, 0], return_inverse=True)
         references = np.zeros((len(rows), na, width), bool)
         references[where, keys[:, 1], keys[:, 2]] = True
@@ -347,9 +397,23 @@ class SituationIndex:
                limit: int | None = None) -> list[Found]:
         """Every stored graph whose similarity to ``query`` reaches ``threshold``, best first
         (ties by row), at most ``limit``: the prefilter's candidates go through the branch and
-        bound in one kernel call."""
+        bound in one kernel call.
+
+        With a ``limit`` and the prefilter, the search first looks at the stricter thresholds
+        :func:`raised` gives, strictest first: when ``limit`` graphs reach one, they are the
+        best ``limit`` (every other graph scores under it), and the search stops there."""
         if limit is not None and limit < 0:
             raise ValueError(f"limit must be None or >= 0, got {limit!r}")
+        threshold = check_threshold(threshold)
+        if limit and options.prefilter:
+            for stricter in raised(threshold):
+                found = self._search(query, stricter, options, limit)
+                if len(found) == limit:
+                    return found
+        return self._search(query, threshold, options, limit)
+
+    def _search(self, query: LandmarkGraph, threshold: float, options: SimilarityOptions,
+                limit: int | None) -> list[Found]:
         rows, references, _ = self.candidates(query, threshold, options)
         qd, qa, adj = flattened(query)
         k = rows.shape[0]
@@ -360,8 +424,9 @@ class SituationIndex:
         if k:
             match_rows(qd, qa, adj, query.n, rows, references, self.counts, self.pair_starts,
                         self.key_start, self.delta, self.alpha, self.adjacency,
-                        NORMALISE.index(options.normalise), CONSTRAINT.index(options.constraint),
-                        float(threshold), similarity, reference, mapping, nodes)
+                        MATCHING.index(options.matching), NORMALISE.index(options.normalise),
+                        CONSTRAINT.index(options.constraint), float(threshold), similarity,
+                        reference, mapping, nodes)
         keep = np.flatnonzero(similarity >= 0.0)
         keep = keep[np.lexsort((rows[keep], -similarity[keep]))][:limit]
         # whole columns to Python at once: a query may find hundreds of cases

@@ -88,45 +88,76 @@ def _allowed_pair(i: int, j: int, adj_a: np.ndarray, adj_b: np.ndarray, base_b: 
 
 
 @njit(inline="always")
-def _rest(depth: int, m: int, order: np.ndarray, cands: np.ndarray, ncand: np.ndarray,
-          s: np.ndarray, used: int) -> float:
-    """What the landmarks from ``depth`` on could still add: each one's best similarity to a
-    landmark of ``B`` not ``used`` (its candidates are sorted best first, so the first unused
-    one gives it). Admissible: it drops the injectivity among them and the constraint."""
+def _top_sum(values: np.ndarray, count: int, q: int) -> float:
+    """The sum of the ``q`` largest of ``values[:count]`` (which it reorders)."""
     total = 0.0
+    if q >= count:
+        for k in range(count):
+            total += values[k]
+        return total
+    for k in range(q):
+        top = k
+        for e in range(k + 1, count):
+            if values[e] > values[top]:
+                top = e
+        values[k], values[top] = values[top], values[k]
+        total += values[k]
+    return total
+
+
+@njit(inline="always")
+def _rest(depth: int, m: int, order: np.ndarray, cands: np.ndarray, ncand: np.ndarray,
+          s: np.ndarray, used: int, need: int, buffer: np.ndarray) -> float:
+    """What the landmarks from ``depth`` on could still add when ``need`` more are matched:
+    the ``need`` largest of each one's best similarity to a landmark of ``B`` not ``used``
+    (its candidates are sorted best first, so the first unused one gives it). Admissible: it
+    drops the injectivity among them and the constraint."""
+    count = 0
     for d in range(depth, m):
         i = order[d]
         for k in range(ncand[d]):
             j = cands[d, k]
             if (used >> j) & 1 == 0:
-                total += s[i, j]
+                buffer[count] = s[i, j]
+                count += 1
                 break
-    return total
+    return _top_sum(buffer, count, need)
 
 
 @njit
 def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: np.ndarray,
                ab: np.ndarray, adj_b: np.ndarray, pair_b: int, base_b: int, nb: int,
-               normalise: int, constraint: int, threshold: float, references: np.ndarray,
-               sims: np.ndarray, fwork: np.ndarray, iwork: np.ndarray,
+               matching: int, normalise: int, constraint: int, threshold: float,
+               references: np.ndarray, sims: np.ndarray, fwork: np.ndarray, iwork: np.ndarray,
                mapping: np.ndarray) -> tuple[float, int, int, int]:
     """002's branch and bound between the situation ``A`` and one case ``B``.
 
     ``A`` is ``da, aa`` (its triangles flattened to ``(na * na, 3)``, pair ``(u, v)`` in row
     ``u * na + v``) and ``adj_a`` (bit ``v`` of ``adj_a[u]`` set when an obstacle joins them);
     ``B``'s triangles start at row ``pair_b`` of ``db, ab`` and its adjacency at ``base_b`` of
-    ``adj_b``. ``normalise`` and ``constraint`` index
-    :data:`cbr_landmarks.similarity.NORMALISE` and :data:`~cbr_landmarks.similarity.CONSTRAINT`.
+    ``adj_b``. ``matching``, ``normalise`` and ``constraint`` index
+    :data:`cbr_landmarks.similarity.MATCHING`, :data:`~cbr_landmarks.similarity.NORMALISE` and
+    :data:`~cbr_landmarks.similarity.CONSTRAINT`.
     Only the reference pairs ``(ra, rb)`` with ``references[ra, rb]`` set are tried (the
     retrieval index rules the others out). ``sims`` ``(na * nb, na, nb)``, ``fwork``
-    ``(na * nb + 3 na,)`` and ``iwork`` ``(8 + na, max(na, nb))`` (int) are scratch, at least
+    ``(na * nb + 4 na + nb,)`` and ``iwork`` ``(9 + na, max(na, nb))`` (int) are scratch, at least
     that large.
+
+    Every matching tried matches ``min(na, nb) - 1`` landmarks besides the references: all of
+    the smaller graph's, so that only the larger one's extra landmarks stay out (``paper``:
+    the counts must be equal, and the matching is a bijection). The obstacle constraint holds
+    for every matched pair.
 
     Returns ``(similarity, ra, rb, nodes)`` and writes the matching into ``mapping[:na]``;
     the similarity is -1 (and ``mapping`` untouched) when no matching reaches ``threshold``.
     """
+    if matching == 1 and na != nb:
+        return -1.0, -1, -1, 0
     n = coded_normaliser(na, nb, normalise)
     target = threshold * n
+    # how many landmarks of A a matching leaves out: those beyond B's count (spare[d]: how
+    # many may still be left out at depth d)
+    skips = na - min(na, nb)
     # every matched landmark scores at most 1 and at most min(na, nb) - 1 are matched
     if min(na, nb) - 1 < target - EPSILON:
         return -1.0, -1, -1, 0
@@ -136,6 +167,8 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
     partial = fwork[pairs:pairs + na]
     frees = fwork[pairs + na:pairs + 2 * na]
     keys = fwork[pairs + 2 * na:pairs + 3 * na]
+    tops = fwork[pairs + 3 * na:pairs + 4 * na]
+    columns = fwork[pairs + 4 * na:pairs + 4 * na + nb]
     order = iwork[0]
     ncand = iwork[1]
     chosen = iwork[2]
@@ -144,14 +177,17 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
     matched_b = iwork[5]
     count = iwork[6]
     best_map = iwork[7]
-    cands = iwork[8:]
+    spare = iwork[8]
+    cands = iwork[9:]
     nodes = 0
     best = -1.0
     best_ra = -1
     best_rb = -1
-    # 002's heuristic h for every reference pair: the sum of each landmark's best similarity.
-    # A pair is given up part way once one per landmark still to add cannot reach the
-    # threshold.
+    # 002's heuristic h for every reference pair, the sum of each landmark's best similarity,
+    # made tighter where only q of them are matched: the q largest, and no more than the q
+    # largest of B's landmarks' best. A pair is given up part way once one per landmark still
+    # to add cannot reach the threshold.
+    q = min(na, nb) - 1
     for ra in range(na):
         for rb in range(nb):
             p = ra * nb + rb
@@ -161,6 +197,7 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
             s = sims[p]
             h = 0.0
             left = m
+            columns[:nb] = 0.0
             for i in range(na):
                 if i == ra:
                     continue
@@ -171,12 +208,14 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
                         value = _similarity(da, aa, ra * na + i, db, ab, pair_b + rb * nb + j)
                     s[i, j] = value
                     top = max(top, value)
+                    columns[j] = max(columns[j], value)
+                tops[m - left] = top
                 h += top
                 left -= 1
                 if h + left < target - EPSILON:
                     break
             else:
-                bounds[p] = h
+                bounds[p] = min(_top_sum(tops, m, q), _top_sum(columns, nb, q))
     # the pairs best bound first, so that a good matching is found early and prunes the rest
     visit = np.argsort(-bounds, kind="mergesort")
     for t in range(pairs):
@@ -187,9 +226,7 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
         ra = p // nb
         rb = p - ra * nb
         s = sims[p]
-        # A's other landmarks best first, and each one's candidates best first; a candidate of
-        # similarity 0 is left out, as leaving the landmark unmatched scores the same and
-        # constrains nothing
+        # A's other landmarks best first, and each one's candidates best first
         d = 0
         for i in range(na):
             if i == ra:
@@ -210,7 +247,7 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
             k = 0
             for j in range(nb):
                 value = s[i, j]
-                if value > 0.0:
+                if j != rb:
                     e = k
                     while e > 0 and s[i, cands[d, e - 1]] < value:
                         cands[d, e] = cands[d, e - 1]
@@ -223,19 +260,14 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
         matched_b[0] = rb
         count[0] = 1
         used = 1 << rb
-        if h == 0.0:
-            # nothing can be matched for a gain: the empty matching is this pair's best
-            best, best_ra, best_rb = 0.0, ra, rb
-            best_map[:na] = -1
-            best_map[ra] = rb
-            continue
         d = 0
         pointer[0] = 0
         partial[0] = 0.0
-        frees[0] = _rest(1, m, order, cands, ncand, s, used)
+        spare[0] = skips
+        frees[0] = _rest(1, m, order, cands, ncand, s, used, q, tops)
         while d >= 0:
             k = pointer[d]
-            if k > ncand[d]:
+            if k > ncand[d] or (k == ncand[d] and spare[d] == 0):
                 d -= 1
                 if d >= 0 and chosen[d] >= 0:
                     used &= ~(1 << chosen[d])
@@ -256,8 +288,10 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
                 if not _allowed_pair(i, j, adj_a, adj_b, base_b, matched_a, matched_b,
                                      count[d], constraint):
                     continue
-                rest = _rest(d + 1, m, order, cands, ncand, s, used | (1 << j))
+                rest = _rest(d + 1, m, order, cands, ncand, s, used | (1 << j),
+                             q - count[d], tops)
             else:
+                # i left out, as one of A's landmarks beyond B's count
                 j = -1
                 gain = 0.0
                 rest = frees[d]
@@ -267,9 +301,7 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
                 continue
             nodes += 1
             chosen[d] = j
-            if d == m - 1 or rest == 0.0:
-                # a complete matching, or one that leaving the rest unmatched completes at its
-                # bound
+            if d == m - 1:
                 if score >= target:
                     best, best_ra, best_rb = score, ra, rb
                     best_map[:na] = -1
@@ -278,16 +310,19 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
                         best_map[order[e]] = chosen[e]
                 continue
             c = count[d]
+            spare[d + 1] = spare[d]
             if j >= 0:
                 used |= 1 << j
                 matched_a[c] = i
                 matched_b[c] = j
                 c += 1
+            else:
+                spare[d + 1] -= 1
             count[d + 1] = c
             partial[d + 1] = score
             d += 1
             pointer[d] = 0
-            frees[d] = _rest(d + 1, m, order, cands, ncand, s, used)
+            frees[d] = _rest(d + 1, m, order, cands, ncand, s, used, q - (count[d] - 1), tops)
     if best < 0.0 or best / n < threshold:
         return -1.0, -1, -1, nodes
     mapping[:na] = best_map[:na]
@@ -298,7 +333,8 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
 def match_rows(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, rows: np.ndarray,
                references: np.ndarray, counts: np.ndarray, pair_starts: np.ndarray,
                key_start: np.ndarray, db: np.ndarray, ab: np.ndarray, adj_b: np.ndarray,
-               normalise: int, constraint: int, threshold: float, similarity: np.ndarray,
+               matching: int, normalise: int, constraint: int, threshold: float,
+               similarity: np.ndarray,
                reference: np.ndarray, mapping: np.ndarray, nodes: np.ndarray) -> None:
     """:func:`match_case` between ``A`` and each graph ``rows[k]`` of a list of graphs
     flattened together (graph ``r`` has ``counts[r]`` landmarks, its pairs start at row
@@ -306,12 +342,13 @@ def match_rows(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, rows:
     reference pairs ``references[k]``; the results go to row ``k`` of the outputs."""
     width = max(na, counts.max())
     sims = np.empty((na * width, na, width))
-    fwork = np.empty(na * width + 3 * na)
-    iwork = np.empty((8 + na, width), dtype=np.int64)
+    fwork = np.empty(na * width + 4 * na + width)
+    iwork = np.empty((9 + na, width), dtype=np.int64)
     for k in range(rows.shape[0]):
         r = rows[k]
         s, ra, rb, expanded = match_case(da, aa, adj_a, na, db, ab, adj_b, pair_starts[r],
-                                         key_start[r], counts[r], normalise, constraint,
+                                         key_start[r], counts[r], matching, normalise,
+                                         constraint,
                                          threshold, references[k], sims, fwork, iwork,
                                          mapping[k])
         similarity[k] = s

@@ -46,6 +46,12 @@ class RegionOptions:
         180.0, "The sector's opening in degrees.",
         validator=attrs.validators.and_(_POSITIVE, attrs.validators.le(360.0)))
     width: float = option(4.0, "The rectangle's width in metres.", validator=_POSITIVE)
+    margin: float = option(
+        1.0, "How far, in metres, beyond the far edge and the sides a landmark's measured "
+        "place may lie and still count (a sector's sides open by the angle the margin spans "
+        "at 'depth'): the camera measures a landmark at the edge of its range or field of "
+        "view outside a region of the camera's size about half the time.",
+        validator=attrs.validators.ge(0.0))
 
 
 @attrs.frozen(eq=False)
@@ -81,12 +87,20 @@ def places(sightings: Sequence[Sighting]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def in_region(points: np.ndarray, region: RegionOptions) -> np.ndarray:
-    """Which of the ``points`` ``(n, 2)`` (robot frame) lie in ``region``, ``(n,)`` bool."""
+    """Which of the ``points`` ``(n, 2)`` (robot frame) lie in ``region`` grown by its
+    ``margin``, ``(n,)`` bool.
+
+    The margin is where the camera's measurements err: beyond the far edge and beside the
+    sides, never behind the robot. A sector reaches ``margin`` farther and its sides open by
+    the angle the margin spans at its depth (a bearing errs by an angle, much the same near
+    and far); a rectangle reaches ``margin`` farther and is ``margin`` wider on each side.
+    """
     x, y = points[:, 0], points[:, 1]
+    depth = region.depth + region.margin
     if region.shape == "rectangle":
-        return (x >= 0.0) & (x <= region.depth) & (np.abs(y) <= 0.5 * region.width)
-    return ((np.hypot(x, y) <= region.depth)
-            & (np.abs(np.arctan2(y, x)) <= 0.5 * math.radians(region.angle) + 1e-12))
+        return (x >= 0.0) & (x <= depth) & (np.abs(y) <= 0.5 * region.width + region.margin)
+    half = 0.5 * math.radians(region.angle) + region.margin / region.depth
+    return (np.hypot(x, y) <= depth) & (np.abs(np.arctan2(y, x)) <= half + 1e-12)
 
 
 def problem_view(situation: Situation, region: RegionOptions, course: bool = False

@@ -9,14 +9,18 @@ places seen from the references (002 section 3.1)::
                           + angle_overlap(alphaA[ra, i], alphaB[rb, j])) / 2
 
 with the fuzzy overlaps of :mod:`cbr_world2d.fuzzy`. A matching maps ``ra`` to ``rb`` and
-the other landmarks of ``A`` injectively to landmarks of ``B`` other than ``rb``; a landmark may
-stay unmatched and scores 0, which is how graphs with unequal counts are compared (002 takes the
-counts equal). Its score is the sum of the matched landmarks' similarities over ``N``
-(:class:`SimilarityOptions`' ``normalise``: the larger count less one by default; every choice is
-002's mean over the ``n - 1`` landmarks besides the reference when the counts are equal). The
-obstacle constraint of 002 (Figure 4) keeps only matchings that send every obstacle of ``A``
-between two matched landmarks onto an obstacle of ``B``. The similarity of the two graphs is the
-best score over every reference pair and matching.
+every other landmark of the smaller graph injectively to one of the larger (any when the counts
+are equal), so that ``min(n_A, n_B) - 1`` landmarks are matched besides the references: with
+``matching: paper`` the counts must be equal and the matching is a bijection (002 section 3.2);
+with ``partial`` (the default) a view with more landmarks than the case is matched by its best
+sub-situation of the case's size. A matching's score is the sum of its matched landmarks'
+similarities over ``N`` (:class:`SimilarityOptions`' ``normalise``: the case's count less one
+by default, so that landmarks in view beyond the case's cost nothing; with equal counts every
+choice is 002's mean over the ``n - 1`` landmarks besides the reference). The obstacle
+constraint of 002 (Figure 4) is hard: a matching that sends an obstacle of ``A`` between two
+matched landmarks onto a pair of ``B`` without one is not a matching at all. The similarity of
+the two graphs is the best score over every reference pair and matching; two graphs with no
+matching (unequal counts in ``paper``, or the constraint broken by every one) have none.
 
 :func:`case_similarity` finds it with 002's branch and bound in a numba kernel
 (:mod:`cbr_landmarks.kernels`, compiled when first used);
@@ -37,6 +41,7 @@ from cbr_landmarks.graph import LandmarkGraph
 from cbr_world2d.fuzzy import overlap_arrays
 from cbrcore.options import option
 
+MATCHING = ("partial", "paper")
 NORMALISE = ("larger", "case", "problem")
 CONSTRAINT = ("problem", "both", "none")
 
@@ -45,9 +50,17 @@ CONSTRAINT = ("problem", "both", "none")
 class SimilarityOptions:
     """How two landmark graphs are compared."""
 
+    matching: Literal["partial", "paper"] = option(
+        "partial", "Which landmark matchings count: 'paper', 002's, equal landmark counts and "
+        "bijections; 'partial', every landmark of the smaller graph matched to one of the "
+        "larger (a view with more landmarks than the case is matched by its best "
+        "sub-situation of the case's size). Either way the obstacle constraint holds for every "
+        "matched pair, and graphs with no matching have no similarity.",
+        validator=attrs.validators.in_(MATCHING))
     normalise: Literal["larger", "case", "problem"] = option(
-        "larger", "What the summed similarity of the matched landmarks is divided by: "
-        "'larger', the larger landmark count less one; 'case', the stored case's count less "
+        "case", "What the summed similarity of the matched landmarks is divided by: 'case', "
+        "the stored case's landmark count less one (landmarks in view beyond the case's cost "
+        "nothing, those of the case not in view count 0); 'larger', the larger count less "
         "one; 'problem', the current situation's count less one. With equal counts all are "
         "002's mean over the landmarks besides the reference.",
         validator=attrs.validators.in_(NORMALISE))
@@ -71,8 +84,8 @@ class Matching:
     reference: tuple[int, int]
     """The reference landmarks ``(ra, rb)``, indices into ``A`` and ``B``."""
     mapping: tuple[int, ...]
-    """For each landmark of ``A``, the index of its match in ``B`` or -1;
-    ``mapping[ra] == rb``."""
+    """For each landmark of ``A``, the index of its match in ``B`` or -1 (left out, as one
+    beyond ``B``'s count); ``mapping[ra] == rb``."""
     nodes: int
     """Search nodes expanded: partial matchings of the branch and bound, or the complete
     matchings :func:`exhaustive_similarity` enumerated."""
@@ -123,13 +136,16 @@ def allowed(a: LandmarkGraph, b: LandmarkGraph, mapping: dict[int, int], constra
 
 
 def exhaustive_similarity(a: LandmarkGraph, b: LandmarkGraph,
-                          options: SimilarityOptions = SimilarityOptions()) -> Matching:
+                          options: SimilarityOptions = SimilarityOptions()) -> Matching | None:
     """The similarity of case ``b`` to the situation ``a`` found by enumerating every
-    reference pair and every partial injective matching: the reference :func:`case_similarity`
-    is tested against (the matchings grow factorially with the landmarks). ``nodes`` counts the
-    matchings enumerated. Ties keep the first found: reference pairs in row order, then fewer
-    matched landmarks, then itertools' order."""
+    reference pair and every matching of ``options.matching``: the reference
+    :func:`case_similarity` is tested against (the matchings grow factorially with the
+    landmarks); None when there is no matching. ``nodes`` counts the matchings enumerated.
+    Ties keep the first found: reference pairs in row order, then itertools' order."""
+    if options.matching == "paper" and a.n != b.n:
+        return None
     n = normaliser(a.n, b.n, options.normalise)
+    k = min(a.n, b.n) - 1
     best = -1.0
     found: tuple[tuple[int, int], dict[int, int]] = ((0, 0), {})
     enumerated = 0
@@ -137,18 +153,19 @@ def exhaustive_similarity(a: LandmarkGraph, b: LandmarkGraph,
         similar = landmark_similarities(a, b, ra, rb).tolist()
         others_a = [i for i in range(a.n) if i != ra]
         others_b = [j for j in range(b.n) if j != rb]
-        for k in range(min(len(others_a), len(others_b)) + 1):
-            for chosen in itertools.combinations(others_a, k):
-                for images in itertools.permutations(others_b, k):
-                    enumerated += 1
-                    score = sum(similar[i][j] for i, j in zip(chosen, images, strict=True)) / n
-                    # the constraint only matters for a matching that would be the best
-                    if score <= best:
-                        continue
-                    mapping = dict(zip(chosen, images, strict=True))
-                    mapping[ra] = rb
-                    if allowed(a, b, mapping, options.constraint):
-                        best, found = score, ((ra, rb), mapping)
+        for chosen in itertools.combinations(others_a, k):
+            for images in itertools.permutations(others_b, k):
+                enumerated += 1
+                score = sum(similar[i][j] for i, j in zip(chosen, images, strict=True)) / n
+                # the constraint only matters for a matching that would be the best
+                if score <= best:
+                    continue
+                mapping = dict(zip(chosen, images, strict=True))
+                mapping[ra] = rb
+                if allowed(a, b, mapping, options.constraint):
+                    best, found = score, ((ra, rb), mapping)
+    if best < 0.0:
+        return None
     reference, mapping = found
     return Matching(best, reference, tuple(mapping.get(i, -1) for i in range(a.n)), enumerated)
 
@@ -174,7 +191,7 @@ def case_similarity(a: LandmarkGraph, b: LandmarkGraph,
                     options: SimilarityOptions = SimilarityOptions(),
                     threshold: float = 0.0) -> Matching | None:
     """The similarity of case ``b`` to the situation ``a`` and the best matching, by 002's
-    branch and bound; None when no matching reaches ``threshold``."""
+    branch and bound; None when no matching reaches ``threshold`` (or there is none)."""
     from cbr_landmarks.kernels import match_rows
 
     threshold = check_threshold(threshold)
@@ -186,9 +203,9 @@ def case_similarity(a: LandmarkGraph, b: LandmarkGraph,
     mapping = np.full((1, a.n), -1, dtype=np.int64)
     nodes = np.empty(1, dtype=np.int64)
     match_rows(da, aa, adj_a, a.n, one, np.ones((1, a.n, b.n), dtype=np.bool_),
-               np.array([b.n]), one, one, db, ab, adj_b, NORMALISE.index(options.normalise),
-               CONSTRAINT.index(options.constraint), threshold, similarity, reference, mapping,
-               nodes)
+               np.array([b.n]), one, one, db, ab, adj_b, MATCHING.index(options.matching),
+               NORMALISE.index(options.normalise), CONSTRAINT.index(options.constraint),
+               threshold, similarity, reference, mapping, nodes)
     if similarity[0] < 0.0:
         return None
     return Matching(float(similarity[0]), (int(reference[0, 0]), int(reference[0, 1])),

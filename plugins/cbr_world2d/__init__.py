@@ -4,8 +4,8 @@ consults the engine from inside a running simulation.
 
 Registers the ``world2d_file`` and ``world2d_generated`` worlds, the ``pilot`` kind (the
 top-level ``pilot:`` slot, which the ``trials`` workload needs) with the ``potential_field`` and
-``behaviors`` pilots, the ``trials`` workload, the ``rescuer`` solver, and the ``cbr sim``
-commands. See docs/world2d.md.
+``behaviors`` pilots, the ``trials`` workload, the ``rescuer`` solver, the ``divert_target``
+metric, and the ``cbr sim`` commands. See docs/world2d.md.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ import attrs
 import typer
 
 from cbr_world2d.cli import add_commands
+from cbr_world2d.metric import DivertTarget
 from cbr_world2d.pilots import (
     PILOT,
     BehaviorPilotOptions,
@@ -63,9 +64,10 @@ OFFICES = ("office", "office_floor")
 class GeneratedWorldOptions:
     kind: Literal["semi_structured", "scenario", "office", "office_floor"] = option(
         doc="The layout: landmarks joined by linear obstacles into walls, corners, U-shapes and "
-        "dead ends (002 Figure 1); one V, U or wall across the way from start to target, like "
-        "002's scenarios (Figure 7); an office floor of a hallway with four rooms a side, "
-        "doors on schedules and people (004's building, the reproduction's floor); or an "
+        "dead ends (002 Figure 1); one V, U, wall, dead-end corridor, wall with a gap or room "
+        "round the start in the way from start to target, like 002's scenarios (Figure 7); an "
+        "office floor of a hallway with four rooms a side, doors on schedules and people "
+        "(004's building, the reproduction's floor); or an "
         "office floor whose layout (rooms, one or two hallways, widths) is drawn from the "
         "seed as well.")
     seed: int | None = option(None, "The layout's seed; none uses the run's seed.")
@@ -106,6 +108,7 @@ def cbr_register(registry: Registry) -> None:
     registry.add("world", "world2d_generated", generated_world, options=GeneratedWorldOptions)
     registry.add("workload", "trials", Trials, options=TrialsOptions)
     registry.add("solver", "rescuer", RescuerSolver, options=RescuerOptions)
+    registry.add("metric", "divert_target", DivertTarget)
 
 
 @hookimpl

@@ -38,19 +38,60 @@ class Action(Protocol):
 
 
 @attrs.frozen
+class GiveUp:
+    """When a diverting target is given up: ``slack`` times the time a way of ``metres`` takes
+    at the robot's top speed, plus ``margin`` seconds (the pilot swerves, turns, slows)."""
+
+    metres: float = attrs.field(validator=attrs.validators.ge(0.0))
+    slack: float = attrs.field(validator=attrs.validators.gt(0.0))
+    margin: float = attrs.field(validator=attrs.validators.ge(0.0))
+
+    def seconds(self, speed: float) -> float:
+        """The give-up time, in seconds, of a robot whose top speed is ``speed`` m/s."""
+        return self.margin + self.slack * self.metres / speed
+
+
+@attrs.define
+class _Legs:
+    """Where a diversion under way is: the points still to reach, and when it is given up."""
+
+    points: list[tuple[float, float]] = attrs.field(factory=list)
+    deadline: float | None = None
+
+
+@attrs.frozen
 class Divert:
     """Ask the Rescuer to lead the robot to ``(x, y)`` before it heads for its target again
-    (002 section 3.3); it ends when the Rescuer restores the original target."""
+    (002 section 3.3), through the waypoints ``via`` first (each a diverting target in turn:
+    the pilot heads straight for its target, so a way round walls is followed point by point);
+    it ends when the Rescuer restores the original target after the last point. It is given
+    up after ``give_up`` for the whole way (None: the Rescuer's fixed ``give_up`` seconds for
+    each point)."""
 
     x: float
     y: float
+    give_up: GiveUp | None = None
+    via: tuple[tuple[float, float], ...] = attrs.field(default=(), converter=tuple)
+    _legs: _Legs = attrs.field(factory=_Legs, init=False, eq=False, repr=False)
 
     def start(self, simulation: Simulation) -> None:
-        simulation.navigator.divert((self.x, self.y))
+        self._legs.points = [*self.via, (self.x, self.y)]
+        self._legs.deadline = (None if self.give_up is None else
+                               simulation.t + self.give_up.seconds(simulation.spec.max_speed))
+        self._next(simulation)
+
+    def _next(self, simulation: Simulation) -> None:
+        point = self._legs.points.pop(0)
+        deadline = self._legs.deadline
+        left = None if deadline is None else max(deadline - simulation.t, 0.0)
+        simulation.navigator.divert(point, give_up=left)
 
     def ended(self, simulation: Simulation) -> str | None:
         for event in simulation.events:
             if event.name == "restored":
+                if event.detail == REACHED and self._legs.points:
+                    self._next(simulation)
+                    return None
                 return REACHED if event.detail == REACHED else GIVEN_UP
         return None
 

@@ -104,24 +104,68 @@ def _free_spot(rng: np.random.Generator, low: Sequence[float], high: Sequence[fl
     return None
 
 
-SCENES = ("v", "u", "wall")
-"""The obstacles :func:`scenario` puts across the way, by seed: a V open towards the start (002's
-scenario 2), a U open towards the start, a straight wall (002's scenario 1)."""
+SCENES = ("v", "u", "wall", "corridor", "gap", "room")
+"""The obstacles :func:`scenario` puts in the way, by seed: a V open towards the start (002's
+scenario 2), a U open towards the start, a straight wall (002's scenario 1), a dead-end corridor
+open towards the start, a wall with a gap to one side, and a room whose door faces away from
+the target (toward the start)."""
 
 
-def scenario(seed: Seed, *, width: float = 12.0, height: float = 9.0, free: int = 4) -> World:
+def _scene_shape(kind: str, rng: np.random.Generator, size: float
+                 ) -> tuple[list[tuple[float, float]], list[tuple[int, int]]]:
+    """The landmarks of the shape ``kind`` in its own frame (x toward the target, the shape's
+    centre at the origin) and the pairs of them its linear obstacles join."""
+    if kind == "v":
+        spread = math.radians(rng.uniform(35.0, 50.0))
+        marks = [(-size * math.cos(spread), size * math.sin(spread)), (0.0, 0.0),
+                 (-size * math.cos(spread), -size * math.sin(spread))]
+        return marks, [(0, 1), (1, 2)]
+    if kind == "u":
+        half = rng.uniform(1.0, 1.5)
+        return [(-size, half), (0.0, half), (0.0, -half), (-size, -half)], [(0, 1), (1, 2),
+                                                                           (2, 3)]
+    if kind == "wall":
+        return [(0.0, size / 2 + 0.5), (0.0, -size / 2 - 0.5)], [(0, 1)]
+    if kind == "corridor":
+        # long and narrow, its closed end toward the target: 002's robot (0.2 m in radius)
+        # fits in but cannot turn wide
+        length, half = size + 0.5, rng.uniform(0.5, 0.65)
+        marks = [(0.6 - length, half), (0.6, half), (0.6, -half), (0.6 - length, -half)]
+        return marks, [(0, 1), (1, 2), (2, 3)]
+    if kind == "gap":
+        # a long piece across the straight way, the gap beside it (to the left; the caller
+        # mirrors it toward the middle of the world), a short piece beyond
+        near, gap, short = size / 2 + 0.3, rng.uniform(1.0, 1.3), rng.uniform(0.8, 1.2)
+        ys = [-near, near, near + gap, near + gap + short]
+        return [(0.0, y) for y in ys], [(0, 1), (2, 3)]
+    # a room: corners (counter-clockwise from the far bottom) and the door's posts in the
+    # wall facing away from the target (x < 0, toward the start), off its middle by a drawn
+    # amount: pulled toward the target, the robot goes in and finds no way on
+    half_w, half_h = size / 2 + 0.2, rng.uniform(1.2, 1.6)
+    door = rng.uniform(1.2, 1.5)
+    low = rng.uniform(-half_h + 0.3, half_h - 0.3 - door)
+    marks = [(half_w, -half_h), (half_w, half_h), (-half_w, half_h), (-half_w, low + door),
+             (-half_w, low), (-half_w, -half_h)]
+    return marks, [(0, 1), (1, 2), (2, 3), (4, 5), (5, 0)]
+
+
+def scenario(seed: Seed, *, width: float = 12.0, height: float = 9.0, free: int = 4,
+             shape: str | None = None) -> World:
     """A world like 002's scenarios (Figure 7): between a ``start`` on the left and a ``target``
-    on the right, one shape of linear obstacles between landmarks stands across the way, a V or a
-    U open towards the start (a dead end) or a straight wall, in turn by seed; its size, place
-    and turn (within 20 degrees) are drawn from the seed. ``free`` landmarks with no obstacle
-    stand elsewhere, at least 0.9 m from everything and 1.5 m from each other and the places.
+    on the right, one shape of linear obstacles between landmarks is in the way (see
+    :data:`SCENES`), in turn by seed unless ``shape`` names one; its size, place and turn
+    (within 20 degrees) are drawn from the seed. ``free`` landmarks with no obstacle stand
+    elsewhere (never inside the room), at least 0.9 m from everything and 1.5 m from each
+    other and the places.
 
     It is the family of worlds 002 means to learn across: the same kinds of situation, never
     twice the same layout.
     """
+    if shape is not None and shape not in SCENES:
+        raise CbrError(f"unknown scenario shape {shape!r}; expected one of {', '.join(SCENES)}")
     rng = np.random.default_rng(seed)
     index = int(seed) if isinstance(seed, int) else int(rng.integers(len(SCENES)))
-    kind = SCENES[index % len(SCENES)]
+    kind = shape if shape is not None else SCENES[index % len(SCENES)]
     start_y = height / 2 + rng.uniform(-1.0, 1.0)
     target_y = height / 2 + rng.uniform(-1.0, 1.0)
     start, target = (1.0, _mm(start_y)), (width - 1.0, _mm(target_y))
@@ -129,26 +173,23 @@ def scenario(seed: Seed, *, width: float = 12.0, height: float = 9.0, free: int 
     cy = (start_y + target_y) / 2 + rng.uniform(-0.4, 0.4)
     turn = math.radians(rng.uniform(-20.0, 20.0))
     size = rng.uniform(2.2, 3.0)
-    if kind == "v":
-        spread = math.radians(rng.uniform(35.0, 50.0))
-        shape = [(-size * math.cos(spread), size * math.sin(spread)), (0.0, 0.0),
-                 (-size * math.cos(spread), -size * math.sin(spread))]
-    elif kind == "u":
-        half = rng.uniform(1.0, 1.5)
-        shape = [(-size, half), (0.0, half), (0.0, -half), (-size, -half)]
-    else:
-        shape = [(0.0, size / 2 + 0.5), (0.0, -size / 2 - 0.5)]
+    shape_marks, joins = _scene_shape(kind, rng, size)
+    if kind == "gap" and cy > height / 2:
+        shape_marks = [(x, -y) for x, y in shape_marks]
     c, s = math.cos(turn), math.sin(turn)
-    marks = [(_mm(cx + c * x - s * y), _mm(cy + s * x + c * y)) for x, y in shape]
+    marks = [(_mm(cx + c * x - s * y), _mm(cy + s * x + c * y)) for x, y in shape_marks]
     data: dict[str, Any] = {
         "name": _name("scenario", seed), "bounds": [0.0, 0.0, width, height],
         "landmarks": [{"id": f"l{k + 1}", "at": list(m), "radius": 0.15}
                       for k, m in enumerate(marks)],
-        "walls": [{"between": [f"l{k + 1}", f"l{k + 2}"]} for k in range(len(marks) - 1)],
+        "walls": [{"between": [f"l{a + 1}", f"l{b + 1}"]} for a, b in joins],
         "places": {"start": list(start), "target": list(target)},
     }
     world = world_from_data(data, data["name"])
     avoid = [(*start, 1.5), (*target, 1.5)]
+    if kind == "room":
+        # no free landmark inside the room
+        avoid.append((cx, cy, max(math.hypot(x, y) for x, y in shape_marks)))
     for k in range(free):
         spot = _free_spot(rng, (1.0, 1.0), (width - 1.0, height - 1.0), 0.15, 0.9,
                           world.static_segments, world.static_discs, avoid)

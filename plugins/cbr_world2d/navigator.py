@@ -134,14 +134,17 @@ class Navigator:
         self.rescuer.set_target(target)
         self.monitor.reset()
 
-    def divert(self, point: Point, t: float | None = None) -> None:
+    def divert(self, point: Point, t: float | None = None, give_up: float | None = None
+               ) -> None:
         """Head for ``point`` until it is reached or given up (002: the CBR agent asks the
-        Rescuer); ``t`` defaults to the time of the last step."""
+        Rescuer), after ``give_up`` seconds (None: the Rescuer's option); ``t`` defaults to
+        the time of the last step."""
         when, x, y = self._last
-        self._divert(point, when if t is None else t, x, y, "asked")
+        self._divert(point, when if t is None else t, x, y, "asked", give_up)
 
-    def _divert(self, point: Point, t: float, x: float, y: float, who: str) -> None:
-        self.rescuer.divert(point, t)
+    def _divert(self, point: Point, t: float, x: float, y: float, who: str,
+                give_up: float | None = None) -> None:
+        self.rescuer.divert(point, t, give_up)
         self.monitor.reset()
         self._pending.append(Event("diverted", t, x, y, self.rescuer.current_target, who))
 

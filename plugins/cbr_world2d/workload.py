@@ -2,16 +2,18 @@
 
 Each trial runs one :class:`~cbr_world2d.simulation.Simulation` from its start to its target
 until the robot reaches it or the timeout. While it runs, a trigger (the progress monitor
-reporting the robot blocked, the set of landmarks in view changing, a period passing) consults
-the engine with a :class:`Situation`; the proposal's solution is an
-:class:`~cbr_world2d.actions.Action` the simulation carries out. The decision is learned when the
-action ends, or when the trial ends first; no consultation is made while an action is under
-way or a diverting target is set, so the agent does not ask again for the situation the robot
-is already avoiding (002 section 3.3).
+reporting the robot blocked, a landmark coming into view, the heading turning, a period
+passing; see :mod:`cbr_world2d.triggers`) consults the engine with a :class:`Situation`; the
+proposal's solution is an :class:`~cbr_world2d.actions.Action` the simulation carries out.
+The decision is learned when the action ends, or when the trial ends first; no consultation is
+made while an action is under way or a diverting target is set, so the agent does not ask
+again for the situation the robot is already avoiding (002 section 3.3).
 
 Besides the run's ``results.csv`` (one row per decision), the workload writes ``trials.csv`` in
 the run folder: one row per trial with its success, time, distance, collisions and
-consultations; and, when asked (``trajectories``), ``trajectories.npz``: each trial's true
+consultations; ``obstacles.csv``, the linear obstacles between landmarks the robot perceived
+(:mod:`cbr_world2d.obstacle_map`; its map is kept across the run's trials) beside those the
+world declares; and, when asked (``trajectories``), ``trajectories.npz``: each trial's true
 path as an array ``trial_<k>`` of rows ``t, x, y, theta``.
 """
 
@@ -20,6 +22,7 @@ from __future__ import annotations
 import csv
 import math
 from collections.abc import Mapping
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 import attrs
@@ -28,8 +31,9 @@ import numpy as np
 from cbr_world2d import checks
 from cbr_world2d.actions import TRIAL_ENDED, Action, ActionReport
 from cbr_world2d.navigator import Navigator, NavigatorOptions
+from cbr_world2d.obstacle_map import ObstacleMap, PerceptionOptions
 from cbr_world2d.pilots.base import PILOT, Pilot
-from cbr_world2d.pilots.monitor import STUCK
+from cbr_world2d.triggers import TRIGGERS, Trigger, Triggers
 from cbr_world2d.world import Point, World, world_of
 from cbrcore import files
 from cbrcore.context import Context
@@ -42,8 +46,6 @@ if TYPE_CHECKING:
     from cbr_world2d.robot import Pose
     from cbr_world2d.sensors import Observation, Sighting
     from cbr_world2d.simulation import Simulation, Trial
-
-Trigger = Literal["blocked", "landmarks", "period"]
 
 _POSITIVE = attrs.validators.gt(0.0)
 _COUNT = attrs.validators.and_(attrs.validators.instance_of(int), attrs.validators.ge(0))
@@ -87,12 +89,36 @@ class TrialsOptions:
         "the Rescuer diverts on its own.", factory=NavigatorOptions)
     consult_on: list[Trigger] = option(
         doc="What consults the agent: 'blocked' (the progress monitor reports the robot "
-        "blocked or oscillating), 'landmarks' (a landmark came into view), 'period' (every "
-        "'period' seconds).", factory=lambda: ["blocked", "landmarks"])
-    period: float = option(10.0, "Seconds between consultations of the 'period' trigger.",
-                           validator=_POSITIVE)
+        "blocked or oscillating), 'landmarks' (a landmark came into view, see 'settle' and "
+        "'absence'), 'heading' (the heading turned 'turn' degrees since the last "
+        "consultation), 'period' ('period' seconds passed since the last consultation).",
+        factory=lambda: list(TRIGGERS))
+    period: float = option(
+        5.0, "Seconds after the last consultation at which the 'period' trigger consults "
+        "again: under the 8 s a Pioneer at full speed takes to cross the camera's 6 m, so "
+        "a situation that comes into view is looked at again before the robot is in it.",
+        validator=_POSITIVE)
+    turn: float = option(
+        30.0, "Degrees the heading must turn from where it pointed at the last consultation "
+        "for the 'heading' trigger: more than the half-width of a fuzzy angle between two "
+        "landmarks 3 m away and 2 to 4 m apart (11 to 23 degrees), so the problem case, "
+        "measured against the heading, has changed.",
+        validator=attrs.validators.and_(_POSITIVE, attrs.validators.le(180.0)))
+    settle: float = option(
+        0.5, "Seconds a landmark must be in view without a break to count as come into view "
+        "for the 'landmarks' trigger (a glimpse as the robot swerves does not consult); "
+        "those in view at a trial's start count at once.",
+        validator=attrs.validators.ge(0.0))
+    absence: float = option(
+        30.0, "Seconds a landmark must be out of view before it can come into view again for "
+        "the 'landmarks' trigger: a robot swinging in a dead end sees the same landmarks "
+        "leave and come back within 30 s; the 'period' trigger looks again meanwhile.",
+        validator=attrs.validators.ge(0.0))
     camera: CameraOptions = option(
         doc="The camera that sees the landmarks.", factory=lambda: CameraOptions())
+    perception: PerceptionOptions = option(
+        doc="How the robot learns the linear obstacles between landmarks from its sonar and "
+        "bumper (its map is kept across the run's trials).", factory=PerceptionOptions)
     trajectories: bool = option(
         False, "Also write each trial's true path into trajectories.npz in the run folder.")
 
@@ -117,7 +143,8 @@ class Situation:
 
     ``pose`` is the odometry estimate (what the robot believes), ``target`` the trial's final
     target, ``sightings`` what the camera sees (fuzzy distance and bearing per landmark),
-    ``obstacles`` the linear obstacles it sees between two of those landmarks (pairs of ids),
+    ``obstacles`` the linear obstacles the robot knows between two of those landmarks (pairs
+    of ids),
     ``sonar`` the ring's ranges in metres (``sonar_angles`` relative to the heading).
     """
 
@@ -147,11 +174,13 @@ class Situation:
         }
 
 
-def situation(world: World, trial: int, trigger: str, obs: Observation,
-              target: Point) -> Situation:
-    """The situation the robot observes: its obstacles are the linear obstacles of ``world``
-    between two landmarks in view (the camera sees the obstacle joining two landmarks it sees)."""
-    obstacles = world.obstacles_between([s.id for s in obs.sightings])
+def situation(world: World, trial: int, trigger: str, obs: Observation, target: Point,
+              known: ObstacleMap | None = None) -> Situation:
+    """The situation the robot observes. Its obstacles are those the robot perceived between
+    two landmarks in view, by its map ``known``; without a map, the linear obstacles ``world``
+    declares between them (the ground truth: for hand-made cases and tests)."""
+    ids = [s.id for s in obs.sightings]
+    obstacles = world.obstacles_between(ids) if known is None else known.between(ids)
     return Situation(trial, obs.t, trigger, obs.pose, target, obs.sightings, obstacles,
                      obs.sonar, obs.sonar_angles, obs.bumped, obs.confidence)
 
@@ -204,6 +233,11 @@ class Trials:
         self.rng = ctx.spawn_rng()
         self.plan = self._plan()
         self.paths: dict[str, np.ndarray] = {}
+        from cbr_world2d.sensors import SonarRing
+
+        # one map for the whole run: what a trial taught the robot, the next one knows; its
+        # ring is the one the trials' sensors carry
+        self.obstacles = ObstacleMap(options.perception, SonarRing().fitted(self.spec.radius))
 
     def _plan(self) -> list[Trial]:
         from cbr_world2d.robot import Pose
@@ -246,6 +280,25 @@ class Trials:
         if self.options.trajectories:
             with files.replacing(self.ctx.out_dir / "trajectories.npz", "wb") as out:
                 np.savez_compressed(out, **self.paths)
+        self._write_obstacles(self.ctx.out_dir / "obstacles.csv")
+
+    def _write_obstacles(self, path: Path) -> None:
+        """``obstacles.csv``: each pair of landmarks the robot sensed something between or the
+        world declares an obstacle between, the robot's evidence beside the declaration."""
+        known = self.obstacles.landmarks
+        declared = [w.between for w in self.world.walls if w.between is not None]
+        pairs = [(a, b) for k, a in enumerate(known) for b in known[k + 1:]]
+        pairs += [pair for pair in declared if not (pair[0] in known and pair[1] in known)]
+        truth = {frozenset(pair) for pair in declared}
+        with files.replacing(path) as handle:
+            writer = csv.writer(handle)
+            writer.writerow(["first", "second", "occupied", "free", "perceived", "declared"])
+            for a, b in pairs:
+                occupied, free = self.obstacles.evidence(a, b)
+                is_declared = frozenset((a, b)) in truth
+                if occupied or free or is_declared:
+                    writer.writerow([a, b, occupied, free, self.obstacles.perceives(a, b),
+                                     is_declared])
 
     def _trial(self, session: Session, index: int, trial: Trial) -> TrialRow:
         from cbr_world2d.sensors import Camera, Sensors
@@ -258,23 +311,21 @@ class Trials:
                          dt=trial.dt, rng=self.rng.spawn(1)[0], tolerance=trial.tolerance)
         opened: _Open | None = None
         consultations = 0
-        seen: frozenset[str] = frozenset()
-        next_period = options.period
         obs = sim.observe()
+        self.obstacles.sense(obs)
+        triggers = Triggers(options.consult_on, obs, period=options.period, turn=options.turn,
+                            settle=options.settle, absence=options.absence)
         last = math.ceil(trial.timeout / trial.dt - 1e-9)
         while not sim.reached and sim.steps < last:
-            in_view = frozenset(s.id for s in obs.sightings)
+            trigger = triggers.update(obs, sim.events)
             # no consultation while a diverting target is set: the robot is avoiding a situation
             # already, and asking again would only repeat the message (002 section 3.3)
-            if opened is None and not sim.navigator.diverting:
-                trigger = self._trigger(sim, in_view - seen, next_period)
-                if trigger is not None:
-                    opened = self._consult(session, sim, index, trigger, obs, trial.target)
-                    consultations += 1
-            seen = in_view
-            if sim.t >= next_period:
-                next_period += options.period
+            if trigger is not None and opened is None and not sim.navigator.diverting:
+                opened = self._consult(session, sim, index, trigger, obs, trial.target)
+                triggers.consulted(obs)
+                consultations += 1
             obs = sim.step()
+            self.obstacles.sense(obs)
             if opened is not None and opened.action is not None:
                 reason = opened.action.ended(sim)
                 if reason is not None:
@@ -288,18 +339,10 @@ class Trials:
                         "reached" if sim.reached else "timeout", round(sim.t, 4),
                         round(sim.distance, 4), sim.collisions, consultations)
 
-    def _trigger(self, sim: Simulation, new: frozenset[str], next_period: float) -> str | None:
-        triggers = self.options.consult_on
-        if "blocked" in triggers and any(e.name in STUCK for e in sim.events):
-            return "blocked"
-        if "landmarks" in triggers and new:
-            return "landmarks"
-        if "period" in triggers and sim.t >= next_period:
-            return "period"
-        return None
     def _consult(self, session: Session, sim: Simulation, index: int, trigger: str,
                  obs: Observation, target: Point) -> _Open | None:
-        decision = session.consult(situation(self.world, index, trigger, obs, target))
+        decision = session.consult(situation(self.world, index, trigger, obs, target,
+                                             self.obstacles))
         solution = decision.proposal.solution
         action = None if solution is None else solution.value
         if action is not None and not isinstance(action, Action):

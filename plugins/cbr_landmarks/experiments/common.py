@@ -3,7 +3,8 @@ one robot's trials through the engine.
 
 Every robot is 002's navigation system, the potential-field pilot (with :data:`PILOT`'s
 parameters), the progress monitor and a Rescuer, with 002's robot and a camera that sees the
-half-plane in front. They differ in who diverts a blocked robot and in what the engine knows
+half-plane in front, and the ``divert_target`` metric records where each answer diverts the
+robot. They differ in who diverts a blocked robot and in what the engine knows
 (:data:`ROBOTS`):
 
 ``no-cbr``
@@ -11,8 +12,9 @@ half-plane in front. They differ in who diverts a blocked robot and in what the 
     (``navigation.rescue: blocked``); the engine is never consulted.
 ``cbr-handmade``
     The same navigation system with 002's CBR agent added: consulted when landmarks come into
-    view, it retrieves from the hand-made cases (:mod:`cbr_landmarks.handmade`) and asks the
-    Rescuer for a diverting target when a case matches (002 section 3.3).
+    view, it retrieves from the hand-made cases (:mod:`cbr_landmarks.handmade`) with 002's
+    matching (``matching: paper``: equal landmark counts, bijections, the obstacle constraint)
+    and asks the Rescuer for a diverting target when a case matches (002 section 3.3).
 ``detour``
     The engine diverts a blocked (or oscillating) robot with the ``landmark_detour`` solver
     alone, the Rescuer told about the linear obstacles in view; no case base. It separates what
@@ -27,6 +29,7 @@ half-plane in front. They differ in who diverts a blocked robot and in what the 
 from __future__ import annotations
 
 import csv
+import math
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -65,13 +68,14 @@ def robot_config(robot: str, world: Mapping[str, Any], workload: Mapping[str, An
               "camera": {"fov": CAMERA_FOV}, **workload}
     rescuing = {**trials, "navigation": {**trials.get("navigation", {}), "rescue": "blocked"}}
     config: dict[str, Any] = {"seed": seed, "world": dict(world), "pilot": dict(PILOT),
-                              "casebase": "memory"}
+                              "casebase": "memory", "metrics": ["divert_target"]}
     if robot == "no-cbr":
         return {**config, "workload": {**rescuing, "consult_on": []}}
     if robot == "cbr-handmade":
         return {**config, "workload": {**rescuing, "consult_on": ["landmarks"]},
                 "casebase": {"use": "memory", "initial": str(shipped_path())},
-                "retrieve": "landmarks", "reuse": "landmarks"}
+                "retrieve": {"use": "landmarks", "similarity": {"matching": "paper"}},
+                "reuse": "landmarks"}
     if robot == "detour":
         return {**config, "workload": {**trials, "consult_on": ["blocked"]},
                 "solver": "landmark_detour"}
@@ -88,12 +92,34 @@ def robot_config(robot: str, world: Mapping[str, Any], workload: Mapping[str, An
 @attrs.frozen(eq=False)
 class Driven:
     """One robot's trials: a row per trial (``success``, ``time`` in s, ``distance`` in m,
-    ``collisions``, ``consultations``), the true paths when asked, and the landmark cases
-    stored at the end."""
+    ``collisions``, ``consultations``), the true paths when asked, the landmark cases stored
+    at the end, and a row per consultation (:func:`consultations`)."""
 
     rows: list[dict[str, Any]]
     paths: Mapping[str, np.ndarray]
     cases: int
+    decisions: list[dict[str, Any]] = attrs.field(factory=list)
+
+
+def _number(text: str | None) -> float:
+    return float(text) if text not in (None, "") else math.nan
+
+
+def consultations(path: Path) -> list[dict[str, Any]]:
+    """The consultations of a run's ``results.csv``, in the order they were learned: the
+    ``trial``, the time ``t``, the ``trigger``, where the robot believed it was (``x``, ``y``),
+    the answer's ``source`` (``casebase``, ``solver:NAME`` or ``none``), the best similarity
+    retrieved (NaN: none) and the diverting target asked for (``divert_x``, ``divert_y``; NaN:
+    none)."""
+    if not path.exists():
+        return []
+    with path.open(encoding="utf-8") as handle:
+        return [{"trial": int(row["q_trial"]), "t": float(row["q_t"]),
+                 "trigger": row["q_trigger"], "x": float(row["q_x"]), "y": float(row["q_y"]),
+                 "source": row["source"], "similarity": _number(row["best_similarity"]),
+                 "divert_x": _number(row.get("divert_x")),
+                 "divert_y": _number(row.get("divert_y"))}
+                for row in csv.DictReader(handle)]
 
 
 def drive(config: Mapping[str, Any], out_dir: Path) -> Driven:
@@ -112,7 +138,7 @@ def drive(config: Mapping[str, Any], out_dir: Path) -> Driven:
     if (out_dir / "trajectories.npz").exists():
         with np.load(out_dir / "trajectories.npz") as saved:
             paths = {name: saved[name] for name in saved.files}
-    return Driven(rows, paths, cases)
+    return Driven(rows, paths, cases, consultations(out_dir / "results.csv"))
 
 
 def drive_job(job: tuple[Mapping[str, Any], Path]) -> Driven:

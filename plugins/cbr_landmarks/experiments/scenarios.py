@@ -4,16 +4,23 @@ In each of the two shipped scenario worlds (``scenario1.yaml``, ``scenario2.yaml
 drives from point A to the target the same number of times without CBR (``no-cbr``) and with the
 CBR agent and its hand-made cases (``cbr-handmade``); trials differ by the sensor and odometry
 noise of their seeds. The table is Figure 6 (mean time and distance of the trials that reached
-the target) beside the paper's; the figure is Figure 7, one trial of each robot drawn over each
-world (dashed: without CBR; solid: with it).
+the target) beside the paper's; the figure is Figure 7 (:mod:`.figure7`): every trial of each
+robot drawn over each world (dashed: without CBR; solid: with it), with the points A, B and C,
+the consultations, retrievals and diverting targets.
+
+The second table (:mod:`.robustness`) takes scenario 2 off the paper's pose: start headings
+turned up to 30 degrees from facing the target and cameras of 60 to 360 degrees, with the
+success of each robot and the best similarity of a hand-made case at the start.
 """
 
 from __future__ import annotations
 
+import math
 from importlib import resources
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar
 
+from cbr_landmarks.experiments import robustness
 from cbr_landmarks.experiments.common import (
     PILOT,
     TIMEOUT,
@@ -22,12 +29,11 @@ from cbr_landmarks.experiments.common import (
     drive_job,
     robot_config,
 )
+from cbr_landmarks.experiments.figure7 import figure7
+from cbr_world2d.worldfile import load_world
 from cbrcore.context import Context
 from cbrcore.experiment import ExperimentResult, Size, spread
 from cbrcore.tasks import task_runner
-
-if TYPE_CHECKING:
-    from matplotlib.figure import Figure
 
 SCENARIOS = ("scenario1", "scenario2")
 ROBOTS = ("no-cbr", "cbr-handmade")
@@ -52,6 +58,9 @@ class Scenarios:
     TRIALS: ClassVar[dict[str, int]] = {"ci": 4, "full": 100}
     """Trials per robot and scenario (002: 100)."""
 
+    ROBUST_TRIALS: ClassVar[dict[str, int]] = {"ci": 2, "full": 30}
+    """Trials per cell of the robustness table."""
+
     def __init__(self, options: object, ctx: Context) -> None:
         self.seed = ctx.seed
         self.tasks = task_runner(ctx)
@@ -68,14 +77,25 @@ class Scenarios:
             world = {"use": "world2d_file", "path": str(world_path(scenario))}
             for robot in ROBOTS:
                 configs[f"{scenario}/{robot}"] = robot_config(robot, world, workload, self.seed)
-        # each robot in each world is a run of its own, handed to the run's task runner
-        runs = self.tasks.map(drive_job, [
-            (configs[f"{scenario}/{robot}"], out_dir.resolve() / scenario / robot)
-            for scenario in SCENARIOS for robot in ROBOTS], progress=progress)
+        out = out_dir.resolve()
+        figure_jobs = [(configs[f"{scenario}/{robot}"], out / scenario / robot)
+                       for scenario in SCENARIOS for robot in ROBOTS]
+        robust_jobs = robustness.jobs(world_path("scenario2"), self.seed,
+                                      self.ROBUST_TRIALS[size], out / "robustness")
+        # each robot in each world, and each cell of the robustness table, is a run of its
+        # own, handed to the run's task runner
+        runs = list(self.tasks.map(drive_job,
+                                   figure_jobs + [(c, d) for _, c, d in robust_jobs],
+                                   progress=progress))
         driven: dict[str, dict[str, Driven]] = {}
         for (scenario, robot), run in zip(
-                [(s, r) for s in SCENARIOS for r in ROBOTS], runs, strict=True):
+                [(s, r) for s in SCENARIOS for r in ROBOTS], runs[:len(figure_jobs)],
+                strict=True):
             driven.setdefault(scenario, {})[robot] = run
+        robust = robustness.summary(
+            {name: run for (name, _, _), run in zip(robust_jobs, runs[len(figure_jobs):],
+                                                    strict=True)},
+            self.ROBUST_TRIALS[size], robustness.threshold_of(robust_jobs))
         summary = {scenario: {robot: self._summary(driven[scenario][robot])
                               for robot in ROBOTS} for scenario in SCENARIOS}
         ratios = {scenario: self._ratios(summary[scenario]) for scenario in SCENARIOS}
@@ -83,9 +103,34 @@ class Scenarios:
                    "summary": summary, "cbr_over_no_cbr": ratios,
                    "paper": {s: {k: (None if v is None else list(v)) for k, v in p.items()}
                              for s, p in PAPER.items()},
+                   "robustness": robust,
+                   "figure7": {s: {r: self._marks(driven[s][r]) for r in ROBOTS}
+                               for s in SCENARIOS},
                    "configs": configs}
-        return ExperimentResult(results=results, table=self._table(summary, ratios, trials),
-                                figures={"figure7": self._figure(driven)})
+        table = (self._table(summary, ratios, trials) + "\n\n" + self._robust_lead(robust)
+                 + "\n\n" + robustness.table(robust))
+        worlds = {scenario: load_world(world_path(scenario)) for scenario in SCENARIOS}
+        return ExperimentResult(results=results, table=table,
+                                figures={"figure7": figure7(worlds, driven)})
+
+    @staticmethod
+    def _marks(run: Driven) -> dict[str, Any]:
+        """What Figure 7 marks of a run: where the agent was consulted, retrieved a case and
+        was sent (the diverting targets), per consultation."""
+        return {"consultations": [{k: d[k] for k in ("trial", "t", "x", "y", "source")}
+                                  for d in run.decisions],
+                "diverting_targets": [[d["trial"], d["divert_x"], d["divert_y"]]
+                                      for d in run.decisions
+                                      if math.isfinite(d["divert_x"])]}
+
+    @staticmethod
+    def _robust_lead(robust: dict[str, Any]) -> str:
+        return (f"Scenario 2 off the paper's pose: {robust['trials']} trials per cell. Rows: the "
+                "start heading, turned from facing the target; columns: the camera's field of "
+                "view. A cell: the trials with the hand-made cases that reached the target; "
+                "the best similarity of a hand-made case to the view at point A, median "
+                f"(quartiles; the threshold is {robust['threshold']:.2f}). Without CBR the "
+                "camera is never consulted: one run per heading.")
 
     @staticmethod
     def _summary(run: Driven) -> dict[str, Any]:
@@ -134,28 +179,3 @@ class Scenarios:
             lines += ["", f"Scenario 1, CBR over no CBR: time {r['time']:.3f}, distance "
                           f"{r['distance']:.3f} (002: 0.911 and 0.808)."]
         return "\n".join(lines)
-
-    @staticmethod
-    def _figure(driven: dict[str, dict[str, Driven]]) -> Figure:
-        from matplotlib.figure import Figure
-
-        from cbr_world2d.plot import draw_world
-        from cbr_world2d.worldfile import load_world
-
-        figure = Figure(figsize=(12, 5.5))
-        for k, scenario in enumerate(SCENARIOS):
-            ax = figure.add_subplot(1, 2, k + 1)
-            world = load_world(world_path(scenario))
-            draw_world(ax, world)
-            for robot, style in (("no-cbr", "--"), ("cbr-handmade", "-")):
-                path = driven[scenario][robot].paths.get("trial_0")
-                if path is not None:
-                    ax.plot(path[:, 1], path[:, 2], style, color="black", linewidth=1.3,
-                            label="without CBR" if robot == "no-cbr" else "with CBR")
-            start, target = world.places["start"], world.places["target"]
-            ax.plot(*target, marker="*", markersize=16, color="tab:red", linestyle="none")
-            ax.annotate("A", start, textcoords="offset points", xytext=(-12, -12))
-            ax.set_title(f"scenario {scenario[-1]}")
-            ax.legend(loc="upper left", fontsize=8)
-        figure.suptitle("002 Figure 7, rebuilt: the first trial of each robot")
-        return figure

@@ -5,7 +5,8 @@ diverts the robot, a *diverting* target; :attr:`Rescuer.current_target` is the o
 heads for. A diverting target comes from outside (:meth:`Rescuer.divert`, as the CBR agent asks
 in 002 section 3.3) or from the Rescuer itself (:meth:`Rescuer.rescue`, when the robot is
 blocked). The original target is restored when the robot comes within ``tolerance`` of the
-diverting target (``reached``) or when ``give_up`` seconds pass first (``given_up``).
+diverting target (``reached``) or when ``give_up`` seconds pass first (``given_up``); whoever
+sets a diverting target may give it a ``give_up`` of its own (one that follows its distance).
 
 The Rescuer's own diverting target uses the sonar alone (it knows no map). It looks at the
 beams pointing at least ``min_turn`` away from the blocked heading (the bearing of the current
@@ -87,6 +88,8 @@ class Rescuer:
         self.target: Point | None = target
         self.diverting_target: Point | None = None
         self.diverted_at = 0.0
+        self.give_up = self.options.give_up
+        """Seconds after which the current diverting target is given up."""
 
     @property
     def diverting(self) -> bool:
@@ -107,10 +110,12 @@ class Rescuer:
         self.target = (float(target[0]), float(target[1]))
         self.diverting_target = None
 
-    def divert(self, point: Point, t: float) -> None:
-        """Head for ``point`` from time ``t`` until it is reached or given up."""
+    def divert(self, point: Point, t: float, give_up: float | None = None) -> None:
+        """Head for ``point`` from time ``t`` until it is reached or given up, after
+        ``give_up`` seconds (None: the options' ``give_up``)."""
         self.diverting_target = (float(point[0]), float(point[1]))
         self.diverted_at = t
+        self.give_up = self.options.give_up if give_up is None else float(give_up)
 
     def update(self, x: float, y: float, t: float) -> Restored | None:
         """Check the diverting target against the pose ``(x, y)`` at time ``t``; when it is
@@ -121,7 +126,7 @@ class Rescuer:
         o = self.options
         if math.hypot(point[0] - x, point[1] - y) <= o.tolerance:
             reason = REACHED
-        elif t - self.diverted_at >= o.give_up:
+        elif t - self.diverted_at >= self.give_up:
             reason = GIVEN_UP
         else:
             return None

@@ -1,0 +1,263 @@
+"""Whether a diverting target can be reached, as far as the robot knows (safe reuse).
+
+A case's action carried onto the current landmarks can land where the robot should not go: a
+case matched onto a layout of another shape or turn lays its target inside the dead end it was
+meant to avoid. Before diverting, the reuser checks the target against the *known walls*, each
+the segment between the places of two landmarks in view (:func:`sighted_places`,
+:func:`walls_between`): the linear obstacles of the situation, and those the matched case says
+stand between the landmarks it was matched with. A target is
+
+- **refused** when it lies inside a known obstacle chain (strictly inside the convex hull of
+  the landmarks of a chain of two or more walls joined end to end: the inside of a V or a U,
+  the trap) or within ``clearance`` of a known wall (no room for the robot);
+- **reachable** when the straight way from the robot crosses no known wall (line of sight),
+  or when the shortest way round the known walls is at most ``detour`` times the straight
+  distance. The way round is planned on a visibility graph whose waypoints stand ``2 *
+  clearance`` from each wall's ends, in eight directions, those within ``clearance`` of a wall
+  left out;
+- **refused** otherwise (no way, or only a long one: the robot would rather be led by its
+  navigation system than sent on a long detour on what it merely believes).
+
+:func:`way` returns the way: its length (metres), which sets how long the diversion may take,
+and, for a way round, the waypoints the robot is led through first (the pilot heads straight
+for its target, so a way round is only taken by following it).
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING
+
+import attrs
+import numpy as np
+
+from cbr_landmarks.problem import places, to_world
+
+if TYPE_CHECKING:
+    from cbr_world2d.workload import Situation
+
+Point = tuple[float, float]
+
+_EPS = 1e-9
+
+
+def sighted_places(problem: Situation) -> dict[str, Point]:
+    """Where the landmarks ``problem`` sees stand, in the world's frame (the peaks of their
+    sightings)."""
+    if not problem.sightings:
+        return {}
+    points, _ = places(problem.sightings)
+    pose = problem.pose
+    world = to_world(points, (pose.x, pose.y, pose.theta))
+    return {s.id: (float(world[k, 0]), float(world[k, 1]))
+            for k, s in enumerate(problem.sightings)}
+
+
+def walls_between(pairs: Iterable[tuple[str, str]], where: Mapping[str, Point]
+                  ) -> tuple[np.ndarray, list[tuple[str, str]]]:
+    """The walls between the landmark ``pairs`` whose two landmarks have a place in ``where``,
+    ``(m, 2, 2)``, and their pairs (each once, in the order first given)."""
+    kept: dict[tuple[str, str], None] = {}
+    for a, b in pairs:
+        if a in where and b in where and a != b:
+            kept.setdefault((min(a, b), max(a, b)), None)
+    chosen = list(kept)
+    if not chosen:
+        return np.empty((0, 2, 2)), []
+    return np.array([[where[a], where[b]] for a, b in chosen], dtype=float), chosen
+
+
+def chains(pairs: Sequence[tuple[str, str]]) -> list[list[int]]:
+    """The walls of ``pairs`` (indices) grouped by obstacle chain: walls sharing a landmark."""
+    parent = list(range(len(pairs)))
+
+    def root(k: int) -> int:
+        while parent[k] != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+
+    first: dict[str, int] = {}
+    for k, pair in enumerate(pairs):
+        for landmark in pair:
+            if landmark in first:
+                parent[root(k)] = root(first[landmark])
+            else:
+                first[landmark] = k
+    groups: dict[int, list[int]] = {}
+    for k in range(len(pairs)):
+        groups.setdefault(root(k), []).append(k)
+    return list(groups.values())
+
+
+def hull(points: np.ndarray) -> np.ndarray:
+    """The convex hull of ``points`` ``(n, 2)``, counter-clockwise, without collinear points
+    (fewer than three rows when the points are all on a line)."""
+    ordered = sorted({(float(x), float(y)) for x, y in points})
+    if len(ordered) < 3:
+        return np.array(ordered, dtype=float).reshape(-1, 2)
+
+    def cross(o: Point, a: Point, b: Point) -> float:
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower: list[Point] = []
+    upper: list[Point] = []
+    for p in ordered:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= _EPS:
+            lower.pop()
+        lower.append(p)
+    for p in reversed(ordered):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= _EPS:
+            upper.pop()
+        upper.append(p)
+    return np.array(lower[:-1] + upper[:-1], dtype=float)
+
+
+def inside_chain(point: Point, walls: np.ndarray, pairs: Sequence[tuple[str, str]]) -> bool:
+    """Whether ``point`` lies strictly inside the convex hull of a chain of two or more of
+    ``walls``."""
+    px, py = point
+    for group in chains(pairs):
+        if len(group) < 2:
+            continue
+        corners = hull(walls[group].reshape(-1, 2))
+        if len(corners) < 3:
+            continue
+        edges = np.roll(corners, -1, axis=0) - corners
+        to_point = np.array([px, py]) - corners
+        if bool(np.all(edges[:, 0] * to_point[:, 1] - edges[:, 1] * to_point[:, 0] > _EPS)):
+            return True
+    return False
+
+
+def distance_to_walls(points: np.ndarray, walls: np.ndarray) -> np.ndarray:
+    """The distance of each of ``points`` ``(n, 2)`` to the nearest of ``walls`` ``(m, 2, 2)``
+    (infinite with no walls), ``(n,)``."""
+    if len(walls) == 0:
+        return np.full(len(points), np.inf)
+    a, b = walls[:, 0], walls[:, 1]
+    ab = b - a
+    length2 = np.maximum(np.einsum("ij,ij->i", ab, ab), _EPS)
+    ap = points[:, None, :] - a[None, :, :]
+    t = np.clip(np.einsum("nmj,mj->nm", ap, ab) / length2, 0.0, 1.0)
+    nearest = a[None, :, :] + t[..., None] * ab[None, :, :]
+    return np.hypot(*(points[:, None, :] - nearest).transpose(2, 0, 1)).min(axis=1)
+
+
+def _point_to_segments(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The distance from ``points`` ``(..., 2)`` to the segments ``a``-``b`` (broadcast)."""
+    ab = b - a
+    length2 = np.maximum((ab * ab).sum(axis=-1), _EPS)
+    t = np.clip(((points - a) * ab).sum(axis=-1) / length2, 0.0, 1.0)
+    return np.hypot(*np.moveaxis(points - (a + t[..., None] * ab), -1, 0))
+
+
+def crossing(starts: np.ndarray, ends: np.ndarray, walls: np.ndarray) -> np.ndarray:
+    """Whether each way from ``starts[k]`` to ``ends[k]`` (``(n, 2)`` each) meets one of
+    ``walls`` ``(m, 2, 2)``, ``(n,)`` bool: crosses it, touches it (through a wall's end
+    too, where two walls meet and a way through the corner would slip between them) or runs
+    along it."""
+    if len(walls) == 0 or len(starts) == 0:
+        return np.zeros(len(starts), dtype=bool)
+    p, r = starts[:, None, :], (ends - starts)[:, None, :]
+    q, s = walls[None, :, 0, :], (walls[:, 1] - walls[:, 0])[None, :, :]
+
+    def cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+    denominator = cross(r, s)
+    qp = q - p
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = cross(qp, s) / denominator
+        u = cross(qp, r) / denominator
+    inner = (np.abs(denominator) > _EPS) & (t >= 0.0) & (t <= 1.0) & (u >= 0.0) & (u <= 1.0)
+    # touching and running along: an end of one within reach of the other
+    e, f = starts[:, None, :], ends[:, None, :]
+    near = np.minimum.reduce([
+        _point_to_segments(e, q, q + s), _point_to_segments(f, q, q + s),
+        _point_to_segments(q, e, f), _point_to_segments(q + s, e, f)]) <= 1e-7
+    return (inner | near).any(axis=1)
+
+
+def waypoints(walls: np.ndarray, clearance: float) -> np.ndarray:
+    """Points round the ends of ``walls``: ``2 * clearance`` from each end in eight directions,
+    those within ``clearance`` of a wall left out, ``(k, 2)``."""
+    if len(walls) == 0:
+        return np.empty((0, 2))
+    ends = np.unique(walls.reshape(-1, 2).round(9), axis=0)
+    angles = np.arange(8) * (math.pi / 4)
+    ring = 2.0 * clearance * np.column_stack((np.cos(angles), np.sin(angles)))
+    points = (ends[:, None, :] + ring[None, :, :]).reshape(-1, 2)
+    return points[distance_to_walls(points, walls) >= clearance - _EPS]
+
+
+def route(start: Point, goal: Point, walls: np.ndarray, clearance: float
+          ) -> tuple[float, tuple[Point, ...]] | None:
+    """The shortest way from ``start`` to ``goal`` that meets none of ``walls``, through the
+    :func:`waypoints`: its length and the waypoints it passes between them; None when there
+    is none."""
+    nodes = np.vstack((np.array([start, goal], dtype=float), waypoints(walls, clearance)))
+    n = len(nodes)
+    i, j = np.triu_indices(n, 1)
+    free = ~crossing(nodes[i], nodes[j], walls)
+    lengths = np.hypot(*(nodes[j] - nodes[i]).T)
+    graph: list[list[tuple[int, float]]] = [[] for _ in range(n)]
+    for a, b, length in zip(i[free].tolist(), j[free].tolist(), lengths[free].tolist(),
+                            strict=True):
+        graph[a].append((b, length))
+        graph[b].append((a, length))
+    best = [math.inf] * n
+    came = [-1] * n
+    best[0] = 0.0
+    queue = [(0.0, 0)]
+    while queue:
+        so_far, node = heapq.heappop(queue)
+        if node == 1:
+            via: list[Point] = []
+            k = came[1]
+            while k > 0:
+                via.append((float(nodes[k, 0]), float(nodes[k, 1])))
+                k = came[k]
+            return so_far, tuple(reversed(via))
+        if so_far > best[node]:
+            continue
+        for nxt, length in graph[node]:
+            if so_far + length < best[nxt]:
+                best[nxt], came[nxt] = so_far + length, node
+                heapq.heappush(queue, (best[nxt], nxt))
+    return None
+
+
+@attrs.frozen
+class Way:
+    """How the robot gets to a diverting target: ``metres`` to drive, ``how`` (``line of
+    sight`` or ``route``) and the waypoints ``via`` to pass first; a refused target has
+    ``metres`` None and ``how`` says why."""
+
+    metres: float | None
+    how: str
+    via: tuple[Point, ...] = ()
+
+
+def way(start: Point, target: Point, walls: np.ndarray, pairs: Sequence[tuple[str, str]],
+        clearance: float, detour: float) -> Way:
+    """How the robot at ``start`` gets to ``target`` round the known ``walls`` (of landmark
+    ``pairs``), or why it is refused (see the module docstring)."""
+    if inside_chain(target, walls, pairs):
+        return Way(None, "inside a known obstacle chain")
+    goal = np.array([target], dtype=float)
+    if distance_to_walls(goal, walls)[0] < clearance:
+        return Way(None, f"within {clearance:g} m of a known wall")
+    straight = math.dist(start, target)
+    if not crossing(np.array([start], dtype=float), goal, walls)[0]:
+        return Way(straight, "line of sight")
+    found = route(start, target, walls, clearance)
+    if found is None:
+        return Way(None, "no way round the known walls")
+    length, via = found
+    if length > detour * straight:
+        return Way(None, f"the way round the known walls is over {detour:g} times the "
+                   "straight one")
+    return Way(length, "route", via)
