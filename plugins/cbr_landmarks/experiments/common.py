@@ -13,8 +13,10 @@ robot. They differ in who diverts a blocked robot and in what the engine knows
 ``cbr-handmade``
     The same navigation system with 002's CBR agent added: consulted when landmarks come into
     view, it retrieves from the hand-made cases (:mod:`cbr_landmarks.handmade`) with 002's
-    matching (``matching: paper``: equal landmark counts, bijections, the obstacle constraint)
-    and asks the Rescuer for a diverting target when a case matches (002 section 3.3).
+    matching (``matching: paper``: equal landmark counts, bijections, the obstacle constraint),
+    angles against its course toward the target (``course: true``: at 002's point A the robot
+    faces the target, and off that pose the cases, taken facing it, keep their angles), and
+    asks the Rescuer for a diverting target when a case matches (002 section 3.3).
 ``detour``
     The engine diverts a blocked (or oscillating) robot with the ``landmark_detour`` solver
     alone, the Rescuer told about the linear obstacles in view; no case base. It separates what
@@ -74,7 +76,8 @@ def robot_config(robot: str, world: Mapping[str, Any], workload: Mapping[str, An
     if robot == "cbr-handmade":
         return {**config, "workload": {**rescuing, "consult_on": ["landmarks"]},
                 "casebase": {"use": "memory", "initial": str(shipped_path())},
-                "retrieve": {"use": "landmarks", "similarity": {"matching": "paper"}},
+                "retrieve": {"use": "landmarks", "similarity": {"matching": "paper"},
+                             "course": True},
                 "reuse": "landmarks"}
     if robot == "detour":
         return {**config, "workload": {**trials, "consult_on": ["blocked"]},
