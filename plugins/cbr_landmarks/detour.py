@@ -12,7 +12,16 @@ of the chain (away from the middle of the landmarks it joins: outside a V or a U
 is the trap), or, for a straight chain, on the side where the target lies; so that the way on
 from the point passes round the end, not back in. It takes the end whose detour is the
 shortest (robot to point to target, straight), or one drawn at random (``choice: random``, to
-explore). With no chain blocking the robot it falls back on the sonar Rescuer. Like the
+explore). With no chain blocking the robot it falls back on the sonar Rescuer.
+
+A point past an end gets the robot out of a V, not out of every trap: from inside a U or a
+room the point beside an end can leave the target behind the very walls the robot came from,
+and heading for the target again leads back in. So by default (``way: round``) it first plans
+the shortest way from the robot to the target round every known wall (each obstacle between
+two landmarks in view, :func:`cbr_landmarks.reach.route`) and, when the straight way meets one,
+leads the robot through the way's waypoints to the last, from which the target is in sight;
+the diversion is given up after 1.5 times the time the way takes at the robot's top speed plus
+30 s, as the reuser's are. Like the
 Rescuer, it acts only when the robot is blocked (the situation's trigger is ``blocked``) and
 proposes nothing otherwise.
 
@@ -31,13 +40,19 @@ import networkx
 import numpy as np
 
 from cbr_landmarks.problem import RegionOptions, problem_view
-from cbr_world2d.actions import Divert
+from cbr_landmarks.reach import route, sighted_places, walls_between
+from cbr_world2d.actions import Divert, GiveUp
 from cbr_world2d.pilots.rescuer import Rescuer, RescuerOptions
 from cbr_world2d.workload import Situation
 from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Solution
 from cbrcore.options import option
+
+ROUND_SLACK = 1.5
+"""A way round is given up after this many times the time it takes at the robot's top speed,
+plus :data:`ROUND_MARGIN` seconds: the reuser's defaults (``slack``, ``margin``)."""
+ROUND_MARGIN = 30.0
 
 
 @attrs.frozen
@@ -60,6 +75,11 @@ class DetourOptions:
     rescuer: RescuerOptions = option(
         factory=RescuerOptions, doc="The sonar Rescuer it falls back on with no obstacle in "
         "view.")
+    way: Literal["round", "end"] = option(
+        "round", "'round': lead the robot along the shortest way round the known walls to "
+        "the first point from which the target is in sight, through the way's waypoints "
+        "(past an end when there is no such way); 'end': straight for the point past an "
+        "end.")
 
 
 def chain_ends(n: int, obstacles: frozenset[tuple[int, int]]) -> list[tuple[int, int]]:
@@ -105,10 +125,14 @@ class LandmarkDetour:
         if problem.trigger != "blocked":
             return None
         o = self.options
+        pose = (problem.pose.x, problem.pose.y)
+        if o.way == "round":
+            found = self._round(problem, pose)
+            if found is not None:
+                return found
         view = problem_view(problem, o.region)
         if view is None or not view.graph.obstacles:
             return self._escape(problem)
-        pose = (problem.pose.x, problem.pose.y)
         world = view.world_points()
         chain = blocking_chain(view.graph.obstacles, world, np.array(pose), o.reach)
         ends = chain_ends(view.graph.n, chain)
@@ -139,6 +163,21 @@ class LandmarkDetour:
                                + math.hypot(tx - p[0], ty - p[1]) for p in points]))
         return Solution(Divert(float(points[k][0]), float(points[k][1])),
                         detail={"end": names[k]})
+
+    def _round(self, problem: Situation, pose: tuple[float, float]) -> Solution | None:
+        """A diversion along the shortest way round the known walls (every obstacle between
+        two landmarks in view) to the target: through its waypoints to the last, from which
+        the target is in sight; None when the way has no waypoint or there is none."""
+        walls, _ = walls_between(problem.obstacles, sighted_places(problem))
+        found = route(pose, problem.target, walls, self.options.clearance)
+        if found is None or not found[1]:
+            return None
+        length, via = found
+        *before, last = via
+        metres = length - math.dist(last, problem.target)
+        return Solution(Divert(*last, give_up=GiveUp(round(metres, 4), ROUND_SLACK,
+                                                     ROUND_MARGIN), via=tuple(before)),
+                        detail={"way": "round", "waypoints": len(via)})
 
     def _escape(self, problem: Situation) -> Solution | None:
         point = Rescuer(self.options.rescuer, problem.target).escape(problem)
