@@ -138,7 +138,8 @@ def test_a_retained_situation_is_found_again_and_its_target_laid_where_it_was(
         assert match.case.id == case.id
         assert match.similarity == pytest.approx(1.0, abs=1e-6)
         assert again.solution.cases == (case.id,)
-        assert math.dist(at(again.solution.value), at(learned.solution.value)) < 1e-6
+        # the action keeps its offsets from the landmarks to 0.1 mm (DivertAction.toward)
+        assert math.dist(at(again.solution.value), at(learned.solution.value)) < 1.5e-4
 
 
 def test_the_same_situation_is_not_stored_twice(plugins: Plugins) -> None:
