@@ -16,7 +16,9 @@ robot. They differ in who diverts a blocked robot and in what the engine knows
     matching (``matching: paper``: equal landmark counts, bijections, the obstacle constraint),
     angles against its course toward the target (``course: true``: at 002's point A the robot
     faces the target, and off that pose the cases, taken facing it, keep their angles), and
-    asks the Rescuer for a diverting target when a case matches (002 section 3.3).
+    asks the Rescuer for a diverting target when a case matches (002 section 3.3). It
+    remembers the landmarks it saw for :data:`MEMORY` seconds (the workload's ``memory``), so
+    a camera that pans shows it the layout of its whole sweep.
 ``detour``
     The engine diverts a blocked (or oscillating) robot with the ``landmark_detour`` solver
     alone, the Rescuer told about the linear obstacles in view; no case base. It separates what
