@@ -5,7 +5,8 @@ until the robot reaches it or the timeout. While it runs, a trigger (the progres
 reporting the robot blocked, a landmark coming into view, the heading turning, a period
 passing; see :mod:`cbr_world2d.triggers`) consults the engine with a :class:`Situation`
 (what the camera sees and, with a ``memory``, the landmarks seen shortly before:
-:mod:`cbr_world2d.landmark_memory`); the proposal's solution is an :class:`~cbr_world2d.actions.Action` the simulation carries out.
+:mod:`cbr_world2d.landmark_memory`); the proposal's solution is an
+:class:`~cbr_world2d.actions.Action` the simulation carries out.
 The decision is learned when the action ends, or when the trial ends first; no consultation is
 made while an action is under way or a diverting target is set, so the agent does not ask
 again for the situation the robot is already avoiding (002 section 3.3).
