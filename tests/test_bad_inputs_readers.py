@@ -76,6 +76,22 @@ CASES: dict[str, tuple[tuple[str, ...], str]] = {
     "validate a heading trigger's turn of 0": (
         ("validate", "{tmp}/turn.yaml"),
         "turn.yaml: 1 problem:\n  - workload.turn (line 1, column 43): must be > 0.0: 0.0"),
+    "validate a negative landmark memory": (
+        ("validate", "{tmp}/memory.yaml"),
+        "memory.yaml: 1 problem:\n  - workload.memory.seconds (line 1, column 55): must be >= "
+        "0.0: -1.0"),
+    "run a landmark memory that blurs by a string": (
+        ("run", "{tmp}/blur.yaml", "--out", "{tmp}/out"),
+        "blur.yaml: 1 problem:\n  - workload.memory.per_metre (line 1, column 57): expected a "
+        "number, got 'fast'"),
+    "validate a camera that pans past the half turn": (
+        ("validate", "{tmp}/pan.yaml"),
+        "pan.yaml: 1 problem:\n  - workload.camera.pan (line 1, column 51): must be <= 180.0: "
+        "200.0"),
+    "validate a camera that pans at no speed": (
+        ("validate", "{tmp}/pan_rate.yaml"),
+        "pan_rate.yaml: 1 problem:\n  - workload.camera.pan_rate (line 1, column 56): must be "
+        "> 0.0: 0.0"),
     "validate a negative margin of the region in front": (
         ("validate", "{tmp}/margin.yaml"),
         "margin.yaml: 1 problem:\n  - retrieve.region.margin (line 1, column 45): must be >= "
@@ -145,6 +161,14 @@ def _write_files(tmp: Path) -> None:
         "workload: {use: trials, trials: [], consult_on: blocked}\n", encoding="utf-8")
     (tmp / "turn.yaml").write_text(
         "workload: {use: trials, trials: [], turn: 0}\n", encoding="utf-8")
+    (tmp / "memory.yaml").write_text(
+        "workload: {use: trials, trials: [], memory: {seconds: -1}}\n", encoding="utf-8")
+    (tmp / "blur.yaml").write_text(
+        "workload: {use: trials, trials: [], memory: {per_metre: fast}}\n", encoding="utf-8")
+    (tmp / "pan.yaml").write_text(
+        "workload: {use: trials, trials: [], camera: {pan: 200}}\n", encoding="utf-8")
+    (tmp / "pan_rate.yaml").write_text(
+        "workload: {use: trials, trials: [], camera: {pan_rate: 0}}\n", encoding="utf-8")
     (tmp / "margin.yaml").write_text(
         "retrieve: {use: landmarks, region: {margin: -1}}\nworkload: {use: trials, trials: []}\n",
         encoding="utf-8")

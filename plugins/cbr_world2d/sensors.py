@@ -169,6 +169,12 @@ class Camera:
 
     Defaults (002 gives no figures): a 60 degree field of view and 6 m range; distances
     within 5 cm + 5 % and bearings within 2 degrees + 0.5 degree per metre; ``noise`` 0.5.
+
+    **Panning** (002's Vision agent turns the camera to look for landmarks): with ``pan`` over
+    0 the field of view is centred not on the heading but ``aim(t)`` radians off it, sweeping
+    from 0 to ``pan``, back to ``-pan`` and to 0 at ``pan_rate`` radians per second, so that a
+    sweep covers ``fov + 2 pan`` round the heading and takes ``4 pan / pan_rate`` seconds.
+    Bearings are still relative to the heading.
     """
 
     fov: float = attrs.field(default=math.radians(60.0), converter=float, validator=positive)
@@ -182,20 +188,41 @@ class Camera:
     bearing_spread_per_metre: float = attrs.field(default=math.radians(0.5), converter=float,
                                                   validator=non_negative)
     noise: float = attrs.field(default=0.5, converter=float, validator=fraction)
+    pan: float = attrs.field(default=0.0, converter=float,
+                             validator=attrs.validators.and_(non_negative,
+                                                             attrs.validators.le(math.pi)))
+    pan_rate: float = attrs.field(default=math.radians(60.0), converter=float,
+                                  validator=positive)
+
+    def aim(self, t: float) -> float:
+        """Where the camera points at time ``t``, radians off the heading (see Panning)."""
+        if self.pan <= 0.0:
+            return 0.0
+        u = (t * self.pan_rate) % (4.0 * self.pan)
+        if u <= self.pan:
+            return u
+        if u <= 3.0 * self.pan:
+            return 2.0 * self.pan - u
+        return u - 4.0 * self.pan
 
     def view(self, pose: Pose | RobotState, landmarks: np.ndarray,
-             segments: np.ndarray) -> np.ndarray:
-        """The landmarks seen, true values: rows ``index, distance, bearing`` ``(s, 3)``."""
+             segments: np.ndarray, aim: float = 0.0) -> np.ndarray:
+        """The landmarks seen with the camera ``aim`` radians off the heading, true values:
+        rows ``index, distance, bearing`` ``(s, 3)``, the bearing relative to the heading."""
         seen = np.empty((landmarks.shape[0], 3))
-        n = landmarks_seen(float(pose.x), float(pose.y), float(pose.theta), landmarks, self.fov,
-                           self.max_range, segments, seen)
-        return seen[:n]
+        n = landmarks_seen(float(pose.x), float(pose.y), float(pose.theta) + aim, landmarks,
+                           self.fov, self.max_range, segments, seen)
+        seen = seen[:n]
+        if aim != 0.0:
+            seen[:, 2] = np.arctan2(np.sin(seen[:, 2] + aim), np.cos(seen[:, 2] + aim))
+        return seen
 
     def see(self, pose: Pose | RobotState, landmarks: np.ndarray, ids: tuple[str, ...] | list[str],
-            segments: np.ndarray, rng: np.random.Generator) -> tuple[Sighting, ...]:
-        """The sightings, in the order of ``landmarks`` (rows ``x, y, radius``; ``ids`` names
-        them)."""
-        seen = self.view(pose, landmarks, segments)
+            segments: np.ndarray, rng: np.random.Generator, t: float = 0.0
+            ) -> tuple[Sighting, ...]:
+        """The sightings at time ``t`` (which sets where a panning camera points), in the
+        order of ``landmarks`` (rows ``x, y, radius``; ``ids`` names them)."""
+        seen = self.view(pose, landmarks, segments, self.aim(t))
         n = seen.shape[0]
         if n == 0:
             return ()
@@ -409,7 +436,8 @@ class Sensors:
             if self._ids_of is not world:
                 self._ids_of = world
                 self._ids = tuple(mark.id for mark in world.landmarks)
-            sightings = self.camera.see(state, world.landmark_array, self._ids, segments, rng)
+            sightings = self.camera.see(state, world.landmark_array, self._ids, segments, rng,
+                                        t)
         bump, bearing = self.bumper.read(state, bumped, segments, discs)
         odometry = self.odometry
         return Observation(t=t, pose=odometry.pose,

@@ -3,8 +3,10 @@
 Each trial runs one :class:`~cbr_world2d.simulation.Simulation` from its start to its target
 until the robot reaches it or the timeout. While it runs, a trigger (the progress monitor
 reporting the robot blocked, a landmark coming into view, the heading turning, a period
-passing; see :mod:`cbr_world2d.triggers`) consults the engine with a :class:`Situation`; the
-proposal's solution is an :class:`~cbr_world2d.actions.Action` the simulation carries out.
+passing; see :mod:`cbr_world2d.triggers`) consults the engine with a :class:`Situation`
+(what the camera sees and, with a ``memory``, the landmarks seen shortly before:
+:mod:`cbr_world2d.landmark_memory`); the proposal's solution is an
+:class:`~cbr_world2d.actions.Action` the simulation carries out.
 The decision is learned when the action ends, or when the trial ends first; no consultation is
 made while an action is under way or a diverting target is set, so the agent does not ask
 again for the situation the robot is already avoiding (002 section 3.3).
@@ -30,6 +32,7 @@ import numpy as np
 
 from cbr_world2d import checks
 from cbr_world2d.actions import TRIAL_ENDED, Action, ActionReport
+from cbr_world2d.landmark_memory import LandmarkMemory, MemoryOptions
 from cbr_world2d.navigator import Navigator, NavigatorOptions
 from cbr_world2d.obstacle_map import ObstacleMap, PerceptionOptions
 from cbr_world2d.pilots.base import PILOT, Pilot
@@ -65,6 +68,14 @@ class CameraOptions:
                         validator=attrs.validators.and_(_POSITIVE, attrs.validators.le(360.0)))
     range: float = option(6.0, "How far, in metres, a landmark can be seen.",
                           validator=_POSITIVE)
+    pan: float = option(
+        0.0, "How far, in degrees, the camera pans to each side of the heading (002's Vision "
+        "agent turns it to look for landmarks): it sweeps 0, pan, -pan, 0 and so on, and a "
+        "sweep sees 'fov' + 2 'pan' round the heading; 0 keeps it on the heading.",
+        validator=attrs.validators.and_(attrs.validators.ge(0.0),
+                                        attrs.validators.le(180.0)))
+    pan_rate: float = option(60.0, "How fast the camera pans, in degrees per second.",
+                             validator=_POSITIVE)
 
 
 @attrs.frozen
@@ -116,6 +127,10 @@ class TrialsOptions:
         validator=attrs.validators.ge(0.0))
     camera: CameraOptions = option(
         doc="The camera that sees the landmarks.", factory=lambda: CameraOptions())
+    memory: MemoryOptions = option(
+        doc="The short-term memory of landmarks: those seen within 'seconds' stay in the "
+        "situation's sightings, carried by odometry and blurred with the time and distance "
+        "since (off by default).", factory=MemoryOptions)
     perception: PerceptionOptions = option(
         doc="How the robot learns the linear obstacles between landmarks from its sonar and "
         "bumper (its map is kept across the run's trials).", factory=PerceptionOptions)
@@ -145,7 +160,9 @@ class Situation:
     target, ``sightings`` what the camera sees (fuzzy distance and bearing per landmark),
     ``obstacles`` the linear obstacles the robot knows between two of those landmarks (pairs
     of ids),
-    ``sonar`` the ring's ranges in metres (``sonar_angles`` relative to the heading).
+    ``sonar`` the ring's ranges in metres (``sonar_angles`` relative to the heading),
+    ``remembered`` the ids of the sightings that come from the landmark memory rather than the
+    camera's current view (:mod:`cbr_world2d.landmark_memory`).
     """
 
     trial: int
@@ -159,6 +176,7 @@ class Situation:
     sonar_angles: np.ndarray = attrs.field(eq=False)
     bumped: bool
     confidence: float
+    remembered: tuple[str, ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         """Plain data of the situation, as a retainer stores it in a case."""
@@ -171,18 +189,24 @@ class Situation:
             "obstacles": [list(pair) for pair in self.obstacles],
             "sonar": _array(self.sonar), "sonar_angles": _array(self.sonar_angles),
             "bumped": self.bumped, "confidence": self.confidence,
+            "remembered": list(self.remembered),
         }
 
 
 def situation(world: World, trial: int, trigger: str, obs: Observation, target: Point,
-              known: ObstacleMap | None = None) -> Situation:
-    """The situation the robot observes. Its obstacles are those the robot perceived between
-    two landmarks in view, by its map ``known``; without a map, the linear obstacles ``world``
-    declares between them (the ground truth: for hand-made cases and tests)."""
-    ids = [s.id for s in obs.sightings]
+              known: ObstacleMap | None = None, memory: LandmarkMemory | None = None
+              ) -> Situation:
+    """The situation the robot observes. Its sightings are the camera's, and with a
+    ``memory`` (updated with ``obs``) the landmarks it remembers besides. Its obstacles are
+    those the robot perceived between two of those landmarks, by its map ``known``; without a
+    map, the linear obstacles ``world`` declares between them (the ground truth: for hand-made
+    cases and tests)."""
+    sightings, remembered = ((obs.sightings, ()) if memory is None
+                             else memory.sightings(obs))
+    ids = [s.id for s in sightings]
     obstacles = world.obstacles_between(ids) if known is None else known.between(ids)
-    return Situation(trial, obs.t, trigger, obs.pose, target, obs.sightings, obstacles,
-                     obs.sonar, obs.sonar_angles, obs.bumped, obs.confidence)
+    return Situation(trial, obs.t, trigger, obs.pose, target, sightings, obstacles,
+                     obs.sonar, obs.sonar_angles, obs.bumped, obs.confidence, remembered)
 
 
 @attrs.frozen
@@ -305,7 +329,9 @@ class Trials:
         from cbr_world2d.simulation import Simulation
 
         options = self.options
-        camera = Camera(fov=math.radians(options.camera.fov), max_range=options.camera.range)
+        camera = Camera(fov=math.radians(options.camera.fov), max_range=options.camera.range,
+                        pan=math.radians(options.camera.pan),
+                        pan_rate=math.radians(options.camera.pan_rate))
         sim = Simulation(self.world, self.spec, Sensors(camera=camera).fitted(self.spec.radius),
                          Navigator(self.pilot, options.navigation), trial.start, trial.target,
                          dt=trial.dt, rng=self.rng.spawn(1)[0], tolerance=trial.tolerance)
@@ -313,6 +339,11 @@ class Trials:
         consultations = 0
         obs = sim.observe()
         self.obstacles.sense(obs)
+        memory = LandmarkMemory(options.memory) if options.memory.seconds > 0.0 else None
+        if memory is not None:
+            memory.update(obs)
+        # the triggers look at the camera's current view: a remembered landmark is not one
+        # that comes into view
         triggers = Triggers(options.consult_on, obs, period=options.period, turn=options.turn,
                             settle=options.settle, absence=options.absence)
         last = math.ceil(trial.timeout / trial.dt - 1e-9)
@@ -321,11 +352,13 @@ class Trials:
             # no consultation while a diverting target is set: the robot is avoiding a situation
             # already, and asking again would only repeat the message (002 section 3.3)
             if trigger is not None and opened is None and not sim.navigator.diverting:
-                opened = self._consult(session, sim, index, trigger, obs, trial.target)
+                opened = self._consult(session, sim, index, trigger, obs, trial.target, memory)
                 triggers.consulted(obs)
                 consultations += 1
             obs = sim.step()
             self.obstacles.sense(obs)
+            if memory is not None:
+                memory.update(obs)
             if opened is not None and opened.action is not None:
                 reason = opened.action.ended(sim)
                 if reason is not None:
@@ -340,9 +373,10 @@ class Trials:
                         round(sim.distance, 4), sim.collisions, consultations)
 
     def _consult(self, session: Session, sim: Simulation, index: int, trigger: str,
-                 obs: Observation, target: Point) -> _Open | None:
+                 obs: Observation, target: Point, memory: LandmarkMemory | None
+                 ) -> _Open | None:
         decision = session.consult(situation(self.world, index, trigger, obs, target,
-                                             self.obstacles))
+                                             self.obstacles, memory))
         solution = decision.proposal.solution
         action = None if solution is None else solution.value
         if action is not None and not isinstance(action, Action):

@@ -16,7 +16,9 @@ robot. They differ in who diverts a blocked robot and in what the engine knows
     matching (``matching: paper``: equal landmark counts, bijections, the obstacle constraint),
     angles against its course toward the target (``course: true``: at 002's point A the robot
     faces the target, and off that pose the cases, taken facing it, keep their angles), and
-    asks the Rescuer for a diverting target when a case matches (002 section 3.3).
+    asks the Rescuer for a diverting target when a case matches (002 section 3.3). It
+    remembers the landmarks it saw for :data:`MEMORY` seconds (the workload's ``memory``), so
+    a camera that pans shows it the layout of its whole sweep.
 ``detour``
     The engine diverts a blocked (or oscillating) robot with the ``landmark_detour`` solver
     alone, the Rescuer told about the linear obstacles in view; no case base. It separates what
@@ -58,6 +60,11 @@ TIMEOUT = 400.0
 """Seconds after which a trial has failed: 002 gives none ("a given time"); 400 s is 2.3 times
 the optimal time of scenario 2, 4 times that of scenario 1."""
 
+MEMORY = 10.0
+"""Seconds the CBR agent of the hand-made cases remembers a landmark out of view (the
+``trials`` workload's ``memory``): over twice the 4 s sweep of a 60 degree camera panning over
+the half-plane in front, so a situation holds every landmark of that half-plane."""
+
 ROBOTS = ("no-cbr", "cbr-handmade", "detour", "cbr-learning")
 
 
@@ -74,7 +81,8 @@ def robot_config(robot: str, world: Mapping[str, Any], workload: Mapping[str, An
     if robot == "no-cbr":
         return {**config, "workload": {**rescuing, "consult_on": []}}
     if robot == "cbr-handmade":
-        return {**config, "workload": {**rescuing, "consult_on": ["landmarks"]},
+        return {**config, "workload": {**rescuing, "consult_on": ["landmarks"],
+                                       "memory": {"seconds": MEMORY}},
                 "casebase": {"use": "memory", "initial": str(shipped_path())},
                 "retrieve": {"use": "landmarks", "similarity": {"matching": "paper"},
                              "course": True},

@@ -6,10 +6,16 @@ from facing the target, with cameras of each of :data:`CAMERAS`, with the hand-m
 (``cbr-handmade``) and without CBR (``no-cbr``). The robot without CBR never consults its
 camera, so one run per heading serves every camera.
 
+A camera narrower than 002's half-plane pans over it (002's Vision agent turns the camera
+to look for landmarks, :func:`camera_options`), and the robot with the hand-made cases
+remembers the landmarks it saw (the workload's ``memory``), so its situation holds the
+landmarks of the whole sweep.
+
 Each cell also reports how well the hand-made cases match what the robot sees at point A: a
-*probe* run of the same configuration, seed and camera with the retriever's threshold at 0
-and a timeout of one step consults the engine once per trial, at the start, and its
-``results.csv`` holds the best similarity of a stored case to the view (0 when fewer than two
+*probe* run of the same configuration, seed and camera with the retriever's threshold at 0,
+no reuser (so it is never diverted) and a timeout of the camera's first sweep (one step for a
+camera that does not pan) consults the engine as landmarks come into view at point A, and its
+``results.csv`` holds the best similarity of a stored case to each view (0 when fewer than two
 landmarks are in the region in front, or none is in view).
 """
 
@@ -22,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from cbr_landmarks.experiments.common import Driven, robot_config
+from cbr_landmarks.handmade import CAMERA_FOV
 from cbr_world2d.worldfile import load_world
 
 HEADINGS = (-30.0, -15.0, 0.0, 15.0, 30.0)
@@ -32,7 +39,8 @@ CAMERAS = (60.0, 120.0, 180.0, 360.0)
 the half-plane in front, 180)."""
 
 STEP = 0.1
-"""The probe's timeout, seconds: the ``trials`` workload's step, so that it consults once."""
+"""The ``trials`` workload's step, seconds: the probe's timeout for a camera that does not pan,
+so that it consults once."""
 
 Job = tuple[str, dict[str, Any], Path]
 """A run: its name in the results (``HEADING/CAMERA/ROBOT``), configuration and folder."""
@@ -45,18 +53,40 @@ def facing(world_file: Path) -> float:
     return math.degrees(math.atan2(ty - sy, tx - sx))
 
 
+def camera_options(fov: float) -> dict[str, float]:
+    """The camera of a cell: ``fov`` degrees wide, panning (002's Vision agent) so that its
+    sweep covers the half-plane in front that 002's robot sees, when it is narrower."""
+    pan = max(0.0, 0.5 * (CAMERA_FOV - fov))
+    return {"fov": fov, "pan": pan} if pan > 0.0 else {"fov": fov}
+
+
 def cell_name(heading: float, camera: float, robot: str) -> str:
     return f"{heading:+.0f}/{camera:.0f}/{robot}"
 
 
 def probe_config(config: dict[str, Any]) -> dict[str, Any]:
-    """``config`` made to consult once, at the start, and to return every case however little
-    it matches."""
+    """``config`` made to look at point A for the camera's first sweep (:func:`probe_time`),
+    to return every case however little it matches, and never to divert the robot."""
     retrieve = config["retrieve"]
     retrieve = {"use": retrieve} if isinstance(retrieve, str) else dict(retrieve)
-    return {**config, "retrieve": {**retrieve, "threshold": 0.0},
-            "workload": {**config["workload"], "timeout": STEP,
+    probe = {k: v for k, v in config.items() if k != "reuse"}
+    workload = config["workload"]
+    return {**probe, "retrieve": {**retrieve, "threshold": 0.0},
+            "workload": {**workload, "timeout": probe_time(workload.get("camera", {})),
                          "trajectories": False}}
+
+
+def probe_time(camera: dict[str, float]) -> float:
+    """Seconds the probe looks: one step for a camera that does not pan; for one that does, a
+    whole sweep, the time a landmark takes to come into view (the workload's ``settle``) and
+    a step, so that every landmark the sweep shows has consulted."""
+    from cbr_world2d.workload import CameraOptions, TrialsOptions
+
+    pan = camera.get("pan", 0.0)
+    if pan <= 0.0:
+        return STEP
+    rate = camera.get("pan_rate", CameraOptions().pan_rate)
+    return round(4.0 * pan / rate + TrialsOptions().settle + STEP, 6)
 
 
 def jobs(world_file: Path, seed: int, trials: int, out_dir: Path) -> list[Job]:
@@ -71,7 +101,7 @@ def jobs(world_file: Path, seed: int, trials: int, out_dir: Path) -> list[Job]:
         name = cell_name(heading, 0.0, "no-cbr")
         found.append((name, robot_config("no-cbr", world, workload, seed), out_dir / name))
         for camera in CAMERAS:
-            seen = {**workload, "camera": {"fov": camera}}
+            seen = {**workload, "camera": camera_options(camera)}
             config = robot_config("cbr-handmade", world, seen, seed)
             name = cell_name(heading, camera, "cbr-handmade")
             found.append((name, config, out_dir / name))
@@ -93,10 +123,10 @@ def threshold_of(runs: list[Job]) -> float:
 
 
 def start_similarities(probe: Driven) -> list[float]:
-    """Per trial of a probe run, the best similarity at the start (0: nothing retrieved)."""
+    """Per trial of a probe run, the best similarity at point A (0: nothing retrieved)."""
     best = [0.0] * len(probe.rows)
     for decision in probe.decisions:
-        if decision["t"] == 0.0 and math.isfinite(decision["similarity"]):
+        if math.isfinite(decision["similarity"]):
             best[decision["trial"]] = max(best[decision["trial"]], decision["similarity"])
     return best
 
