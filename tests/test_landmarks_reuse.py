@@ -13,6 +13,7 @@ wrong after it, and none when trouble came.
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 from typing import Any
@@ -83,13 +84,15 @@ def test_distances_and_crossings_of_walls() -> None:
 
 def test_the_way_round_a_wall_passes_the_waypoints_beside_its_end() -> None:
     """A wall from (0, -1) to (0, 1) between (-1, 0) and (1, 0), clearance 0.5: the waypoints
-    stand 1 m from each end in eight directions; the shortest way through them is (-1, 0),
-    (0, 2), (1, 0) (or its mirror below), 2 sqrt(5) m, 2.24 times the straight distance (the
-    way through (-1, 1) and (1, 1) grazes the wall's end and does not count)."""
+    stand 1 m from each end in eight directions; a leg must pass the wall's end 0.5 m off, so
+    the straight legs to (0, 2) (0.45 m off the end) do not count and the shortest way is
+    (-1, 0), (-1, 1), (0, 2), (1, 1), (1, 0) (or its mirror below), 2 + 2 sqrt(2) m, its
+    diagonal legs 0.71 m off the end."""
     wall, pairs = np.array([[[0.0, -1.0], [0.0, 1.0]]]), [("p", "q")]
     length, via = route((-1.0, 0.0), (1.0, 0.0), wall, 0.5)
-    assert length == pytest.approx(2.0 * math.sqrt(5.0))
-    assert len(via) == 1 and abs(via[0][0]) < 1e-9 and abs(via[0][1]) == pytest.approx(2.0)
+    assert length == pytest.approx(2.0 + 2.0 * math.sqrt(2.0))
+    side = math.copysign(1.0, via[1][1])
+    assert np.allclose(via, [(-1.0, side), (0.0, 2.0 * side), (1.0, side)])
     found = way((-1.0, 0.0), (1.0, 0.0), wall, pairs, 0.5, 3.0)
     assert (found.metres, found.how, found.via) == (pytest.approx(length), "route", via)
     assert way((-1.0, 0.0), (1.0, 0.0), wall, pairs, 0.5, 1.5).metres is None
@@ -295,9 +298,9 @@ def test_the_next_match_is_reused_when_the_best_lays_its_target_inside(
 def test_a_target_behind_a_known_wall_is_reached_round_its_end(
         plugins: Plugins, world_file: Path) -> None:
     """Beyond the U's closed end the straight way crosses the wall l1-l2 the robot sees; the
-    way round passes a waypoint 0.6 m (twice the clearance) from l2, the wall's free end; the
+    way round passes waypoints 0.6 m (twice the clearance) from l2, the wall's free end; the
     diversion is given up after the time of the whole way, and with ``follow`` the robot is
-    led through the waypoint."""
+    led through the waypoints."""
     problem = observe(world_file)
     behind = to_world((1.0, 0.0))
     for follow in (False, True):
@@ -307,13 +310,13 @@ def test_a_target_behind_a_known_wall_is_reached_round_its_end(
             proposal = engine.solve(problem)
         divert = proposal.solution.value
         assert proposal.solution.detail["way"] == "route"
-        assert len(divert.via) == follow  # without follow, straight at the target
+        assert bool(divert.via) == follow  # without follow, straight at the target
     here = (problem.pose.x, problem.pose.y)
-    assert len(divert.via) == 1
-    assert math.dist(divert.via[0], to_world(U_SHAPE[1])) == pytest.approx(0.6, abs=1e-3)
+    for point in divert.via:
+        assert math.dist(point, to_world(U_SHAPE[1])) == pytest.approx(0.6, abs=1e-3)
+    legs = [here, *divert.via, (divert.x, divert.y)]
     assert divert.give_up.metres == pytest.approx(
-        math.dist(here, divert.via[0]) + math.dist(divert.via[0], (divert.x, divert.y)),
-        abs=1e-3)
+        sum(math.dist(a, b) for a, b in itertools.pairwise(legs)), abs=1e-3)
 
 
 def test_a_target_near_one_that_failed_is_not_used_again_in_the_trial(

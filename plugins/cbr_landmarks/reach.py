@@ -193,6 +193,25 @@ def waypoints(walls: np.ndarray, clearance: float) -> np.ndarray:
     return points[distance_to_walls(points, walls) >= clearance - _EPS]
 
 
+def _round_the_ends(nodes: np.ndarray, i: np.ndarray, j: np.ndarray, walls: np.ndarray,
+                    clearance: float) -> np.ndarray:
+    """Whether each leg ``nodes[i]``-``nodes[j]`` passes every wall's end at least
+    ``clearance`` off, ``(len(i),)`` bool. A leg that crosses no wall comes nearest a wall at
+    one of the two's ends, and the waypoints keep ``clearance`` from every wall already: what
+    is left is a leg cutting round the end of a wall, where a robot would graze the landmark
+    there and its pilot slide back along the wall. An end within ``clearance`` of the start or
+    the goal (nodes 0 and 1: a robot blocked at a corner) does not count against the legs
+    from or to it."""
+    if len(walls) == 0 or len(i) == 0:
+        return np.ones(len(i), dtype=bool)
+    ends = np.unique(walls.reshape(-1, 2).round(9), axis=0)
+    gap = _point_to_segments(ends[None, :, :], nodes[i][:, None, :], nodes[j][:, None, :])
+    near = [np.hypot(*(ends - nodes[k]).T) < clearance for k in (0, 1)]
+    excused = (((i == 0) | (j == 0))[:, None] & near[0][None, :]) | \
+        (((i == 1) | (j == 1))[:, None] & near[1][None, :])
+    return ((gap >= clearance - _EPS) | excused).all(axis=1)
+
+
 def route(start: Point, goal: Point, walls: np.ndarray, clearance: float
           ) -> tuple[float, tuple[Point, ...]] | None:
     """The shortest way from ``start`` to ``goal`` that meets none of ``walls``, through the
@@ -201,7 +220,8 @@ def route(start: Point, goal: Point, walls: np.ndarray, clearance: float
     nodes = np.vstack((np.array([start, goal], dtype=float), waypoints(walls, clearance)))
     n = len(nodes)
     i, j = np.triu_indices(n, 1)
-    free = ~crossing(nodes[i], nodes[j], walls)
+    free = ~crossing(nodes[i], nodes[j], walls) & _round_the_ends(nodes, i, j, walls,
+                                                                 clearance)
     lengths = np.hypot(*(nodes[j] - nodes[i]).T)
     graph: list[list[tuple[int, float]]] = [[] for _ in range(n)]
     for a, b, length in zip(i[free].tolist(), j[free].tolist(), lengths[free].tolist(),
