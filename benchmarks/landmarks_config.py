@@ -4,10 +4,11 @@ unchanged but for the world on generated scenario worlds of every shape
 (``world2d_generated``, kind ``scenario``), each world a run of its own with a fresh case base,
 the trials repeated as the configuration says.
 
-    python benchmarks/landmarks_config.py [--seeds 200,...,205] [--repeat 10]
+    python benchmarks/landmarks_config.py [--seeds 200,...,217] [--looked-at 200,...,205]
+                                          [--repeat 10]
 
-The seeds default to 200 to 205, one world of each shape, none of them a world the
-configuration or the experiments were tuned on.
+The seeds default to 200 to 217, three worlds of each shape; those of ``--looked-at`` (200 to
+205) were looked at while the configuration was chosen, the others are held out.
 
 Writes ``landmarks_config.json`` and ``landmarks_config.md`` (per world its shape, the trials
 that reached the target and their times).
@@ -31,11 +32,13 @@ CONFIG = Path(__file__).resolve().parent.parent / "configs" / "landmarks.yaml"
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", default=",".join(str(s) for s in range(200, 206)))
+    parser.add_argument("--seeds", default=",".join(str(s) for s in range(200, 218)))
+    parser.add_argument("--looked-at", default=",".join(str(s) for s in range(200, 206)))
     parser.add_argument("--repeat", type=int, default=10)
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results")
     args = parser.parse_args()
     seeds = [int(s) for s in args.seeds.split(",")]
+    looked_at = {int(s) for s in args.looked_at.split(",") if s}
     commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
                             cwd=Path(__file__).parent, check=False).stdout.strip()
     shipped = yaml.safe_load(CONFIG.read_text(encoding="utf-8"))
@@ -57,20 +60,24 @@ def main() -> None:
             with (out / "trials.csv").open(encoding="utf-8") as handle:
                 rows = list(csv.DictReader(handle))
             worlds.append({"seed": seed, "shape": SCENES[seed % len(SCENES)],
+                           "held_out": seed not in looked_at,
                            "reached": sum(row["success"] == "True" for row in rows),
                            "trials": len(rows),
                            "times": [float(row["time"]) for row in rows]})
     reached = sum(w["reached"] for w in worlds)
     trials = sum(w["trials"] for w in worlds)
     record = {"command": f"python benchmarks/landmarks_config.py --seeds {args.seeds} "
-              f"--repeat {args.repeat}", "commit": commit, "worlds": worlds}
+              f"--looked-at {args.looked_at} --repeat {args.repeat}", "commit": commit,
+              "worlds": worlds}
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "landmarks_config.json").write_text(json.dumps(record, indent=1) + "\n",
                                                     encoding="utf-8")
     lines = ["`configs/landmarks.yaml` on generated scenario worlds, unchanged but for the "
              f"world: {reached} of {trials} trials reached the target.", "",
-             "| world seed | shape | reached | time of each trial (s) |", "|---|---|---|---|"]
-    lines += [f"| {w['seed']} | {w['shape']} | {w['reached']} of {w['trials']} | "
+             "| world seed | shape | held out | reached | time of each trial (s) |",
+             "|---|---|---|---|---|"]
+    lines += [f"| {w['seed']} | {w['shape']} | {'yes' if w['held_out'] else 'no'} | "
+              f"{w['reached']} of {w['trials']} | "
               + ", ".join(f"{t:.0f}" for t in w["times"]) + " |" for w in worlds]
     (args.out / "landmarks_config.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))

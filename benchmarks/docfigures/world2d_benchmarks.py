@@ -212,3 +212,20 @@ def rupart_retrieval_by_size() -> str:
             f"{max(ratios):.0f} times less than the plain Python reference, and both find the "
             f"same five cases on {same}. Over {grouped(data['cases'])} cases CBRkit takes "
             f"{grouped(round(data['ratio'], -1))} times as long as `nearest`.")
+
+
+def landmarks_config_reading() -> str:
+    """The shipped landmark configuration on generated worlds against its target: at least
+    95% of the trials in every held-out world."""
+    worlds = bench("landmarks_config")["worlds"]
+    held = [w for w in worlds if w["held_out"]]
+    good = [w for w in held if w["reached"] >= 0.95 * w["trials"]]
+    short = [w for w in held if w not in good]
+    text = (f"On the {len(held)} held-out worlds {sum(w['reached'] for w in held)} of "
+            f"{sum(w['trials'] for w in held)} trials reached the target, and "
+            f"{len(good)} of the {len(held)} worlds reached it in at least 95% of their "
+            f"trials (the target, every world: {verdict(not short)})")
+    if short:
+        text += "; short of it: " + ", ".join(
+            f"{w['shape']} {w['seed']} ({w['reached']} of {w['trials']})" for w in short)
+    return text + "."

@@ -27,7 +27,11 @@ robot. They differ in who diverts a blocked robot and in what the engine knows
     The CBR agent learning from an empty case base: consulted when landmarks come into view
     and when the robot is blocked or oscillating; the ``landmark_detour`` solver answers when
     no case matches, the ``landmark_trouble`` retainer keeps the situations it got the robot
-    out of, and the ``unhelpful_situations`` forgetter drops cases that did not help.
+    out of, and the ``unhelpful_situations`` forgetter drops cases that did not help. The
+    reuser leads the robot round the walls it knows to a learned target (``follow``): the
+    solver's targets it learns from were reached by a way round, and sent straight at one the
+    robot meets the walls it went round (on the unseen worlds 68.8% of the trials reached the
+    target so, against 88.2% led round).
 """
 
 from __future__ import annotations
@@ -94,7 +98,8 @@ def robot_config(robot: str, world: Mapping[str, Any], workload: Mapping[str, An
         store: Any = ("memory" if casebase is None
                       else {"use": "sqlite", "path": str(casebase.resolve())})
         return {**config, "workload": {**trials, "consult_on": ["landmarks", "blocked"]},
-                "casebase": store, "retrieve": "landmarks", "reuse": "landmarks",
+                "casebase": store, "retrieve": "landmarks",
+                "reuse": {"use": "landmarks", "follow": True},
                 "solver": "landmark_detour", "retain": ["landmark_trouble"],
                 "forget": ["unhelpful_situations"]}
     raise ValueError(f"unknown robot {robot!r}; expected one of {', '.join(ROBOTS)}")
