@@ -30,7 +30,14 @@ from cbr_landmarks.base import SituationBase, base_of
 from cbr_landmarks.case import LandmarkCase
 from cbr_landmarks.graph import LandmarkGraph
 from cbr_landmarks.problem import RegionOptions, View, problem_view, sub_view
-from cbr_landmarks.reach import Way, sighted_places, walls_between, way
+from cbr_landmarks.reach import (
+    GIVE_UP_MARGIN,
+    GIVE_UP_SLACK,
+    Way,
+    sighted_places,
+    walls_between,
+    way,
+)
 from cbr_landmarks.similarity import Matching, SimilarityOptions
 from cbr_world2d.actions import GIVEN_UP, REACHED, TRIAL_ENDED, ActionReport, Divert, GiveUp
 from cbr_world2d.workload import Situation
@@ -129,11 +136,11 @@ class ReuseOptions:
         3.0, "The longest way round the known walls to a diverting target out of sight, as a "
         "multiple of the straight distance.", validator=attrs.validators.ge(1.0))
     slack: float = option(
-        1.5, "A diverting target is given up after 'slack' times the time its way takes at "
-        "the robot's top speed, plus 'margin'.", validator=attrs.validators.gt(0.0))
+        GIVE_UP_SLACK, "A diverting target is given up after 'slack' times the time its way "
+        "takes at the robot's top speed, plus 'margin'.", validator=attrs.validators.gt(0.0))
     margin: float = option(
-        30.0, "Seconds added to a diverting target's give-up time (the pilot turns, swerves "
-        "and slows).", validator=attrs.validators.ge(0.0))
+        GIVE_UP_MARGIN, "Seconds added to a diverting target's give-up time (the pilot turns, "
+        "swerves and slows).", validator=attrs.validators.ge(0.0))
     follow: bool = option(
         False, "Lead the robot through the waypoints of a way round the known walls, rather "
         "than straight at the target. Off by default: the potential-field pilot slides along a "

@@ -40,7 +40,13 @@ import networkx
 import numpy as np
 
 from cbr_landmarks.problem import RegionOptions, problem_view
-from cbr_landmarks.reach import route, sighted_places, walls_between
+from cbr_landmarks.reach import (
+    GIVE_UP_MARGIN,
+    GIVE_UP_SLACK,
+    route,
+    sighted_places,
+    walls_between,
+)
 from cbr_world2d.actions import Divert, GiveUp
 from cbr_world2d.pilots.rescuer import Rescuer, RescuerOptions
 from cbr_world2d.workload import Situation
@@ -48,11 +54,6 @@ from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Solution
 from cbrcore.options import option
-
-ROUND_SLACK = 1.5
-"""A way round is given up after this many times the time it takes at the robot's top speed,
-plus :data:`ROUND_MARGIN` seconds: the reuser's defaults (``slack``, ``margin``)."""
-ROUND_MARGIN = 30.0
 
 
 @attrs.frozen
@@ -175,8 +176,8 @@ class LandmarkDetour:
         length, via = found
         *before, last = via
         metres = length - math.dist(last, problem.target)
-        return Solution(Divert(*last, give_up=GiveUp(round(metres, 4), ROUND_SLACK,
-                                                     ROUND_MARGIN), via=tuple(before)),
+        give_up = GiveUp(round(metres, 4), GIVE_UP_SLACK, GIVE_UP_MARGIN)
+        return Solution(Divert(*last, give_up=give_up, via=tuple(before)),
                         detail={"way": "round", "waypoints": len(via)})
 
     def _escape(self, problem: Situation) -> Solution | None:

@@ -42,6 +42,12 @@ Point = tuple[float, float]
 
 _EPS = 1e-9
 
+GIVE_UP_SLACK = 1.5
+"""A diversion along a way is given up after this many times the time the way takes at the
+robot's top speed, plus :data:`GIVE_UP_MARGIN` seconds (the pilot turns, swerves and slows):
+the reuser's defaults, and the detour solver's way round."""
+GIVE_UP_MARGIN = 30.0
+
 
 def sighted_places(problem: Situation) -> dict[str, Point]:
     """Where the landmarks ``problem`` sees stand, in the world's frame (the peaks of their
