@@ -594,6 +594,23 @@ def test_the_way_round_leads_a_blocked_robot_past_the_v_to_where_the_target_is_i
         sum(math.dist(a, b) for a, b in itertools.pairwise(legs[:-1])), abs=1e-3)
 
 
+def test_the_way_round_also_goes_round_the_walls_of_the_robots_map_out_of_view() -> None:
+    problem = world_situation("scenario2", "blocked")
+    # only l2 in view: no obstacle between landmarks in view, but the map knows both arms
+    blind = attrs.evolve(problem, sightings=tuple(s for s in problem.sightings if s.id == "l2"),
+                         obstacles=())
+    arms = ((tuple(SCENARIO2["l1"]), tuple(SCENARIO2["l2"])),
+            (tuple(SCENARIO2["l2"]), tuple(SCENARIO2["l3"])))
+    solution = detour().cbr_solve(attrs.evolve(blind, walls=arms))
+    assert solution is not None and solution.detail["way"] == "round"
+    legs = [(problem.pose.x, problem.pose.y), *solution.value.via,
+            (solution.value.x, solution.value.y), problem.target]
+    for a, b in itertools.pairwise(legs):
+        assert not any(_crosses(a, b, np.array(c), np.array(d)) for c, d in arms)
+    unknown = detour().cbr_solve(blind)
+    assert unknown is None or "way" not in unknown.detail
+
+
 def test_with_nothing_in_the_way_the_way_round_leaves_the_choice_to_the_ends() -> None:
     problem = world_situation("scenario2", "blocked")
     # the target moved before the V: the straight way meets no arm

@@ -125,6 +125,8 @@ def test_a_robot_driven_along_a_wall_between_two_landmarks_perceives_that_pair(
     occupied, free = known.evidence("l1", "l2")
     assert occupied - free >= BINS // 2
     assert known.place("l1") == pytest.approx(a, abs=0.1)
+    # the map's walls: the perceived pair as the segment between the places it believes
+    assert known.walls() == ((known.place("l1"), known.place("l2")),)
 
 
 @settings(max_examples=10, deadline=None)
@@ -269,6 +271,10 @@ def test_evidence_survives_between_the_trials_of_a_run(plugins: Plugins,
     assert starts[0].obstacles == ()
     world = load_world(WORLDS / "scenario2.yaml")
     assert starts[1].obstacles == world.obstacles_between(["l1", "l2", "l3"])
+    # the map's walls reach every situation, the landmarks in view or not
+    assert starts[0].walls == ()
+    assert len(starts[1].walls) == 2
+    assert all(s.walls for s in SEEN if s.trial == 1)
     table = {(r["first"], r["second"]): (r["perceived"], r["declared"])
              for r in rows(tmp_path / "obstacles.csv")}
     assert table[("l1", "l2")] == ("True", "True")

@@ -18,7 +18,8 @@ A point past an end gets the robot out of a V, not out of every trap: from insid
 room the point beside an end can leave the target behind the very walls the robot came from,
 and heading for the target again leads back in. So by default (``way: round``) it first plans
 the shortest way from the robot to the target round every known wall (each obstacle between
-two landmarks in view, :func:`cbr_landmarks.reach.route`) and, when the straight way meets one,
+two landmarks in view, and the walls of the robot's map, :func:`cbr_landmarks.reach.route`)
+and, when the straight way meets one,
 leads the robot through the way's waypoints to the last, from which the target is in sight;
 the diversion is given up after 1.5 times the time the way takes at the robot's top speed plus
 30 s, as the reuser's are. Like the
@@ -167,9 +168,11 @@ class LandmarkDetour:
 
     def _round(self, problem: Situation, pose: tuple[float, float]) -> Solution | None:
         """A diversion along the shortest way round the known walls (every obstacle between
-        two landmarks in view) to the target: through its waypoints to the last, from which
-        the target is in sight; None when the way has no waypoint or there is none."""
-        walls, _ = walls_between(problem.obstacles, sighted_places(problem))
+        two landmarks in view, and every wall of the robot's map) to the target: through its
+        waypoints to the last, from which the target is in sight; None when the way has no
+        waypoint or there is none."""
+        seen, _ = walls_between(problem.obstacles, sighted_places(problem))
+        walls = np.concatenate((seen, np.array(problem.walls, dtype=float).reshape(-1, 2, 2)))
         found = route(pose, problem.target, walls, self.options.clearance)
         if found is None or not found[1]:
             return None

@@ -198,3 +198,12 @@ class ObstacleMap:
         """Every perceived obstacle, as pairs of ids in the order the landmarks were first
         seen."""
         return self.between(self._ids)
+
+    def walls(self) -> tuple[tuple[tuple[float, float], tuple[float, float]], ...]:
+        """Every perceived obstacle as the segment between the places the robot believes its
+        two landmarks at, in the order of :meth:`perceived`."""
+        def at(id: str) -> tuple[float, float]:
+            x, y = self.places[self._index[id]]
+            return float(x), float(y)
+
+        return tuple((at(a), at(b)) for a, b in self.perceived())

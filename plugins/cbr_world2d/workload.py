@@ -162,7 +162,9 @@ class Situation:
     of ids),
     ``sonar`` the ring's ranges in metres (``sonar_angles`` relative to the heading),
     ``remembered`` the ids of the sightings that come from the landmark memory rather than the
-    camera's current view (:mod:`cbr_world2d.landmark_memory`).
+    camera's current view (:mod:`cbr_world2d.landmark_memory`), ``walls`` every obstacle the
+    robot's map has perceived, in view or not, as the segment between the places it believes
+    the two landmarks at (the odometry's frame, as ``pose``).
     """
 
     trial: int
@@ -177,6 +179,7 @@ class Situation:
     bumped: bool
     confidence: float
     remembered: tuple[str, ...] = ()
+    walls: tuple[tuple[Point, Point], ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         """Plain data of the situation, as a retainer stores it in a case."""
@@ -190,6 +193,7 @@ class Situation:
             "sonar": _array(self.sonar), "sonar_angles": _array(self.sonar_angles),
             "bumped": self.bumped, "confidence": self.confidence,
             "remembered": list(self.remembered),
+            "walls": [[list(a), list(b)] for a, b in self.walls],
         }
 
 
@@ -200,13 +204,14 @@ def situation(world: World, trial: int, trigger: str, obs: Observation, target: 
     ``memory`` (updated with ``obs``) the landmarks it remembers besides. Its obstacles are
     those the robot perceived between two of those landmarks, by its map ``known``; without a
     map, the linear obstacles ``world`` declares between them (the ground truth: for hand-made
-    cases and tests)."""
+    cases and tests). Its walls are every obstacle of the map (none without one)."""
     sightings, remembered = ((obs.sightings, ()) if memory is None
                              else memory.sightings(obs))
     ids = [s.id for s in sightings]
     obstacles = world.obstacles_between(ids) if known is None else known.between(ids)
     return Situation(trial, obs.t, trigger, obs.pose, target, sightings, obstacles,
-                     obs.sonar, obs.sonar_angles, obs.bumped, obs.confidence, remembered)
+                     obs.sonar, obs.sonar_angles, obs.bumped, obs.confidence, remembered,
+                     () if known is None else known.walls())
 
 
 @attrs.frozen
