@@ -4,11 +4,12 @@ unchanged but for the world on generated scenario worlds of every shape
 (``world2d_generated``, kind ``scenario``), each world a run of its own with a fresh case base,
 the trials repeated as the configuration says.
 
-    python benchmarks/landmarks_config.py [--seeds 200,...,217] [--looked-at 200,...,205]
+    python benchmarks/landmarks_config.py [--seeds 200,...,229] [--looked-at 200,...,217]
                                           [--repeat 10]
 
-The seeds default to 200 to 217, three worlds of each shape; those of ``--looked-at`` (200 to
-205) were looked at while the configuration was chosen, the others are held out.
+The seeds default to 200 to 229, five worlds of each shape; those of ``--looked-at`` (200 to
+217) were looked at while the configuration and the family's defaults were chosen, the others
+are held out.
 
 Writes ``landmarks_config.json`` and ``landmarks_config.md`` (per world its shape, the trials
 that reached the target and their times).
@@ -32,8 +33,8 @@ CONFIG = Path(__file__).resolve().parent.parent / "configs" / "landmarks.yaml"
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", default=",".join(str(s) for s in range(200, 218)))
-    parser.add_argument("--looked-at", default=",".join(str(s) for s in range(200, 206)))
+    parser.add_argument("--seeds", default=",".join(str(s) for s in range(200, 230)))
+    parser.add_argument("--looked-at", default=",".join(str(s) for s in range(200, 218)))
     parser.add_argument("--repeat", type=int, default=10)
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results")
     args = parser.parse_args()
