@@ -31,11 +31,11 @@ from cbr_landmarks.case import SITUATION, LandmarkCase
 from cbr_landmarks.detour import DetourOptions, LandmarkDetour, chain_ends
 from cbr_landmarks.graph import GraphError, LandmarkGraph
 from cbr_landmarks.handmade import paper_case, paper_document, shipped_path
-from cbr_landmarks.problem import RegionOptions, places, problem_view
+from cbr_landmarks.problem import RegionOptions, problem_view
 from cbr_world2d.actions import Divert
 from cbr_world2d.fuzzy import Triangle
 from cbr_world2d.robot import Pose, RobotState
-from cbr_world2d.sensors import Camera, Sensors, Sighting
+from cbr_world2d.sensors import Camera, Sensors, Sighting, sighted_points
 from cbr_world2d.workload import Situation, situation
 from cbr_world2d.worldfile import load_world
 from cbrcore.casebase.exchange import document_to_data, read_document
@@ -313,7 +313,7 @@ def test_a_camera_sighting_places_the_landmark_within_its_uncertainty(
     seen = camera.see(pose, world, [f"l{k}" for k in range(len(polar))], np.zeros((0, 4)),
                       np.random.default_rng(seed))
     assume(len(seen) == len(polar))  # two landmarks hiding each other
-    points, uncertainty = places(seen)
+    points, uncertainty = sighted_points(seen)
     off = np.hypot(*(points - true).T)
     assert (off <= uncertainty + 1e-9).all(), (off, uncertainty)
 

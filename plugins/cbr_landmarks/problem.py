@@ -27,7 +27,6 @@ from cbr_landmarks.graph import MAX_LANDMARKS, GraphError, LandmarkGraph
 from cbrcore.options import option
 
 if TYPE_CHECKING:
-    from cbr_world2d.sensors import Sighting
     from cbr_world2d.workload import Situation
 
 _POSITIVE = attrs.validators.gt(0.0)
@@ -74,18 +73,6 @@ def sub_view(view: View, keep: Sequence[int]) -> View:
     return View(view.graph.subgraph(keep), view.points[list(keep)], view.frame)
 
 
-def places(sightings: Sequence[Sighting]) -> tuple[np.ndarray, np.ndarray]:
-    """The sighted landmarks' places in the robot's frame ``(n, 2)`` and how far off each may
-    be ``(n,)``, in metres."""
-    d = np.array([s.distance.as_tuple() for s in sightings], dtype=float).reshape(-1, 3)
-    b = np.array([s.bearing.as_tuple() for s in sightings], dtype=float).reshape(-1, 3)
-    points = d[:, 1:2] * np.column_stack((np.cos(b[:, 1]), np.sin(b[:, 1])))
-    # the arc the wider side of the bearing triangle spans bounds the chord to the true place
-    off_bearing = np.minimum(np.maximum(b[:, 1] - b[:, 0], b[:, 2] - b[:, 1]), math.pi)
-    uncertainty = np.maximum(d[:, 1] - d[:, 0], d[:, 2] - d[:, 1]) + d[:, 1] * off_bearing
-    return points, uncertainty
-
-
 def in_region(points: np.ndarray, region: RegionOptions) -> np.ndarray:
     """Which of the ``points`` ``(n, 2)`` (robot frame) lie in ``region`` grown by its
     ``margin``, ``(n,)`` bool.
@@ -111,7 +98,9 @@ def problem_view(situation: Situation, region: RegionOptions, course: bool = Fal
     if len(situation.sightings) < 2:
         return None
     pose = situation.pose
-    points, uncertainty = places(situation.sightings)
+    from cbr_world2d.sensors import sighted_points
+
+    points, uncertainty = sighted_points(situation.sightings)
     bad = ~(np.isfinite(points).all(axis=1) & np.isfinite(uncertainty))
     if bad.any():
         k = int(np.flatnonzero(bad)[0])

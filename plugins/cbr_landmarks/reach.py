@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING
 import attrs
 import numpy as np
 
-from cbr_landmarks.problem import places, to_world
+from cbr_landmarks.problem import to_world
 
 if TYPE_CHECKING:
     from cbr_world2d.workload import Situation
@@ -54,7 +54,9 @@ def sighted_places(problem: Situation) -> dict[str, Point]:
     sightings)."""
     if not problem.sightings:
         return {}
-    points, _ = places(problem.sightings)
+    from cbr_world2d.sensors import sighted_points
+
+    points, _ = sighted_points(problem.sightings)
     pose = problem.pose
     world = to_world(points, (pose.x, pose.y, pose.theta))
     return {s.id: (float(world[k, 0]), float(world[k, 1]))

@@ -70,18 +70,6 @@ class PerceptionOptions:
         "free).", validator=_POSITIVE)
 
 
-def _places(sightings: Sequence[Sighting]) -> tuple[np.ndarray, np.ndarray]:
-    """The sightings' places in the robot's frame at the peaks ``(n, 2)`` and the weight of
-    each ``(n,)``: the inverse square of its uncertainty, the wider side of the distance
-    triangle plus the arc the wider side of the bearing triangle spans at that distance."""
-    m = np.array([(s.distance.low, s.distance.peak, s.distance.high, s.bearing.low,
-                   s.bearing.peak, s.bearing.high) for s in sightings], dtype=float)
-    d, b = m[:, 1], m[:, 4]
-    spread = (np.maximum(d - m[:, 0], m[:, 2] - d)
-              + d * np.minimum(np.maximum(b - m[:, 3], m[:, 5] - b), math.pi))
-    return d[:, None] * np.column_stack((np.cos(b), np.sin(b))), 1.0 / np.maximum(spread, 1e-3) ** 2
-
-
 class ObstacleMap:
     """The linear obstacles between landmarks a robot with ``sonar`` (its ring, mounted on its
     rim) has perceived, by ``options``' rule. Feed it every observation (:meth:`sense`); ask it
@@ -157,7 +145,11 @@ class ObstacleMap:
                 self._index[sighting.id] = k
                 self._ids.append(sighting.id)
             rows.append(k)
-        local, weight = _places(sightings)
+        from cbr_world2d.sensors import sighted_points
+
+        local, spread = sighted_points(sightings)
+        # each place weighted by the inverse square of how far off it may be
+        weight = 1.0 / np.maximum(spread, 1e-3) ** 2
         c, s = math.cos(theta), math.sin(theta)
         world = np.column_stack((x + c * local[:, 0] - s * local[:, 1],
                                  y + s * local[:, 0] + c * local[:, 1]))

@@ -17,6 +17,7 @@ as the arrays the simulator passes (segments ``(n, 4)``, discs ``(m, 3)``, landm
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import attrs
 import numpy as np
@@ -152,6 +153,19 @@ class Sighting:
     id: str
     distance: Triangle
     bearing: Triangle
+
+
+def sighted_points(sightings: Sequence[Sighting]) -> tuple[np.ndarray, np.ndarray]:
+    """The sighted landmarks' places in the robot's frame at the peaks ``(n, 2)`` and how far
+    off each may be ``(n,)``, in metres: the wider side of the distance triangle plus the arc
+    the wider side of the bearing triangle spans at that distance (which bounds the chord to
+    the true place)."""
+    d = np.array([s.distance.as_tuple() for s in sightings], dtype=float).reshape(-1, 3)
+    b = np.array([s.bearing.as_tuple() for s in sightings], dtype=float).reshape(-1, 3)
+    points = d[:, 1:2] * np.column_stack((np.cos(b[:, 1]), np.sin(b[:, 1])))
+    off_bearing = np.minimum(np.maximum(b[:, 1] - b[:, 0], b[:, 2] - b[:, 1]), math.pi)
+    uncertainty = np.maximum(d[:, 1] - d[:, 0], d[:, 2] - d[:, 1]) + d[:, 1] * off_bearing
+    return points, uncertainty
 
 
 @attrs.frozen
