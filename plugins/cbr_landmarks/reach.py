@@ -145,13 +145,8 @@ def distance_to_walls(points: np.ndarray, walls: np.ndarray) -> np.ndarray:
     (infinite with no walls), ``(n,)``."""
     if len(walls) == 0:
         return np.full(len(points), np.inf)
-    a, b = walls[:, 0], walls[:, 1]
-    ab = b - a
-    length2 = np.maximum(np.einsum("ij,ij->i", ab, ab), _EPS)
-    ap = points[:, None, :] - a[None, :, :]
-    t = np.clip(np.einsum("nmj,mj->nm", ap, ab) / length2, 0.0, 1.0)
-    nearest = a[None, :, :] + t[..., None] * ab[None, :, :]
-    return np.hypot(*(points[:, None, :] - nearest).transpose(2, 0, 1)).min(axis=1)
+    return _point_to_segments(points[:, None, :], walls[None, :, 0], walls[None, :, 1]
+                              ).min(axis=1)
 
 
 def _point_to_segments(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
