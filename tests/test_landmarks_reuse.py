@@ -30,7 +30,18 @@ from cbr_landmarks.action import DivertAction
 from cbr_landmarks.case import SITUATION, LandmarkCase
 from cbr_landmarks.components import FAILED, linked
 from cbr_landmarks.problem import RegionOptions, problem_view
-from cbr_landmarks.reach import Way, crossing, distance_to_walls, hull, inside_chain, route, way
+from cbr_landmarks.reach import (
+    Way,
+    crossing,
+    distance_to_walls,
+    hull,
+    inside_chain,
+    known_walls,
+    narrow_gaps,
+    outline,
+    route,
+    way,
+)
 from cbr_world2d.actions import GIVEN_UP, REACHED, ActionReport, Divert, GiveUp
 from cbr_world2d.navigator import Navigator
 from cbr_world2d.pilots import PotentialFieldOptions, potential_field_pilot
@@ -99,6 +110,55 @@ def test_the_way_round_a_wall_passes_the_waypoints_beside_its_end() -> None:
     assert way((-1.0, 0.0), (-1.0, 3.0), wall, pairs, 0.5, 1.5) == Way(3.0, "line of sight")
     too_near = way((-1.0, 0.0), (0.2, 0.5), wall, pairs, 0.5, 3.0)
     assert (too_near.metres, too_near.how) == (None, "within 0.5 m of a known wall")
+
+
+# a wall with a gap: (0, -3) - (0, -0.5), then (0, 0.5) - (0, 1), 1 m between their ends
+GAP_WALLS = np.array([[[0.0, -3.0], [0.0, -0.5]], [[0.0, 0.5], [0.0, 1.0]]])
+
+
+def test_narrow_gaps_join_ends_to_the_nearest_point_of_another_wall_or_post() -> None:
+    assert narrow_gaps(GAP_WALLS, 1.5) == pytest.approx(np.array([[[0.0, -0.5], [0.0, 0.5]]]))
+    assert len(narrow_gaps(GAP_WALLS, 1.0)) == 0  # exactly the passage is no narrow gap
+    # joined walls meet in no gap; the end of a wall 0.5 m from the middle of another
+    corner = np.array([[[0.0, 0.0], [4.0, 0.0]], [[4.0, 0.0], [4.0, 4.0]],
+                       [[2.0, 0.5], [2.0, 3.0]]])
+    assert narrow_gaps(corner, 1.5) == pytest.approx(np.array([[[2.0, 0.0], [2.0, 0.5]]]))
+    # a post 1.2 m beyond the short wall's end closes that gap too; one within 0.2 m of an
+    # end is that end
+    posts = np.array([[0.0, 2.2], [0.1, 1.05]])
+    assert narrow_gaps(GAP_WALLS, 1.5, posts) == pytest.approx(np.array([
+        [[0.0, -0.5], [0.0, 0.5]], [[0.0, 1.0], [0.0, 2.2]]]))
+
+
+def test_a_way_goes_round_a_narrow_gap_and_through_it_square_only_when_it_must() -> None:
+    """From (-1, 0) to (1, 0) past GAP_WALLS (clearance 0.3): with gaps open the way goes
+    straight through the 1 m gap; with a passage of 1.5 m round the short wall's free end
+    (1 m above the gap); with the long wall reaching the arena's side below and a post closing
+    the way above, only through the gap, entering and leaving it square: by its gate points
+    0.6 m either side of its middle."""
+    assert route((-1.0, 0.0), (1.0, 0.0), GAP_WALLS, 0.3) == (pytest.approx(2.0), ())
+    length, via = route((-1.0, 0.0), (1.0, 0.0), GAP_WALLS, 0.3, 1.5)
+    assert min(y for _, y in via) > 1.0 and length > 2.0
+    assert not crossing(np.array([(-1.0, 0.0), *via]), np.array([*via, (1.0, 0.0)]),
+                        np.concatenate((GAP_WALLS, narrow_gaps(GAP_WALLS, 1.5)))).any()
+    closed = np.concatenate((GAP_WALLS, outline((-3.0, -3.0, 3.0, 3.0))))
+    length, via = route((-1.0, 0.0), (1.0, 0.0), closed, 0.3, 1.5, np.array([[0.0, 2.0]]))
+    assert via == (pytest.approx((-0.6, 0.0)), pytest.approx((0.6, 0.0)))
+    assert length == pytest.approx(2.0)
+    # the straight way through the narrow gap is no line of sight
+    found = way((-1.0, 0.0), (1.0, 0.0), GAP_WALLS, [("a", "b"), ("c", "d")], 0.3, 3.0, 1.5)
+    assert found.how == "route" and min(y for _, y in found.via) > 1.0
+
+
+def test_the_known_walls_are_the_map_and_the_arena() -> None:
+    sides = outline((0.0, 0.0, 4.0, 3.0))
+    assert sides.tolist() == [[[0, 0], [4, 0]], [[4, 0], [4, 3]], [[4, 3], [0, 3]],
+                              [[0, 3], [0, 0]]]
+    assert outline(None).shape == (0, 2, 2)
+    problem = Situation(0, 0.0, "landmarks", Pose(1.0, 1.0, 0.0), (3.0, 2.0), (), (),
+                        np.zeros(0), np.zeros(0), False, 1.0,
+                        walls=(((2.0, 0.5), (2.0, 2.5)),), bounds=(0.0, 0.0, 4.0, 3.0))
+    assert known_walls(problem).tolist() == [[[2.0, 0.5], [2.0, 2.5]], *sides.tolist()]
 
 
 def test_a_target_inside_the_u_is_refused_however_short_the_way_in() -> None:

@@ -24,6 +24,7 @@ import math
 from typing import Any, Literal
 
 import attrs
+import numpy as np
 
 from cbr_landmarks.action import DivertAction
 from cbr_landmarks.base import SituationBase, base_of
@@ -33,7 +34,9 @@ from cbr_landmarks.problem import RegionOptions, View, problem_view, sub_view
 from cbr_landmarks.reach import (
     GIVE_UP_MARGIN,
     GIVE_UP_SLACK,
+    PASSAGE,
     Way,
+    known_walls,
     sighted_places,
     walls_between,
     way,
@@ -141,6 +144,11 @@ class ReuseOptions:
     margin: float = option(
         GIVE_UP_MARGIN, "Seconds added to a diverting target's give-up time (the pilot turns, "
         "swerves and slows).", validator=attrs.validators.ge(0.0))
+    passage: float = option(
+        PASSAGE, "The narrowest gap between the ends of two known walls (centre to centre of "
+        "their landmarks), in metres, a way round the walls passes through when there is "
+        "another way; the straight way through a narrower one is no line of sight.",
+        validator=attrs.validators.ge(0.0))
     follow: bool = option(
         False, "Lead the robot through the waypoints of a way round the known walls, rather "
         "than straight at the target. Off by default: the potential-field pilot slides along a "
@@ -228,7 +236,10 @@ class LandmarkReuser:
                         for a, b in sorted(case.graph.obstacles)]
                 walls, pairs = walls_between(
                     [*problem.obstacles, *((a, b) for a, b in said if a and b)], seen)
-                found_way = way(here, point, walls, pairs, o.clearance, o.detour)
+                walls = np.concatenate((walls, known_walls(problem)))
+                posts = np.array(list(seen.values()), dtype=float).reshape(-1, 2)
+                found_way = way(here, point, walls, pairs, o.clearance, o.detour, o.passage,
+                                posts)
                 if found_way.metres is None:
                     refused.append({"case": case_id, "why": found_way.how})
                     continue

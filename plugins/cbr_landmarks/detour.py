@@ -18,7 +18,9 @@ A point past an end gets the robot out of a V, not out of every trap: from insid
 room the point beside an end can leave the target behind the very walls the robot came from,
 and heading for the target again leads back in. So by default (``way: round``) it first plans
 the shortest way from the robot to the target round every known wall (each obstacle between
-two landmarks in view, and the walls of the robot's map, :func:`cbr_landmarks.reach.route`)
+two landmarks in view, the walls of the robot's map and the arena's outline,
+:func:`cbr_landmarks.reach.route`;
+through a gap narrower than ``passage`` between two walls only when there is no other way)
 and, when the straight way meets one,
 leads the robot through the way's waypoints to the last, from which the target is in sight;
 the diversion is given up after 1.5 times the time the way takes at the robot's top speed plus
@@ -44,6 +46,8 @@ from cbr_landmarks.problem import RegionOptions, problem_view
 from cbr_landmarks.reach import (
     GIVE_UP_MARGIN,
     GIVE_UP_SLACK,
+    PASSAGE,
+    known_walls,
     route,
     sighted_places,
     walls_between,
@@ -77,6 +81,10 @@ class DetourOptions:
     rescuer: RescuerOptions = option(
         factory=RescuerOptions, doc="The sonar Rescuer it falls back on with no obstacle in "
         "view.")
+    passage: float = option(
+        PASSAGE, "The narrowest gap between the ends of two walls (centre to centre of their "
+        "landmarks), in metres, the way round leads the robot through when there is another "
+        "way.", validator=attrs.validators.ge(0.0))
     way: Literal["round", "end"] = option(
         "round", "'round': lead the robot along the shortest way round the known walls to "
         "the first point from which the target is in sight, through the way's waypoints "
@@ -171,9 +179,12 @@ class LandmarkDetour:
         two landmarks in view, and every wall of the robot's map) to the target: through its
         waypoints to the last, from which the target is in sight; None when the way has no
         waypoint or there is none."""
-        seen, _ = walls_between(problem.obstacles, sighted_places(problem))
-        walls = np.concatenate((seen, np.array(problem.walls, dtype=float).reshape(-1, 2, 2)))
-        found = route(pose, problem.target, walls, self.options.clearance)
+        places = sighted_places(problem)
+        seen, _ = walls_between(problem.obstacles, places)
+        walls = np.concatenate((seen, known_walls(problem)))
+        posts = np.array(list(places.values()), dtype=float).reshape(-1, 2)
+        found = route(pose, problem.target, walls, self.options.clearance, self.options.passage,
+                      posts)
         if found is None or not found[1]:
             return None
         length, via = found

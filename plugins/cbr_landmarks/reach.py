@@ -5,7 +5,8 @@ case matched onto a layout of another shape or turn lays its target inside the d
 meant to avoid. Before diverting, the reuser checks the target against the *known walls*, each
 the segment between the places of two landmarks in view (:func:`sighted_places`,
 :func:`walls_between`): the linear obstacles of the situation, and those the matched case says
-stand between the landmarks it was matched with. A target is
+stand between the landmarks it was matched with; and the walls of the robot's map, in view or
+not, and the arena's outline (:func:`known_walls`). A target is
 
 - **refused** when it lies inside a known obstacle chain (strictly inside the convex hull of
   the landmarks of a chain of two or more walls joined end to end: the inside of a V or a U,
@@ -14,7 +15,10 @@ stand between the landmarks it was matched with. A target is
   or when the shortest way round the known walls is at most ``detour`` times the straight
   distance. The way round is planned on a visibility graph whose waypoints stand ``2 *
   clearance`` from each wall's ends, in eight directions, those within ``clearance`` of a wall
-  left out;
+  left out. A gap narrower than ``passage`` between the ends of two walls, or between a wall's
+  end and a landmark in view, or two landmarks, counts as a wall
+  (the straight way through it is no line of sight) unless there is no other way: the
+  potential-field pilot stops in front of a narrow gap, pushed back by both sides;
 - **refused** otherwise (no way, or only a long one: the robot would rather be led by its
   navigation system than sent on a long detour on what it merely believes).
 
@@ -47,6 +51,16 @@ GIVE_UP_SLACK = 1.5
 robot's top speed, plus :data:`GIVE_UP_MARGIN` seconds (the pilot turns, swerves and slows):
 the reuser's defaults, and the detour solver's way round."""
 GIVE_UP_MARGIN = 30.0
+
+PASSAGE = 1.5
+"""The narrowest gap between two walls' ends, centre to centre of their landmarks, in metres,
+that a way is planned through when there is another: 002's robot (0.2 m in radius) led by the
+potential-field pilot with an influence of 0.5 m stops in front of a gap of 1.3 m between two
+posts of 0.15 m and passes one of 1.35 m, head on."""
+
+SAME_PLACE = 0.2
+"""Metres within which a landmark in view and the end of a wall of the robot's map are the same
+landmark (the map's walls and the sightings place it a little apart)."""
 
 
 def sighted_places(problem: Situation) -> dict[str, Point]:
@@ -125,7 +139,7 @@ def hull(points: np.ndarray) -> np.ndarray:
 
 def inside_chain(point: Point, walls: np.ndarray, pairs: Sequence[tuple[str, str]]) -> bool:
     """Whether ``point`` lies strictly inside the convex hull of a chain of two or more of
-    ``walls``."""
+    ``walls``, the first ``len(pairs)`` of which stand between the landmark ``pairs``."""
     px, py = point
     for group in chains(pairs):
         if len(group) < 2:
@@ -215,16 +229,115 @@ def _round_the_ends(nodes: np.ndarray, i: np.ndarray, j: np.ndarray, walls: np.n
     return ((gap >= clearance - _EPS) | excused).all(axis=1)
 
 
-def route(start: Point, goal: Point, walls: np.ndarray, clearance: float
+def narrow_gaps(walls: np.ndarray, passage: float, posts: np.ndarray | None = None
+                ) -> np.ndarray:
+    """The gaps narrower than ``passage`` between an end of one of ``walls`` ``(m, 2, 2)`` or
+    one of the ``posts`` ``(k, 2)`` (landmarks no known wall reaches, which stand in the way
+    as well) and another wall or post, each as the segment from the end to the nearest point
+    of the other, ``(g, 2, 2)``. Joined walls meet in no gap, and a post within
+    :data:`SAME_PLACE` of a wall's end is that end."""
+    walls = walls.reshape(-1, 2, 2)
+    if posts is not None and len(posts):
+        posts = np.asarray(posts, dtype=float).reshape(-1, 2)
+        if len(walls):
+            ends = walls.reshape(-1, 2)
+            apart = np.hypot(*(posts[:, None, :] - ends[None, :, :]).transpose(2, 0, 1))
+            posts = posts[apart.min(axis=1) > SAME_PLACE]
+        walls = np.concatenate((walls, np.stack((posts, posts), axis=1)))
+    if len(walls) < 2 or passage <= 0.0:
+        return np.empty((0, 2, 2))
+    points = walls.reshape(-1, 2)
+    owner = np.repeat(np.arange(len(walls)), 2)
+    a, b = walls[None, :, 0], walls[None, :, 1]
+    ab = b - a
+    t = np.clip(((points[:, None, :] - a) * ab).sum(axis=-1)
+                / np.maximum((ab * ab).sum(axis=-1), _EPS), 0.0, 1.0)
+    nearest = a + t[..., None] * ab
+    apart = np.hypot(*np.moveaxis(points[:, None, :] - nearest, -1, 0))
+    narrow = (owner[:, None] != np.arange(len(walls))[None, :]) & (apart > _EPS) & \
+        (apart < passage)
+    k, w = np.nonzero(narrow)
+    if not len(k):
+        return np.empty((0, 2, 2))
+    gaps = np.stack((points[k], nearest[k, w]), axis=1).round(9)
+    flip = (gaps[:, 0, 0] > gaps[:, 1, 0]) | ((gaps[:, 0, 0] == gaps[:, 1, 0])
+                                            & (gaps[:, 0, 1] > gaps[:, 1, 1]))
+    gaps[flip] = gaps[flip, ::-1]
+    return np.unique(gaps, axis=0)
+
+
+def outline(bounds: tuple[float, float, float, float] | None) -> np.ndarray:
+    """The four sides of the arena ``bounds`` ``(xmin, ymin, xmax, ymax)`` as walls ``(4, 2,
+    2)``; none without bounds."""
+    if bounds is None:
+        return np.empty((0, 2, 2))
+    x0, y0, x1, y1 = bounds
+    corners = np.array([(x0, y0), (x1, y0), (x1, y1), (x0, y1)], dtype=float)
+    return np.stack((corners, np.roll(corners, -1, axis=0)), axis=1)
+
+
+def known_walls(problem: Situation) -> np.ndarray:
+    """The walls the robot knows besides the obstacles in view: those of its map, in view or
+    not, and the arena's outline, ``(m, 2, 2)``."""
+    return np.concatenate((np.array(problem.walls, dtype=float).reshape(-1, 2, 2),
+                           outline(problem.bounds)))
+
+
+def route(start: Point, goal: Point, walls: np.ndarray, clearance: float,
+          passage: float = 0.0, posts: np.ndarray | None = None
           ) -> tuple[float, tuple[Point, ...]] | None:
     """The shortest way from ``start`` to ``goal`` that meets none of ``walls``, through the
     :func:`waypoints`: its length and the waypoints it passes between them; None when there
-    is none."""
-    nodes = np.vstack((np.array([start, goal], dtype=float), waypoints(walls, clearance)))
+    is none. A gap narrower than ``passage`` between two walls' ends or ``posts``
+    (:func:`narrow_gaps`) is passed only when there is no other way, and then head on, through
+    a waypoint ``2 * clearance`` before its middle and one as far beyond: the potential-field
+    pilot is pushed back by both sides of a narrow gap and stops in front of it unless it
+    meets it square."""
+    gaps = narrow_gaps(walls, passage, posts)
+    found = _shortest(start, goal, walls, clearance, gaps)
+    if found is None and len(gaps):
+        found = _shortest(start, goal, walls, clearance, gaps, through=True)
+    return found
+
+
+def _gates(gaps: np.ndarray, walls: np.ndarray, clearance: float) -> np.ndarray:
+    """For each of ``gaps``, the points ``2 * clearance`` before and beyond its middle, square
+    to it, ``(g, 2, 2)``; a gap with either point within ``clearance`` of one of ``walls`` has
+    none (NaN)."""
+    middle = gaps.mean(axis=1)
+    along = gaps[:, 1] - gaps[:, 0]
+    square = np.column_stack((-along[:, 1], along[:, 0])) / np.maximum(
+        np.hypot(*along.T), _EPS)[:, None]
+    gates = np.stack((middle - 2.0 * clearance * square, middle + 2.0 * clearance * square),
+                     axis=1)
+    tight = distance_to_walls(gates.reshape(-1, 2), walls).reshape(-1, 2).min(axis=1) < \
+        clearance - _EPS
+    gates[tight] = np.nan
+    return gates
+
+
+def _shortest(start: Point, goal: Point, walls: np.ndarray, clearance: float,
+              gaps: np.ndarray, *, through: bool = False
+              ) -> tuple[float, tuple[Point, ...]] | None:
+    """:func:`route` with the ``gaps`` closed, or (``through``) passed only from one of their
+    gate points (:func:`_gates`) to the other."""
+    closed = np.concatenate((walls, gaps.reshape(-1, 2, 2)))
+    nodes = np.vstack((np.array([start, goal], dtype=float), waypoints(closed, clearance)))
+    pairs = 0
+    if through:
+        gates = _gates(gaps, walls, clearance)
+        gates = gates[~np.isnan(gates).any(axis=(1, 2))]
+        pairs = len(gates)
+        nodes = np.vstack((nodes, gates.reshape(-1, 2)))
     n = len(nodes)
     i, j = np.triu_indices(n, 1)
-    free = ~crossing(nodes[i], nodes[j], walls) & _round_the_ends(nodes, i, j, walls,
-                                                                 clearance)
+    free = ~crossing(nodes[i], nodes[j], closed) & _round_the_ends(nodes, i, j, closed,
+                                                                  clearance)
+    if pairs:
+        # a gate's two points, across its gap: only the real walls stand between them
+        first = n - 2 * pairs + 2 * np.arange(pairs)
+        own = np.isin(i, first) & (j == i + 1)
+        free[own] = ~crossing(nodes[i[own]], nodes[j[own]], walls)
     lengths = np.hypot(*(nodes[j] - nodes[i]).T)
     graph: list[list[tuple[int, float]]] = [[] for _ in range(n)]
     for a, b, length in zip(i[free].tolist(), j[free].tolist(), lengths[free].tolist(),
@@ -265,18 +378,22 @@ class Way:
 
 
 def way(start: Point, target: Point, walls: np.ndarray, pairs: Sequence[tuple[str, str]],
-        clearance: float, detour: float) -> Way:
-    """How the robot at ``start`` gets to ``target`` round the known ``walls`` (of landmark
-    ``pairs``), or why it is refused (see the module docstring)."""
+        clearance: float, detour: float, passage: float = 0.0,
+        posts: np.ndarray | None = None) -> Way:
+    """How the robot at ``start`` gets to ``target`` round the known ``walls`` and between the
+    ``posts`` (the landmarks in view), or why it is refused (see the module docstring). The
+    first ``len(pairs)`` walls stand between those landmark ``pairs`` (which make the obstacle
+    chains); any others (the walls of the robot's map) are in no chain."""
     if inside_chain(target, walls, pairs):
         return Way(None, "inside a known obstacle chain")
     goal = np.array([target], dtype=float)
     if distance_to_walls(goal, walls)[0] < clearance:
         return Way(None, f"within {clearance:g} m of a known wall")
     straight = math.dist(start, target)
-    if not crossing(np.array([start], dtype=float), goal, walls)[0]:
+    closed = np.concatenate((walls, narrow_gaps(walls, passage, posts)))
+    if not crossing(np.array([start], dtype=float), goal, closed)[0]:
         return Way(straight, "line of sight")
-    found = route(start, target, walls, clearance)
+    found = route(start, target, walls, clearance, passage, posts)
     if found is None:
         return Way(None, "no way round the known walls")
     length, via = found

@@ -164,7 +164,9 @@ class Situation:
     ``remembered`` the ids of the sightings that come from the landmark memory rather than the
     camera's current view (:mod:`cbr_world2d.landmark_memory`), ``walls`` every obstacle the
     robot's map has perceived, in view or not, as the segment between the places it believes
-    the two landmarks at (the odometry's frame, as ``pose``).
+    the two landmarks at (the odometry's frame, as ``pose``), and ``bounds`` the arena's
+    outline ``(xmin, ymin, xmax, ymax)``, which the robot knows as it knows the target: a
+    floor plan's walls, with nothing inside.
     """
 
     trial: int
@@ -180,6 +182,7 @@ class Situation:
     confidence: float
     remembered: tuple[str, ...] = ()
     walls: tuple[tuple[Point, Point], ...] = ()
+    bounds: tuple[float, float, float, float] | None = None
 
     def to_json(self) -> dict[str, Any]:
         """Plain data of the situation, as a retainer stores it in a case."""
@@ -194,6 +197,7 @@ class Situation:
             "bumped": self.bumped, "confidence": self.confidence,
             "remembered": list(self.remembered),
             "walls": [[list(a), list(b)] for a, b in self.walls],
+            "bounds": None if self.bounds is None else list(self.bounds),
         }
 
 
@@ -204,14 +208,15 @@ def situation(world: World, trial: int, trigger: str, obs: Observation, target: 
     ``memory`` (updated with ``obs``) the landmarks it remembers besides. Its obstacles are
     those the robot perceived between two of those landmarks, by its map ``known``; without a
     map, the linear obstacles ``world`` declares between them (the ground truth: for hand-made
-    cases and tests). Its walls are every obstacle of the map (none without one)."""
+    cases and tests). Its walls are every obstacle of the map (none without one), its bounds
+    the world's."""
     sightings, remembered = ((obs.sightings, ()) if memory is None
                              else memory.sightings(obs))
     ids = [s.id for s in sightings]
     obstacles = world.obstacles_between(ids) if known is None else known.between(ids)
     return Situation(trial, obs.t, trigger, obs.pose, target, sightings, obstacles,
                      obs.sonar, obs.sonar_angles, obs.bumped, obs.confidence, remembered,
-                     () if known is None else known.walls())
+                     () if known is None else known.walls(), world.bounds)
 
 
 @attrs.frozen
