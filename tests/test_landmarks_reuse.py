@@ -51,7 +51,7 @@ from cbr_world2d.sensors import Camera, Sensors
 from cbr_world2d.simulation import Simulation
 from cbr_world2d.workload import Situation, situation
 from cbr_world2d.world import World
-from cbr_world2d.worldfile import load_world
+from cbr_world2d.worldfile import load_world, world_from_data
 from cbrcore.config import parse_config
 from cbrcore.engine import Engine
 from cbrcore.model import Outcome, Proposal
@@ -216,6 +216,28 @@ def test_a_diversion_is_given_up_when_its_time_for_the_whole_way_is_out() -> Non
     assert sim.t == pytest.approx(1.0 / PIONEER_2DX.max_speed + sim.dt, abs=2 * sim.dt)
 
 
+def test_a_diversion_blocked_on_its_way_is_given_up_at_once() -> None:
+    """A wall across the whole square at x = 3 stands between the robot and a diverting point
+    at (5, 5), whose way is given 1000 s: the robot stops at the wall, the monitor reports it
+    blocked one window after, and the diversion is given up then, the original target back."""
+    world = world_from_data({"bounds": [0, 0, 10, 10], "walls": [{"a": [3, 0], "b": [3, 10]}]},
+                            "walled")
+    pilot = potential_field_pilot(PotentialFieldOptions(), None)  # type: ignore[arg-type]
+    sim = Simulation(world, PIONEER_2DX, Sensors().fitted(PIONEER_2DX.radius), Navigator(pilot),
+                     Pose(1.0, 5.0, 0.0), (9.0, 5.0))
+    sim.step()
+    divert = Divert(5.0, 5.0, GiveUp(1000.0, 1.0, 0.0))
+    divert.start(sim)
+    reason = None
+    while reason is None and sim.t < 200.0:
+        sim.step()
+        reason = divert.ended(sim)
+    assert reason == GIVEN_UP
+    assert any(e.name == "blocked" for e in sim.history)
+    assert sim.navigator.current_target == (9.0, 5.0) and not sim.navigator.diverting
+    assert sim.t < 100.0 and sim.trajectory[-1, 1] < 3.0
+
+
 # --- the reuser on a U turned 40 degrees ----------------------------------------------------------
 
 TURN = math.radians(40.0)
@@ -353,6 +375,22 @@ def test_the_next_match_is_reused_when_the_best_lays_its_target_inside(
     assert divert.give_up is not None
     assert (divert.give_up.slack, divert.give_up.margin, divert.via) == (1.5, 30.0, ())
     assert divert.give_up.metres == pytest.approx(math.dist(here, OUTSIDE), abs=1e-3)
+
+
+@pytest.mark.parametrize("needed", [False, True])
+def test_a_case_is_not_reused_where_the_way_to_the_target_is_clear(
+        plugins: Plugins, world_file: Path, needed: bool) -> None:
+    """The same sighting, but the robot's target lies beside the start, the straight way to it
+    clear of the U's wall and of the case's: the case is not needed there."""
+    problem = attrs.evolve(observe(world_file), target=(1.0, 0.5))
+    with engine_for(plugins, world_file, {"needed": needed}) as engine:
+        assert engine.casebase is not None
+        engine.casebase.add(case_toward(problem, OUTSIDE).to_case())
+        proposal = engine.solve(problem)
+    if needed:
+        assert proposal.solution is None and proposal.fallback_reason == "reuse failed"
+    else:
+        assert isinstance(proposal.solution.value, Divert)
 
 
 def test_a_target_behind_a_known_wall_is_reached_round_its_end(

@@ -36,6 +36,7 @@ from cbr_landmarks.reach import (
     GIVE_UP_SLACK,
     PASSAGE,
     Way,
+    in_sight,
     known_walls,
     sighted_places,
     walls_between,
@@ -149,6 +150,11 @@ class ReuseOptions:
         "their landmarks), in metres, a way round the walls passes through when there is "
         "another way; the straight way through a narrower one is no line of sight.",
         validator=attrs.validators.ge(0.0))
+    needed: bool = option(
+        True, "With 'safe': reuse a case only where the straight way to the target meets a "
+        "known wall (the case's own, laid on the landmarks it was matched with, included) or "
+        "a narrow gap; where it is clear (the robot is past the trap the case describes, or "
+        "beside it) the case is not needed.")
     follow: bool = option(
         False, "Lead the robot through the waypoints of a way round the known walls, rather "
         "than straight at the target. Off by default: the potential-field pilot slides along a "
@@ -185,10 +191,12 @@ class LandmarkReuser:
     the robot has avoided that situation, and sending it back to the same target would keep it
     going to and fro. Nor is a target within ``failed_radius`` of one that failed in the trial.
     With ``safe``, a target the robot cannot reach as far as it knows
-    (:mod:`cbr_landmarks.reach`) is skipped too; the next match is tried, and when none is left
-    the case base has no answer. A diversion is given up after the time its way takes
-    (:class:`~cbr_world2d.actions.GiveUp`: ``slack`` times the way at the robot's top speed,
-    plus ``margin``); with ``follow`` it leads the robot through the way's waypoints.
+    (:mod:`cbr_landmarks.reach`) is skipped too, and with ``needed`` a case matched where the
+    straight way to the target is clear of the walls the robot knows and the case describes;
+    the next match is tried, and when none is left the case base has no answer. A diversion
+    is given up after the time its way takes (:class:`~cbr_world2d.actions.GiveUp`: ``slack``
+    times the way at the robot's top speed, plus ``margin``); with ``follow`` it leads the
+    robot through the way's waypoints.
     """
 
     def __init__(self, options: ReuseOptions, ctx: Context) -> None:
@@ -238,6 +246,9 @@ class LandmarkReuser:
                     [*problem.obstacles, *((a, b) for a, b in said if a and b)], seen)
                 walls = np.concatenate((walls, known_walls(problem)))
                 posts = np.array(list(seen.values()), dtype=float).reshape(-1, 2)
+                if o.needed and in_sight(here, problem.target, walls, o.passage, posts):
+                    refused.append({"case": case_id, "why": "the way to the target is clear"})
+                    continue
                 found_way = way(here, point, walls, pairs, o.clearance, o.detour, o.passage,
                                 posts)
                 if found_way.metres is None:

@@ -366,6 +366,15 @@ def _shortest(start: Point, goal: Point, walls: np.ndarray, clearance: float,
     return None
 
 
+def in_sight(start: Point, goal: Point, walls: np.ndarray, passage: float = 0.0,
+             posts: np.ndarray | None = None) -> bool:
+    """Whether the straight way from ``start`` to ``goal`` meets none of ``walls`` and no gap
+    narrower than ``passage`` between them and the ``posts`` (:func:`narrow_gaps`)."""
+    closed = np.concatenate((walls.reshape(-1, 2, 2), narrow_gaps(walls, passage, posts)))
+    return not crossing(np.array([start], dtype=float), np.array([goal], dtype=float),
+                        closed)[0]
+
+
 @attrs.frozen
 class Way:
     """How the robot gets to a diverting target: ``metres`` to drive, ``how`` (``line of
@@ -390,8 +399,7 @@ def way(start: Point, target: Point, walls: np.ndarray, pairs: Sequence[tuple[st
     if distance_to_walls(goal, walls)[0] < clearance:
         return Way(None, f"within {clearance:g} m of a known wall")
     straight = math.dist(start, target)
-    closed = np.concatenate((walls, narrow_gaps(walls, passage, posts)))
-    if not crossing(np.array([start], dtype=float), goal, closed)[0]:
+    if in_sight(start, target, walls, passage, posts):
         return Way(straight, "line of sight")
     found = route(start, target, walls, clearance, passage, posts)
     if found is None:

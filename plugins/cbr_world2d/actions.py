@@ -66,7 +66,10 @@ class Divert:
     the pilot heads straight for its target, so a way round walls is followed point by point);
     it ends when the Rescuer restores the original target after the last point. It is given
     up after ``give_up`` for the whole way (None: the Rescuer's fixed ``give_up`` seconds for
-    each point)."""
+    each point), and as soon as the progress monitor reports the robot blocked on the way
+    (it got no closer to the point it heads for and hardly moved for a whole window since
+    that point was set): the way is not what whoever proposed it believed, and waiting out
+    the give-up time there is time lost."""
 
     x: float
     y: float
@@ -88,6 +91,9 @@ class Divert:
 
     def ended(self, simulation: Simulation) -> str | None:
         for event in simulation.events:
+            if event.name == "blocked":
+                simulation.navigator.drop_diversion()
+                return GIVEN_UP
             if event.name == "restored":
                 if event.detail == REACHED and self._legs.points:
                     self._next(simulation)

@@ -142,6 +142,12 @@ class Navigator:
         when, x, y = self._last
         self._divert(point, when if t is None else t, x, y, "asked", give_up)
 
+    def drop_diversion(self) -> None:
+        """Give the diverting target up at once (whoever set it judged the way lost): head
+        for the original target again, the monitor afresh."""
+        self.rescuer.drop()
+        self.monitor.reset()
+
     def _divert(self, point: Point, t: float, x: float, y: float, who: str,
                 give_up: float | None = None) -> None:
         self.rescuer.divert(point, t, give_up)

@@ -117,6 +117,10 @@ class Rescuer:
         self.diverted_at = t
         self.give_up = self.options.give_up if give_up is None else float(give_up)
 
+    def drop(self) -> None:
+        """Drop the diverting target, if any: the original target is the one to head for."""
+        self.diverting_target = None
+
     def update(self, x: float, y: float, t: float) -> Restored | None:
         """Check the diverting target against the pose ``(x, y)`` at time ``t``; when it is
         reached or given up, restore the original target and say so."""
