@@ -97,9 +97,10 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
           bin_box: np.ndarray, tri: np.ndarray, key: np.ndarray, key_row: np.ndarray,
           key_rb: np.ndarray, counts: np.ndarray, best: np.ndarray, excess: np.ndarray,
           hit: np.ndarray, touched: np.ndarray, buffer: np.ndarray
-          ) -> tuple[np.ndarray, int]:
-    """The reference pairs ``(row, ra, rb)`` whose bound reaches ``threshold``, and how many
-    stored pairs were compared.
+          ) -> tuple[np.ndarray, np.ndarray, int]:
+    """The reference pairs ``(row, ra, rb)`` whose bound reaches ``threshold``, their bounds
+    (on the similarity, the summed bound over ``N``), and how many stored pairs were
+    compared.
 
     The bound of the module's docstring, over the stored graphs of landmark counts
     ``classes``, at cut ``level``, ``sigma = (1 + level) / 2 < threshold``. A pair is compared
@@ -117,6 +118,7 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
     keep = 1.0 - level
     d_lo, d_pk, d_hi, a_lo, a_pk, a_hi = tri[0], tri[1], tri[2], tri[3], tri[4], tri[5]
     out = np.empty((64, 3), dtype=np.int64)
+    bounds = np.empty(64)
     found = 0
     compared = 0
     for ra in range(na):
@@ -189,17 +191,22 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
             nb = counts[key_row[k]]
             bound = sigma * (min(na, nb) - 1) + excess[k]
             excess[k] = 0.0
-            if bound < threshold * coded_normaliser(na, nb, normalise) - SLACK:
+            n = coded_normaliser(na, nb, normalise)
+            if bound < threshold * n - SLACK:
                 continue
             if found == out.shape[0]:
                 grown = np.empty((2 * found, 3), dtype=np.int64)
                 grown[:found] = out
                 out = grown
+                wider = np.empty(2 * found)
+                wider[:found] = bounds
+                bounds = wider
             out[found, 0] = key_row[k]
             out[found, 1] = ra
             out[found, 2] = key_rb[k]
+            bounds[found] = bound / n
             found += 1
-    return out[:found], compared
+    return out[:found], bounds[:found], compared
 
 
 # --------------------------------------------------------------------------------------------
@@ -370,19 +377,25 @@ class SituationIndex:
         each the reference pairs to try (``(rows, n_A, largest count)`` booleans), and how many
         stored pairs the prefilter compared (0 when it is not used)."""
         threshold = check_threshold(threshold)
+        rows, references, _, compared = self._candidates(
+            query, threshold, options, _classes(query.n, threshold, options))
+        return rows, references, compared
+
+    def _candidates(self, query: LandmarkGraph, threshold: float, options: SimilarityOptions,
+                    classes: list[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """:meth:`candidates` among the stored graphs of the landmark counts ``classes`` (all
+        of them without the prefilter), and a bound on each one's similarity (1 where the
+        prefilter gives none)."""
         na = query.n
         width = int(self.counts.max(initial=2))
-        if not options.prefilter:
-            rows = np.arange(len(self), dtype=np.int64)
-            return rows, np.ones((len(rows), na, width), bool), 0
-        classes = _classes(na, threshold, options)
-        if threshold <= 0.5:
-            rows = np.flatnonzero(np.isin(self.counts, classes)).astype(np.int64)
-            return rows, np.ones((len(rows), na, width), bool), 0
+        if not options.prefilter or threshold <= 0.5:
+            rows = (np.flatnonzero(np.isin(self.counts, classes)) if options.prefilter
+                    else np.arange(len(self))).astype(np.int64)
+            return rows, np.ones((len(rows), na, width), bool), np.ones(len(rows)), 0
         if not classes:
-            return np.empty(0, np.int64), np.empty((0, na, width), bool), 0
+            return np.empty(0, np.int64), np.empty((0, na, width), bool), np.empty(0), 0
         qd, qa, _ = flattened(query)
-        keys, compared = _vote(
+        keys, bounds, compared = _vote(
             qd, qa, na, prefilter_level(threshold), threshold,
             NORMALISE.index(options.normalise), np.array(classes, dtype=np.int64),
             self.class_bins, self.class_reach, self.bin_distance, self.bin_start, self.bin_box,
@@ -390,7 +403,10 @@ class SituationIndex:
         rows, where = np.unique(keys[:, 0], return_inverse=True)
         references = np.zeros((len(rows), na, width), bool)
         references[where, keys[:, 1], keys[:, 2]] = True
-        return rows, references, compared
+        # a graph's similarity is that of its best reference pair
+        row_bound = np.zeros(len(rows))
+        np.maximum.at(row_bound, where, bounds)
+        return rows, references, row_bound, compared
 
     def search(self, query: LandmarkGraph, threshold: float,
                options: SimilarityOptions = SimilarityOptions(),
@@ -399,22 +415,39 @@ class SituationIndex:
         (ties by row), at most ``limit``: the prefilter's candidates go through the branch and
         bound in one kernel call.
 
-        With a ``limit`` and the prefilter, the search first looks at the stricter thresholds
-        :func:`raised` gives, strictest first: when ``limit`` graphs reach one, they are the
-        best ``limit`` (every other graph scores under it), and the search stops there."""
+        With a ``limit`` and the prefilter, the stored graphs of the smallest landmark count
+        the search looks at are searched first, then the others at the similarity of the
+        ``limit``-th best found so far, when there are that many (every graph of the best
+        ``limit`` reaches it). While fewer have been found, each search looks first at the
+        stricter thresholds :func:`raised` gives, strictest first: when ``limit`` graphs
+        reach one, they are the best ``limit`` of the graphs searched (every other scores
+        under it)."""
         if limit is not None and limit < 0:
             raise ValueError(f"limit must be None or >= 0, got {limit!r}")
         threshold = check_threshold(threshold)
-        if limit and options.prefilter:
-            for stricter in raised(threshold):
-                found = self._search(query, stricter, options, limit)
-                if len(found) == limit:
-                    return found
-        return self._search(query, threshold, options, limit)
+        classes = _classes(query.n, threshold, options)
+        if limit == 0:
+            return []
+        if not (limit and options.prefilter and threshold > 0.5):
+            return self._search(query, threshold, options, limit, classes)
+        found: list[Found] = []
+        floor = threshold
+        for group in (classes[:1], classes[1:]):
+            if not group:
+                continue
+            for level in (raised(threshold) if len(found) < limit else []) + [floor]:
+                merged = sorted(found + self._search(query, level, options, limit, group),
+                                key=_rank)[:limit]
+                if len(merged) == limit and merged[-1].matching.similarity >= level:
+                    break
+            found = merged
+            if len(found) == limit:
+                floor = found[-1].matching.similarity
+        return found
 
     def _search(self, query: LandmarkGraph, threshold: float, options: SimilarityOptions,
-                limit: int | None) -> list[Found]:
-        rows, references, _ = self.candidates(query, threshold, options)
+                limit: int | None, classes: list[int]) -> list[Found]:
+        rows, references, bounds, _ = self._candidates(query, threshold, options, classes)
         qd, qa, adj = flattened(query)
         k = rows.shape[0]
         similarity = np.empty(k)
@@ -422,11 +455,11 @@ class SituationIndex:
         mapping = np.full((k, query.n), -1, dtype=np.int64)
         nodes = np.empty(k, dtype=np.int64)
         if k:
-            match_rows(qd, qa, adj, query.n, rows, references, self.counts, self.pair_starts,
-                        self.key_start, self.delta, self.alpha, self.adjacency,
-                        MATCHING.index(options.matching), NORMALISE.index(options.normalise),
-                        CONSTRAINT.index(options.constraint), float(threshold), similarity,
-                        reference, mapping, nodes)
+            match_rows(qd, qa, adj, query.n, rows, references, bounds, limit or 0, self.counts,
+                       self.pair_starts, self.key_start, self.delta, self.alpha, self.adjacency,
+                       MATCHING.index(options.matching), NORMALISE.index(options.normalise),
+                       CONSTRAINT.index(options.constraint), float(threshold), similarity,
+                       reference, mapping, nodes)
         keep = np.flatnonzero(similarity >= 0.0)
         keep = keep[np.lexsort((rows[keep], -similarity[keep]))][:limit]
         # whole columns to Python at once: a query may find hundreds of cases
@@ -434,3 +467,8 @@ class SituationIndex:
                 for row, value, (ra, rb), matched, expanded in zip(
                     rows[keep].tolist(), similarity[keep].tolist(), reference[keep].tolist(),
                     mapping[keep].tolist(), nodes[keep].tolist(), strict=True)]
+
+
+def _rank(found: Found) -> tuple[float, int]:
+    """The order of a search's results: best first, ties by row."""
+    return -found.matching.similarity, found.row
