@@ -183,8 +183,8 @@ def queries(count: int, stored: list[Situation], seed: int) -> list[Situation]:
 def support_passes(index: SituationIndex, query: LandmarkGraph) -> int:
     """How many stored graphs have an ordered pair whose distance and angle supports (the
     angle turned by -2 pi, 0 or 2 pi) both meet those of an ordered pair of ``query``."""
-    d_lo, _, d_hi, a_lo, _, a_hi = index.tri
-    hit = np.zeros(len(index.key), dtype=bool)
+    d_lo, _, d_hi, a_lo, _, a_hi = index.by_count.tri
+    hit = np.zeros(len(index.by_count.key), dtype=bool)
     for u in range(query.n):
         for v in range(query.n):
             if u == v:
@@ -195,7 +195,7 @@ def support_passes(index: SituationIndex, query: LandmarkGraph) -> int:
             for turn in (-TWO_PI, 0.0, TWO_PI):
                 angle |= (a_lo + turn <= aq[2]) & (a_hi + turn >= aq[0])
             hit |= meets & angle
-    return len(np.unique(index.key_row[index.key[hit]]))
+    return len(np.unique(index.key_row[index.by_count.key[hit]]))
 
 
 def timed_search(index: SituationIndex, query: LandmarkGraph, threshold: float,

@@ -92,18 +92,20 @@ def _first_over(values: np.ndarray, start: int, end: int, bound: float, inclusiv
 
 @njit(error_model="numpy")
 def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: float,
-          normalise: int, classes: np.ndarray, class_bins: np.ndarray,
-          class_reach: np.ndarray, bin_distance: np.ndarray, bin_start: np.ndarray,
-          bin_box: np.ndarray, tri: np.ndarray, key: np.ndarray, key_row: np.ndarray,
-          key_rb: np.ndarray, counts: np.ndarray, best: np.ndarray, excess: np.ndarray,
-          hit: np.ndarray, touched: np.ndarray, buffer: np.ndarray
+          normalise: int, groups: np.ndarray, group_bins: np.ndarray,
+          group_reach: np.ndarray, bin_distance: np.ndarray, bin_start: np.ndarray,
+          bin_box: np.ndarray, tri: np.ndarray, key: np.ndarray, key_lo: int, key_hi: int,
+          key_row: np.ndarray, key_rb: np.ndarray, counts: np.ndarray, best: np.ndarray,
+          excess: np.ndarray, hit: np.ndarray, touched: np.ndarray, buffer: np.ndarray
           ) -> tuple[np.ndarray, np.ndarray, int]:
     """The reference pairs ``(row, ra, rb)`` whose bound reaches ``threshold``, their bounds
     (on the similarity, the summed bound over ``N``), and how many stored pairs were
     compared.
 
-    The bound of the module's docstring, over the stored graphs of landmark counts
-    ``classes``, at cut ``level``, ``sigma = (1 + level) / 2 < threshold``. A pair is compared
+    The bound of the module's docstring over the stored pairs of the bin groups ``classes``
+    of a :class:`PairBins` (its other arguments) whose first landmark is numbered ``key_lo``
+    to ``key_hi`` (those of the landmark counts searched), at cut ``level``, ``sigma = (1 +
+    level) / 2 < threshold``. A pair is compared
     at each turn of the angles (-2 pi, 0, 2 pi) where the cuts meet, and its similarity
     computed at that turn; the largest over the turns is at least the similarity at the
     nearest turn, which the kernel computes, so the bound holds.
@@ -131,11 +133,11 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
             dlo = d1 + level * (d2 - d1) - SLACK
             dhi = d3 - level * (d3 - d2) + SLACK
             nhit = 0
-            for c in classes:
+            for c in groups:
                 # the bins whose distance peaks lie near enough for a cut to meet [dlo, dhi]
-                b0, b1 = class_bins[c], class_bins[c + 1]
-                lowest = np.floor((dlo - keep * class_reach[c, 1]) / BIN)
-                highest = np.floor((dhi + keep * class_reach[c, 0]) / BIN)
+                b0, b1 = group_bins[c], group_bins[c + 1]
+                lowest = np.floor((dlo - keep * group_reach[c, 1]) / BIN)
+                highest = np.floor((dhi + keep * group_reach[c, 0]) / BIN)
                 first_bin = _first_over(bin_distance, b0, b1, lowest, True)
                 last_bin = _first_over(bin_distance, first_bin, b1, highest, False)
                 for b in range(first_bin, last_bin):
@@ -161,10 +163,12 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
                         for e in range(first, last):
                             x1, x2, x3 = d_lo[e], d_pk[e], d_hi[e]
                             y1, y2, y3 = a_lo[e], a_pk[e], a_hi[e]
+                            k = key[e]
                             meets = ((x1 + level * (x2 - x1) <= dhi)
                                      & (x3 - level * (x3 - x2) >= dlo)
                                      & (y1 + level * (y2 - y1) <= ahi)
-                                     & (y3 - level * (y3 - y2) >= alo))
+                                     & (y3 - level * (y3 - y2) >= alo)
+                                     & (k >= key_lo) & (k < key_hi))
                             compared += meets
                             s = 0.5 * (height(d1, d2, d3, x1, x2, x3)
                                        + height(b1, b2, b3, y1, y2, y3))
@@ -256,6 +260,83 @@ def raised(threshold: float) -> list[float]:
 
 
 @attrs.frozen(eq=False)
+class PairBins:
+    """Every stored ordered pair of distinct landmarks in bins, for the prefilter.
+
+    The pairs are grouped (``group_bins[g]`` to ``group_bins[g + 1]`` are the bins of group
+    ``g``: their graph's landmark count, or 0 for all of them), then binned by distance peak
+    in bins of :data:`BIN` metres split by the angle's half-width at :data:`WIDTHS` (pairs
+    ``bin_start[b]`` to ``bin_start[b + 1]``), and sorted by angle peak in a bin. A pair is a
+    column of ``tri`` (rows: its distance low, peak, high, its angle low, peak, high) and an
+    entry of ``key`` (its first landmark, numbered as :class:`SituationIndex` numbers them).
+    ``bin_box[b]`` bounds the bin's triangles: least distance low and peak, largest distance
+    peak and high, largest angle half-widths below and above the peak; ``bin_distance[b]`` is
+    its distance bin (``floor(peak / BIN)``, ascending within a group) and ``group_reach[g]``
+    the largest distance half-widths below and above the peak of group ``g``'s pairs, so that
+    a search finds a group's bins near a distance by binary search.
+    """
+
+    tri: np.ndarray
+    key: np.ndarray
+    group_bins: np.ndarray
+    group_reach: np.ndarray
+    bin_distance: np.ndarray
+    bin_start: np.ndarray
+    bin_box: np.ndarray
+
+    @classmethod
+    def build(cls, tri: np.ndarray, key: np.ndarray, group: np.ndarray) -> PairBins:
+        """The bins of the pairs ``tri`` ``(pairs, 6)`` of first landmarks ``key`` in the
+        groups ``group`` (0 to :data:`~cbr_landmarks.graph.MAX_LANDMARKS`)."""
+        # bins of distance peak, each split by the angle's half-width so that the few wide
+        # angles (landmarks close together) do not widen every window of their bin
+        half = np.maximum(tri[:, 4] - tri[:, 3], tri[:, 5] - tri[:, 4])
+        # (a half-width falls in one of len(WIDTHS) + 1 classes)
+        distance_bin = (np.floor(tri[:, 1] / BIN).astype(np.int64) * (len(WIDTHS) + 1)
+                        + np.searchsorted(WIDTHS, half))
+        order = np.lexsort((tri[:, 4], distance_bin, group))
+        tri = np.ascontiguousarray(tri[order])
+        group, distance_bin = group[order], distance_bin[order]
+        new_bin = np.ones(len(tri), dtype=bool)
+        new_bin[1:] = (group[1:] != group[:-1]) | (distance_bin[1:] != distance_bin[:-1])
+        bin_start = np.append(np.flatnonzero(new_bin), len(tri)).astype(np.int64)
+        starts = bin_start[:-1]
+        if len(tri):
+            bin_box = np.column_stack((
+                np.minimum.reduceat(tri[:, 0], starts), np.minimum.reduceat(tri[:, 1], starts),
+                np.maximum.reduceat(tri[:, 1], starts), np.maximum.reduceat(tri[:, 2], starts),
+                np.maximum.reduceat(tri[:, 4] - tri[:, 3], starts),
+                np.maximum.reduceat(tri[:, 5] - tri[:, 4], starts)))
+        else:
+            bin_box = np.empty((0, 6))
+        group_bins = np.searchsorted(group[starts], np.arange(MAX_LANDMARKS + 2)
+                                     ).astype(np.int64)
+        bin_distance = (distance_bin[starts] // (len(WIDTHS) + 1)).astype(np.float64)
+        group_reach = np.zeros((MAX_LANDMARKS + 2, 2))
+        np.maximum.at(group_reach[:, 0], group, tri[:, 1] - tri[:, 0])
+        np.maximum.at(group_reach[:, 1], group, tri[:, 2] - tri[:, 1])
+        return cls(np.ascontiguousarray(tri.T), key[order], group_bins, group_reach,
+                   bin_distance, bin_start, bin_box)
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """The arrays in the order :func:`_vote` takes them, from ``group_bins`` to
+        ``tri``."""
+        return (self.group_bins, self.group_reach, self.bin_distance, self.bin_start,
+                self.bin_box, self.tri)
+
+    @property
+    def widest(self) -> int:
+        """The most pairs in one bin."""
+        return int(np.diff(self.bin_start).max(initial=0))
+
+
+TOGETHER = 0.5
+"""The least share of the stored pairs that the landmark counts a search looks at must hold
+for the prefilter to go through the bins of all counts together
+(:attr:`SituationIndex.together`) rather than count by count."""
+
+
+@attrs.frozen(eq=False)
 class SituationIndex:
     """The stored landmark graphs as flat arrays, searched in one kernel call.
 
@@ -263,20 +344,16 @@ class SituationIndex:
     * n + v`` of ``delta`` and ``alpha``, and its landmark ``u`` row ``key_start[r] + u`` of
     ``adjacency`` (obstacle bitmasks).
 
-    For the prefilter every ordered pair of distinct landmarks is also a column of ``tri``
-    (rows: its distance low, peak, high, its angle low, peak, high) and an entry of ``key``
-    (its first landmark; the stored landmarks are numbered by landmark count, so that the
-    prefilter's scratch for the counts a search looks at lies together, and ``key_row``,
-    ``key_rb`` name their graph and index). The pairs are grouped by their graph's landmark
-    count (bins ``class_bins[n]`` to ``class_bins[n + 1]``), then by distance peak in bins of
-    :data:`BIN` metres split by the angle's half-width at :data:`WIDTHS` (pairs
-    ``bin_start[b]`` to ``bin_start[b + 1]``), and sorted by angle peak in a bin.
-    ``bin_box[b]`` bounds the bin's triangles: least distance
-    low and peak, largest distance peak and high, largest angle half-widths below and above
-    the peak; ``bin_distance[b]`` is its distance bin (``floor(peak / BIN)``, ascending within
-    a count) and ``class_reach[n]`` the largest distance half-widths below and above the peak
-    of count ``n``'s pairs, so that a search finds a count's bins near a distance by binary
-    search.
+    For the prefilter the stored landmarks are numbered again by landmark count (those of
+    count ``n`` are ``count_keys[n]`` to ``count_keys[n + 1]``, so that the prefilter's
+    scratch for the counts a search looks at lies together; ``key_row``, ``key_rb`` name
+    their graph and index), and every ordered pair of distinct landmarks is in two
+    :class:`PairBins`: ``by_count``, grouped by its graph's landmark count, and
+    ``together``, all in one group. A search that looks at few of the counts goes through
+    their groups of ``by_count``; one that looks at counts holding at least :data:`TOGETHER`
+    of the pairs goes through ``together`` (fewer bins to find, the pairs of the other counts
+    passed over as it compares), where a view of many landmarks compared with every count
+    spends less.
 
     ``scratch`` is the prefilter's working memory (:func:`_vote`), made once: its per-landmark
     sums are kept at 0 between searches, so that a search touches only the stored landmarks
@@ -290,15 +367,12 @@ class SituationIndex:
     delta: np.ndarray
     alpha: np.ndarray
     adjacency: np.ndarray
-    tri: np.ndarray
-    key: np.ndarray
     key_row: np.ndarray
     key_rb: np.ndarray
-    class_bins: np.ndarray
-    class_reach: np.ndarray
-    bin_distance: np.ndarray
-    bin_start: np.ndarray
-    bin_box: np.ndarray
+    count_keys: np.ndarray
+    count_pairs: np.ndarray
+    by_count: PairBins
+    together: PairBins
     scratch: tuple[np.ndarray, ...]
 
     @classmethod
@@ -311,14 +385,15 @@ class SituationIndex:
         delta = np.concatenate([f[0] for f in flat] + [np.empty((0, 3))])
         alpha = np.concatenate([f[1] for f in flat] + [np.empty((0, 3))])
         adjacency = np.concatenate([f[2] for f in flat] + [np.empty(0, dtype=np.int64)])
-        # the stored landmarks numbered by landmark count, so that the prefilter's scratch for
-        # the counts a search looks at lies together
         landmark_row = np.repeat(np.arange(len(graphs), dtype=np.int64), counts)
         landmark_rb = np.arange(len(landmark_row), dtype=np.int64) - key_start[landmark_row]
         by_count = np.argsort(counts[landmark_row], kind="stable")
         number = np.empty(len(by_count), dtype=np.int64)
         number[by_count] = np.arange(len(by_count))
-        # every ordered pair of distinct landmarks: by count, distance bin, angle peak
+        landmark_counts = counts[landmark_row][by_count]
+        count_keys = np.searchsorted(landmark_counts, np.arange(MAX_LANDMARKS + 2)
+                                     ).astype(np.int64)
+        # every ordered pair of distinct landmarks
         off = np.concatenate([~np.eye(n, dtype=bool).ravel() for n in counts.tolist()]
                              + [np.empty(0, dtype=bool)])
         pair_row = np.repeat(np.arange(len(graphs), dtype=np.int64), counts ** 2)[off]
@@ -326,46 +401,21 @@ class SituationIndex:
                                + [np.empty(0, dtype=np.int64)]).astype(np.int64)[off]
         tri = np.concatenate((delta[off], alpha[off]), axis=1)
         pair_count = counts[pair_row]
-        # bins of distance peak, each split by the angle's half-width so that the few wide
-        # angles (landmarks close together) do not widen every window of their bin
-        half = np.maximum(tri[:, 4] - tri[:, 3], tri[:, 5] - tri[:, 4])
-        # (a half-width falls in one of len(WIDTHS) + 1 classes)
-        distance_bin = (np.floor(tri[:, 1] / BIN).astype(np.int64) * (len(WIDTHS) + 1)
-                        + np.searchsorted(WIDTHS, half))
-        order = np.lexsort((tri[:, 4], distance_bin, pair_count))
-        tri = np.ascontiguousarray(tri[order])
-        pair_count, distance_bin = pair_count[order], distance_bin[order]
-        key = number[key_start[pair_row[order]] + first[order]]
-        new_bin = np.ones(len(tri), dtype=bool)
-        new_bin[1:] = (pair_count[1:] != pair_count[:-1]) | (distance_bin[1:] != distance_bin[:-1])
-        bin_start = np.append(np.flatnonzero(new_bin), len(tri)).astype(np.int64)
-        starts = bin_start[:-1]
-        if len(tri):
-            bin_box = np.column_stack((
-                np.minimum.reduceat(tri[:, 0], starts), np.minimum.reduceat(tri[:, 1], starts),
-                np.maximum.reduceat(tri[:, 1], starts), np.maximum.reduceat(tri[:, 2], starts),
-                np.maximum.reduceat(tri[:, 4] - tri[:, 3], starts),
-                np.maximum.reduceat(tri[:, 5] - tri[:, 4], starts)))
-        else:
-            bin_box = np.empty((0, 6))
-        class_bins = np.searchsorted(pair_count[starts], np.arange(MAX_LANDMARKS + 2)
-                                     ).astype(np.int64)
-        bin_distance = (distance_bin[starts] // (len(WIDTHS) + 1)).astype(np.float64)
-        class_reach = np.zeros((MAX_LANDMARKS + 2, 2))
-        np.maximum.at(class_reach[:, 0], pair_count, tri[:, 1] - tri[:, 0])
-        np.maximum.at(class_reach[:, 1], pair_count, tri[:, 2] - tri[:, 1])
+        key = number[key_start[pair_row] + first]
+        count_pairs = np.bincount(pair_count, minlength=MAX_LANDMARKS + 1)
+        bins = PairBins.build(tri, key, pair_count)
+        together = PairBins.build(tri, key, np.zeros_like(pair_count))
         landmarks = len(landmark_row)
         scratch = (np.zeros(landmarks), np.zeros(landmarks), np.empty(landmarks, np.int64),
                    np.empty(landmarks, np.int64),
-                   np.empty(int(np.diff(bin_start).max(initial=0))))
+                   np.empty(max(bins.widest, together.widest)))
         # read-only as a graph's own triangles are, so that the kernel compiled for one case
         # serves the index too
         delta.flags.writeable = False
         alpha.flags.writeable = False
         return cls(counts, pair_starts, key_start, delta, alpha, adjacency,
-                   np.ascontiguousarray(tri.T), key, landmark_row[by_count],
-                   landmark_rb[by_count], class_bins, class_reach, bin_distance, bin_start,
-                   bin_box, scratch)
+                   landmark_row[by_count], landmark_rb[by_count], count_keys, count_pairs,
+                   bins, together, scratch)
 
     def __len__(self) -> int:
         return int(self.counts.shape[0])
@@ -395,11 +445,16 @@ class SituationIndex:
         if not classes:
             return np.empty(0, np.int64), np.empty((0, na, width), bool), np.empty(0), 0
         qd, qa, _ = flattened(query)
+        lowest, highest = min(classes), max(classes)
+        if self.count_pairs[lowest:highest + 1].sum() >= TOGETHER * self.count_pairs.sum():
+            bins, groups = self.together, np.zeros(1, dtype=np.int64)
+        else:
+            bins, groups = self.by_count, np.array(classes, dtype=np.int64)
         keys, bounds, compared = _vote(
             qd, qa, na, prefilter_level(threshold), threshold,
-            NORMALISE.index(options.normalise), np.array(classes, dtype=np.int64),
-            self.class_bins, self.class_reach, self.bin_distance, self.bin_start, self.bin_box,
-            self.tri, self.key, self.key_row, self.key_rb, self.counts, *self.scratch)
+            NORMALISE.index(options.normalise), groups, *bins.arrays(), bins.key,
+            int(self.count_keys[lowest]), int(self.count_keys[highest + 1]), self.key_row,
+            self.key_rb, self.counts, *self.scratch)
         rows, where = np.unique(keys[:, 0], return_inverse=True)
         references = np.zeros((len(rows), na, width), bool)
         references[where, keys[:, 1], keys[:, 2]] = True
