@@ -35,6 +35,7 @@ bound (with the prefilter, those whose landmark count can reach the threshold).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 
 import attrs
@@ -95,12 +96,13 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
           normalise: int, groups: np.ndarray, group_bins: np.ndarray,
           group_reach: np.ndarray, bin_distance: np.ndarray, bin_start: np.ndarray,
           bin_box: np.ndarray, tri: np.ndarray, key: np.ndarray, key_lo: int, key_hi: int,
-          key_row: np.ndarray, key_rb: np.ndarray, counts: np.ndarray, best: np.ndarray,
+          key_row: np.ndarray, key_rb: np.ndarray, counts: np.ndarray, width: int,
+          best: np.ndarray,
           excess: np.ndarray, hit: np.ndarray, touched: np.ndarray, buffer: np.ndarray
-          ) -> tuple[np.ndarray, np.ndarray, int]:
-    """The reference pairs ``(row, ra, rb)`` whose bound reaches ``threshold``, their bounds
-    (on the similarity, the summed bound over ``N``), and how many stored pairs were
-    compared.
+          ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """The stored graphs with a reference pair whose bound reaches ``threshold``, those
+    reference pairs and the bound of the graph (:func:`_by_row`; for a graph of ``width``
+    landmarks at most), and how many stored pairs were compared.
 
     The bound of the module's docstring over the stored pairs of the bin groups ``classes``
     of a :class:`PairBins` (its other arguments) whose first landmark is numbered ``key_lo``
@@ -210,7 +212,32 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
             out[found, 2] = key_rb[k]
             bounds[found] = bound / n
             found += 1
-    return out[:found], bounds[:found], compared
+    rows, references, row_bound = _by_row(out[:found], bounds[:found], na, width)
+    return rows, references, row_bound, compared
+
+
+@njit
+def _by_row(keys: np.ndarray, bounds: np.ndarray, na: int, width: int
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The reference pairs ``keys`` ``(row, ra, rb)`` by stored graph: the rows ascending,
+    for each the reference pairs to try (``(rows, na, width)`` booleans), and the largest
+    of their ``bounds`` (a graph's similarity is that of its best reference pair)."""
+    order = np.argsort(keys[:, 0], kind="mergesort")
+    count = 0
+    for e in range(order.shape[0]):
+        count += e == 0 or keys[order[e], 0] != keys[order[e - 1], 0]
+    rows = np.empty(count, dtype=np.int64)
+    references = np.zeros((count, na, width), dtype=np.bool_)
+    row_bound = np.zeros(count)
+    k = -1
+    for e in range(order.shape[0]):
+        u = order[e]
+        if e == 0 or keys[u, 0] != keys[order[e - 1], 0]:
+            k += 1
+            rows[k] = keys[u, 0]
+        references[k, keys[u, 1], keys[u, 2]] = True
+        row_bound[k] = max(row_bound[k], bounds[u])
+    return rows, references, row_bound
 
 
 # --------------------------------------------------------------------------------------------
@@ -223,8 +250,14 @@ def _classes(na: int, threshold: float, options: SimilarityOptions) -> list[int]
     ``min(na, nb) - 1`` matched landmarks over ``N`` can."""
     if options.matching == "paper":
         return [na]
-    return [nb for nb in range(2, MAX_LANDMARKS + 1)
-            if min(na, nb) - 1 >= threshold * normaliser(na, nb, options.normalise) - SLACK]
+    return list(_reaching(na, threshold, options.normalise))
+
+
+@functools.lru_cache(maxsize=1024)
+def _reaching(na: int, threshold: float, normalise: str) -> tuple[int, ...]:
+    # cached: a search asks once per query, and the thresholds repeat
+    return tuple(nb for nb in range(2, MAX_LANDMARKS + 1)
+                 if min(na, nb) - 1 >= threshold * normaliser(na, nb, normalise) - SLACK)
 
 
 def prefilter_level(threshold: float) -> float:
@@ -369,8 +402,8 @@ class SituationIndex:
     adjacency: np.ndarray
     key_row: np.ndarray
     key_rb: np.ndarray
-    count_keys: np.ndarray
-    count_pairs: np.ndarray
+    count_keys: tuple[int, ...]
+    count_pairs: tuple[int, ...]
     by_count: PairBins
     together: PairBins
     scratch: tuple[np.ndarray, ...]
@@ -391,8 +424,8 @@ class SituationIndex:
         number = np.empty(len(by_count), dtype=np.int64)
         number[by_count] = np.arange(len(by_count))
         landmark_counts = counts[landmark_row][by_count]
-        count_keys = np.searchsorted(landmark_counts, np.arange(MAX_LANDMARKS + 2)
-                                     ).astype(np.int64)
+        count_keys = tuple(np.searchsorted(landmark_counts, np.arange(MAX_LANDMARKS + 2)
+                                           ).tolist())
         # every ordered pair of distinct landmarks
         off = np.concatenate([~np.eye(n, dtype=bool).ravel() for n in counts.tolist()]
                              + [np.empty(0, dtype=bool)])
@@ -402,7 +435,7 @@ class SituationIndex:
         tri = np.concatenate((delta[off], alpha[off]), axis=1)
         pair_count = counts[pair_row]
         key = number[key_start[pair_row] + first]
-        count_pairs = np.bincount(pair_count, minlength=MAX_LANDMARKS + 1)
+        count_pairs = tuple(np.bincount(pair_count, minlength=MAX_LANDMARKS + 1).tolist())
         bins = PairBins.build(tri, key, pair_count)
         together = PairBins.build(tri, key, np.zeros_like(pair_count))
         landmarks = len(landmark_row)
@@ -428,15 +461,17 @@ class SituationIndex:
         stored pairs the prefilter compared (0 when it is not used)."""
         threshold = check_threshold(threshold)
         rows, references, _, compared = self._candidates(
-            query, threshold, options, _classes(query.n, threshold, options))
+            flattened(query), query.n, threshold, options,
+            _classes(query.n, threshold, options))
         return rows, references, compared
 
-    def _candidates(self, query: LandmarkGraph, threshold: float, options: SimilarityOptions,
-                    classes: list[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-        """:meth:`candidates` among the stored graphs of the landmark counts ``classes`` (all
-        of them without the prefilter), and a bound on each one's similarity (1 where the
-        prefilter gives none)."""
-        na = query.n
+    def _candidates(self, flat: tuple[np.ndarray, ...], na: int, threshold: float,
+                    options: SimilarityOptions, classes: list[int]
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """:meth:`candidates` for the query of ``na`` landmarks :func:`flattened` to
+        ``flat``, among the stored graphs of the landmark counts ``classes`` (all of them
+        without the prefilter), and a bound on each one's similarity (1 where the prefilter
+        gives none)."""
         width = int(self.counts.max(initial=2))
         if not options.prefilter or threshold <= 0.5:
             rows = (np.flatnonzero(np.isin(self.counts, classes)) if options.prefilter
@@ -444,24 +479,16 @@ class SituationIndex:
             return rows, np.ones((len(rows), na, width), bool), np.ones(len(rows)), 0
         if not classes:
             return np.empty(0, np.int64), np.empty((0, na, width), bool), np.empty(0), 0
-        qd, qa, _ = flattened(query)
+        qd, qa, _ = flat
         lowest, highest = min(classes), max(classes)
-        if self.count_pairs[lowest:highest + 1].sum() >= TOGETHER * self.count_pairs.sum():
+        if sum(self.count_pairs[lowest:highest + 1]) >= TOGETHER * sum(self.count_pairs):
             bins, groups = self.together, np.zeros(1, dtype=np.int64)
         else:
             bins, groups = self.by_count, np.array(classes, dtype=np.int64)
-        keys, bounds, compared = _vote(
-            qd, qa, na, prefilter_level(threshold), threshold,
-            NORMALISE.index(options.normalise), groups, *bins.arrays(), bins.key,
-            int(self.count_keys[lowest]), int(self.count_keys[highest + 1]), self.key_row,
-            self.key_rb, self.counts, *self.scratch)
-        rows, where = np.unique(keys[:, 0], return_inverse=True)
-        references = np.zeros((len(rows), na, width), bool)
-        references[where, keys[:, 1], keys[:, 2]] = True
-        # a graph's similarity is that of its best reference pair
-        row_bound = np.zeros(len(rows))
-        np.maximum.at(row_bound, where, bounds)
-        return rows, references, row_bound, compared
+        return _vote(qd, qa, na, prefilter_level(threshold), threshold,
+                     NORMALISE.index(options.normalise), groups, *bins.arrays(), bins.key,
+                     self.count_keys[lowest], self.count_keys[highest + 1], self.key_row,
+                     self.key_rb, self.counts, width, *self.scratch)
 
     def search(self, query: LandmarkGraph, threshold: float,
                options: SimilarityOptions = SimilarityOptions(),
@@ -483,16 +510,17 @@ class SituationIndex:
         classes = _classes(query.n, threshold, options)
         if limit == 0:
             return []
+        flat = flattened(query)
         if not (limit and options.prefilter and threshold > 0.5):
-            return self._search(query, threshold, options, limit, classes)
+            return self._search(flat, query.n, threshold, options, limit, classes)
         found: list[Found] = []
         floor = threshold
         for group in (classes[:1], classes[1:]):
             if not group:
                 continue
             for level in (raised(threshold) if len(found) < limit else []) + [floor]:
-                merged = sorted(found + self._search(query, level, options, limit, group),
-                                key=_rank)[:limit]
+                merged = sorted(found + self._search(flat, query.n, level, options, limit,
+                                                     group), key=_rank)[:limit]
                 if len(merged) == limit and merged[-1].matching.similarity >= level:
                     break
             found = merged
@@ -500,28 +528,39 @@ class SituationIndex:
                 floor = found[-1].matching.similarity
         return found
 
-    def _search(self, query: LandmarkGraph, threshold: float, options: SimilarityOptions,
-                limit: int | None, classes: list[int]) -> list[Found]:
-        rows, references, bounds, _ = self._candidates(query, threshold, options, classes)
-        qd, qa, adj = flattened(query)
+    def _search(self, flat: tuple[np.ndarray, ...], na: int, threshold: float,
+                options: SimilarityOptions, limit: int | None, classes: list[int]
+                ) -> list[Found]:
+        rows, references, bounds, _ = self._candidates(flat, na, threshold, options, classes)
+        qd, qa, adj = flat
         k = rows.shape[0]
         similarity = np.empty(k)
         reference = np.empty((k, 2), dtype=np.int64)
-        mapping = np.full((k, query.n), -1, dtype=np.int64)
+        mapping = np.full((k, na), -1, dtype=np.int64)
         nodes = np.empty(k, dtype=np.int64)
         if k:
-            match_rows(qd, qa, adj, query.n, rows, references, bounds, limit or 0, self.counts,
+            match_rows(qd, qa, adj, na, rows, references, bounds, limit or 0, self.counts,
                        self.pair_starts, self.key_start, self.delta, self.alpha, self.adjacency,
                        MATCHING.index(options.matching), NORMALISE.index(options.normalise),
                        CONSTRAINT.index(options.constraint), float(threshold), similarity,
                        reference, mapping, nodes)
-        keep = np.flatnonzero(similarity >= 0.0)
-        keep = keep[np.lexsort((rows[keep], -similarity[keep]))][:limit]
+        keep = _ranked(similarity, rows, -1 if limit is None else limit)
         # whole columns to Python at once: a query may find hundreds of cases
         return [Found(row, Matching(value, (ra, rb), tuple(matched), expanded))
                 for row, value, (ra, rb), matched, expanded in zip(
                     rows[keep].tolist(), similarity[keep].tolist(), reference[keep].tolist(),
                     mapping[keep].tolist(), nodes[keep].tolist(), strict=True)]
+
+
+@njit
+def _ranked(similarity: np.ndarray, rows: np.ndarray, limit: int) -> np.ndarray:
+    """The positions of the graphs found (``similarity`` at least 0), best first, ties by
+    row, at most ``limit`` of them (all when it is negative)."""
+    keep = np.flatnonzero(similarity >= 0.0)
+    # rows ascending within equal similarities: sort by row, then stably by similarity
+    keep = keep[np.argsort(rows[keep], kind="mergesort")]
+    keep = keep[np.argsort(-similarity[keep], kind="mergesort")]
+    return keep if limit < 0 else keep[:limit]
 
 
 def _rank(found: Found) -> tuple[float, int]:
