@@ -3,7 +3,7 @@
 :class:`SituationIndex` holds the stored landmark graphs as flat arrays (landmark counts, the
 offsets of each graph's pairs and landmarks, the fuzzy distances and angles of every ordered
 pair, the obstacles as bitmasks), so that :meth:`SituationIndex.search` runs 002's branch and
-bound (:func:`cbr_landmarks.similarity.match_rows`) over all the candidate graphs in one numba
+bound (:func:`cbr_landmarks.kernels.match_rows`) over all the candidate graphs in one numba
 call, with no Python per case.
 
 For a threshold ``t`` over 1/2 a prefilter picks the candidates, and is exact: it leaves out
@@ -17,8 +17,9 @@ triangles overlap by ``c`` or more exactly when their cuts at ``c`` (where each 
 over ``c``, has its distance cuts and its angle cuts meeting (the angles turned by the whole
 turn :func:`cbr_world2d.fuzzy.angle_overlap` uses, one of -2 pi, 0, 2 pi). For each ordered
 pair ``(ra, i)`` of the situation the stored pairs ``(rb, j)`` whose cuts meet its own are
-compared (the stored pairs sit in bins by landmark count, distance peak and angle width, sorted
-by angle peak, so a bin yields them by two binary searches). With ``best_i`` the best
+compared (the stored pairs sit in bins by distance peak and angle width, sorted by angle peak,
+so a bin yields them by two binary searches; one set of bins per landmark count, and one of
+all counts together for a search that looks at most of them). With ``best_i`` the best
 similarity over ``sigma`` of ``i`` to a compared pair of ``rb`` (``sigma`` when none), a
 matching with reference ``(ra, rb)`` scores at most ``sigma q + sum_i (best_i - sigma)`` over
 ``N`` (at most ``q = min(n_A, n_B) - 1`` landmarks are matched, each scoring at most its
@@ -27,7 +28,9 @@ which is left nothing else to try on their graphs. A reference pair none of whos
 over ``sigma`` scores at most ``sigma q / N < t``. At ``c = 0`` this is 002's argument that some
 pair of a case reaching ``t > 1/2`` has both its distance and angle supports meeting those of
 a pair of the situation (its best term is at least its mean ``t``, and a term with an overlap
-of 0 is at most 1/2).
+of 0 is at most 1/2). The largest bound over a graph's reference pairs bounds its similarity:
+a search for the best few matches the graphs highest bound first and stops at the first whose
+bound is under the best few found.
 
 At a threshold of 1/2 or less, or without the prefilter, every graph goes to the branch and
 bound (with the prefilter, those whose landmark count can reach the threshold).
