@@ -383,7 +383,8 @@ class SituationIndex:
     For the prefilter the stored landmarks are numbered again by landmark count (those of
     count ``n`` are ``count_keys[n]`` to ``count_keys[n + 1]``, so that the prefilter's
     scratch for the counts a search looks at lies together; ``key_row``, ``key_rb`` name
-    their graph and index), and every ordered pair of distinct landmarks is in two
+    their graph and index; ``count_pairs[n]`` is how many ordered pairs of distinct landmarks
+    the graphs of count ``n`` hold), and every such pair is in two
     :class:`PairBins`: ``by_count``, grouped by its graph's landmark count, and
     ``together``, all in one group. A search that looks at few of the counts goes through
     their groups of ``by_count``; one that looks at counts holding at least :data:`TOGETHER`
@@ -506,7 +507,8 @@ class SituationIndex:
         ``limit`` reaches it). While fewer have been found, each search looks first at the
         stricter thresholds :func:`raised` gives, strictest first: when ``limit`` graphs
         reach one, they are the best ``limit`` of the graphs searched (every other scores
-        under it)."""
+        under it); when none reaches one, the best lie well under it, and the search goes
+        on at ``threshold``."""
         if limit is not None and limit < 0:
             raise ValueError(f"limit must be None or >= 0, got {limit!r}")
         threshold = check_threshold(threshold)
@@ -521,11 +523,16 @@ class SituationIndex:
         for group in (classes[:1], classes[1:]):
             if not group:
                 continue
-            for level in (raised(threshold) if len(found) < limit else []) + [floor]:
-                merged = sorted(found + self._search(flat, query.n, level, options, limit,
-                                                     group), key=_rank)[:limit]
-                if len(merged) == limit and merged[-1].matching.similarity >= level:
+            levels = (raised(threshold) if len(found) < limit else []) + [floor]
+            k = 0
+            while True:
+                here = self._search(flat, query.n, levels[k], options, limit, group)
+                merged = sorted(found + here, key=_rank)[:limit]
+                if k == len(levels) - 1 or (len(merged) == limit
+                                            and merged[-1].matching.similarity >= levels[k]):
                     break
+                # none at a stricter threshold: the next is unlikely to hold limit of them
+                k = k + 1 if here else len(levels) - 1
             found = merged
             if len(found) == limit:
                 floor = found[-1].matching.similarity
