@@ -507,8 +507,7 @@ class SituationIndex:
         ``limit`` reaches it). While fewer have been found, each search looks first at the
         stricter thresholds :func:`raised` gives, strictest first: when ``limit`` graphs
         reach one, they are the best ``limit`` of the graphs searched (every other scores
-        under it); when none reaches one, the best lie well under it, and the search goes
-        on at ``threshold``."""
+        under it)."""
         if limit is not None and limit < 0:
             raise ValueError(f"limit must be None or >= 0, got {limit!r}")
         threshold = check_threshold(threshold)
@@ -523,16 +522,11 @@ class SituationIndex:
         for group in (classes[:1], classes[1:]):
             if not group:
                 continue
-            levels = (raised(threshold) if len(found) < limit else []) + [floor]
-            k = 0
-            while True:
-                here = self._search(flat, query.n, levels[k], options, limit, group)
-                merged = sorted(found + here, key=_rank)[:limit]
-                if k == len(levels) - 1 or (len(merged) == limit
-                                            and merged[-1].matching.similarity >= levels[k]):
+            for level in (raised(threshold) if len(found) < limit else []) + [floor]:
+                merged = sorted(found + self._search(flat, query.n, level, options, limit,
+                                                     group), key=_rank)[:limit]
+                if len(merged) == limit and merged[-1].matching.similarity >= level:
                     break
-                # none at a stricter threshold: the next is unlikely to hold limit of them
-                k = k + 1 if here else len(levels) - 1
             found = merged
             if len(found) == limit:
                 floor = found[-1].matching.similarity
