@@ -27,7 +27,8 @@ warm-up call that loads or compiles the kernels):
   be the same, with the same similarities, and the branch and bound's nodes are counted against
   the matchings the enumeration went through.
 
-Also reported: the prefilter's pass rate (stored graphs and reference pairs handed to the
+Also reported: the landmark counts of the stored situations among the best :data:`BEST` of
+the default options, the prefilter's pass rate (stored graphs and reference pairs handed to the
 branch and bound), and the share of stored graphs that a test of supports alone would pass
 (some ordered pair of the situation whose distance and angle supports both meet those of an
 ordered pair of the stored graph; 002's bare argument for thresholds over 1/2).
@@ -183,8 +184,8 @@ def queries(count: int, stored: list[Situation], seed: int) -> list[Situation]:
 def support_passes(index: SituationIndex, query: LandmarkGraph) -> int:
     """How many stored graphs have an ordered pair whose distance and angle supports (the
     angle turned by -2 pi, 0 or 2 pi) both meet those of an ordered pair of ``query``."""
-    d_lo, _, d_hi, a_lo, _, a_hi = index.tri
-    hit = np.zeros(len(index.key), dtype=bool)
+    d_lo, _, d_hi, a_lo, _, a_hi = index.by_count.tri
+    hit = np.zeros(len(index.by_count.key), dtype=bool)
     for u in range(query.n):
         for v in range(query.n):
             if u == v:
@@ -195,7 +196,7 @@ def support_passes(index: SituationIndex, query: LandmarkGraph) -> int:
             for turn in (-TWO_PI, 0.0, TWO_PI):
                 angle |= (a_lo + turn <= aq[2]) & (a_hi + turn >= aq[0])
             hit |= meets & angle
-    return len(np.unique(index.key_row[index.key[hit]]))
+    return len(np.unique(index.key_row[index.by_count.key[hit]]))
 
 
 def timed_search(index: SituationIndex, query: LandmarkGraph, threshold: float,
@@ -263,6 +264,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         mode: {kind: [] for kind in KINDS} for mode in MODES}
     equal = {mode: {kind: 0 for kind in KINDS[1:]} for mode in MODES}
     hits: dict[str, list[int]] = {mode: [] for mode in MODES}
+    best_counts = np.zeros(LANDMARKS[1] + 1, dtype=np.int64)
     passed, pairs, shares = [], [], []
     landmarks = int(index.counts.sum())
     for k, query in enumerate(asked):
@@ -280,6 +282,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                                           limit=BEST)
             times[mode]["best"].append(seconds)
             equal[mode]["best"] += _same(_hits(found), scan[:BEST])
+            if mode == "partial":
+                for f in found:
+                    best_counts[index.counts[f.row]] += 1
             hits[mode].append(len(scan))
         rows, references, _ = index.candidates(graph, args.threshold, MODES["partial"])
         passed.append(len(rows))
@@ -338,6 +343,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "searches": searches,
         "hits": {mode: {"median": statistics.median(h), "mean": float(np.mean(h))}
                  for mode, h in hits.items()},
+        "best_landmarks": best_counts[LANDMARKS[0]:].tolist(),
         "prefilter": {
             "stored_graphs_passed_median": statistics.median(passed),
             "pass_rate_median": statistics.median(passed) / len(stored),
@@ -407,7 +413,8 @@ def report(result: dict[str, Any]) -> str:
         f"Stored situations by landmark count (2 to 8): {result['landmarks_stored']}; queries: "
         f"{result['landmarks_queries']}; cases over the threshold per query: partial median "
         f"{hits['partial']['median']:g} (mean {hits['partial']['mean']:.1f}), paper median "
-        f"{hits['paper']['median']:g} (mean {hits['paper']['mean']:.1f}).",
+        f"{hits['paper']['median']:g} (mean {hits['paper']['mean']:.1f}); the best {best} "
+        f"found (partial) by landmark count: {result['best_landmarks']}.",
         f"Prefilter (partial, every case over the threshold): median "
         f"{prefilter['stored_graphs_passed_median']:g} stored graphs "
         f"({prefilter['pass_rate_median']:.1%}) and {prefilter['reference_pairs_median']:g} "

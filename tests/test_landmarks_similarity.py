@@ -15,6 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from cbr_landmarks import index as index_module
 from cbr_landmarks.graph import GraphError, LandmarkGraph
 from cbr_landmarks.index import SituationIndex, prefilter_level, raised
 from cbr_landmarks.kernels import height
@@ -27,6 +28,7 @@ from cbr_landmarks.similarity import (
     allowed,
     case_similarity,
     exhaustive_similarity,
+    flattened,
     landmark_similarities,
 )
 from cbr_world2d.fuzzy import Triangle, angle_overlap, overlap, overlap_arrays, unchecked
@@ -519,6 +521,52 @@ def test_the_best_few_are_the_first_of_all(seed: int, threshold: float,
     for x, y in zip(best, every, strict=False):
         assert x.matching.similarity == pytest.approx(y.matching.similarity, abs=1e-12)
         _check_matching(query, stored[x.row], x.matching, options)
+
+
+def test_the_best_few_across_landmark_counts() -> None:
+    # the smallest stored graphs are searched first: exact copies of pairs of the query
+    # score 1 there, and whole copies of the query, searched after them, tie with them; the
+    # best are the lowest rows of either count
+    rng = np.random.default_rng(5)
+    query = _graph(rng.uniform(-3, 3, (4, 2)).tolist(), rng.uniform(0.1, 0.4, 4).tolist())
+    stored = [_near(query, rng) for _ in range(12)]
+    stored += [_graph(rng.uniform(-3, 3, (2, 2)).tolist(), 0.3) for _ in range(6)]
+    pairs = [query.subgraph([0, 2]), query.subgraph([3, 1]), query.subgraph([1, 2])]
+    for row, graph in ((4, query), (7, pairs[0]), (9, query), (13, pairs[1]),
+                       (16, pairs[2])):
+        stored.insert(row, graph)
+    index = SituationIndex.build(stored)
+    options = SimilarityOptions()
+    every = index.search(query, 0.8, attrs.evolve(options, prefilter=False))
+    assert [f.row for f in every[:5]] == [4, 7, 9, 13, 16]
+    assert {f.matching.similarity for f in every[:5]} == {1.0}
+    for limit in range(1, 8):
+        best = index.search(query, 0.8, options, limit=limit)
+        assert [(f.row, f.matching.similarity) for f in best] == [
+            (f.row, f.matching.similarity) for f in every[:limit]]
+
+
+@given(st.integers(0, 2 ** 16), st.floats(0.55, 1.0), st.sampled_from(MODES),
+       st.integers(2, 8))
+@settings(max_examples=40, deadline=None)
+def test_both_pair_layouts_give_the_same_candidates(seed: int, threshold: float,
+                                                    options: SimilarityOptions, n: int) -> None:
+    # the prefilter goes through the stored pairs of all counts together or count by count
+    # (index.TOGETHER): the reference pairs it hands on, and their bounds, are the same
+    rng = np.random.default_rng(seed)
+    query = _graph(rng.uniform(-3, 3, (n, 2)).tolist(), rng.uniform(0.05, 0.6, n).tolist())
+    index = SituationIndex.build(_store(rng, query) + [_near(query, rng) for _ in range(4)])
+    flat = flattened(query)
+    found = []
+    for share in (0.0, 2.0):
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(index_module, "TOGETHER", share)
+            classes = index_module._classes(n, threshold, options)
+            found.append(index._candidates(flat, n, threshold, options, classes))
+    (rows, references, bounds, _), (rows2, references2, bounds2, _) = found
+    np.testing.assert_array_equal(rows, rows2)
+    np.testing.assert_array_equal(references, references2)
+    np.testing.assert_allclose(bounds, bounds2, rtol=0, atol=1e-12)
 
 
 def test_stricter_thresholds() -> None:

@@ -151,6 +151,10 @@ def landmarks_retrieval_notes() -> str:
         f"{hits['partial']['mean']:.0f}; `paper`: {hits['paper']['median']:g}), since a view "
         f"of many landmarks holds many sub-situations of a small case's size; that search "
         f"takes {every_few} for 2 to 4 landmarks and {every_many} for 6 to 8.",
+        f"- **The best {data['best']}** found with `partial` matching are 2-landmark "
+        f"situations in {grouped(data['best_landmarks'][0])} of "
+        f"{grouped(sum(data['best_landmarks']))} cases (by landmark count, 2 to 8: "
+        f"{', '.join(grouped(c) for c in data['best_landmarks'])}).",
         f"- **The target, a median of {goal(target)} ms per query over "
         f"{grouped(data['stored'])} stored situations for the retriever's search, is "
         f"{verdict(target['met'])}**: {target['measured']:.2f} ms over the benchmark's "

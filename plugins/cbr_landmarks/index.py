@@ -3,7 +3,7 @@
 :class:`SituationIndex` holds the stored landmark graphs as flat arrays (landmark counts, the
 offsets of each graph's pairs and landmarks, the fuzzy distances and angles of every ordered
 pair, the obstacles as bitmasks), so that :meth:`SituationIndex.search` runs 002's branch and
-bound (:func:`cbr_landmarks.similarity.match_rows`) over all the candidate graphs in one numba
+bound (:func:`cbr_landmarks.kernels.match_rows`) over all the candidate graphs in one numba
 call, with no Python per case.
 
 For a threshold ``t`` over 1/2 a prefilter picks the candidates, and is exact: it leaves out
@@ -17,8 +17,9 @@ triangles overlap by ``c`` or more exactly when their cuts at ``c`` (where each 
 over ``c``, has its distance cuts and its angle cuts meeting (the angles turned by the whole
 turn :func:`cbr_world2d.fuzzy.angle_overlap` uses, one of -2 pi, 0, 2 pi). For each ordered
 pair ``(ra, i)`` of the situation the stored pairs ``(rb, j)`` whose cuts meet its own are
-compared (the stored pairs sit in bins by landmark count, distance peak and angle width, sorted
-by angle peak, so a bin yields them by two binary searches). With ``best_i`` the best
+compared (the stored pairs sit in bins by distance peak and angle width, sorted by angle peak,
+so a bin yields them by two binary searches; one set of bins per landmark count, and one of
+all counts together for a search that looks at most of them). With ``best_i`` the best
 similarity over ``sigma`` of ``i`` to a compared pair of ``rb`` (``sigma`` when none), a
 matching with reference ``(ra, rb)`` scores at most ``sigma q + sum_i (best_i - sigma)`` over
 ``N`` (at most ``q = min(n_A, n_B) - 1`` landmarks are matched, each scoring at most its
@@ -27,7 +28,9 @@ which is left nothing else to try on their graphs. A reference pair none of whos
 over ``sigma`` scores at most ``sigma q / N < t``. At ``c = 0`` this is 002's argument that some
 pair of a case reaching ``t > 1/2`` has both its distance and angle supports meeting those of
 a pair of the situation (its best term is at least its mean ``t``, and a term with an overlap
-of 0 is at most 1/2).
+of 0 is at most 1/2). The largest bound over a graph's reference pairs bounds its similarity:
+a search for the best few matches the graphs highest bound first and stops at the first whose
+bound is under the best few found.
 
 At a threshold of 1/2 or less, or without the prefilter, every graph goes to the branch and
 bound (with the prefilter, those whose landmark count can reach the threshold).
@@ -35,6 +38,7 @@ bound (with the prefilter, those whose landmark count can reach the threshold).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 
 import attrs
@@ -92,17 +96,21 @@ def _first_over(values: np.ndarray, start: int, end: int, bound: float, inclusiv
 
 @njit(error_model="numpy")
 def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: float,
-          normalise: int, classes: np.ndarray, class_bins: np.ndarray,
-          class_reach: np.ndarray, bin_distance: np.ndarray, bin_start: np.ndarray,
-          bin_box: np.ndarray, tri: np.ndarray, key: np.ndarray, key_row: np.ndarray,
-          key_rb: np.ndarray, counts: np.ndarray, best: np.ndarray, excess: np.ndarray,
-          hit: np.ndarray, touched: np.ndarray, buffer: np.ndarray
-          ) -> tuple[np.ndarray, int]:
-    """The reference pairs ``(row, ra, rb)`` whose bound reaches ``threshold``, and how many
-    stored pairs were compared.
+          normalise: int, groups: np.ndarray, group_bins: np.ndarray,
+          group_reach: np.ndarray, bin_distance: np.ndarray, bin_start: np.ndarray,
+          bin_box: np.ndarray, tri: np.ndarray, key: np.ndarray, key_lo: int, key_hi: int,
+          key_row: np.ndarray, key_rb: np.ndarray, counts: np.ndarray, width: int,
+          best: np.ndarray,
+          excess: np.ndarray, hit: np.ndarray, touched: np.ndarray, buffer: np.ndarray
+          ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """The stored graphs with a reference pair whose bound reaches ``threshold``, those
+    reference pairs and the bound of the graph (:func:`_by_row`; for a graph of ``width``
+    landmarks at most), and how many stored pairs were compared.
 
-    The bound of the module's docstring, over the stored graphs of landmark counts
-    ``classes``, at cut ``level``, ``sigma = (1 + level) / 2 < threshold``. A pair is compared
+    The bound of the module's docstring over the stored pairs of the bin groups ``classes``
+    of a :class:`PairBins` (its other arguments) whose first landmark is numbered ``key_lo``
+    to ``key_hi`` (those of the landmark counts searched), at cut ``level``, ``sigma = (1 +
+    level) / 2 < threshold``. A pair is compared
     at each turn of the angles (-2 pi, 0, 2 pi) where the cuts meet, and its similarity
     computed at that turn; the largest over the turns is at least the similarity at the
     nearest turn, which the kernel computes, so the bound holds.
@@ -117,6 +125,7 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
     keep = 1.0 - level
     d_lo, d_pk, d_hi, a_lo, a_pk, a_hi = tri[0], tri[1], tri[2], tri[3], tri[4], tri[5]
     out = np.empty((64, 3), dtype=np.int64)
+    bounds = np.empty(64)
     found = 0
     compared = 0
     for ra in range(na):
@@ -129,11 +138,11 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
             dlo = d1 + level * (d2 - d1) - SLACK
             dhi = d3 - level * (d3 - d2) + SLACK
             nhit = 0
-            for c in classes:
+            for c in groups:
                 # the bins whose distance peaks lie near enough for a cut to meet [dlo, dhi]
-                b0, b1 = class_bins[c], class_bins[c + 1]
-                lowest = np.floor((dlo - keep * class_reach[c, 1]) / BIN)
-                highest = np.floor((dhi + keep * class_reach[c, 0]) / BIN)
+                b0, b1 = group_bins[c], group_bins[c + 1]
+                lowest = np.floor((dlo - keep * group_reach[c, 1]) / BIN)
+                highest = np.floor((dhi + keep * group_reach[c, 0]) / BIN)
                 first_bin = _first_over(bin_distance, b0, b1, lowest, True)
                 last_bin = _first_over(bin_distance, first_bin, b1, highest, False)
                 for b in range(first_bin, last_bin):
@@ -159,10 +168,12 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
                         for e in range(first, last):
                             x1, x2, x3 = d_lo[e], d_pk[e], d_hi[e]
                             y1, y2, y3 = a_lo[e], a_pk[e], a_hi[e]
+                            k = key[e]
                             meets = ((x1 + level * (x2 - x1) <= dhi)
                                      & (x3 - level * (x3 - x2) >= dlo)
                                      & (y1 + level * (y2 - y1) <= ahi)
-                                     & (y3 - level * (y3 - y2) >= alo))
+                                     & (y3 - level * (y3 - y2) >= alo)
+                                     & (k >= key_lo) & (k < key_hi))
                             compared += meets
                             s = 0.5 * (height(d1, d2, d3, x1, x2, x3)
                                        + height(b1, b2, b3, y1, y2, y3))
@@ -189,17 +200,47 @@ def _vote(qd: np.ndarray, qa: np.ndarray, na: int, level: float, threshold: floa
             nb = counts[key_row[k]]
             bound = sigma * (min(na, nb) - 1) + excess[k]
             excess[k] = 0.0
-            if bound < threshold * coded_normaliser(na, nb, normalise) - SLACK:
+            n = coded_normaliser(na, nb, normalise)
+            if bound < threshold * n - SLACK:
                 continue
             if found == out.shape[0]:
                 grown = np.empty((2 * found, 3), dtype=np.int64)
                 grown[:found] = out
                 out = grown
+                wider = np.empty(2 * found)
+                wider[:found] = bounds
+                bounds = wider
             out[found, 0] = key_row[k]
             out[found, 1] = ra
             out[found, 2] = key_rb[k]
+            bounds[found] = bound / n
             found += 1
-    return out[:found], compared
+    rows, references, row_bound = _by_row(out[:found], bounds[:found], na, width)
+    return rows, references, row_bound, compared
+
+
+@njit
+def _by_row(keys: np.ndarray, bounds: np.ndarray, na: int, width: int
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The reference pairs ``keys`` ``(row, ra, rb)`` by stored graph: the rows ascending,
+    for each the reference pairs to try (``(rows, na, width)`` booleans), and the largest
+    of their ``bounds`` (a graph's similarity is that of its best reference pair)."""
+    order = np.argsort(keys[:, 0], kind="mergesort")
+    count = 0
+    for e in range(order.shape[0]):
+        count += e == 0 or keys[order[e], 0] != keys[order[e - 1], 0]
+    rows = np.empty(count, dtype=np.int64)
+    references = np.zeros((count, na, width), dtype=np.bool_)
+    row_bound = np.zeros(count)
+    k = -1
+    for e in range(order.shape[0]):
+        u = order[e]
+        if e == 0 or keys[u, 0] != keys[order[e - 1], 0]:
+            k += 1
+            rows[k] = keys[u, 0]
+        references[k, keys[u, 1], keys[u, 2]] = True
+        row_bound[k] = max(row_bound[k], bounds[u])
+    return rows, references, row_bound
 
 
 # --------------------------------------------------------------------------------------------
@@ -212,8 +253,14 @@ def _classes(na: int, threshold: float, options: SimilarityOptions) -> list[int]
     ``min(na, nb) - 1`` matched landmarks over ``N`` can."""
     if options.matching == "paper":
         return [na]
-    return [nb for nb in range(2, MAX_LANDMARKS + 1)
-            if min(na, nb) - 1 >= threshold * normaliser(na, nb, options.normalise) - SLACK]
+    return list(_reaching(na, threshold, options.normalise))
+
+
+@functools.lru_cache(maxsize=1024)
+def _reaching(na: int, threshold: float, normalise: str) -> tuple[int, ...]:
+    # cached: a search asks once per query, and the thresholds repeat
+    return tuple(nb for nb in range(2, MAX_LANDMARKS + 1)
+                 if min(na, nb) - 1 >= threshold * normaliser(na, nb, normalise) - SLACK)
 
 
 def prefilter_level(threshold: float) -> float:
@@ -249,6 +296,83 @@ def raised(threshold: float) -> list[float]:
 
 
 @attrs.frozen(eq=False)
+class PairBins:
+    """Every stored ordered pair of distinct landmarks in bins, for the prefilter.
+
+    The pairs are grouped (``group_bins[g]`` to ``group_bins[g + 1]`` are the bins of group
+    ``g``: their graph's landmark count, or 0 for all of them), then binned by distance peak
+    in bins of :data:`BIN` metres split by the angle's half-width at :data:`WIDTHS` (pairs
+    ``bin_start[b]`` to ``bin_start[b + 1]``), and sorted by angle peak in a bin. A pair is a
+    column of ``tri`` (rows: its distance low, peak, high, its angle low, peak, high) and an
+    entry of ``key`` (its first landmark, numbered as :class:`SituationIndex` numbers them).
+    ``bin_box[b]`` bounds the bin's triangles: least distance low and peak, largest distance
+    peak and high, largest angle half-widths below and above the peak; ``bin_distance[b]`` is
+    its distance bin (``floor(peak / BIN)``, ascending within a group) and ``group_reach[g]``
+    the largest distance half-widths below and above the peak of group ``g``'s pairs, so that
+    a search finds a group's bins near a distance by binary search.
+    """
+
+    tri: np.ndarray
+    key: np.ndarray
+    group_bins: np.ndarray
+    group_reach: np.ndarray
+    bin_distance: np.ndarray
+    bin_start: np.ndarray
+    bin_box: np.ndarray
+
+    @classmethod
+    def build(cls, tri: np.ndarray, key: np.ndarray, group: np.ndarray) -> PairBins:
+        """The bins of the pairs ``tri`` ``(pairs, 6)`` of first landmarks ``key`` in the
+        groups ``group`` (0 to :data:`~cbr_landmarks.graph.MAX_LANDMARKS`)."""
+        # bins of distance peak, each split by the angle's half-width so that the few wide
+        # angles (landmarks close together) do not widen every window of their bin
+        half = np.maximum(tri[:, 4] - tri[:, 3], tri[:, 5] - tri[:, 4])
+        # (a half-width falls in one of len(WIDTHS) + 1 classes)
+        distance_bin = (np.floor(tri[:, 1] / BIN).astype(np.int64) * (len(WIDTHS) + 1)
+                        + np.searchsorted(WIDTHS, half))
+        order = np.lexsort((tri[:, 4], distance_bin, group))
+        tri = np.ascontiguousarray(tri[order])
+        group, distance_bin = group[order], distance_bin[order]
+        new_bin = np.ones(len(tri), dtype=bool)
+        new_bin[1:] = (group[1:] != group[:-1]) | (distance_bin[1:] != distance_bin[:-1])
+        bin_start = np.append(np.flatnonzero(new_bin), len(tri)).astype(np.int64)
+        starts = bin_start[:-1]
+        if len(tri):
+            bin_box = np.column_stack((
+                np.minimum.reduceat(tri[:, 0], starts), np.minimum.reduceat(tri[:, 1], starts),
+                np.maximum.reduceat(tri[:, 1], starts), np.maximum.reduceat(tri[:, 2], starts),
+                np.maximum.reduceat(tri[:, 4] - tri[:, 3], starts),
+                np.maximum.reduceat(tri[:, 5] - tri[:, 4], starts)))
+        else:
+            bin_box = np.empty((0, 6))
+        group_bins = np.searchsorted(group[starts], np.arange(MAX_LANDMARKS + 2)
+                                     ).astype(np.int64)
+        bin_distance = (distance_bin[starts] // (len(WIDTHS) + 1)).astype(np.float64)
+        group_reach = np.zeros((MAX_LANDMARKS + 2, 2))
+        np.maximum.at(group_reach[:, 0], group, tri[:, 1] - tri[:, 0])
+        np.maximum.at(group_reach[:, 1], group, tri[:, 2] - tri[:, 1])
+        return cls(np.ascontiguousarray(tri.T), key[order], group_bins, group_reach,
+                   bin_distance, bin_start, bin_box)
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """The arrays in the order :func:`_vote` takes them, from ``group_bins`` to
+        ``tri``."""
+        return (self.group_bins, self.group_reach, self.bin_distance, self.bin_start,
+                self.bin_box, self.tri)
+
+    @property
+    def widest(self) -> int:
+        """The most pairs in one bin."""
+        return int(np.diff(self.bin_start).max(initial=0))
+
+
+TOGETHER = 0.5
+"""The least share of the stored pairs that the landmark counts a search looks at must hold
+for the prefilter to go through the bins of all counts together
+(:attr:`SituationIndex.together`) rather than count by count."""
+
+
+@attrs.frozen(eq=False)
 class SituationIndex:
     """The stored landmark graphs as flat arrays, searched in one kernel call.
 
@@ -256,20 +380,17 @@ class SituationIndex:
     * n + v`` of ``delta`` and ``alpha``, and its landmark ``u`` row ``key_start[r] + u`` of
     ``adjacency`` (obstacle bitmasks).
 
-    For the prefilter every ordered pair of distinct landmarks is also a column of ``tri``
-    (rows: its distance low, peak, high, its angle low, peak, high) and an entry of ``key``
-    (its first landmark; the stored landmarks are numbered by landmark count, so that the
-    prefilter's scratch for the counts a search looks at lies together, and ``key_row``,
-    ``key_rb`` name their graph and index). The pairs are grouped by their graph's landmark
-    count (bins ``class_bins[n]`` to ``class_bins[n + 1]``), then by distance peak in bins of
-    :data:`BIN` metres split by the angle's half-width at :data:`WIDTHS` (pairs
-    ``bin_start[b]`` to ``bin_start[b + 1]``), and sorted by angle peak in a bin.
-    ``bin_box[b]`` bounds the bin's triangles: least distance
-    low and peak, largest distance peak and high, largest angle half-widths below and above
-    the peak; ``bin_distance[b]`` is its distance bin (``floor(peak / BIN)``, ascending within
-    a count) and ``class_reach[n]`` the largest distance half-widths below and above the peak
-    of count ``n``'s pairs, so that a search finds a count's bins near a distance by binary
-    search.
+    For the prefilter the stored landmarks are numbered again by landmark count (those of
+    count ``n`` are ``count_keys[n]`` to ``count_keys[n + 1]``, so that the prefilter's
+    scratch for the counts a search looks at lies together; ``key_row``, ``key_rb`` name
+    their graph and index; ``count_pairs[n]`` is how many ordered pairs of distinct landmarks
+    the graphs of count ``n`` hold), and every such pair is in two
+    :class:`PairBins`: ``by_count``, grouped by its graph's landmark count, and
+    ``together``, all in one group. A search that looks at few of the counts goes through
+    their groups of ``by_count``; one that looks at counts holding at least :data:`TOGETHER`
+    of the pairs goes through ``together`` (fewer bins to find, the pairs of the other counts
+    passed over as it compares), where a view of many landmarks compared with every count
+    spends less.
 
     ``scratch`` is the prefilter's working memory (:func:`_vote`), made once: its per-landmark
     sums are kept at 0 between searches, so that a search touches only the stored landmarks
@@ -283,15 +404,12 @@ class SituationIndex:
     delta: np.ndarray
     alpha: np.ndarray
     adjacency: np.ndarray
-    tri: np.ndarray
-    key: np.ndarray
     key_row: np.ndarray
     key_rb: np.ndarray
-    class_bins: np.ndarray
-    class_reach: np.ndarray
-    bin_distance: np.ndarray
-    bin_start: np.ndarray
-    bin_box: np.ndarray
+    count_keys: tuple[int, ...]
+    count_pairs: tuple[int, ...]
+    by_count: PairBins
+    together: PairBins
     scratch: tuple[np.ndarray, ...]
 
     @classmethod
@@ -304,14 +422,15 @@ class SituationIndex:
         delta = np.concatenate([f[0] for f in flat] + [np.empty((0, 3))])
         alpha = np.concatenate([f[1] for f in flat] + [np.empty((0, 3))])
         adjacency = np.concatenate([f[2] for f in flat] + [np.empty(0, dtype=np.int64)])
-        # the stored landmarks numbered by landmark count, so that the prefilter's scratch for
-        # the counts a search looks at lies together
         landmark_row = np.repeat(np.arange(len(graphs), dtype=np.int64), counts)
         landmark_rb = np.arange(len(landmark_row), dtype=np.int64) - key_start[landmark_row]
         by_count = np.argsort(counts[landmark_row], kind="stable")
         number = np.empty(len(by_count), dtype=np.int64)
         number[by_count] = np.arange(len(by_count))
-        # every ordered pair of distinct landmarks: by count, distance bin, angle peak
+        landmark_counts = counts[landmark_row][by_count]
+        count_keys = tuple(np.searchsorted(landmark_counts, np.arange(MAX_LANDMARKS + 2)
+                                           ).tolist())
+        # every ordered pair of distinct landmarks
         off = np.concatenate([~np.eye(n, dtype=bool).ravel() for n in counts.tolist()]
                              + [np.empty(0, dtype=bool)])
         pair_row = np.repeat(np.arange(len(graphs), dtype=np.int64), counts ** 2)[off]
@@ -319,46 +438,21 @@ class SituationIndex:
                                + [np.empty(0, dtype=np.int64)]).astype(np.int64)[off]
         tri = np.concatenate((delta[off], alpha[off]), axis=1)
         pair_count = counts[pair_row]
-        # bins of distance peak, each split by the angle's half-width so that the few wide
-        # angles (landmarks close together) do not widen every window of their bin
-        half = np.maximum(tri[:, 4] - tri[:, 3], tri[:, 5] - tri[:, 4])
-        # (a half-width falls in one of len(WIDTHS) + 1 classes)
-        distance_bin = (np.floor(tri[:, 1] / BIN).astype(np.int64) * (len(WIDTHS) + 1)
-                        + np.searchsorted(WIDTHS, half))
-        order = np.lexsort((tri[:, 4], distance_bin, pair_count))
-        tri = np.ascontiguousarray(tri[order])
-        pair_count, distance_bin = pair_count[order], distance_bin[order]
-        key = number[key_start[pair_row[order]] + first[order]]
-        new_bin = np.ones(len(tri), dtype=bool)
-        new_bin[1:] = (pair_count[1:] != pair_count[:-1]) | (distance_bin[1:] != distance_bin[:-1])
-        bin_start = np.append(np.flatnonzero(new_bin), len(tri)).astype(np.int64)
-        starts = bin_start[:-1]
-        if len(tri):
-            bin_box = np.column_stack((
-                np.minimum.reduceat(tri[:, 0], starts), np.minimum.reduceat(tri[:, 1], starts),
-                np.maximum.reduceat(tri[:, 1], starts), np.maximum.reduceat(tri[:, 2], starts),
-                np.maximum.reduceat(tri[:, 4] - tri[:, 3], starts),
-                np.maximum.reduceat(tri[:, 5] - tri[:, 4], starts)))
-        else:
-            bin_box = np.empty((0, 6))
-        class_bins = np.searchsorted(pair_count[starts], np.arange(MAX_LANDMARKS + 2)
-                                     ).astype(np.int64)
-        bin_distance = (distance_bin[starts] // (len(WIDTHS) + 1)).astype(np.float64)
-        class_reach = np.zeros((MAX_LANDMARKS + 2, 2))
-        np.maximum.at(class_reach[:, 0], pair_count, tri[:, 1] - tri[:, 0])
-        np.maximum.at(class_reach[:, 1], pair_count, tri[:, 2] - tri[:, 1])
+        key = number[key_start[pair_row] + first]
+        count_pairs = tuple(np.bincount(pair_count, minlength=MAX_LANDMARKS + 1).tolist())
+        bins = PairBins.build(tri, key, pair_count)
+        together = PairBins.build(tri, key, np.zeros_like(pair_count))
         landmarks = len(landmark_row)
         scratch = (np.zeros(landmarks), np.zeros(landmarks), np.empty(landmarks, np.int64),
                    np.empty(landmarks, np.int64),
-                   np.empty(int(np.diff(bin_start).max(initial=0))))
+                   np.empty(max(bins.widest, together.widest)))
         # read-only as a graph's own triangles are, so that the kernel compiled for one case
         # serves the index too
         delta.flags.writeable = False
         alpha.flags.writeable = False
         return cls(counts, pair_starts, key_start, delta, alpha, adjacency,
-                   np.ascontiguousarray(tri.T), key, landmark_row[by_count],
-                   landmark_rb[by_count], class_bins, class_reach, bin_distance, bin_start,
-                   bin_box, scratch)
+                   landmark_row[by_count], landmark_rb[by_count], count_keys, count_pairs,
+                   bins, together, scratch)
 
     def __len__(self) -> int:
         return int(self.counts.shape[0])
@@ -370,27 +464,35 @@ class SituationIndex:
         each the reference pairs to try (``(rows, n_A, largest count)`` booleans), and how many
         stored pairs the prefilter compared (0 when it is not used)."""
         threshold = check_threshold(threshold)
-        na = query.n
-        width = int(self.counts.max(initial=2))
-        if not options.prefilter:
-            rows = np.arange(len(self), dtype=np.int64)
-            return rows, np.ones((len(rows), na, width), bool), 0
-        classes = _classes(na, threshold, options)
-        if threshold <= 0.5:
-            rows = np.flatnonzero(np.isin(self.counts, classes)).astype(np.int64)
-            return rows, np.ones((len(rows), na, width), bool), 0
-        if not classes:
-            return np.empty(0, np.int64), np.empty((0, na, width), bool), 0
-        qd, qa, _ = flattened(query)
-        keys, compared = _vote(
-            qd, qa, na, prefilter_level(threshold), threshold,
-            NORMALISE.index(options.normalise), np.array(classes, dtype=np.int64),
-            self.class_bins, self.class_reach, self.bin_distance, self.bin_start, self.bin_box,
-            self.tri, self.key, self.key_row, self.key_rb, self.counts, *self.scratch)
-        rows, where = np.unique(keys[:, 0], return_inverse=True)
-        references = np.zeros((len(rows), na, width), bool)
-        references[where, keys[:, 1], keys[:, 2]] = True
+        rows, references, _, compared = self._candidates(
+            flattened(query), query.n, threshold, options,
+            _classes(query.n, threshold, options))
         return rows, references, compared
+
+    def _candidates(self, flat: tuple[np.ndarray, ...], na: int, threshold: float,
+                    options: SimilarityOptions, classes: list[int]
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """:meth:`candidates` for the query of ``na`` landmarks :func:`flattened` to
+        ``flat``, among the stored graphs of the landmark counts ``classes`` (all of them
+        without the prefilter), and a bound on each one's similarity (1 where the prefilter
+        gives none)."""
+        width = int(self.counts.max(initial=2))
+        if not options.prefilter or threshold <= 0.5:
+            rows = (np.flatnonzero(np.isin(self.counts, classes)) if options.prefilter
+                    else np.arange(len(self))).astype(np.int64)
+            return rows, np.ones((len(rows), na, width), bool), np.ones(len(rows)), 0
+        if not classes:
+            return np.empty(0, np.int64), np.empty((0, na, width), bool), np.empty(0), 0
+        qd, qa, _ = flat
+        lowest, highest = min(classes), max(classes)
+        if sum(self.count_pairs[lowest:highest + 1]) >= TOGETHER * sum(self.count_pairs):
+            bins, groups = self.together, np.zeros(1, dtype=np.int64)
+        else:
+            bins, groups = self.by_count, np.array(classes, dtype=np.int64)
+        return _vote(qd, qa, na, prefilter_level(threshold), threshold,
+                     NORMALISE.index(options.normalise), groups, *bins.arrays(), bins.key,
+                     self.count_keys[lowest], self.count_keys[highest + 1], self.key_row,
+                     self.key_rb, self.counts, width, *self.scratch)
 
     def search(self, query: LandmarkGraph, threshold: float,
                options: SimilarityOptions = SimilarityOptions(),
@@ -399,38 +501,72 @@ class SituationIndex:
         (ties by row), at most ``limit``: the prefilter's candidates go through the branch and
         bound in one kernel call.
 
-        With a ``limit`` and the prefilter, the search first looks at the stricter thresholds
-        :func:`raised` gives, strictest first: when ``limit`` graphs reach one, they are the
-        best ``limit`` (every other graph scores under it), and the search stops there."""
+        With a ``limit`` and the prefilter, the stored graphs of the smallest landmark count
+        the search looks at are searched first, then the others at the similarity of the
+        ``limit``-th best found so far, when there are that many (every graph of the best
+        ``limit`` reaches it). While fewer have been found, each search looks first at the
+        stricter thresholds :func:`raised` gives, strictest first: when ``limit`` graphs
+        reach one, they are the best ``limit`` of the graphs searched (every other scores
+        under it)."""
         if limit is not None and limit < 0:
             raise ValueError(f"limit must be None or >= 0, got {limit!r}")
         threshold = check_threshold(threshold)
-        if limit and options.prefilter:
-            for stricter in raised(threshold):
-                found = self._search(query, stricter, options, limit)
-                if len(found) == limit:
-                    return found
-        return self._search(query, threshold, options, limit)
+        classes = _classes(query.n, threshold, options)
+        if limit == 0:
+            return []
+        flat = flattened(query)
+        if not (limit and options.prefilter and threshold > 0.5):
+            return self._search(flat, query.n, threshold, options, limit, classes)
+        found: list[Found] = []
+        floor = threshold
+        for group in (classes[:1], classes[1:]):
+            if not group:
+                continue
+            for level in (raised(threshold) if len(found) < limit else []) + [floor]:
+                merged = sorted(found + self._search(flat, query.n, level, options, limit,
+                                                     group), key=_rank)[:limit]
+                if len(merged) == limit and merged[-1].matching.similarity >= level:
+                    break
+            found = merged
+            if len(found) == limit:
+                floor = found[-1].matching.similarity
+        return found
 
-    def _search(self, query: LandmarkGraph, threshold: float, options: SimilarityOptions,
-                limit: int | None) -> list[Found]:
-        rows, references, _ = self.candidates(query, threshold, options)
-        qd, qa, adj = flattened(query)
+    def _search(self, flat: tuple[np.ndarray, ...], na: int, threshold: float,
+                options: SimilarityOptions, limit: int | None, classes: list[int]
+                ) -> list[Found]:
+        rows, references, bounds, _ = self._candidates(flat, na, threshold, options, classes)
+        qd, qa, adj = flat
         k = rows.shape[0]
         similarity = np.empty(k)
         reference = np.empty((k, 2), dtype=np.int64)
-        mapping = np.full((k, query.n), -1, dtype=np.int64)
+        mapping = np.full((k, na), -1, dtype=np.int64)
         nodes = np.empty(k, dtype=np.int64)
         if k:
-            match_rows(qd, qa, adj, query.n, rows, references, self.counts, self.pair_starts,
-                        self.key_start, self.delta, self.alpha, self.adjacency,
-                        MATCHING.index(options.matching), NORMALISE.index(options.normalise),
-                        CONSTRAINT.index(options.constraint), float(threshold), similarity,
-                        reference, mapping, nodes)
-        keep = np.flatnonzero(similarity >= 0.0)
-        keep = keep[np.lexsort((rows[keep], -similarity[keep]))][:limit]
+            match_rows(qd, qa, adj, na, rows, references, bounds, limit or 0, self.counts,
+                       self.pair_starts, self.key_start, self.delta, self.alpha, self.adjacency,
+                       MATCHING.index(options.matching), NORMALISE.index(options.normalise),
+                       CONSTRAINT.index(options.constraint), float(threshold), similarity,
+                       reference, mapping, nodes)
+        keep = _ranked(similarity, rows, -1 if limit is None else limit)
         # whole columns to Python at once: a query may find hundreds of cases
         return [Found(row, Matching(value, (ra, rb), tuple(matched), expanded))
                 for row, value, (ra, rb), matched, expanded in zip(
                     rows[keep].tolist(), similarity[keep].tolist(), reference[keep].tolist(),
                     mapping[keep].tolist(), nodes[keep].tolist(), strict=True)]
+
+
+@njit
+def _ranked(similarity: np.ndarray, rows: np.ndarray, limit: int) -> np.ndarray:
+    """The positions of the graphs found (``similarity`` at least 0), best first, ties by
+    row, at most ``limit`` of them (all when it is negative)."""
+    keep = np.flatnonzero(similarity >= 0.0)
+    # rows ascending within equal similarities: sort by row, then stably by similarity
+    keep = keep[np.argsort(rows[keep], kind="mergesort")]
+    keep = keep[np.argsort(-similarity[keep], kind="mergesort")]
+    return keep if limit < 0 else keep[:limit]
+
+
+def _rank(found: Found) -> tuple[float, int]:
+    """The order of a search's results: best first, ties by row."""
+    return -found.matching.similarity, found.row

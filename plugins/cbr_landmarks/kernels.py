@@ -331,27 +331,51 @@ def match_case(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, db: n
 
 @njit
 def match_rows(da: np.ndarray, aa: np.ndarray, adj_a: np.ndarray, na: int, rows: np.ndarray,
-               references: np.ndarray, counts: np.ndarray, pair_starts: np.ndarray,
-               key_start: np.ndarray, db: np.ndarray, ab: np.ndarray, adj_b: np.ndarray,
-               matching: int, normalise: int, constraint: int, threshold: float,
-               similarity: np.ndarray,
-               reference: np.ndarray, mapping: np.ndarray, nodes: np.ndarray) -> None:
+               references: np.ndarray, bounds: np.ndarray, limit: int, counts: np.ndarray,
+               pair_starts: np.ndarray, key_start: np.ndarray, db: np.ndarray, ab: np.ndarray,
+               adj_b: np.ndarray, matching: int, normalise: int, constraint: int,
+               threshold: float, similarity: np.ndarray, reference: np.ndarray,
+               mapping: np.ndarray, nodes: np.ndarray) -> None:
     """:func:`match_case` between ``A`` and each graph ``rows[k]`` of a list of graphs
     flattened together (graph ``r`` has ``counts[r]`` landmarks, its pairs start at row
     ``pair_starts[r]`` of ``db, ab``, its landmarks at ``key_start[r]`` of ``adj_b``), trying the
-    reference pairs ``references[k]``; the results go to row ``k`` of the outputs."""
+    reference pairs ``references[k]``; the results go to row ``k`` of the outputs.
+
+    With a ``limit`` over 0 only the best ``limit`` graphs are wanted: ``bounds[k]`` bounds
+    the similarity of graph ``rows[k]``, the graphs are matched highest bound first, and once
+    ``limit`` of them reach a similarity, that is the threshold of every later one (it must
+    reach the ``limit``-th best to be among the best); the graphs whose bound is under it
+    are not matched at all (similarity -1, nodes 0). Those left out score under the
+    ``limit``-th best found, so the best ``limit`` of the outputs are those of every graph."""
     width = max(na, counts.max())
     sims = np.empty((na * width, na, width))
     fwork = np.empty(na * width + 4 * na + width)
     iwork = np.empty((9 + na, width), dtype=np.int64)
-    for k in range(rows.shape[0]):
+    count = rows.shape[0]
+    visit = np.argsort(-bounds, kind="mergesort") if limit > 0 else np.arange(count)
+    # the best limit similarities so far, best first
+    best = np.full(max(limit, 1), -1.0)
+    floor = threshold
+    for t in range(count):
+        k = visit[t]
+        if limit > 0 and bounds[k] < floor - EPSILON:
+            for u in range(t, count):
+                similarity[visit[u]] = -1.0
+                nodes[visit[u]] = 0
+            break
         r = rows[k]
         s, ra, rb, expanded = match_case(da, aa, adj_a, na, db, ab, adj_b, pair_starts[r],
                                          key_start[r], counts[r], matching, normalise,
-                                         constraint,
-                                         threshold, references[k], sims, fwork, iwork,
-                                         mapping[k])
+                                         constraint, floor, references[k], sims, fwork,
+                                         iwork, mapping[k])
         similarity[k] = s
         reference[k, 0] = ra
         reference[k, 1] = rb
         nodes[k] = expanded
+        if limit > 0 and s > best[limit - 1]:
+            e = limit - 1
+            while e > 0 and best[e - 1] < s:
+                best[e] = best[e - 1]
+                e -= 1
+            best[e] = s
+            floor = max(threshold, best[limit - 1])

@@ -203,8 +203,9 @@ def case_similarity(a: LandmarkGraph, b: LandmarkGraph,
     mapping = np.full((1, a.n), -1, dtype=np.int64)
     nodes = np.empty(1, dtype=np.int64)
     match_rows(da, aa, adj_a, a.n, one, np.ones((1, a.n, b.n), dtype=np.bool_),
-               np.array([b.n]), one, one, db, ab, adj_b, MATCHING.index(options.matching),
-               NORMALISE.index(options.normalise), CONSTRAINT.index(options.constraint),
+               np.ones(1), 0, np.array([b.n]), one, one, db, ab, adj_b,
+               MATCHING.index(options.matching), NORMALISE.index(options.normalise),
+               CONSTRAINT.index(options.constraint),
                threshold, similarity, reference, mapping, nodes)
     if similarity[0] < 0.0:
         return None
