@@ -172,7 +172,8 @@ def learning_setup() -> str:
     train, test = results["training_worlds_per_shape"], results["unseen_worlds_per_shape"]
     shapes = len(results["shapes"])
     first, last = results["seeds"][0], results["seeds"][-1]
-    return (f"For each of {seeds} seeds ({first} to {last}) the three robots drive {trials} "
+    which = f"{first} to {last}" if last != first else f"{first}"
+    return (f"For each of {seeds} seeds ({which}) the three robots drive {trials} "
             f"times from start to "
             f"target in each of {train * shapes} training worlds ({train} of each of the "
             f"{shapes} shapes), then in {test * shapes} unseen ones ({test} of each).")
