@@ -320,7 +320,8 @@ def test_the_docs_blocks_render_from_these_results(
     assert robust.startswith("| start heading | 60° camera |")
     assert "Not measured yet" not in robust
     assert f"({scenarios[1]['robustness']['trials']} trials per cell; threshold 0.75." in robust
-    assert blocks.learning_setup().startswith("For each of 1 seeds (0) the three robots drive 2 times")
+    assert blocks.learning_setup().startswith(
+        "For each of 1 seeds (0) the three robots drive 2 times")
     tables = blocks.learning_tables()
     assert "| shape | robot | success | time | distance |" in tables
     assert tables.count("| room | ") == 3

@@ -393,6 +393,20 @@ def test_a_case_is_not_reused_where_the_way_to_the_target_is_clear(
         assert isinstance(proposal.solution.value, Divert)
 
 
+def test_a_case_whose_walls_stand_where_the_robot_saw_the_way_open_is_not_reused(
+        plugins: Plugins, world_file: Path) -> None:
+    """The V case says l2-l4 is a wall; a robot whose map has seen the way between l2 and l4
+    open does not take it."""
+    problem = observe(world_file)
+    solutions = []
+    for seen_open in ((), (("l4", "l2"),)):
+        with engine_for(plugins, world_file) as engine:
+            assert engine.casebase is not None
+            engine.casebase.add(case_toward(problem, OUTSIDE).to_case())
+            solutions.append(engine.solve(attrs.evolve(problem, open=seen_open)).solution)
+    assert isinstance(solutions[0].value, Divert) and solutions[1] is None
+
+
 def test_a_target_behind_a_known_wall_is_reached_round_its_end(
         plugins: Plugins, world_file: Path) -> None:
     """Beyond the U's closed end the straight way crosses the wall l1-l2 the robot sees; the

@@ -179,6 +179,15 @@ def test_a_gap_found_where_an_obstacle_was_perceived_unlearns_it() -> None:
 
     assert not known.perceives("l1", "l2")
     assert known.evidence("l1", "l2")[1] >= BINS // 2
+    assert known.sees_open("l1", "l2") and known.open_between(["l2", "l1"]) == (("l2", "l1"),)
+
+
+def test_the_way_between_landmarks_is_open_only_once_sensed_so() -> None:
+    a, b = (12.0, 15.0), (16.0, 15.0)
+    known = drive(make_world(a, b, [{"between": ["l1", "l2"]}]), beside(a, b, 0.8))
+    assert not known.sees_open("l1", "l2")
+    far = drive(make_world(a, b, []), beside(a, b, 5.6))
+    assert far.evidence("l1", "l2") == (0, 0) and not far.sees_open("l1", "l2")
 
 
 def test_bumps_along_a_wall_alone_make_it_perceived() -> None:

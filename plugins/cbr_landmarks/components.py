@@ -220,6 +220,7 @@ class LandmarkReuser:
         found: MatchedView = retrieval.payload
         here = (problem.pose.x, problem.pose.y)
         seen = sighted_places(problem) if o.safe else {}
+        seen_open = set(problem.open)
         refused: list[dict[str, Any]] = []
         for match, case, matching in zip(retrieval.matches, found.cases, found.matchings,
                                          strict=True):
@@ -242,6 +243,10 @@ class LandmarkReuser:
                 # inside the trap the case describes is no way out of it
                 said = [(current.get(case.graph.ids[a]), current.get(case.graph.ids[b]))
                         for a, b in sorted(case.graph.obstacles)]
+                if any(pair in seen_open or pair[::-1] in seen_open for pair in said):
+                    refused.append({"case": case_id,
+                                    "why": "its walls stand where the robot saw the way open"})
+                    continue
                 walls, pairs = walls_between(
                     [*problem.obstacles, *((a, b) for a, b in said if a and b)], seen)
                 walls = np.concatenate((walls, known_walls(problem)))

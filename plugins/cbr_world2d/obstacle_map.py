@@ -179,6 +179,20 @@ class ObstacleMap:
         hits, frees = self.evidence(first, second)
         return hits - frees >= o.coverage * BINS - 1e-9
 
+    def sees_open(self, first: str, second: str) -> bool:
+        """Whether the robot has seen the way between two landmarks open: the stretches the
+        evidence holds free outnumber those it holds occupied by ``coverage`` of them (the
+        mirror of :meth:`perceives`)."""
+        hits, frees = self.evidence(first, second)
+        return frees - hits >= self.options.coverage * BINS - 1e-9
+
+    def open_between(self, ids: Sequence[str]) -> tuple[tuple[str, str], ...]:
+        """The pairs of the landmarks ``ids`` the robot has seen open between, in the order of
+        ``ids``."""
+        known = [id for id in ids if id in self._index]
+        return tuple((a, b) for k, a in enumerate(known) for b in known[k + 1:]
+                     if self.sees_open(a, b))
+
     def between(self, ids: Sequence[str]) -> tuple[tuple[str, str], ...]:
         """The perceived obstacles joining two of the landmarks ``ids``, as pairs of ids in the
         order of ``ids``."""

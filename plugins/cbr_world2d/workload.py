@@ -164,7 +164,9 @@ class Situation:
     ``remembered`` the ids of the sightings that come from the landmark memory rather than the
     camera's current view (:mod:`cbr_world2d.landmark_memory`), ``walls`` every obstacle the
     robot's map has perceived, in view or not, as the segment between the places it believes
-    the two landmarks at (the odometry's frame, as ``pose``), and ``bounds`` the arena's
+    the two landmarks at (the odometry's frame, as ``pose``), ``open`` the pairs of those
+    landmarks its map has seen the way open between (no linear obstacle there), and ``bounds``
+    the arena's
     outline ``(xmin, ymin, xmax, ymax)``, which the robot knows as it knows the target: a
     floor plan's walls, with nothing inside.
     """
@@ -183,6 +185,7 @@ class Situation:
     remembered: tuple[str, ...] = ()
     walls: tuple[tuple[Point, Point], ...] = ()
     bounds: tuple[float, float, float, float] | None = None
+    open: tuple[tuple[str, str], ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         """Plain data of the situation, as a retainer stores it in a case."""
@@ -198,6 +201,7 @@ class Situation:
             "remembered": list(self.remembered),
             "walls": [[list(a), list(b)] for a, b in self.walls],
             "bounds": None if self.bounds is None else list(self.bounds),
+            "open": [list(pair) for pair in self.open],
         }
 
 
@@ -208,15 +212,16 @@ def situation(world: World, trial: int, trigger: str, obs: Observation, target: 
     ``memory`` (updated with ``obs``) the landmarks it remembers besides. Its obstacles are
     those the robot perceived between two of those landmarks, by its map ``known``; without a
     map, the linear obstacles ``world`` declares between them (the ground truth: for hand-made
-    cases and tests). Its walls are every obstacle of the map (none without one), its bounds
-    the world's."""
+    cases and tests). Its walls are every obstacle of the map and its open pairs those the map
+    has seen open (none without one), its bounds the world's."""
     sightings, remembered = ((obs.sightings, ()) if memory is None
                              else memory.sightings(obs))
     ids = [s.id for s in sightings]
     obstacles = world.obstacles_between(ids) if known is None else known.between(ids)
     return Situation(trial, obs.t, trigger, obs.pose, target, sightings, obstacles,
                      obs.sonar, obs.sonar_angles, obs.bumped, obs.confidence, remembered,
-                     () if known is None else known.walls(), world.bounds)
+                     () if known is None else known.walls(), world.bounds,
+                     () if known is None else known.open_between(ids))
 
 
 @attrs.frozen
