@@ -314,7 +314,8 @@ def test_the_docs_blocks_render_from_these_results(
     # benchmarks/figures.py renders them from kept results
     monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
     blocks = importlib.import_module("docfigures.landmark_experiments")
-    kept = {"landmark-scenarios": scenarios[1], "landmark-learning": learning[1]}
+    kept = {"landmark-scenarios": scenarios[1], "landmark-learning": learning[1],
+            f"landmark-learning-seed-{blocks.LEARNING_HELD_OUT}": learning[1]}
     monkeypatch.setattr(blocks, "kept_results", kept.__getitem__)
     robust = blocks.scenarios_robustness()
     assert robust.startswith("| start heading | 60° camera |")
@@ -325,7 +326,9 @@ def test_the_docs_blocks_render_from_these_results(
     tables = blocks.learning_tables()
     assert "| shape | robot | success | time | distance |" in tables
     assert tables.count("| room | ") == 3
-    assert blocks.learning_reading().startswith("- **Against its fallback**")
+    reading = blocks.learning_reading()
+    assert reading.startswith("- **Against its fallback**")
+    assert "- **On the seeds looked at** (the run of seed 0)" in reading
     # results of the earlier design render as not measured yet, naming how to measure them
     monkeypatch.setattr(blocks, "kept_results", lambda name: {"summary": {}})
     assert blocks.learning_tables().startswith("*Not measured yet")

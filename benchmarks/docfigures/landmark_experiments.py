@@ -154,8 +154,13 @@ def scenarios_robustness() -> str:
             + ".)")
 
 
-def _learning() -> dict[str, Any]:
-    return kept_results("landmark-learning")
+LEARNING_HELD_OUT = 30
+"""The seed of the learning run the docs' tables show: its seeds were never looked at while the
+method was fixed; the run of seed 0 (seeds 0 to 3) was, and is quoted beside it."""
+
+
+def _learning(seed: int = LEARNING_HELD_OUT) -> dict[str, Any]:
+    return kept_results("landmark-learning" if seed == 0 else f"landmark-learning-seed-{seed}")
 
 
 def _learning_now() -> dict[str, Any] | None:
@@ -212,4 +217,15 @@ def learning_reading() -> str:
         f"against the solver's {transfer_detour:.1f} s; its weakest shape there is "
         f"{weakest} ({weak * 100:.0f} % reached).\n"
         f"- **Target** (success at least 99 % on the unseen worlds, mean time below the detour "
-        f"solver's): " + ("met" if success >= 0.99 and faster else "not met") + ".")
+        f"solver's): " + ("met" if success >= 0.99 and faster else "not met") + "."
+        + _looked_at())
+
+
+def _looked_at() -> str:
+    """The run on the seeds looked at, in one line."""
+    looked = _learning(0)["summary"]
+    learned, detour = looked["cbr-learning"]["unseen"], looked["detour"]["unseen"]
+    return (f"\n- **On the seeds looked at** (the run of seed 0): the learning robot "
+            f"{learned['success']['mean'] * 100:.1f} % ({learned['time_all']['mean']:.1f} s), "
+            f"the detour solver alone {detour['success']['mean'] * 100:.1f} % "
+            f"({detour['time_all']['mean']:.1f} s).")

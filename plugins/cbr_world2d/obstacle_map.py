@@ -35,6 +35,12 @@ if TYPE_CHECKING:
 BINS = 16
 """Stretches each hypothetical obstacle's interior is cut into."""
 
+OPEN_SHARE = 0.75
+"""The share of a pair's stretches that must be free, none occupied, for the way between its
+landmarks to be seen open: in 002's scenario 2 a robot that passes the V's apex gets free votes
+on half the stretches of the V's arm beside it (the map places the arm a little off), and a
+room's door seen from inside and out gets them on 15 of 16."""
+
 SCAN_STEP = 0.1
 """Metres the robot must have moved since the last scan the map took before it takes another
 (or turned :data:`SCAN_TURN`, or bumped): consecutive readings of a slow robot say the same."""
@@ -180,11 +186,13 @@ class ObstacleMap:
         return hits - frees >= o.coverage * BINS - 1e-9
 
     def sees_open(self, first: str, second: str) -> bool:
-        """Whether the robot has seen the way between two landmarks open: the stretches the
-        evidence holds free outnumber those it holds occupied by ``coverage`` of them (the
-        mirror of :meth:`perceives`)."""
+        """Whether the robot has seen the way between two landmarks open: the evidence holds
+        no stretch occupied and at least :data:`OPEN_SHARE` of them free. Not the mirror of
+        :meth:`perceives`: a free vote needs no more than a reading past where the map places
+        a stretch, and a wall whose landmarks the map places some way off gets such votes on
+        the stretches it misses; a wall is nowhere along an open way."""
         hits, frees = self.evidence(first, second)
-        return frees - hits >= self.options.coverage * BINS - 1e-9
+        return hits == 0 and frees >= OPEN_SHARE * BINS
 
     def open_between(self, ids: Sequence[str]) -> tuple[tuple[str, str], ...]:
         """The pairs of the landmarks ``ids`` the robot has seen open between, in the order of
