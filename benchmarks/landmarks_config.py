@@ -4,11 +4,11 @@ unchanged but for the world on generated scenario worlds of every shape
 (``world2d_generated``, kind ``scenario``), each world a run of its own with a fresh case base,
 the trials repeated as the configuration says.
 
-    python benchmarks/landmarks_config.py [--seeds 200,...,229] [--looked-at 200,...,217]
+    python benchmarks/landmarks_config.py [--seeds 200,...,253] [--looked-at 200,...,241]
                                           [--repeat 10]
 
-The seeds default to 200 to 229, five worlds of each shape; those of ``--looked-at`` (200 to
-217) were looked at while the configuration and the family's defaults were chosen, the others
+The seeds default to 200 to 253, nine worlds of each shape; those of ``--looked-at`` (200 to
+241) were looked at while the configuration and the family's defaults were chosen, the others
 are held out.
 
 Writes ``landmarks_config.json`` and ``landmarks_config.md`` (per world its shape, the trials
@@ -33,8 +33,8 @@ CONFIG = Path(__file__).resolve().parent.parent / "configs" / "landmarks.yaml"
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", default=",".join(str(s) for s in range(200, 230)))
-    parser.add_argument("--looked-at", default=",".join(str(s) for s in range(200, 218)))
+    parser.add_argument("--seeds", default=",".join(str(s) for s in range(200, 254)))
+    parser.add_argument("--looked-at", default=",".join(str(s) for s in range(200, 242)))
     parser.add_argument("--repeat", type=int, default=10)
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results")
     args = parser.parse_args()

@@ -334,6 +334,18 @@ def case_toward(problem: Situation, point: tuple[float, float]) -> LandmarkCase:
     return LandmarkCase(graph, DivertAction.toward(point, places, linked(graph)))
 
 
+def solve_with(plugins: Plugins, world_file: Path, problem: Situation,
+               targets: list[tuple[float, float]], reuse: dict[str, Any] | None = None
+               ) -> Proposal:
+    """The engine's proposal for ``problem`` with a V case toward each of ``targets`` stored,
+    in that order (:func:`case_toward`)."""
+    with engine_for(plugins, world_file, reuse) as engine:
+        assert engine.casebase is not None
+        for point in targets:
+            engine.casebase.add(case_toward(problem, point).to_case())
+        return engine.solve(problem)
+
+
 def test_the_points_of_the_u_test_are_where_they_should_be() -> None:
     assert inside_u(INSIDE) and not inside_u(OUTSIDE) and not inside_u(OUTSIDE_TOO)
     assert math.dist(OUTSIDE, OUTSIDE_TOO) < 1.0
@@ -346,11 +358,7 @@ def test_the_points_of_the_u_test_are_where_they_should_be() -> None:
 @pytest.mark.parametrize("safe", [False, True])
 def test_a_case_that_lays_its_target_inside_the_u_is_not_reused_when_safe(
         plugins: Plugins, world_file: Path, safe: bool) -> None:
-    problem = observe(world_file)
-    with engine_for(plugins, world_file, {"safe": safe}) as engine:
-        assert engine.casebase is not None
-        engine.casebase.add(case_toward(problem, INSIDE).to_case())
-        proposal = engine.solve(problem)
+    proposal = solve_with(plugins, world_file, observe(world_file), [INSIDE], {"safe": safe})
     if safe:
         assert proposal.solution is None and proposal.fallback_reason == "reuse failed"
     else:
@@ -361,11 +369,7 @@ def test_a_case_that_lays_its_target_inside_the_u_is_not_reused_when_safe(
 def test_the_next_match_is_reused_when_the_best_lays_its_target_inside(
         plugins: Plugins, world_file: Path) -> None:
     problem = observe(world_file)
-    with engine_for(plugins, world_file) as engine:
-        assert engine.casebase is not None
-        engine.casebase.add(case_toward(problem, INSIDE).to_case())
-        engine.casebase.add(case_toward(problem, OUTSIDE).to_case())
-        proposal = engine.solve(problem)
+    proposal = solve_with(plugins, world_file, problem, [INSIDE, OUTSIDE])
     divert = proposal.solution.value
     assert isinstance(divert, Divert)
     assert (divert.x, divert.y) == pytest.approx(OUTSIDE, abs=1e-3)  # offsets kept to 0.1 mm
@@ -383,10 +387,7 @@ def test_a_case_is_not_reused_where_the_way_to_the_target_is_clear(
     """The same sighting, but the robot's target lies beside the start, the straight way to it
     clear of the U's wall and of the case's: the case is not needed there."""
     problem = attrs.evolve(observe(world_file), target=(1.0, 0.5))
-    with engine_for(plugins, world_file, {"needed": needed}) as engine:
-        assert engine.casebase is not None
-        engine.casebase.add(case_toward(problem, OUTSIDE).to_case())
-        proposal = engine.solve(problem)
+    proposal = solve_with(plugins, world_file, problem, [OUTSIDE], {"needed": needed})
     if needed:
         assert proposal.solution is None and proposal.fallback_reason == "reuse failed"
     else:
@@ -398,12 +399,8 @@ def test_a_case_whose_walls_stand_where_the_robot_saw_the_way_open_is_not_reused
     """The V case says l2-l4 is a wall; a robot whose map has seen the way between l2 and l4
     open does not take it."""
     problem = observe(world_file)
-    solutions = []
-    for seen_open in ((), (("l4", "l2"),)):
-        with engine_for(plugins, world_file) as engine:
-            assert engine.casebase is not None
-            engine.casebase.add(case_toward(problem, OUTSIDE).to_case())
-            solutions.append(engine.solve(attrs.evolve(problem, open=seen_open)).solution)
+    solutions = [solve_with(plugins, world_file, attrs.evolve(problem, open=seen_open),
+                            [OUTSIDE]).solution for seen_open in ((), (("l4", "l2"),))]
     assert isinstance(solutions[0].value, Divert) and solutions[1] is None
 
 

@@ -444,6 +444,11 @@ def test_a_graph_matches_itself_with_the_identity(graph: LandmarkGraph) -> None:
 # the index
 
 
+def _random_query(rng: np.random.Generator, n: int) -> LandmarkGraph:
+    """``n`` landmarks drawn in a 6 m square, each with its own uncertainty."""
+    return _graph(rng.uniform(-3, 3, (n, 2)).tolist(), rng.uniform(0.05, 0.6, n).tolist())
+
+
 def _store(rng: np.random.Generator, query: LandmarkGraph) -> list[LandmarkGraph]:
     """Random graphs of 2 to 5 landmarks and near copies of ``query``."""
     stored = []
@@ -493,7 +498,7 @@ def test_search_equals_the_brute_force(threshold: float, prefilter: bool, matchi
 def test_the_prefilter_changes_nothing(seed: int, threshold: float,
                                        options: SimilarityOptions, n: int) -> None:
     rng = np.random.default_rng(seed)
-    query = _graph(rng.uniform(-3, 3, (n, 2)).tolist(), rng.uniform(0.05, 0.6, n).tolist())
+    query = _random_query(rng, n)
     # near copies score near 1, where the cuts are narrow
     index = SituationIndex.build(_store(rng, query) + [_near(query, rng) for _ in range(4)])
     with_it = index.search(query, threshold, options)
@@ -512,7 +517,7 @@ def test_the_best_few_are_the_first_of_all(seed: int, threshold: float,
     # a search for the best few looks at stricter thresholds first: exact copies of the query
     # reach them, near copies may not
     rng = np.random.default_rng(seed)
-    query = _graph(rng.uniform(-3, 3, (n, 2)).tolist(), rng.uniform(0.05, 0.6, n).tolist())
+    query = _random_query(rng, n)
     stored = _store(rng, query) + [query] * int(rng.integers(0, 4))
     index = SituationIndex.build(stored)
     every = index.search(query, threshold, options)
@@ -554,7 +559,7 @@ def test_both_pair_layouts_give_the_same_candidates(seed: int, threshold: float,
     # the prefilter goes through the stored pairs of all counts together or count by count
     # (index.TOGETHER): the reference pairs it hands on, and their bounds, are the same
     rng = np.random.default_rng(seed)
-    query = _graph(rng.uniform(-3, 3, (n, 2)).tolist(), rng.uniform(0.05, 0.6, n).tolist())
+    query = _random_query(rng, n)
     index = SituationIndex.build(_store(rng, query) + [_near(query, rng) for _ in range(4)])
     flat = flattened(query)
     found = []
