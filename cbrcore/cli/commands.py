@@ -20,6 +20,7 @@ from rich.table import Table
 from rich.text import Text
 
 from cbrcore.cli import completion
+from cbrcore.cli.reference import cli_reference
 from cbrcore.config import load_config
 from cbrcore.engine import Engine
 from cbrcore.experiment import Size as ExperimentSize
@@ -49,6 +50,7 @@ class Reference(enum.StrEnum):
 
     config = "config"
     hooks = "hooks"
+    cli = "cli"
 
 
 def _out() -> Console:
@@ -244,15 +246,19 @@ def experiment(
 
 
 def reference(
+    ctx: typer.Context,
     what: Reference = typer.Argument(
         ..., metavar="WHAT", show_default=False,
-        help="config: every component and its options; hooks: the hook specifications."),
+        help="config: every component and its options; hooks: the hook specifications; "
+             "cli: every command with its arguments and options."),
 ) -> None:
-    """Print the configuration or hook reference as markdown."""
+    """Print the configuration, hook or command-line reference as markdown."""
     if what is Reference.config:
         typer.echo(config_reference(current().registry), nl=False)
-    else:
+    elif what is Reference.hooks:
         typer.echo(hook_reference(), nl=False)
+    else:  # the command tree this very command belongs to, plugins' commands included
+        typer.echo(cli_reference(ctx.find_root().command, current()), nl=False)
 
 
 def install(app: typer.Typer, registry: Registry) -> None:

@@ -408,21 +408,33 @@ def show(
     robot_radius: RobotRadius = None,
     inflation_radius: InflationRadius = None,
     cost_scaling: CostScaling = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print a JSON object.")] = False,
     plot: PlotPath = None,
 ) -> None:
     """Print a map's size, passable and unknown cells and metric frame; draw it with --plot."""
     _, grid = _map(map_file, unknown_risk, robot_radius, inflation_radius, cost_scaling)
     unknown = 0 if grid.unknown is None else int(grid.unknown.sum())
-    typer.echo(f"{map_file}: {grid.width}x{grid.height}, {int(grid.passable.sum())} passable "
-               f"cells, {unknown} unknown")
+    facts: dict[str, object] = {"map": str(map_file), "width": grid.width,
+                                "height": grid.height, "passable": int(grid.passable.sum()),
+                                "unknown": unknown, "frame": None}
     if grid.frame is not None:
         corners = grid.frame.corners(grid.width, grid.height)
         (left, bottom), (right, top) = corners.min(0), corners.max(0)
+        facts["frame"] = {"resolution": grid.frame.resolution,
+                          "origin": [float(v) for v in grid.frame.origin],
+                          "x": [float(left), float(right)], "y": [float(bottom), float(top)]}
+    if plot is not None:
+        _save_plot(grid, plot)
+    if as_json:
+        typer.echo(json.dumps(facts))
+        return
+    typer.echo(f"{map_file}: {grid.width}x{grid.height}, {facts['passable']} passable "
+               f"cells, {unknown} unknown")
+    if grid.frame is not None:
         x, y, yaw = grid.frame.origin
         typer.echo(f"frame: {grid.frame.resolution:g} m per cell, origin ({x:g}, {y:g}, "
                    f"yaw {yaw:g}), x {left:g} to {right:g} m, y {bottom:g} to {top:g} m")
     if plot is not None:
-        _save_plot(grid, plot)
         typer.echo(f"wrote {plot}")
 
 
