@@ -120,6 +120,18 @@ def test_show_counts_what_a_world_file_holds_and_draws_it(cbr_cli: Cli, room: Pa
     assert_png(out)
 
 
+def test_show_json_counts_what_a_world_file_holds(cbr_cli: Cli, room: Path,
+                                                  tmp_path: Path) -> None:
+    out = tmp_path / "room.png"
+    result = cbr_cli("sim", "show", str(room), "--json", "--plot", str(out))
+    assert result.exit_code == 0, result.stderr
+    assert json.loads(result.stdout) == {
+        "world": "room", "bounds": [0, 0, 8, 6], "walls": 2, "linear_obstacles": 1,
+        "polygons": 1, "points": 1, "landmarks": 2, "doors": 1, "movers": 1,
+        "places": ["desk", "home"], "segments": 9}
+    assert_png(out)
+
+
 @pytest.mark.parametrize("kind", ["semi_structured", "office"])
 def test_show_builds_a_generated_world(cbr_cli: Cli, kind: str) -> None:
     from cbr_world2d import generate

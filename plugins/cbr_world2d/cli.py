@@ -149,6 +149,7 @@ def show(world_name: WorldArgument, plot: PlotOption = None,
              "--at", metavar="SECONDS",
              help="Draw doors and people as they are at this time (seconds, from 0 to "
              "1e6).")] = 0.0,
+         as_json: Annotated[bool, typer.Option("--json", help="Print a JSON object.")] = False,
          ) -> None:
     """Print a 2D world's bounds and what it holds; draw it with --plot."""
     from cbr_world2d.worldfile import MAX_MAGNITUDE
@@ -159,12 +160,25 @@ def show(world_name: WorldArgument, plot: PlotOption = None,
     _writable(plot, "--plot")
     world = load(world_name)
     xmin, ymin, xmax, ymax = world.bounds
+    linear = sum(w.between is not None for w in world.walls)
+    if plot is not None:
+        from cbr_world2d.plot import plot_world
+
+        plot_world(world, plot, t=at)
+    if as_json:
+        typer.echo(json.dumps({
+            "world": world.name or world_name, "bounds": [xmin, ymin, xmax, ymax],
+            "walls": len(world.walls), "linear_obstacles": linear,
+            "polygons": len(world.polygons), "points": len(world.points),
+            "landmarks": len(world.landmarks), "doors": len(world.doors),
+            "movers": len(world.movers), "places": sorted(world.places),
+            "segments": int(world.static_segments.shape[0])}))
+        return
     lines = [
         ("world", world.name or world_name),
         ("bounds", f"{xmin:g},{ymin:g} to {xmax:g},{ymax:g} ({xmax - xmin:g} x "
                    f"{ymax - ymin:g} m)"),
-        ("walls", f"{len(world.walls)} ({sum(w.between is not None for w in world.walls)} "
-                  "linear obstacles between landmarks)"),
+        ("walls", f"{len(world.walls)} ({linear} linear obstacles between landmarks)"),
         ("polygons", str(len(world.polygons))),
         ("points", str(len(world.points))),
         ("landmarks", str(len(world.landmarks))),
@@ -176,9 +190,6 @@ def show(world_name: WorldArgument, plot: PlotOption = None,
     for key, value in lines:
         typer.echo(f"{key:<10} {value}")
     if plot is not None:
-        from cbr_world2d.plot import plot_world
-
-        plot_world(world, plot, t=at)
         typer.echo(f"wrote {plot}")
 
 
