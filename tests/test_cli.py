@@ -825,7 +825,7 @@ def test_completion_offers_experiments_references_and_settings(
     assert completing("cbr experiment ") == ["sum_of_squares"]
     assert completing("cbr experiment sum") == ["sum_of_squares"]
     assert completing("cbr experiment x") == []
-    assert completing("cbr reference ") == ["config", "hooks"]
+    assert completing("cbr reference ") == ["config", "hooks", "cli"]
     assert completing("cbr run toy.yaml --set ret") == ["retain=", "retrieve="]
     assert completing("cbr validate toy.yaml -s s") == ["seed=", "solver="]
 

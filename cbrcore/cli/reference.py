@@ -26,8 +26,8 @@ a choice by its values (`[ci|full]`); an optional argument is in brackets (`[NAM
 commands follow the same conventions: `cbr` applies them to every command it lists.
 
 **Output.** Tables fit the terminal they are printed in; when standard output is a pipe or a
-file they are never wrapped or cut at a width. For programs, `--json` prints JSON objects
-instead of tables and lines (every command that prints data has it).
+file they are never wrapped or cut at a width. For programs, a command with `--json` in its
+table below prints JSON instead of tables and lines, with the same exit code.
 
 **Exit codes.** 0 on success. 2 for a user error: a bad configuration, an unknown component, a
 plugin that fails in a phase, an unusable case base file, a bad option or argument (a value
