@@ -299,7 +299,8 @@ def test_plan_says_how_to_cross_an_unknown_cell(cbr_cli: Cli, args: tuple[str, .
      "'--robot-radius'"),
     (DEPOT, ("--start", "40,266", "--goal", "400,236", "--robot-radius", "0.5",
              "--inflation-radius", "0.2"), "'--inflation-radius'"),
-    (DEPOT, ("--start", "40,266", "--goal", "400,236", "--frame", "metres"), "'--frame'"),
+    (DEPOT, ("--start", "40,266", "--goal", "400,236", "--frame", "metres"),
+     "--frame: 'metres' is not one of cell, map"),
 ])
 def test_plan_refuses_frames_and_inflation_that_do_not_apply(
         cbr_cli: Cli, map_file: Path, args: tuple[str, ...], option: str) -> None:

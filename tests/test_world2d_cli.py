@@ -343,12 +343,17 @@ def test_a_bad_generated_world_is_named(cbr_cli: Cli, world: str) -> None:
     assert_refused(cbr_cli("sim", "show", world), "Invalid value for 'WORLD'", repr(world))
 
 
-@pytest.mark.parametrize(("option", "value"), [("--timeout", "0"), ("--timeout", "-5"),
-                                               ("--dt", "0"), ("--tolerance", "inf"),
-                                               ("--robot", "r2d2"), ("--rescue", "always")])
-def test_run_refuses_a_bad_option(cbr_cli: Cli, room: Path, option: str, value: str) -> None:
+@pytest.mark.parametrize(("option", "value", "message"), [
+    ("--timeout", "0", "Invalid value for '--timeout'"),
+    ("--timeout", "-5", "Invalid value for '--timeout'"),
+    ("--dt", "0", "Invalid value for '--dt'"),
+    ("--tolerance", "inf", "Invalid value for '--tolerance'"),
+    ("--robot", "r2d2", "--robot: 'r2d2' is not one of pioneer2dx, ros2005"),
+    ("--rescue", "always", "--rescue: 'always' is not one of off, blocked, stuck")])
+def test_run_refuses_a_bad_option(cbr_cli: Cli, room: Path, option: str, value: str,
+                                  message: str) -> None:
     assert_refused(cbr_cli("sim", "run", str(room), "--start", "home", "--target", "desk",
-                           option, value), f"Invalid value for '{option}'")
+                           option, value), message)
 
 
 @pytest.mark.parametrize(("option", "value"), [("--trials", "0"), ("--workers", "0"),
