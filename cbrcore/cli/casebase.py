@@ -137,7 +137,10 @@ def info(
     file: CaseBaseFile = None,
     store: StoreOption = None,
     config: ConfigOption = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print the facts as JSON.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help=(
+        "Print the facts as JSON: store (its registered name), revision, cases, kinds, worlds, "
+        "then the store's own (for a SQLite file path, schema, size_bytes, wal_bytes and "
+        "journal_mode)."))] = False,
 ) -> None:
     """Show a case base's store, revision, case counts by kind, the worlds its cases belong to,
     and what its store tells of it (for a SQLite file: path, schema version, sizes and journal

@@ -141,7 +141,9 @@ def validate(
     config: Path = typer.Argument(..., metavar="CONFIG",
                                   help="The YAML configuration to check."),
     set_: list[str] = _set_option(),
-    as_json: bool = _json_option("the resolved components, every default filled in,"),
+    as_json: bool = _json_option(
+        '{"config": CONFIG, "resolved": {...}}, every slot\'s component with all its options, '
+        "defaults filled in, as a run's manifest.json records them,"),
 ) -> None:
     """Check a configuration without running it; list the components it selects."""
     checked = load_config(config, current().registry, set_)
@@ -160,7 +162,10 @@ def validate(
 
 
 def plugins(
-    as_json: bool = _json_option("the plugins"),
+    as_json: bool = _json_option(
+        "the plugins (keys plugins, each with name, module, distribution, version, hooks, "
+        "components and kinds; failed, each with name, distribution, version, stage and error; "
+        "and skipped)"),
 ) -> None:
     """List the loaded plugins, their distributions, hooks, components and the component kinds
     they declare, and any failures."""
