@@ -570,8 +570,11 @@ def test_reference_cli_documents_every_command_a_plugin_s_included(cbr_cli: Cli)
 
 
 def test_the_command_line_reference_is_current(cbr_plugins: Callable[..., Plugins],
-                                               cbr_cli: Cli) -> None:
-    """docs/reference/cli.md is ``cbr reference cli`` with the built-in plugins alone."""
+                                               cbr_cli: Cli,
+                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    """docs/reference/cli.md is ``cbr reference cli`` with the built-in plugins alone, whatever
+    the width of the terminal (the page was written at the default)."""
+    monkeypatch.setenv("COLUMNS", "40")
     builtin = sorted(ep.name for ep in metadata.distribution("cbrcore").entry_points
                      if ep.group == "cbr")
     plugins = cbr_plugins(entry_points=True, environ={"CBR_PLUGINS": ",".join(builtin),
