@@ -7,7 +7,9 @@ metavar it declares or else its choices (``--size [ci|full]``) or its name in ca
 (``--trials TRIALS``), never by a typed placeholder (``<int range>``, ``<list[str]>``) or a
 braced argument (``{config}``). Declare a metavar that says what the value is where the name
 does not (``--set KEY.PATH=VALUE``, ``--start X,Y|PLACE``), and list a fixed set of values as an
-``enum.Enum`` (or :func:`choices` in the metavar of a value typer cannot see as a choice).
+``enum.Enum`` (or :func:`choices` in the metavar of a value typer cannot see as a choice). A
+value outside an enum's choices is refused in plain words, ``--size: 'huge' is not one of ci,
+full``, a usage error (exit code 2).
 
 An option whose value is written ``KEY=VALUE`` (``--set retrieve=nearest``) completes in bash
 too, which splits that word at its ``=`` (:func:`cbrcore.cli.completion.split_option_value`):
@@ -64,7 +66,7 @@ def metavar_of(param: Any) -> str | None:
     return choices(found) if found else str(param.name).upper()
 
 
-class PlainBadParameter(typer.BadParameter):
+class _PlainBadParameter(typer.BadParameter):
     """A bad value whose message names the parameter itself, shown as it is."""
 
     def format_message(self) -> str:
@@ -72,7 +74,7 @@ class PlainBadParameter(typer.BadParameter):
 
 
 def _choice_error(command: Any, ctx: typer.Context, args: list[str],
-                  param: Any) -> PlainBadParameter | None:
+                  param: Any) -> _PlainBadParameter | None:
     """The plain error for a value of ``param`` outside its choices (``--robot: 'nosuch' is not
     one of pioneer2dx, ros2005``), or None when ``param`` takes no fixed set of values."""
     found = _choices_of(param) if param is not None else None
@@ -85,7 +87,7 @@ def _choice_error(command: Any, ctx: typer.Context, args: list[str],
     if bad is None:
         return None
     name = max(param.opts, key=len) if param.param_type_name == "option" else param.metavar
-    return PlainBadParameter(f"{name}: {bad!r} is not one of {', '.join(allowed)}", ctx=ctx,
+    return _PlainBadParameter(f"{name}: {bad!r} is not one of {', '.join(allowed)}", ctx=ctx,
                              param=param)
 
 
