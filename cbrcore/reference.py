@@ -2,6 +2,7 @@
 
 The docs pages ``docs/reference/configuration.md`` and ``docs/reference/hooks.md`` are this
 module's output (``cbr reference config`` and ``cbr reference hooks``); a test keeps them current.
+The command-line reference is :mod:`cbrcore.cli.reference`'s.
 """
 
 from __future__ import annotations

@@ -15,6 +15,8 @@ occupancy[20:40, 133] = False
 config = {
     "retrieve": {"use": "casegraph", "delta": 8},
     "reuse": "casegraph",
+    # without a reviser every reused path is taken as it is, however long
+    "revise": {"use": "path_quality", "ideal": "landmarks", "max_ratio": 1.5},
     "solver": "astar",
     "retain": ["casegraph"],
     "forget": ["redundant_vertices"],

@@ -73,6 +73,14 @@ def _plan(*args: str) -> Case:
     return case
 
 
+def _cbr(*args: str) -> Case:
+    """``cbr`` with ``args``, a map named ``small.map`` taken in tmp."""
+    def case(tmp: Path, cbr_cli: Cli) -> CliResult:
+        return cbr_cli(*(str(tmp / a) if a == "small.map" else a for a in args))
+
+    return case
+
+
 def _scen(*lines: str) -> str:
     return "version 1\n" + "".join(f"0\tsmall.map\t3\t2\t{line}\n" for line in lines)
 
@@ -167,6 +175,24 @@ CASES = {
     "worlds option of an unknown value": (
         _run("casebase: {use: sqlite, worlds: some}"),
         "casebase.worlds (line 1, column 33): expected one of 'one', 'any', got 'some'"),
+    "plan solver not among the choices": (
+        _cbr("plan", "small.map", "--solver", "nosuch"),
+        "--solver: 'nosuch' is not one of dijkstra, astar, aistar, jps, genetic"),
+    "plan frame not among the choices": (
+        _cbr("plan", "small.map", "--frame", "metres"),
+        "--frame: 'metres' is not one of cell, map"),
+    "sim run robot not among the choices": (
+        _cbr("sim", "run", "generated:office:1", "--start", "1,1", "--target", "2,2",
+             "--robot", "nosuch"),
+        "--robot: 'nosuch' is not one of pioneer2dx, ros2005"),
+    "sim batch rescue not among the choices": (
+        _cbr("sim", "batch", "generated:office:1", "--rescue", "sometimes"),
+        "--rescue: 'sometimes' is not one of off, blocked, stuck"),
+    "experiment size not among the choices": (
+        _cbr("experiment", "cbr-share", "--size", "huge"),
+        "--size: 'huge' is not one of ci, full"),
+    "reference not among the choices": (
+        _cbr("reference", "everything"), "WHAT: 'everything' is not one of config, hooks, cli"),
 }
 if importlib.util.find_spec("psycopg") is not None:
     CASES |= {
@@ -209,6 +235,7 @@ def test_a_bad_input_is_one_error_naming_the_place_without_its_content(
     assert MARKER not in result.stdout + result.stderr
     assert "hunter2" not in result.stdout + result.stderr
     assert message in result.stderr
+    assert "Value error" not in result.stderr
     assert not (tmp_path / "trace.jsonl").exists() and not (tmp_path / "cb.sqlite").exists()
 
 

@@ -12,11 +12,13 @@ line (YAML: line and path) and item its message names.
 
 from __future__ import annotations
 
+import json
 from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -390,3 +392,15 @@ def test_show_prints_either_form(cli: Cli, tmp_path: Path, fmt: str) -> None:
     assert result.exit_code == 0, result.stderr
     parse = parse_sexp if fmt == "sexp" else parse_yaml
     assert parse(result.stdout) == parse_sexp(FIGURES)
+
+
+def test_show_json_holds_the_entries_of_the_yaml_form(cli: Cli, tmp_path: Path) -> None:
+    (tmp_path / "figures.sexp").write_text(FIGURES)
+    result = cli("rupart", "show", str(tmp_path / "figures.sexp"), "--json")
+    assert result.exit_code == 0, result.stderr
+    entries = json.loads(result.stdout)["cases"]
+    assert entries == yaml.safe_load(cli("rupart", "show", str(tmp_path / "figures.sexp"),
+                                         "--format", "yaml").stdout)
+    # the entries are a case file in their own right, holding the same cases
+    (tmp_path / "again.yaml").write_text(yaml.safe_dump(entries))
+    assert parse_yaml((tmp_path / "again.yaml").read_text()) == parse_sexp(FIGURES)

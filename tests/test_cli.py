@@ -424,10 +424,10 @@ def test_traceback_option_shows_where_an_error_came_from(cbr_cli: Cli, toy_confi
     (("run", "--bogus"), "No such option: --bogus"),
     (("validate",), "Missing argument"),
     (("teleport",), "No such command 'teleport'"),
-    (("experiment", "sum_of_squares", "--size", "huge"), "'huge' is not one of 'ci', 'full'"),
+    (("experiment", "sum_of_squares", "--size", "huge"), "--size: 'huge' is not one of ci, full"),
     (("experiment",), "name an experiment, or use --list"),
     (("experiment", "sum_of_squares", "--json"), "--json goes with --list"),
-    (("reference", "everything"), "'everything' is not one of 'config', 'hooks'"),
+    (("reference", "everything"), "WHAT: 'everything' is not one of config, hooks, cli"),
     (("reference",), "Missing argument 'WHAT'"),
 ])
 def test_usage_errors_exit_with_code_2(cbr_cli: Cli, args: tuple[str, ...],
@@ -544,6 +544,48 @@ def test_reference_hooks_documents_every_hook(cbr_cli: Cli) -> None:
                         "## `cbr_solve`", "## `cbr_retain`", "## `cbr_forget`", "## `cbr_warm`"]
     assert lines.count("*firstresult*") == 6
     assert lines.count("*collect-all*") == 6
+
+
+@pytest.mark.usefixtures("toy")
+def test_reference_cli_documents_every_command_a_plugin_s_included(cbr_cli: Cli) -> None:
+    result = cbr_cli("reference", "cli")
+
+    assert result.exit_code == 0
+    lines = result.stdout.splitlines()
+    assert lines[0] == "# Command line reference"
+    headings = [line for line in lines if line.startswith("## `")]
+    assert {"## `cbr run`", "## `cbr validate`", "## `cbr plugins`", "## `cbr experiment`",
+            "## `cbr reference`", "## `cbr casebase`", "## `cbr greet`"} <= set(headings)
+    assert "### `cbr casebase info`" in lines
+    # usage lines, option rows with metavar, choices and defaults, as help gives them
+    assert "cbr greet [OPTIONS] NAME" in lines
+    assert "cbr experiment [OPTIONS] [NAME]" in lines
+    assert ("| `--size [ci\\|full]` | ci: small enough for a test run (minutes at most); full: "
+            "the papers' scale. | `ci` |") in lines
+    assert "| `--seed SEED` | Seed of every random choice. At least 0. | `0` |" in lines
+    assert "| `CONFIG` | The YAML configuration to run. | required |" in lines
+    assert ("| `--out`, `-o DIR` | Output folder (default: runs/<config name>; a run into a "
+            "folder that holds a case base continues from it). |  |") in lines
+    assert "| `--loud` |  |  |" in lines
+
+
+def test_the_command_line_reference_is_current(cbr_plugins: Callable[..., Plugins],
+                                               cbr_cli: Cli,
+                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    """docs/reference/cli.md is ``cbr reference cli`` with the built-in plugins alone, whatever
+    the width of the terminal (the page was written at the default)."""
+    monkeypatch.setenv("COLUMNS", "40")
+    builtin = sorted(ep.name for ep in metadata.distribution("cbrcore").entry_points
+                     if ep.group == "cbr")
+    plugins = cbr_plugins(entry_points=True, environ={"CBR_PLUGINS": ",".join(builtin),
+                                                      "CBR_STRICT_PLUGINS": "1"})
+    assert sorted(p.name for p in plugins.loaded) == builtin
+
+    result = cbr_cli("reference", "cli")
+
+    assert result.exit_code == 0, result
+    page = Path(__file__).resolve().parents[1] / "docs" / "reference" / "cli.md"
+    assert page.read_text(encoding="utf-8") == result.stdout
 
 
 @pytest.mark.usefixtures("toy")
@@ -786,7 +828,7 @@ def test_completion_offers_experiments_references_and_settings(
     assert completing("cbr experiment ") == ["sum_of_squares"]
     assert completing("cbr experiment sum") == ["sum_of_squares"]
     assert completing("cbr experiment x") == []
-    assert completing("cbr reference ") == ["config", "hooks"]
+    assert completing("cbr reference ") == ["config", "hooks", "cli"]
     assert completing("cbr run toy.yaml --set ret") == ["retain=", "retrieve="]
     assert completing("cbr validate toy.yaml -s s") == ["seed=", "solver="]
 

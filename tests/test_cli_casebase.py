@@ -159,6 +159,28 @@ def test_check_explains_a_file_it_cannot_use(tmp_path: Path, content: bytes, rea
     assert path.read_bytes() == content
 
 
+def test_check_json_gives_the_verdict_and_the_problems(casebase: Path, tmp_path: Path) -> None:
+    sound = run("check", casebase, "--json")
+    assert sound.exit_code == 0
+    assert json.loads(sound.output) == {"casebase": str(casebase), "ok": True,
+                                        "problems": []}
+    connection = sqlite3.connect(casebase)
+    connection.execute("UPDATE cases SET uses = -1 WHERE id = 2")
+    connection.commit()
+    connection.close()
+    broken = run("check", casebase, "--json")
+    assert broken.exit_code == 1
+    assert json.loads(broken.output)["problems"] == [
+        "case 2: uses: expected a non-negative integer, got -1"]
+    garbage = tmp_path / "garbage.sqlite"
+    garbage.write_bytes(b"not a database at all")
+    unusable = run("check", garbage, "--json")
+    assert unusable.exit_code == 1
+    verdict = json.loads(unusable.output)
+    assert (verdict["casebase"], verdict["ok"]) == (None, False)
+    assert [f"{garbage} is not a case base" in p for p in verdict["problems"]] == [True]
+
+
 def test_check_a_missing_file(tmp_path: Path) -> None:
     result = run("check", tmp_path / "none.sqlite")
     assert isinstance(result.exception, CaseBaseError)

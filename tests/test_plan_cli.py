@@ -299,7 +299,8 @@ def test_plan_says_how_to_cross_an_unknown_cell(cbr_cli: Cli, args: tuple[str, .
      "'--robot-radius'"),
     (DEPOT, ("--start", "40,266", "--goal", "400,236", "--robot-radius", "0.5",
              "--inflation-radius", "0.2"), "'--inflation-radius'"),
-    (DEPOT, ("--start", "40,266", "--goal", "400,236", "--frame", "metres"), "'--frame'"),
+    (DEPOT, ("--start", "40,266", "--goal", "400,236", "--frame", "metres"),
+     "--frame: 'metres' is not one of cell, map"),
 ])
 def test_plan_refuses_frames_and_inflation_that_do_not_apply(
         cbr_cli: Cli, map_file: Path, args: tuple[str, ...], option: str) -> None:
@@ -388,3 +389,22 @@ def test_map_show_reads_every_format(cbr_cli: Cli, tmp_path: Path) -> None:
         result = cbr_cli("map", "show", str(path))
         assert result.exit_code == 0, result.stderr
         assert result.stdout.strip() == f"{path}: {size}, {passable} passable cells, 0 unknown"
+
+
+def test_map_show_json_gives_the_facts_of_the_text(cbr_cli: Cli, tmp_path: Path) -> None:
+    out = tmp_path / "depot.png"
+    result = cbr_cli("map", "show", str(DEPOT), "--json", "--plot", str(out))
+    assert result.exit_code == 0, result.stderr
+    plain = load_grid(DEPOT)
+    assert json.loads(result.stdout) == {
+        "map": str(DEPOT), "width": 604, "height": 307,
+        "passable": int(plain.passable.sum()), "unknown": 0,
+        "frame": {"resolution": 0.05, "origin": [0.0, 0.0, 0.0], "x": [0.0, pytest.approx(30.2)],
+                  "y": [0.0, pytest.approx(15.35)]}}
+    assert out.read_bytes().startswith(PNG_SIGNATURE)
+
+    grid = tmp_path / "small.grid"
+    grid.write_text(".#\n..\n", encoding="ascii")
+    result = cbr_cli("map", "show", str(grid), "--json")
+    assert json.loads(result.stdout) == {"map": str(grid), "width": 2, "height": 2,
+                                         "passable": 3, "unknown": 0, "frame": None}

@@ -120,6 +120,18 @@ def test_show_counts_what_a_world_file_holds_and_draws_it(cbr_cli: Cli, room: Pa
     assert_png(out)
 
 
+def test_show_json_counts_what_a_world_file_holds(cbr_cli: Cli, room: Path,
+                                                  tmp_path: Path) -> None:
+    out = tmp_path / "room.png"
+    result = cbr_cli("sim", "show", str(room), "--json", "--plot", str(out))
+    assert result.exit_code == 0, result.stderr
+    assert json.loads(result.stdout) == {
+        "world": "room", "bounds": [0, 0, 8, 6], "walls": 2, "linear_obstacles": 1,
+        "polygons": 1, "points": 1, "landmarks": 2, "doors": 1, "movers": 1,
+        "places": ["desk", "home"], "segments": 9}
+    assert_png(out)
+
+
 @pytest.mark.parametrize("kind", ["semi_structured", "office"])
 def test_show_builds_a_generated_world(cbr_cli: Cli, kind: str) -> None:
     from cbr_world2d import generate
@@ -331,12 +343,17 @@ def test_a_bad_generated_world_is_named(cbr_cli: Cli, world: str) -> None:
     assert_refused(cbr_cli("sim", "show", world), "Invalid value for 'WORLD'", repr(world))
 
 
-@pytest.mark.parametrize(("option", "value"), [("--timeout", "0"), ("--timeout", "-5"),
-                                               ("--dt", "0"), ("--tolerance", "inf"),
-                                               ("--robot", "r2d2"), ("--rescue", "always")])
-def test_run_refuses_a_bad_option(cbr_cli: Cli, room: Path, option: str, value: str) -> None:
+@pytest.mark.parametrize(("option", "value", "message"), [
+    ("--timeout", "0", "Invalid value for '--timeout'"),
+    ("--timeout", "-5", "Invalid value for '--timeout'"),
+    ("--dt", "0", "Invalid value for '--dt'"),
+    ("--tolerance", "inf", "Invalid value for '--tolerance'"),
+    ("--robot", "r2d2", "--robot: 'r2d2' is not one of pioneer2dx, ros2005"),
+    ("--rescue", "always", "--rescue: 'always' is not one of off, blocked, stuck")])
+def test_run_refuses_a_bad_option(cbr_cli: Cli, room: Path, option: str, value: str,
+                                  message: str) -> None:
     assert_refused(cbr_cli("sim", "run", str(room), "--start", "home", "--target", "desk",
-                           option, value), f"Invalid value for '{option}'")
+                           option, value), message)
 
 
 @pytest.mark.parametrize(("option", "value"), [("--trials", "0"), ("--workers", "0"),

@@ -137,7 +137,10 @@ def info(
     file: CaseBaseFile = None,
     store: StoreOption = None,
     config: ConfigOption = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print the facts as JSON.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help=(
+        "Print the facts as JSON: store (its registered name), revision, cases, kinds, worlds, "
+        "then the store's own (for a SQLite file path, schema, size_bytes, wal_bytes and "
+        "journal_mode)."))] = False,
 ) -> None:
     """Show a case base's store, revision, case counts by kind, the worlds its cases belong to,
     and what its store tells of it (for a SQLite file: path, schema version, sizes and journal
@@ -169,14 +172,17 @@ def check(
     file: CaseBaseFile = None,
     store: StoreOption = None,
     config: ConfigOption = None,
+    as_json: Annotated[bool, typer.Option(
+        "--json", help='Print the verdict as JSON: {"casebase", "ok", "problems"}.')] = False,
 ) -> None:
     """Check a case base thoroughly: its store's own check, then the invariants of every loaded
     plugin's cases (a case graph's segments meet only at vertices, ...).
 
     Prints "ok" and exits 0 when it is sound; lists the problems and exits 1 when it is not (or
     its store finds it unusable: corrupt, not a case base, or of another schema version); exits 2
-    when it does not exist.
+    when it does not exist. With --json the exit codes are the same.
     """
+    label: str | None = None
     try:
         with _opened(_casebase_slot(file, store, config, reading=True)) as (_, casebase):
             problems = casebase.check()
@@ -185,14 +191,21 @@ def check(
                 problems += family_problems(casebase)
             label = str(casebase)
     except UnusableCaseBase as exc:
-        typer.echo(str(exc))
-        raise typer.Exit(code=1) from exc
-    if problems:
+        # the store refused to open it, so there is no case base to name but the message's
+        problems = [str(exc)]
+    if as_json:
+        typer.echo(json.dumps({"casebase": label, "ok": not problems, "problems": problems},
+                              indent=2))
+    elif label is None:
+        typer.echo(problems[0])
+    elif problems:
         noun = "problem" if len(problems) == 1 else "problems"
         typer.echo("\n".join([f"{label}: {len(problems)} {noun}:",
                               *(f"  - {p}" for p in problems)]))
+    else:
+        typer.echo("ok")
+    if problems:
         raise typer.Exit(code=1)
-    typer.echo("ok")
 
 
 def family_problems(casebase: CaseStore) -> list[str]:

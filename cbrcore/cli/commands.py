@@ -20,6 +20,7 @@ from rich.table import Table
 from rich.text import Text
 
 from cbrcore.cli import completion
+from cbrcore.cli.reference import cli_reference
 from cbrcore.config import load_config
 from cbrcore.engine import Engine
 from cbrcore.experiment import Size as ExperimentSize
@@ -49,6 +50,7 @@ class Reference(enum.StrEnum):
 
     config = "config"
     hooks = "hooks"
+    cli = "cli"
 
 
 def _out() -> Console:
@@ -139,7 +141,9 @@ def validate(
     config: Path = typer.Argument(..., metavar="CONFIG",
                                   help="The YAML configuration to check."),
     set_: list[str] = _set_option(),
-    as_json: bool = _json_option("the resolved components, every default filled in,"),
+    as_json: bool = _json_option(
+        '{"config": CONFIG, "resolved": {...}}, every slot\'s component with all its options, '
+        "defaults filled in, as a run's manifest.json records them,"),
 ) -> None:
     """Check a configuration without running it; list the components it selects."""
     checked = load_config(config, current().registry, set_)
@@ -158,7 +162,10 @@ def validate(
 
 
 def plugins(
-    as_json: bool = _json_option("the plugins"),
+    as_json: bool = _json_option(
+        "the plugins (keys plugins, each with name, module, distribution, version, hooks, "
+        "components and kinds; failed, each with name, distribution, version, stage and error; "
+        "and skipped)"),
 ) -> None:
     """List the loaded plugins, their distributions, hooks, components and the component kinds
     they declare, and any failures."""
@@ -244,15 +251,19 @@ def experiment(
 
 
 def reference(
+    ctx: typer.Context,
     what: Reference = typer.Argument(
         ..., metavar="WHAT", show_default=False,
-        help="config: every component and its options; hooks: the hook specifications."),
+        help="config: every component and its options; hooks: the hook specifications; "
+             "cli: every command with its arguments and options."),
 ) -> None:
-    """Print the configuration or hook reference as markdown."""
+    """Print the configuration, hook or command-line reference as markdown."""
     if what is Reference.config:
         typer.echo(config_reference(current().registry), nl=False)
-    else:
+    elif what is Reference.hooks:
         typer.echo(hook_reference(), nl=False)
+    else:  # the command tree this very command belongs to, plugins' commands included
+        typer.echo(cli_reference(ctx.find_root().command, current()), nl=False)
 
 
 def install(app: typer.Typer, registry: Registry) -> None:

@@ -7,7 +7,9 @@ metavar it declares or else its choices (``--size [ci|full]``) or its name in ca
 (``--trials TRIALS``), never by a typed placeholder (``<int range>``, ``<list[str]>``) or a
 braced argument (``{config}``). Declare a metavar that says what the value is where the name
 does not (``--set KEY.PATH=VALUE``, ``--start X,Y|PLACE``), and list a fixed set of values as an
-``enum.Enum`` (or :func:`choices` in the metavar of a value typer cannot see as a choice).
+``enum.Enum`` (or :func:`choices` in the metavar of a value typer cannot see as a choice). A
+value outside an enum's choices is refused in plain words, ``--size: 'huge' is not one of ci,
+full``, a usage error (exit code 2).
 
 An option whose value is written ``KEY=VALUE`` (``--set retrieve=nearest``) completes in bash
 too, which splits that word at its ``=`` (:func:`cbrcore.cli.completion.split_option_value`):
@@ -36,7 +38,7 @@ CONTEXT_SETTINGS: dict[str, Any] = {"help_option_names": ["-h", "--help"]}
 
 def choices(values: Iterable[object]) -> str:
     """The metavar listing a fixed set of values: ``[ci|full]``."""
-    return "[" + "|".join(str(v.value if isinstance(v, enum.Enum) else v) for v in values) + "]"
+    return "[" + "|".join(_choice_text(v) for v in values) + "]"
 
 
 def _choices_of(param: Any) -> tuple[object, ...] | None:
@@ -46,6 +48,10 @@ def _choices_of(param: Any) -> tuple[object, ...] | None:
     described = getattr(param, "type_descriptor", None) or getattr(param, "type", None)
     found = getattr(described, "choices", None)
     return tuple(found) if found else None
+
+
+def _choice_text(value: object) -> str:
+    return str(value.value if isinstance(value, enum.Enum) else value)
 
 
 def metavar_of(param: Any) -> str | None:
@@ -58,6 +64,31 @@ def metavar_of(param: Any) -> str | None:
         return None
     found = _choices_of(param)
     return choices(found) if found else str(param.name).upper()
+
+
+class _PlainBadParameter(typer.BadParameter):
+    """A bad value whose message names the parameter itself, shown as it is."""
+
+    def format_message(self) -> str:
+        return self.message
+
+
+def _choice_error(command: Any, ctx: typer.Context, args: list[str],
+                  param: Any) -> _PlainBadParameter | None:
+    """The plain error for a value of ``param`` outside its choices (``--robot: 'nosuch' is not
+    one of pioneer2dx, ros2005``), or None when ``param`` takes no fixed set of values."""
+    found = _choices_of(param) if param is not None else None
+    if not found:
+        return None
+    given = command.make_parser(ctx).parse_args(args=args)[0].get(param.name)
+    allowed = [_choice_text(choice) for choice in found]
+    values = given if isinstance(given, list | tuple) else [given]
+    bad = next((value for value in values if value not in allowed), None)
+    if bad is None:
+        return None
+    name = max(param.opts, key=len) if param.param_type_name == "option" else param.metavar
+    return _PlainBadParameter(f"{name}: {bad!r} is not one of {', '.join(allowed)}", ctx=ctx,
+                             param=param)
 
 
 class CbrCommand(TyperCommand):
@@ -79,6 +110,18 @@ class CbrCommand(TyperCommand):
                 name += "..."
             pieces.append(name if param.required else f"[{name}]")
         return pieces
+
+    def parse_args(self, ctx: typer.Context, args: list[str]) -> list[str]:
+        """Parse as typer does, but say a value outside a parameter's choices in plain words
+        (typer's message reads ``Value error, ...``)."""
+        given = list(args)  # the parser consumes the list it is handed
+        try:
+            return list(super().parse_args(ctx, args))
+        except typer.BadParameter as exc:
+            plain = _choice_error(self, ctx, given, exc.param)
+            if plain is None:
+                raise
+            raise plain from exc
 
     def format_options(self, ctx: typer.Context, formatter: Any) -> None:
         arguments: list[tuple[str, str]] = []

@@ -467,10 +467,15 @@ def _yaml_entry(case: AnyCase) -> dict[str, Any]:
     return entry
 
 
+def to_entries(cases: Iterable[AnyCase]) -> list[dict[str, Any]]:
+    """``cases`` as the entries of a YAML case file: plain lists and mappings."""
+    return [_yaml_entry(c) for c in cases]
+
+
 def to_yaml(cases: Iterable[AnyCase]) -> str:
     """``cases`` as the text of a YAML case file."""
-    return yaml.dump([_yaml_entry(c) for c in cases], Dumper=_Dumper, sort_keys=False,
-                     allow_unicode=True, width=100)
+    return yaml.dump(to_entries(cases), Dumper=_Dumper, sort_keys=False, allow_unicode=True,
+                     width=100)
 
 
 def write_cases(cases: Iterable[AnyCase], path: str | os.PathLike[str],

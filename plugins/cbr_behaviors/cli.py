@@ -127,11 +127,17 @@ def show(file: Annotated[Path, typer.Argument(metavar="FILE", show_default=False
                                               help="A case file: .sexp or .yaml.")],
          fmt: Annotated[CaseFormat, typer.Option(
              "--format", help="Print the cases as s-expressions or as YAML.")
-         ] = CaseFormat.sexp) -> None:
+         ] = CaseFormat.sexp,
+         as_json: Annotated[bool, typer.Option(
+             "--json", help="Print the cases as one JSON object, {\"cases\": [...]}, each as "
+             "its entry of a YAML case file (instead of --format).")] = False) -> None:
     """Print the cases of a case file (or of an exported case base) as s-expressions or YAML."""
-    from cbr_behaviors.casefiles import read_cases, to_sexp, to_yaml
+    from cbr_behaviors.casefiles import read_cases, to_entries, to_sexp, to_yaml
 
     cases = read_cases(file)
+    if as_json:
+        typer.echo(json.dumps({"cases": to_entries(cases)}))
+        return
     typer.echo(to_sexp(cases) if fmt is CaseFormat.sexp else to_yaml(cases), nl=False)
 
 

@@ -307,7 +307,10 @@ def plan(
     limit: Annotated[int | None, typer.Option(
         "--limit", metavar="N", min=1, help="With --scen: plan this many scenarios, spread "
         "evenly over the buckets (default: all).", show_default=False)] = None,
-    solver: Annotated[SolverName, typer.Option("--solver", help="The search to plan with.")]
+    solver: Annotated[SolverName, typer.Option("--solver", help=(
+        "The search to plan with: jps is jump point search (it hands a map with risk over to "
+        "astar); genetic, the genetic algorithm with its default options, may find no path "
+        "where one exists, and its path is seldom the cheapest."))]
     = SolverName.astar,
     seed: Annotated[int | None, typer.Option(
         "--seed", metavar="N", min=0, help="With --solver genetic: the random seed (default 0).",
@@ -325,7 +328,14 @@ def plan(
     robot_radius: RobotRadius = None,
     inflation_radius: InflationRadius = None,
     cost_scaling: CostScaling = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON objects.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help=(
+        "Print one JSON object with the keys solver, length, cost, turns, time_ms (the search "
+        "alone, in milliseconds), expanded and path (a list of [x, y] cells); with --solver "
+        "jps also search (jps, or astar when jps handed a map with risk over); with a "
+        "constrained --kinematics also headings and reversing (per step); on a map with a "
+        "frame also length_m and path_m. With --scen one such object per scenario plus "
+        "optimal (the file's length; null values where no path exists), then one with "
+        "matched, total and median_time_ms."))] = False,
     plot: PlotPath = None,
 ) -> None:
     """Plan a path on a map: one start and goal, or the scenarios of a Moving AI .scen file."""
@@ -408,21 +418,36 @@ def show(
     robot_radius: RobotRadius = None,
     inflation_radius: InflationRadius = None,
     cost_scaling: CostScaling = None,
+    as_json: Annotated[bool, typer.Option("--json", help=(
+        "Print one JSON object with the keys map, width, height, passable, unknown and frame "
+        "(null, or resolution, origin [x, y, yaw] and the extent x and y in metres, each "
+        "[from, to])."))] = False,
     plot: PlotPath = None,
 ) -> None:
     """Print a map's size, passable and unknown cells and metric frame; draw it with --plot."""
     _, grid = _map(map_file, unknown_risk, robot_radius, inflation_radius, cost_scaling)
     unknown = 0 if grid.unknown is None else int(grid.unknown.sum())
-    typer.echo(f"{map_file}: {grid.width}x{grid.height}, {int(grid.passable.sum())} passable "
-               f"cells, {unknown} unknown")
+    facts: dict[str, object] = {"map": str(map_file), "width": grid.width,
+                                "height": grid.height, "passable": int(grid.passable.sum()),
+                                "unknown": unknown, "frame": None}
     if grid.frame is not None:
         corners = grid.frame.corners(grid.width, grid.height)
         (left, bottom), (right, top) = corners.min(0), corners.max(0)
+        facts["frame"] = {"resolution": grid.frame.resolution,
+                          "origin": [float(v) for v in grid.frame.origin],
+                          "x": [float(left), float(right)], "y": [float(bottom), float(top)]}
+    if plot is not None:
+        _save_plot(grid, plot)
+    if as_json:
+        typer.echo(json.dumps(facts))
+        return
+    typer.echo(f"{map_file}: {grid.width}x{grid.height}, {facts['passable']} passable "
+               f"cells, {unknown} unknown")
+    if grid.frame is not None:
         x, y, yaw = grid.frame.origin
         typer.echo(f"frame: {grid.frame.resolution:g} m per cell, origin ({x:g}, {y:g}, "
                    f"yaw {yaw:g}), x {left:g} to {right:g} m, y {bottom:g} to {top:g} m")
     if plot is not None:
-        _save_plot(grid, plot)
         typer.echo(f"wrote {plot}")
 
 

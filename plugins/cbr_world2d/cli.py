@@ -75,7 +75,14 @@ RescueOption = Annotated[Rescue, typer.Option(
     "--rescue", help="When the Rescuer diverts on its own: never (the pilot alone), when the "
     "robot is blocked (002's navigation system without CBR), or when it is stuck (blocked or "
     "oscillating).")]
-JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON objects.")]
+_RESULT_KEYS = ("success, reason (reached or timeout), time, distance, collisions, steps, stuck "
+                "(how many times), diverting (a list of [x, y]) and seed")
+RunJsonOption = Annotated[bool, typer.Option("--json", help=(
+    f"Print one JSON object with the keys world, start, target, pilot, robot, {_RESULT_KEYS}."))]
+BatchJsonOption = Annotated[bool, typer.Option("--json", help=(
+    f"Print one JSON object per trial with the keys trial, start, target, {_RESULT_KEYS}; then "
+    "one with trials, reached, success_rate, median_time and median_distance (null when no "
+    "trial reached its target)."))]
 
 
 def load(text: str) -> World:
@@ -149,6 +156,10 @@ def show(world_name: WorldArgument, plot: PlotOption = None,
              "--at", metavar="SECONDS",
              help="Draw doors and people as they are at this time (seconds, from 0 to "
              "1e6).")] = 0.0,
+         as_json: Annotated[bool, typer.Option("--json", help=(
+             "Print one JSON object with the keys world, bounds ([xmin, ymin, xmax, ymax]), "
+             "walls, linear_obstacles, polygons, points, landmarks, doors, movers, places (a "
+             "list) and segments."))] = False,
          ) -> None:
     """Print a 2D world's bounds and what it holds; draw it with --plot."""
     from cbr_world2d.worldfile import MAX_MAGNITUDE
@@ -159,12 +170,25 @@ def show(world_name: WorldArgument, plot: PlotOption = None,
     _writable(plot, "--plot")
     world = load(world_name)
     xmin, ymin, xmax, ymax = world.bounds
+    linear = sum(w.between is not None for w in world.walls)
+    if plot is not None:
+        from cbr_world2d.plot import plot_world
+
+        plot_world(world, plot, t=at)
+    if as_json:
+        typer.echo(json.dumps({
+            "world": world.name or world_name, "bounds": [xmin, ymin, xmax, ymax],
+            "walls": len(world.walls), "linear_obstacles": linear,
+            "polygons": len(world.polygons), "points": len(world.points),
+            "landmarks": len(world.landmarks), "doors": len(world.doors),
+            "movers": len(world.movers), "places": sorted(world.places),
+            "segments": int(world.static_segments.shape[0])}))
+        return
     lines = [
         ("world", world.name or world_name),
         ("bounds", f"{xmin:g},{ymin:g} to {xmax:g},{ymax:g} ({xmax - xmin:g} x "
                    f"{ymax - ymin:g} m)"),
-        ("walls", f"{len(world.walls)} ({sum(w.between is not None for w in world.walls)} "
-                  "linear obstacles between landmarks)"),
+        ("walls", f"{len(world.walls)} ({linear} linear obstacles between landmarks)"),
         ("polygons", str(len(world.polygons))),
         ("points", str(len(world.points))),
         ("landmarks", str(len(world.landmarks))),
@@ -176,9 +200,6 @@ def show(world_name: WorldArgument, plot: PlotOption = None,
     for key, value in lines:
         typer.echo(f"{key:<10} {value}")
     if plot is not None:
-        from cbr_world2d.plot import plot_world
-
-        plot_world(world, plot, t=at)
         typer.echo(f"wrote {plot}")
 
 
@@ -229,7 +250,7 @@ def run(
         "--frames", min=1, max=MAX_FRAMES, metavar="N",
         help="The most frames of the GIF, spread evenly over the trial.")]
     = 150,
-    as_json: JsonOption = False,
+    as_json: RunJsonOption = False,
 ) -> None:
     """Run one trial from a start to a target; print how it went, draw or animate it."""
     from cbr_world2d.robot import Pose
@@ -296,7 +317,7 @@ def batch(
     tolerance: ToleranceOption = 0.3,
     robot: RobotOption = RobotName.pioneer2dx,
     rescue: RescueOption = Rescue.blocked,
-    as_json: JsonOption = False,
+    as_json: BatchJsonOption = False,
 ) -> None:
     """Run trials between random free points of a world; print a table and the success rate,
     median time and distance."""
