@@ -1,21 +1,26 @@
-"""What the grid family asks of a planner it gets from the registry.
+"""The solver protocol: what every slot that plans on a grid asks of a solver component.
 
 The simulated robot replans around the obstacles it meets, but the grid family plans nothing
-itself: searches live with the solvers, a layer above it. So the ``trips`` workload takes a
-solver component by name from the registry (its ``replanner``) and calls it through this
-protocol, which the grid solvers implement.
+itself: searches live with the solvers, a layer above it. So every option that names a grid
+planner (the ``trips`` workload's ``replanner``, the ``casegraph`` and ``path_cases`` reusers'
+``connector``, ``cbr plan --solver``) takes a solver component by name from the registry and
+calls it through :class:`GridPlanner`, which the built-in grid solvers implement and a
+plugin's solver may implement too (see "The solver protocol" in docs/plugins.md).
 """
 
 from __future__ import annotations
 
 from typing import Protocol, runtime_checkable
 
+import attrs
 import numpy as np
 
+from cbr_grid.costs import path_cost
 from cbr_grid.grid import Grid
 from cbr_grid.query import Cell
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
+from cbrcore.registry import Component, Registry, UnknownComponent
 
 Window = tuple[int, int, int, int]
 """A box of cells (x0, y0, x1, y1), bounds included, that a search stays inside."""
@@ -40,10 +45,88 @@ class GridPlanner(Protocol):
         ...
 
 
-def planner_of(name: str, ctx: Context, where: str) -> GridPlanner:
-    """The solver component ``name`` built from the registry, checked to plan on grids."""
-    planner = ctx.registry.create("solver", name, None, ctx)
+def plans_on_grids(component: Component) -> bool:
+    """Whether a registered solver's factory is a class with :class:`GridPlanner`'s members
+    (known without building it, so that an error can list the names that fit)."""
+    factory = component.factory
+    return (isinstance(factory, type) and callable(getattr(factory, "plan", None))
+            and hasattr(factory, "constrained"))
+
+
+def grid_planners(registry: Registry) -> list[str]:
+    """The names of the registered solvers that plan on grids, sorted."""
+    return [c.name for c in registry if c.kind == "solver" and plans_on_grids(c)]
+
+
+def planner_error(name: str, registry: Registry, where: str) -> CbrError | None:
+    """The error of naming ``name`` where a grid planner is wanted, listing the names that fit;
+    None when ``name`` is a registered grid planner."""
+    try:
+        component = registry.get("solver", name)
+    except UnknownComponent:
+        what = "is no registered solver"
+    else:
+        if plans_on_grids(component):
+            return None
+        what = (f"is a solver of plugin {component.plugin!r} that does not plan on a given "
+                f"passable mask (the solver protocol, cbr_grid.planning.GridPlanner)")
+    fits = ", ".join(grid_planners(registry)) or "none"
+    return CbrError(f"{where}: {name!r} {what}; the grid planners registered: {fits}")
+
+
+def planner_of(name: str, ctx: Context, where: str, options: object = None) -> GridPlanner:
+    """The solver component ``name`` built from the registry with ``options`` (None: its
+    defaults), checked to plan on grids; the error names ``where`` and the names that fit."""
+    error = planner_error(name, ctx.registry, where)
+    if error is not None:
+        raise error
+    planner = ctx.registry.create("solver", name, options, ctx)
     if not isinstance(planner, GridPlanner):
-        raise CbrError(f"{where}: solver {name!r} is a {type(planner).__name__}, which cannot "
-                       f"plan on a given passable mask (cbr_grid.planning.GridPlanner)")
+        raise CbrError(f"{where}: solver {name!r} built a {type(planner).__name__}, which lacks "
+                       f"the plan method or constrained property of the solver protocol "
+                       f"(cbr_grid.planning.GridPlanner); the grid planners registered: "
+                       f"{', '.join(grid_planners(ctx.registry))}")
     return planner
+
+
+@attrs.frozen
+class Planned:
+    """A path a :class:`GridPlanner` planned ((n, 2) cells) and its cost on the grid's step
+    costs (:func:`cbr_grid.costs.path_cost`)."""
+
+    path: np.ndarray
+    cost: float
+
+
+def plan_with(planner: GridPlanner, grid: Grid, start: Cell, goals: np.ndarray,
+              window: Window | None = None, *, heading: int | None = None) -> Planned | None:
+    """``planner``'s path on ``grid`` through its passable cells, checked and priced; None
+    without one."""
+    path = planner.plan(grid, grid.passable, start, goals, window=window, heading=heading)
+    if path is None:
+        return None
+    cells = checked_path(path, grid, start, goals, f"solver {type(planner).__name__}")
+    return Planned(cells, path_cost(grid, cells))
+
+
+def checked_path(path: object, grid: Grid, start: Cell, goals: np.ndarray,
+                 who: str) -> np.ndarray:
+    """``path`` as an (n, 2) array of cells if it is one the protocol allows on ``grid`` (from
+    ``start`` to one of ``goals`` by moves to 8-neighbour passable cells), else a CbrError
+    naming ``who`` and what is wrong."""
+    try:
+        cells = np.asarray(path, dtype=np.int64).reshape(-1, 2)
+    except (TypeError, ValueError):
+        raise CbrError(f"{who} returned a {type(path).__name__}, not an (n, 2) array of "
+                       f"cells") from None
+    problems = grid.path_problems(cells)
+    if len(cells):
+        if tuple(cells[0].tolist()) != tuple(start):
+            problems.append(f"it starts at {tuple(cells[0].tolist())}, not at the start "
+                            f"{tuple(start)}")
+        if not (np.asarray(goals).reshape(-1, 2) == cells[-1]).all(axis=1).any():
+            problems.append(f"it ends at {tuple(cells[-1].tolist())}, which is no goal")
+    if problems:
+        raise CbrError(f"{who} returned an invalid path from {tuple(start)}: "
+                       f"{'; '.join(problems)}")
+    return cells
