@@ -22,7 +22,7 @@ from cbr_casegraph.payoff import PassableCells, Payoff
 from cbr_casegraph.state import graph_of
 from cbr_grid.distances import DistanceName
 from cbr_grid.grid import grid_world
-from cbr_grid.planning import plan_with, planner_of
+from cbr_grid.planning import plan_with, planner_of, planner_problem
 from cbr_grid.query import GridQuery
 from cbr_grid.risk import record_map
 from cbr_kinematics import HOLONOMIC, robot_kinematics
@@ -169,7 +169,7 @@ class ReuseOptions:
         "goal to the nearest cells of the cases: dijkstra, one sweep serving every case, the "
         "whole query compiled; astar, jps and genetic (seed 0) search once per case, as does "
         "any other registered grid planner (the solver protocol), built with its default "
-        "options.")
+        "options.", fits=planner_problem)
     margin: int | None = option(
         None, "How far beyond N(., delta) the local search may go, in cells (default delta // 2).",
         validator=attrs.validators.optional(attrs.validators.ge(0)))

@@ -53,14 +53,17 @@ def plans_on_grids(component: Component) -> bool:
             and hasattr(factory, "constrained"))
 
 
-def grid_planners(registry: Registry) -> list[str]:
-    """The names of the registered solvers that plan on grids, sorted."""
-    return [c.name for c in registry if c.kind == "solver" and plans_on_grids(c)]
+def grid_planners(registry: Registry) -> str:
+    """The registered solvers that plan on grids, sorted, each with the plugin that supplies
+    it; "none" without one."""
+    return ", ".join(f"{c.name} (plugin {c.plugin})" for c in registry
+                     if c.kind == "solver" and plans_on_grids(c)) or "none"
 
 
-def planner_error(name: str, registry: Registry, where: str) -> CbrError | None:
-    """The error of naming ``name`` where a grid planner is wanted, listing the names that fit;
-    None when ``name`` is a registered grid planner."""
+def planner_problem(registry: Registry, name: str) -> str | None:
+    """What is wrong with naming ``name`` where a grid planner is wanted, listing the names that
+    fit; None when ``name`` is a registered grid planner. The ``fits`` of the options that name
+    one (see :func:`cbrcore.options.reference`)."""
     try:
         component = registry.get("solver", name)
     except UnknownComponent:
@@ -70,22 +73,21 @@ def planner_error(name: str, registry: Registry, where: str) -> CbrError | None:
             return None
         what = (f"is a solver of plugin {component.plugin!r} that does not plan on a given "
                 f"passable mask (the solver protocol, cbr_grid.planning.GridPlanner)")
-    fits = ", ".join(grid_planners(registry)) or "none"
-    return CbrError(f"{where}: {name!r} {what}; the grid planners registered: {fits}")
+    return f"{name!r} {what}; the grid planners registered: {grid_planners(registry)}"
 
 
 def planner_of(name: str, ctx: Context, where: str, options: object = None) -> GridPlanner:
     """The solver component ``name`` built from the registry with ``options`` (None: its
     defaults), checked to plan on grids; the error names ``where`` and the names that fit."""
-    error = planner_error(name, ctx.registry, where)
-    if error is not None:
-        raise error
+    problem = planner_problem(ctx.registry, name)
+    if problem is not None:
+        raise CbrError(f"{where}: {problem}")
     planner = ctx.registry.create("solver", name, options, ctx)
     if not isinstance(planner, GridPlanner):
         raise CbrError(f"{where}: solver {name!r} built a {type(planner).__name__}, which lacks "
                        f"the plan method or constrained property of the solver protocol "
                        f"(cbr_grid.planning.GridPlanner); the grid planners registered: "
-                       f"{', '.join(grid_planners(ctx.registry))}")
+                       f"{grid_planners(ctx.registry)}")
     return planner
 
 

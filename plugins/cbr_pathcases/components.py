@@ -19,7 +19,7 @@ from cbr_grid.costs import path_cost, path_length
 from cbr_grid.distances import DistanceName, distance
 from cbr_grid.drive import DriveReport
 from cbr_grid.grid import Grid
-from cbr_grid.planning import plan_with, planner_of
+from cbr_grid.planning import plan_with, planner_of, planner_problem
 from cbr_grid.query import GridQuery, path_array, without_loops
 from cbr_grid.risk import record_map
 from cbr_kinematics import robot_kinematics
@@ -127,7 +127,7 @@ class ReuseOptions:
         "its first cell and from its last cell to the new goal: astar, dijkstra, randomized "
         "(with noise) or genetic (with generations; as in Šeda & Dvořák), each seeded from "
         "the reuser's generator; or any other registered grid planner (the solver protocol), "
-        "built with its default options.")
+        "built with its default options.", fits=planner_problem)
     margin: int = option(
         5, "How far beyond the box around the two cells an extension may go, in cells.",
         validator=attrs.validators.ge(0))

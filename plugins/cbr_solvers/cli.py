@@ -149,16 +149,16 @@ def _searcher(solver: str, kinematics: str, heading: int | None,
     """The search of the solver component ``solver`` for the kinematic model named
     ``kinematics``, warmed up for ``grid``'s rules before any timing: a built-in search called
     directly, or any other registered grid planner through the solver protocol."""
-    from cbr_grid.planning import planner_error
+    from cbr_grid.planning import planner_problem
     from cbr_kinematics import kinematics_of
     from cbr_solvers import KINEMATIC_MODULES, SEARCH_MODULES, load_search, warm_grid, warm_query
     from cbrcore.context import Context
     from cbrcore.plugins import current
 
     registry = current().registry
-    error = planner_error(solver, registry, "--solver")
-    if error is not None:
-        raise error
+    problem = planner_problem(registry, solver)
+    if problem is not None:
+        raise CbrError(f"--solver: {problem}")
     if seed is not None and solver not in _SEEDED:
         raise typer.BadParameter(f"--seed applies to --solver {' or '.join(_SEEDED)} only",
                                  param_hint="'--seed'")
