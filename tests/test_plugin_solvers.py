@@ -1,0 +1,185 @@
+"""A plugin's grid solver serves every slot that plans on a grid, through the solver protocol.
+
+A test-only plugin registers ``bfs``, a breadth-first search that records each call; it is
+named by ``cbr plan --solver``, a reuser's ``connector`` and the trips workload's
+``replanner``, and each of its paths is checked against a brute-force count of the fewest
+moves on the mask it was given.
+"""
+
+from __future__ import annotations
+
+import collections
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from cbr_grid.grid import Grid
+from cbr_grid.planning import Window
+from cbr_grid.query import Cell
+from cbrcore.engine import Engine
+from cbrcore.hookspecs import hookimpl
+from cbrcore.plugins import Plugins
+from cbrcore.registry import Registry
+from cbrcore.run import run_workload
+from cbrcore.testing import CliResult
+
+MOVES = [(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy]
+
+
+class Call:
+    """One call of the plugin's planner: what it was given and what it returned."""
+
+    def __init__(self, grid: Grid, passable: np.ndarray, start: Cell, goals: np.ndarray,
+                 window: Window | None, path: np.ndarray | None) -> None:
+        self.grid, self.passable, self.start = grid, passable.copy(), start
+        self.goals, self.window, self.path = goals, window, path
+
+
+CALLS: list[Call] = []
+
+
+class BreadthFirst:
+    """The fewest moves to the nearest goal, by a breadth-first search in Python."""
+
+    constrained = False
+
+    def __init__(self, options: object, ctx: object) -> None:
+        pass
+
+    def plan(self, grid: Grid, passable: np.ndarray, start: Cell, goals: np.ndarray, *,
+             window: Window | None = None, heading: int | None = None) -> np.ndarray | None:
+        x0, y0, x1, y1 = window or (0, 0, grid.width - 1, grid.height - 1)
+        x0, y0 = max(x0, 0), max(y0, 0)
+        x1, y1 = min(x1, grid.width - 1), min(y1, grid.height - 1)
+        wanted = {tuple(goal) for goal in np.asarray(goals).reshape(-1, 2).tolist()}
+        start = (int(start[0]), int(start[1]))
+        parent: dict[Cell, Cell | None] = {start: None}
+        queue = collections.deque([start])
+        path = None
+        while queue:
+            cell = queue.popleft()
+            if cell in wanted:
+                path = []
+                while cell is not None:
+                    path.append(cell)
+                    cell = parent[cell]
+                path = np.array(path[::-1], dtype=np.int64)
+                break
+            x, y = cell
+            for dx, dy in MOVES:
+                nx, ny = x + dx, y + dy
+                if (x0 <= nx <= x1 and y0 <= ny <= y1 and passable[ny, nx]
+                        and (nx, ny) not in parent
+                        and corner_allowed(grid, passable, x, y, dx, dy)):
+                    parent[nx, ny] = cell
+                    queue.append((nx, ny))
+        CALLS.append(Call(grid, passable, start, goals, window, path))
+        return path
+
+
+def corner_allowed(grid: Grid, passable: np.ndarray, x: int, y: int, dx: int, dy: int) -> bool:
+    """The grid's corner rule for a step from (x, y) by (dx, dy)."""
+    if not (dx and dy):
+        return True
+    sides = (bool(passable[y, x + dx]), bool(passable[y + dy, x]))
+    return any(sides) if grid.corner_cutting else all(sides)
+
+
+class BfsPlugin:
+    @hookimpl
+    def cbr_register(self, registry: Registry) -> None:
+        registry.add("solver", "bfs", BreadthFirst)
+
+
+def fewest_moves(call: Call) -> float:
+    """The fewest moves from the call's start to any of its goals inside its window, by
+    relaxing every cell until nothing changes (independent of the queue above)."""
+    grid, passable = call.grid, call.passable
+    x0, y0, x1, y1 = call.window or (0, 0, grid.width - 1, grid.height - 1)
+    inside = np.zeros_like(passable)
+    inside[max(y0, 0):y1 + 1, max(x0, 0):x1 + 1] = True
+    steps = np.full(passable.shape, np.inf)
+    steps[call.start[1], call.start[0]] = 0
+    changed = True
+    while changed:
+        changed = False
+        for y, x in zip(*np.nonzero(passable & inside), strict=True):
+            for dx, dy in MOVES:
+                px, py = x - dx, y - dy
+                if (0 <= px < grid.width and 0 <= py < grid.height
+                        and corner_allowed(grid, passable, px, py, dx, dy)
+                        and steps[py, px] + 1 < steps[y, x]):
+                    steps[y, x] = steps[py, px] + 1
+                    changed = True
+    goals = np.asarray(call.goals).reshape(-1, 2)
+    return float(steps[goals[:, 1], goals[:, 0]].min())
+
+
+def assert_fewest_moves(calls: list[Call]) -> None:
+    """Every path is valid on the mask it was planned on and has the fewest moves."""
+    for call in calls:
+        best = fewest_moves(call)
+        if call.path is None:
+            assert best == np.inf
+            continue
+        on_mask = Grid(np.where(call.passable, call.grid.risk, 1.0),
+                       corner_cutting=call.grid.corner_cutting)
+        assert on_mask.path_problems(call.path) == []
+        assert tuple(call.path[0]) == call.start
+        assert len(call.path) - 1 == best
+
+
+@pytest.fixture(autouse=True)
+def with_bfs(cbr_plugins: Callable[..., Plugins]) -> Plugins:
+    CALLS.clear()
+    return cbr_plugins(("bfs", BfsPlugin()), entry_points=True, environ={})
+
+
+def test_cbr_plan_plans_with_a_plugins_solver(cbr_cli: Callable[..., CliResult],
+                                              tmp_path: Path) -> None:
+    rows = ["........", "..@@@@..", ".....@..", "..@..@..", "..@....."]
+    path = tmp_path / "small.map"
+    path.write_text("type octile\nheight 5\nwidth 8\nmap\n" + "\n".join(rows) + "\n",
+                    encoding="ascii")
+
+    result = cbr_cli("plan", str(path), "--start", "3,2", "--goal", "7,0", "--solver", "bfs",
+                     "--json")
+
+    assert result.exit_code == 0, result.stderr
+    record = json.loads(result.stdout)
+    assert len(CALLS) == 1
+    assert record["solver"] == "bfs"
+    assert record["path"] == CALLS[0].path.tolist()
+    assert record["expanded"] is None
+    assert_fewest_moves(CALLS)
+
+
+def office(reuse: dict[str, Any], replanner: str = "astar") -> dict[str, Any]:
+    """Trips on a small office with unknown obstacles to drive around."""
+    return {"seed": 5, "world": {"use": "generated", "kind": "office", "width": 28,
+                                 "height": 20},
+            "workload": {"use": "trips", "count": 25, "unknown_static": 12,
+                         "replanner": replanner},
+            "retrieve": {"use": reuse["use"]}, "reuse": reuse, "solver": "astar",
+            "retain": ["risk_map", reuse["use"]]}
+
+
+@pytest.mark.parametrize("config", [
+    pytest.param(office({"use": "path_cases", "connector": "bfs"}), id="path_cases connector"),
+    pytest.param(office({"use": "casegraph", "connector": "bfs"}), id="casegraph connector"),
+    pytest.param(office({"use": "casegraph", "connector": "dijkstra"}, replanner="bfs"),
+                 id="trips replanner"),
+])
+def test_a_plugins_solver_serves_the_connector_and_replanner_slots(
+        cbr_engine: Callable[..., Engine], tmp_path: Path, config: dict[str, Any]) -> None:
+    engine = cbr_engine(config, out_dir=tmp_path)
+
+    run_workload(engine, tmp_path)
+
+    assert CALLS, "the plugin's solver was never called"
+    assert any(call.path is not None for call in CALLS)
+    assert_fewest_moves(CALLS[:30])
