@@ -38,10 +38,12 @@ class GridPlanner(Protocol):
 
     def plan(self, grid: Grid, passable: np.ndarray, start: Cell, goals: np.ndarray, *,
              window: Window | None = None, heading: int | None = None) -> np.ndarray | None:
-        """The cheapest path ((n, 2) cells) from ``start`` to the nearest of ``goals`` on
-        ``grid``'s step costs through the cells ``passable`` allows, inside ``window`` when
-        given, leaving ``start`` facing ``heading`` when the planner is constrained; None when
-        there is none."""
+        """A path ((n, 2) cells, 8-neighbour moves under ``grid``'s corner rule) from
+        ``start`` (its first row) to one of ``goals`` ((k, 2) cells; its last row), the
+        nearest on ``grid``'s step costs for the built-in searches, through the cells
+        ``passable`` allows, inside ``window`` when given (which may reach beyond the grid),
+        leaving ``start`` facing ``heading`` when the planner is constrained; None when there
+        is none."""
         ...
 
 
