@@ -3,7 +3,7 @@
 A test-only plugin registers ``bfs``, a breadth-first search that records each call; it is
 named by ``cbr plan --solver``, a reuser's ``connector`` and the trips workload's
 ``replanner``, and each of its paths is checked against a brute-force count of the fewest
-moves on the mask it was given.
+moves on the mask it was given. Its ``jumper`` returns a path through walls, which is refused.
 """
 
 from __future__ import annotations
@@ -89,10 +89,19 @@ def corner_allowed(grid: Grid, passable: np.ndarray, x: int, y: int, dx: int, dy
     return any(sides) if grid.corner_cutting else all(sides)
 
 
+class Jumper(BreadthFirst):
+    """A wrong planner: straight from the start to the first goal, whatever lies between."""
+
+    def plan(self, grid: Grid, passable: np.ndarray, start: Cell, goals: np.ndarray, *,
+             window: Window | None = None, heading: int | None = None) -> np.ndarray | None:
+        return np.array([start, np.asarray(goals).reshape(-1, 2)[0]], dtype=np.int64)
+
+
 class BfsPlugin:
     @hookimpl
     def cbr_register(self, registry: Registry) -> None:
         registry.add("solver", "bfs", BreadthFirst)
+        registry.add("solver", "jumper", Jumper)
 
 
 def fewest_moves(call: Call) -> float:
@@ -139,15 +148,19 @@ def with_bfs(cbr_plugins: Callable[..., Plugins]) -> Plugins:
     return cbr_plugins(("bfs", BfsPlugin()), entry_points=True, environ={})
 
 
-def test_cbr_plan_plans_with_a_plugins_solver(cbr_cli: Callable[..., CliResult],
-                                              tmp_path: Path) -> None:
+@pytest.fixture
+def small_map(tmp_path: Path) -> Path:
     rows = ["........", "..@@@@..", ".....@..", "..@..@..", "..@....."]
     path = tmp_path / "small.map"
     path.write_text("type octile\nheight 5\nwidth 8\nmap\n" + "\n".join(rows) + "\n",
                     encoding="ascii")
+    return path
 
-    result = cbr_cli("plan", str(path), "--start", "3,2", "--goal", "7,0", "--solver", "bfs",
-                     "--json")
+
+def test_cbr_plan_plans_with_a_plugins_solver(cbr_cli: Callable[..., CliResult],
+                                              small_map: Path) -> None:
+    result = cbr_cli("plan", str(small_map), "--start", "3,2", "--goal", "7,0", "--solver",
+                     "bfs", "--json")
 
     assert result.exit_code == 0, result.stderr
     record = json.loads(result.stdout)
@@ -156,6 +169,18 @@ def test_cbr_plan_plans_with_a_plugins_solver(cbr_cli: Callable[..., CliResult],
     assert record["path"] == CALLS[0].path.tolist()
     assert record["expanded"] is None
     assert_fewest_moves(CALLS)
+
+
+def test_a_plugins_wrong_path_is_an_error_naming_the_solver(
+        cbr_cli: Callable[..., CliResult], small_map: Path) -> None:
+    result = cbr_cli("plan", str(small_map), "--start", "3,2", "--goal", "7,0", "--solver",
+                     "jumper")
+
+    assert result.exit_code == 2
+    assert result.stdout == ""
+    assert ("--solver: solver 'jumper' returned an invalid path from (3, 2): step 0, from "
+            "(3, 2) to (7, 0), is no move to an 8-neighbour") in result.stderr
+    assert "Traceback" not in result.stderr
 
 
 def office(reuse: dict[str, Any], replanner: str = "astar") -> dict[str, Any]:

@@ -80,7 +80,8 @@ def planner_problem(registry: Registry, name: str) -> str | None:
 
 def planner_of(name: str, ctx: Context, where: str, options: object = None) -> GridPlanner:
     """The solver component ``name`` built from the registry with ``options`` (None: its
-    defaults), checked to plan on grids; the error names ``where`` and the names that fit."""
+    defaults), checked to plan on grids, its every path checked (:class:`CheckedPlanner`); the
+    error names ``where`` and the names that fit."""
     problem = planner_problem(ctx.registry, name)
     if problem is not None:
         raise CbrError(f"{where}: {problem}")
@@ -90,7 +91,80 @@ def planner_of(name: str, ctx: Context, where: str, options: object = None) -> G
                        f"the plan method or constrained property of the solver protocol "
                        f"(cbr_grid.planning.GridPlanner); the grid planners registered: "
                        f"{grid_planners(ctx.registry)}")
-    return planner
+    return CheckedPlanner(planner, f"{where}: solver {name!r}")
+
+
+class CheckedPlanner:
+    """A :class:`GridPlanner` whose every path is checked against the protocol, so that a
+    plugin's wrong path is an error naming it rather than a robot driving through a wall."""
+
+    def __init__(self, planner: GridPlanner, who: str) -> None:
+        self.planner = planner
+        self.who = who
+
+    @property
+    def constrained(self) -> bool:
+        return self.planner.constrained
+
+    def plan(self, grid: Grid, passable: np.ndarray, start: Cell, goals: np.ndarray, *,
+             window: Window | None = None, heading: int | None = None) -> np.ndarray | None:
+        path = self.planner.plan(grid, passable, start, goals, window=window, heading=heading)
+        if path is None:
+            return None
+        try:
+            cells = np.asarray(path, dtype=np.int64).reshape(-1, 2)
+        except (TypeError, ValueError):
+            raise CbrError(f"{self.who} returned a {type(path).__name__}, not an (n, 2) array "
+                           f"of cells") from None
+        problems = path_problems(grid, passable, cells, start, goals, window)
+        if problems:
+            raise CbrError(f"{self.who} returned an invalid path from {tuple(start)}: "
+                           f"{'; '.join(problems)}")
+        return cells
+
+
+def path_problems(grid: Grid, passable: np.ndarray, cells: np.ndarray, start: Cell,
+                  goals: np.ndarray, window: Window | None = None) -> list[str]:
+    """What makes ``cells`` not a path the solver protocol allows: from ``start`` to one of
+    ``goals``, inside ``window`` when given, by moves to 8-neighbour cells ``passable`` allows
+    under ``grid``'s corner rule; empty if it is one."""
+    if len(cells) == 0:
+        return ["the path has no cells (no path is None)"]
+    problems = []
+    if tuple(cells[0].tolist()) != tuple(int(v) for v in start):
+        problems.append(f"it starts at {tuple(cells[0].tolist())}, not at the start")
+    if not (np.asarray(goals).reshape(-1, 2) == cells[-1]).all(axis=1).any():
+        problems.append(f"it ends at {tuple(cells[-1].tolist())}, which is no goal")
+    x0, y0, x1, y1 = window or (0, 0, grid.width - 1, grid.height - 1)
+    x0, y0 = max(x0, 0), max(y0, 0)
+    x1, y1 = min(x1, grid.width - 1), min(y1, grid.height - 1)
+    x, y = cells[:, 0], cells[:, 1]
+    outside = (x < x0) | (x > x1) | (y < y0) | (y > y1)
+    if outside.any():
+        first = int(np.argmax(outside))
+        problems.append(f"cell {first}, {tuple(cells[first].tolist())}, is outside the "
+                        f"{'window' if window else 'grid'}")
+        return problems
+    blocked = ~passable[y, x]
+    if blocked.any():
+        first = int(np.argmax(blocked))
+        problems.append(f"cell {first}, {tuple(cells[first].tolist())}, is not passable")
+    steps = np.diff(cells, axis=0)
+    jumps = np.abs(steps).max(axis=1, initial=0) != 1
+    if jumps.any():
+        first = int(np.argmax(jumps))
+        problems.append(f"step {first}, from {tuple(cells[first].tolist())} to "
+                        f"{tuple(cells[first + 1].tolist())}, is no move to an 8-neighbour")
+        return problems
+    diagonal = np.flatnonzero((steps != 0).all(axis=1))
+    sides = np.stack([passable[y[diagonal], x[diagonal] + steps[diagonal, 0]],
+                      passable[y[diagonal] + steps[diagonal, 1], x[diagonal]]])
+    cut = ~(sides.any(axis=0) if grid.corner_cutting else sides.all(axis=0))
+    if cut.any():
+        first = int(diagonal[np.argmax(cut)])
+        problems.append(f"step {first}, from {tuple(cells[first].tolist())}, cuts a blocked "
+                        f"corner")
+    return problems
 
 
 @attrs.frozen
@@ -104,33 +178,9 @@ class Planned:
 
 def plan_with(planner: GridPlanner, grid: Grid, start: Cell, goals: np.ndarray,
               window: Window | None = None, *, heading: int | None = None) -> Planned | None:
-    """``planner``'s path on ``grid`` through its passable cells, checked and priced; None
-    without one."""
+    """``planner``'s path on ``grid`` through its passable cells, priced; None without one."""
     path = planner.plan(grid, grid.passable, start, goals, window=window, heading=heading)
     if path is None:
         return None
-    cells = checked_path(path, grid, start, goals, f"solver {type(planner).__name__}")
+    cells = np.asarray(path, dtype=np.int64).reshape(-1, 2)
     return Planned(cells, path_cost(grid, cells))
-
-
-def checked_path(path: object, grid: Grid, start: Cell, goals: np.ndarray,
-                 who: str) -> np.ndarray:
-    """``path`` as an (n, 2) array of cells if it is one the protocol allows on ``grid`` (from
-    ``start`` to one of ``goals`` by moves to 8-neighbour passable cells), else a CbrError
-    naming ``who`` and what is wrong."""
-    try:
-        cells = np.asarray(path, dtype=np.int64).reshape(-1, 2)
-    except (TypeError, ValueError):
-        raise CbrError(f"{who} returned a {type(path).__name__}, not an (n, 2) array of "
-                       f"cells") from None
-    problems = grid.path_problems(cells)
-    if len(cells):
-        if tuple(cells[0].tolist()) != tuple(start):
-            problems.append(f"it starts at {tuple(cells[0].tolist())}, not at the start "
-                            f"{tuple(start)}")
-        if not (np.asarray(goals).reshape(-1, 2) == cells[-1]).all(axis=1).any():
-            problems.append(f"it ends at {tuple(cells[-1].tolist())}, which is no goal")
-    if problems:
-        raise CbrError(f"{who} returned an invalid path from {tuple(start)}: "
-                       f"{'; '.join(problems)}")
-    return cells
