@@ -1,15 +1,16 @@
 """A plugin's grid solver serves every slot that plans on a grid, through the solver protocol.
 
-A test-only plugin registers ``bfs``, a breadth-first search that records each call; it is
-named by ``cbr plan --solver``, a reuser's ``connector`` and the trips workload's
-``replanner``, and each of its paths is checked against a brute-force count of the fewest
-moves on the mask it was given. Its ``jumper`` returns a path through walls, which is refused.
+A test-only plugin registers ``bfs``, the breadth-first planner of the plugin guide (its solver
+protocol section) recording each call. It is named by ``cbr plan --solver``, a reuser's
+``connector`` and the trips workload's ``replanner``, and each of its paths is checked against a
+brute-force count of the fewest moves on the mask it was given. The plugin's ``jumper`` returns a
+path through walls, which is refused.
 """
 
 from __future__ import annotations
 
-import collections
 import json
+import re
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -42,42 +43,27 @@ class Call:
 CALLS: list[Call] = []
 
 
-class BreadthFirst:
-    """The fewest moves to the nearest goal, by a breadth-first search in Python."""
+GUIDE = Path(__file__).resolve().parents[1] / "docs" / "plugins.md"
+EXAMPLE = re.compile(r"^```python\n(# cbr-gridbfs/src/cbr_gridbfs/__init__.py\n.*?)^```$",
+                     re.S | re.M)
 
-    constrained = False
 
-    def __init__(self, options: object, ctx: object) -> None:
-        pass
+def guide_planner() -> type:
+    """The breadth-first planner of the plugin guide's solver protocol section."""
+    found = EXAMPLE.search(GUIDE.read_text(encoding="utf-8"))
+    assert found is not None, "the guide's example planner is missing"
+    namespace: dict[str, Any] = {}
+    exec(compile(found[1], str(GUIDE), "exec"), namespace)
+    return namespace["BreadthFirst"]
+
+
+class BreadthFirst(guide_planner()):
+    """The guide's planner, recording each call."""
 
     def plan(self, grid: Grid, passable: np.ndarray, start: Cell, goals: np.ndarray, *,
              window: Window | None = None, heading: int | None = None) -> np.ndarray | None:
-        x0, y0, x1, y1 = window or (0, 0, grid.width - 1, grid.height - 1)
-        x0, y0 = max(x0, 0), max(y0, 0)
-        x1, y1 = min(x1, grid.width - 1), min(y1, grid.height - 1)
-        wanted = {tuple(goal) for goal in np.asarray(goals).reshape(-1, 2).tolist()}
-        start = (int(start[0]), int(start[1]))
-        parent: dict[Cell, Cell | None] = {start: None}
-        queue = collections.deque([start])
-        path = None
-        while queue:
-            cell = queue.popleft()
-            if cell in wanted:
-                path = []
-                while cell is not None:
-                    path.append(cell)
-                    cell = parent[cell]
-                path = np.array(path[::-1], dtype=np.int64)
-                break
-            x, y = cell
-            for dx, dy in MOVES:
-                nx, ny = x + dx, y + dy
-                if (x0 <= nx <= x1 and y0 <= ny <= y1 and passable[ny, nx]
-                        and (nx, ny) not in parent
-                        and corner_allowed(grid, passable, x, y, dx, dy)):
-                    parent[nx, ny] = cell
-                    queue.append((nx, ny))
-        CALLS.append(Call(grid, passable, start, goals, window, path))
+        path = super().plan(grid, passable, start, goals, window=window, heading=heading)
+        CALLS.append(Call(grid, passable, (int(start[0]), int(start[1])), goals, window, path))
         return path
 
 
