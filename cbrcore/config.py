@@ -43,6 +43,7 @@ from cbrcore.documents import (
 from cbrcore.errors import ConfigError
 from cbrcore.options import (
     displayed,
+    misfits,
     option_problems,
     paths_relative_to,
     referenced_names,
@@ -404,11 +405,14 @@ def _component(raw: Any, kind: str, path: str, registry: Registry,
         return None
     value, faults = option_problems(component.options, options, path)
     if not faults:
+        # an option that takes only some components of its kind says which ones fit
+        unfit = dict(misfits(value, path, registry))
         for where, referred, target in referenced_names(value, path):
             try:
                 registry.get(referred, target)
             except UnknownComponent as exc:
-                faults.append((where, str(exc)))
+                faults.append((where, unfit.pop(where, str(exc))))
+        faults.extend(unfit.items())
     problems.extend(faults)
     return ComponentRef(kind, name, value, path) if not faults else None
 

@@ -46,6 +46,7 @@ _slots: contextvars.ContextVar[Mapping[str, str]] = contextvars.ContextVar("cbr_
 
 _REFERS_TO = "cbr_refers_to"
 _SHOWN = "cbr_shown"
+_FITS = "cbr_fits"
 
 
 def option(default: Any = attrs.NOTHING, doc: str = "", *,
@@ -65,14 +66,20 @@ def option(default: Any = attrs.NOTHING, doc: str = "", *,
 
 def reference(kind: str, default: Any = attrs.NOTHING, doc: str = "", *,
               validator: Callable[..., Any] | None = None,
-              factory: Callable[[], Any] | None = None) -> Any:
+              factory: Callable[[], Any] | None = None,
+              fits: Callable[[Any, str], str | None] | None = None) -> Any:
     """An option naming a component of ``kind``, as :func:`option` otherwise.
 
     The value is a component name (``str``), None, or a list or tuple of names. Reading a
     configuration checks every name, the default included, against the registry, and the
-    configuration reference shows the kind the option names.
+    configuration reference shows the kind the option names. ``fits(registry, name)`` narrows
+    the components the option takes (those of a protocol, say): it returns what is wrong with
+    the registered component ``name`` here, listing the names that fit, or None.
     """
-    return _field(default, validator, factory, {"doc": doc, _REFERS_TO: kind})
+    metadata: dict[str, Any] = {"doc": doc, _REFERS_TO: kind}
+    if fits is not None:
+        metadata[_FITS] = fits
+    return _field(default, validator, factory, metadata)
 
 
 def _field(default: Any, validator: Callable[..., Any] | None,
@@ -120,17 +127,32 @@ def referenced_names(options: Any, where: str) -> Iterator[tuple[str, str, str]]
     Walks nested options instances in fields, lists, tuples and mappings; paths are below
     ``where`` (``reuse.connector``, ``reuse.stages.1.solver``).
     """
+    for name_path, field, name in _named(options, where):
+        yield name_path, referred_kind(field), name
+
+
+def misfits(options: Any, where: str, registry: Any) -> Iterator[tuple[str, str]]:
+    """``(yaml path, problem)`` for every registered component an options instance names where
+    its option's ``fits`` (see :func:`reference`) refuses it."""
+    for name_path, field, name in _named(options, where):
+        fits = field.metadata.get(_FITS)
+        problem = None if fits is None else fits(registry, name)
+        if problem is not None:
+            yield name_path, problem
+
+
+def _named(options: Any, where: str) -> Iterator[tuple[str, attrs.Attribute, str]]:
+    """``(yaml path, field, name)`` for every component name in an options instance."""
     for field in attrs.fields(type(options)):
         value = getattr(options, field.name)
         path = f"{where}.{field.name}"
-        kind = referred_kind(field)
-        if kind is not None:
+        if referred_kind(field) is not None:
             for name_path, name in _items(value, path):
-                yield name_path, kind, name
+                yield name_path, field, name
         else:
             for item_path, item in _items(value, path):
                 if attrs.has(type(item)):
-                    yield from referenced_names(item, item_path)
+                    yield from _named(item, item_path)
 
 
 def _items(value: Any, path: str) -> Iterator[tuple[str, Any]]:

@@ -149,6 +149,23 @@ CASES = {
                            "huge.scen, line 2: expected an optimal length below 1e300"),
     "map that never ends": (_plan("endless.map", "--start", "0,0", "--goal", "1,1"),
                             "endless.map: cannot read: a character device, not a regular file"),
+    "plan with a solver nobody registered": (
+        _plan("small.map", "--start", "0,0", "--goal", "1,1", "--solver", "bfs"),
+        "--solver: 'bfs' is no registered solver; the grid planners registered: aistar (plugin "
+        "solvers), astar (plugin solvers)"),
+    "plan with a solver that is no grid planner": (
+        _plan("small.map", "--start", "0,0", "--goal", "1,1", "--solver", "rescuer"),
+        "--solver: 'rescuer' is a solver of plugin 'world2d' that does not plan on a given "
+        "passable mask (the solver protocol, cbr_grid.planning.GridPlanner); the grid planners "
+        "registered: aistar"),
+    "connector that is no grid planner": (
+        _run("reuse: {use: casegraph, connector: rescuer}"),
+        "reuse.connector (line 1, column 36): 'rescuer' is a solver of plugin 'world2d' that "
+        "does not plan on a given passable mask"),
+    "replanner nobody registered": (
+        _run("workload: {use: trips, replanner: astr}"),
+        "workload.replanner (line 1, column 35): 'astr' is no registered solver; the grid "
+        "planners registered: aistar (plugin solvers)"),
     "ROS yaml 20,000 lists deep": (_run("world: {use: map_file, path: ../../deep.yaml}"),
                                    "deep.yaml: line 1, column 107: collections nested more "
                                    "than 100 levels deep"),

@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 
 from cbr_casegraph.geometry import is_straight, segment_cells
 from cbr_casegraph.graph import SEGMENT, CaseGraph, segment_costs
-from cbr_casegraph.planner import Failure, Plan, Settings, plan
+from cbr_casegraph.planner import Failure, Plan, Settings, plan, searched
 from cbr_casegraph.state import graph_of
 from cbr_grid.costs import path_cost, step_costs
 from cbr_grid.grid import Grid
@@ -760,9 +760,10 @@ def test_connectors_and_graph_searches_agree_on_the_cost(world: Any, delta: int)
     variants: list[tuple[Settings, Callable[..., Any] | None]] = [
         (Settings(delta=delta, connector="dijkstra", graph_search="astar"), None),
         (Settings(delta=delta, connector="dijkstra", graph_search="dijkstra"), None),
-        (Settings(delta=delta, connector="astar", graph_search="astar"), astar),
-        (Settings(delta=delta, connector="astar", graph_search="dijkstra"), astar),
-        (Settings(delta=delta, connector="jps", graph_search="astar"), load_search("jps")),
+        (Settings(delta=delta, connector="astar", graph_search="astar"), searched(astar)),
+        (Settings(delta=delta, connector="astar", graph_search="dijkstra"), searched(astar)),
+        (Settings(delta=delta, connector="jps", graph_search="astar"),
+         searched(load_search("jps"))),
     ]
     for start, goal in queries:
         results = [plan(graph, start, goal, options, search) for options, search in variants]
@@ -792,7 +793,7 @@ def test_equally_near_cells_of_a_case_do_not_change_the_plan() -> None:
         graph = CaseGraph(free(14, 14))
         path = line((0, 0), (10, 10))
         graph.add_path(path[::-1] if reverse else path)
-        for name, search in (("dijkstra", None), ("astar", astar)):
+        for name, search in (("dijkstra", None), ("astar", searched(astar))):
             found = plan(graph, (2, 5), (13, 13), Settings(delta=3, connector=name), search)
             assert isinstance(found, Plan)
             costs[name, reverse] = found.cost
@@ -862,7 +863,7 @@ def test_the_genetic_algorithm_can_make_the_temporary_edges() -> None:
     graph = CaseGraph(grid)
     graph.add_path(dijkstra(grid.factor, grid.passable, False, (2, 20), [(37, 20)]).path)
     result = plan(graph, (4, 24), (35, 16), Settings(delta=6, connector="genetic"),
-                  load_search("genetic"))
+                  searched(load_search("genetic")))
     assert isinstance(result, Plan)
     assert grid.path_problems(result.path) == []
     assert tuple(result.path[0]) == (4, 24) and tuple(result.path[-1]) == (35, 16)

@@ -57,13 +57,25 @@ class StaleOptions:
     connector: str = reference("solver", "astar", "A solver that is not installed here.")
 
 
+def only_direct(registry: Registry, name: str) -> str | None:
+    """A ``fits`` check taking the solver ``direct`` alone."""
+    return None if name == "direct" else f"{name!r} does not join pieces; direct does"
+
+
+@attrs.frozen
+class PickyOptions:
+    connector: str = reference("solver", "direct", "The joining solver.", fits=only_direct)
+    improvers: list[str] = reference("solver", doc="Improvers.", factory=list, fits=only_direct)
+
+
 class ChainPlugin:
-    """Registers the reusers ``chain`` and ``stale`` and the solver ``direct``."""
+    """Registers the reusers ``chain``, ``stale`` and ``picky`` and the solver ``direct``."""
 
     @hookimpl
     def cbr_register(self, registry: Registry) -> None:
         registry.add("reuser", "chain", Chain, options=ChainOptions)
         registry.add("reuser", "stale", Chain, options=StaleOptions)
+        registry.add("reuser", "picky", Chain, options=PickyOptions)
         registry.add("solver", "direct", toy_domain.Compute)
 
 
@@ -123,6 +135,22 @@ def test_an_unknown_name_is_located(registry: Registry, text: str, problem: str)
     """A written name is located where it is written; a default naming an unknown component
     is reported at its option, located where the component is written."""
     assert problems_of(text, registry) == [problem]
+
+
+@pytest.mark.parametrize(("text", "problem"), [
+    ("reuse: {use: picky, connector: compute}\n",
+     "reuse.connector (line 1, column 32): 'compute' does not join pieces; direct does"),
+    ("reuse: {use: picky, connector: astr}\n",
+     "reuse.connector (line 1, column 32): 'astr' does not join pieces; direct does"),
+    ("reuse: {use: picky, improvers: [direct, compute]}\n",
+     "reuse.improvers.1 (line 1, column 41): 'compute' does not join pieces; direct does"),
+])
+def test_fits_narrows_the_components_an_option_takes(registry: Registry, text: str,
+                                                     problem: str) -> None:
+    """A registered name that does not fit, and an unknown one, get the option's own message."""
+    assert problems_of(text, registry) == [problem]
+    assert parse_config({"reuse": {"use": "picky", "improvers": ["direct"]}},
+                        registry).reuse is not None
 
 
 def test_option_problems_come_before_reference_checks(registry: Registry) -> None:

@@ -47,6 +47,7 @@ import numpy as np
 from cbr_behaviors.cases import freeze
 from cbr_behaviors.moment import InstallBehaviors, InstallPlan, Moment, SpellReport
 from cbr_behaviors.triggers import TriggerOptions
+from cbr_grid.planning import planner_problem
 from cbr_world2d.pilots import PILOT, BehaviorPilot, parse_behavior_set
 from cbr_world2d.pilots.monitor import STUCK
 from cbr_world2d.pilots.primitives import COLLISION_ARC
@@ -93,8 +94,9 @@ class DeliveryOptions:
         True, "Consult the engine when a re-planning trigger fires; false keeps the pilot's "
         "behavior set all day.")
     planner: str = reference("solver", "astar",
-                             "The grid solver the plan manager routes with on the rasterised "
-                             "global map.")
+                             "The grid planner (a solver of the solver protocol) the plan "
+                             "manager routes with on the rasterised global map.",
+                             fits=planner_problem)
     cell: float = option(0.2, "The cell size, in metres, of the rasterised global map.",
                          validator=_POSITIVE)
     fade: float = option(60.0, "Seconds after which a transient object the sonar no longer "

@@ -9,6 +9,7 @@ graph of its own, so that the compiled code is ready before the first query is t
 
 from __future__ import annotations
 
+import functools
 import importlib
 from types import ModuleType
 from typing import TYPE_CHECKING, Literal
@@ -21,6 +22,7 @@ from cbr_casegraph.payoff import PassableCells, Payoff
 from cbr_casegraph.state import graph_of
 from cbr_grid.distances import DistanceName
 from cbr_grid.grid import grid_world
+from cbr_grid.planning import plan_with, planner_of, planner_problem
 from cbr_grid.query import GridQuery
 from cbr_grid.risk import record_map
 from cbr_kinematics import HOLONOMIC, robot_kinematics
@@ -31,7 +33,7 @@ from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Case, Match, Outcome, Retrieval, Solution
-from cbrcore.options import configured, option
+from cbrcore.options import configured, option, reference
 
 if TYPE_CHECKING:
     from cbr_casegraph.planner import Neighbourhoods, Settings
@@ -162,10 +164,12 @@ def segment_distance(a: np.ndarray, b: np.ndarray, cell: np.ndarray) -> np.ndarr
 
 @attrs.frozen
 class ReuseOptions:
-    connector: Literal["dijkstra", "astar", "jps", "genetic"] = option(
-        "dijkstra", "The local search that makes the temporary edges from start and goal to the "
-        "nearest cells of the cases: one Dijkstra sweep serves every case, the whole query "
-        "compiled; A*, jump point search and the genetic algorithm search once per case.")
+    connector: str = reference(
+        "solver", "dijkstra", "The local search that makes the temporary edges from start and "
+        "goal to the nearest cells of the cases: dijkstra, one sweep serving every case, the "
+        "whole query compiled; astar, jps and genetic (seed 0) search once per case, as does "
+        "any other registered grid planner (the solver protocol), built with its default "
+        "options.", fits=planner_problem)
     margin: int | None = option(
         None, "How far beyond N(., delta) the local search may go, in cells (default delta // 2).",
         validator=attrs.validators.optional(attrs.validators.ge(0)))
@@ -182,6 +186,11 @@ class ReuseOptions:
                              f"dijkstra, not {value!r}")
 
 
+_COMPILED_CONNECTORS = ("astar", "jps", "genetic")
+"""The built-in searches the reuser calls directly, as it always has (the genetic algorithm
+with seed 0); every other connector but dijkstra is a grid planner from the registry."""
+
+
 class CaseGraphReuser:
     """Adaptation: temporary edges to the retrieved cases, then the best path in the graph."""
 
@@ -194,10 +203,13 @@ class CaseGraphReuser:
                            f"{type(self.kinematics).__name__} makes the temporary edges by "
                            f"edge-based Dijkstra sweeps; connector must be dijkstra, not "
                            f"{options.connector!r}")
-        if options.connector != "dijkstra":
+        if options.connector in _COMPILED_CONNECTORS:
             from cbr_solvers import load_search
 
-            self.search = load_search(options.connector)
+            self.search = _planner().searched(load_search(options.connector))
+        elif options.connector != "dijkstra":
+            planner = planner_of(options.connector, ctx, "reuse 'casegraph': connector")
+            self.search = functools.partial(plan_with, planner)
         graph_of(ctx)
 
     @hookimpl

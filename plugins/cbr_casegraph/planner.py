@@ -20,9 +20,10 @@ costs, since a step's cost depends only on its two cells.
 
 Steps 3-6 and the path are compiled (:mod:`cbr_casegraph.query`): a query is a constant number
 of kernel calls, whatever the number of cases, links and vertices it meets. A connector that
-searches once per case (``astar``, ``jps``, ``genetic``) makes its temporary edges here, one
-search per case, and hands them to the same kernel. The overlay classes below serve the planner
-for a robot with kinematic constraints (:mod:`cbr_casegraph.kinematic`).
+searches once per case (``astar``, ``jps``, ``genetic`` or any other registered grid planner)
+makes its temporary edges here, one search per case, and hands them to the same kernel. The
+overlay classes below serve the planner for a robot with kinematic constraints
+(:mod:`cbr_casegraph.kinematic`).
 """
 
 from __future__ import annotations
@@ -40,9 +41,12 @@ from cbr_casegraph.geometry import segments_cells
 from cbr_casegraph.graph import Adjacency, CaseGraph
 from cbr_casegraph.search import run_costs
 from cbr_grid.grid import Grid
+from cbr_grid.planning import Window
 
 Cell = tuple[int, int]
-Connector = Literal["dijkstra", "astar", "jps", "genetic"]
+Connect = Callable[[Grid, Cell, np.ndarray, Window], Any]
+"""A connector's local search: ``connect(grid, start, goals, window)``, a path to one of
+``goals`` inside ``window`` with its ``path`` and ``cost``, or None (see :func:`searched`)."""
 Trace = Callable[[], np.ndarray]
 
 
@@ -52,7 +56,7 @@ class Settings:
 
     delta: int = 10
     selective: bool = False
-    connector: Connector = "dijkstra"
+    connector: str = "dijkstra"
     margin: int | None = None
     graph_search: Literal["dijkstra", "astar"] = "astar"
 
@@ -191,12 +195,22 @@ _FAILURES = {query.NO_START_LINK: "no local path from the start to a case",
              query.NOT_CONNECTED: "the extended case graph does not connect start and goal"}
 
 
+def searched(search: Callable[..., Any]) -> Connect:
+    """The connector of a compiled search with the signature of ``cbr_solvers.search.astar``."""
+
+    def connect(grid: Grid, start: Cell, goals: np.ndarray, window: Window) -> Any:
+        return search(grid.factor, grid.passable, grid.corner_cutting, start, goals, window)
+
+    return connect
+
+
 def adapt(graph: CaseGraph, start: Cell, goal: Cell, cases: Neighbourhoods, settings: Settings,
-          search: Callable[..., Any] | None = None) -> Plan | Failure:
+          search: Connect | None = None) -> Plan | Failure:
     """Reuse: extend the graph by start, goal and temporary edges; the best path in it.
 
-    ``search`` is the local search for temporary edges when the connector is not Dijkstra (a
-    function with the signature of ``cbr_solvers.search.astar``).
+    ``search`` is the local search for temporary edges when the connector is not Dijkstra:
+    :func:`searched` of a compiled search, or :func:`cbr_grid.planning.plan_with` of a grid
+    planner from the registry.
     """
     grid = graph.grid
     tables = edge_tables(graph)
@@ -231,7 +245,7 @@ def adapt(graph: CaseGraph, start: Cell, goal: Cell, cases: Neighbourhoods, sett
 
 
 def plan(graph: CaseGraph, start: Cell, goal: Cell, settings: Settings,
-         search: Callable[..., Any] | None = None) -> Plan | Failure:
+         search: Connect | None = None) -> Plan | Failure:
     """Retrieve and reuse in one call: plan from ``start`` to ``goal`` on ``graph``."""
     cases = neighbourhoods(graph, start, goal, settings)
     if isinstance(cases, Failure):
@@ -240,7 +254,7 @@ def plan(graph: CaseGraph, start: Cell, goal: Cell, settings: Settings,
 
 
 def _searched_links(graph: CaseGraph, cell: Cell, cases: np.ndarray, settings: Settings,
-                    search: Callable[..., Any]
+                    search: Connect
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Temporary edges by one search per case, from ``cell`` to the case's cells inside
     N(cell, delta): (target cells, costs, path offsets, the paths' cells from ``cell``)."""
@@ -253,7 +267,7 @@ def _searched_links(graph: CaseGraph, cell: Cell, cases: np.ndarray, settings: S
     costs: list[float] = []
     for k in range(len(cases)):
         goals = cells[offsets[k]:offsets[k + 1]][near[offsets[k]:offsets[k + 1]]]
-        result = search(grid.factor, grid.passable, grid.corner_cutting, cell, goals, box)
+        result = search(grid, cell, goals, box)
         if result is not None:
             paths.append(np.asarray(result.path, dtype=np.int64).reshape(-1, 2))
             costs.append(float(result.cost))

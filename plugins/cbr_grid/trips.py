@@ -25,7 +25,7 @@ import numpy as np
 from cbr_grid.costs import path_cost
 from cbr_grid.drive import Robot, checked_path
 from cbr_grid.grid import Grid, grid_world
-from cbr_grid.planning import planner_of
+from cbr_grid.planning import planner_of, planner_problem
 from cbr_grid.query import GridQuery, path_array
 from cbr_grid.risk import CONFIGURED_WORLD
 from cbr_grid.true_world import TrueWorld
@@ -106,10 +106,11 @@ class TripsOptions:
         "start, for planners of a constrained kinematic model; drawn apart, so the trips and "
         "worlds stay those of the same seed without headings.")
     replanner: str = reference(
-        "solver", "astar", "The solver component the robot replans with around an obstacle it "
-        "met; it plans for the configuration's kinematic model, a constrained one straight to "
+        "solver", "astar", "The grid planner (a solver of the solver protocol, built-in or a "
+        "plugin's) the robot replans with around an obstacle it met; it plans for the "
+        "configuration's kinematic model, a constrained one straight to "
         "the goal from the direction the robot was moving in, so the path driven is one it can "
-        "drive.")
+        "drive.", fits=planner_problem)
     seed: int | None = option(
         None, "The seed of the true world's random obstacles, the trips and the obstacles' "
         "presence; null derives one from the run's seed. Give two configurations the same seed "

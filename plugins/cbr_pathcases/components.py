@@ -19,6 +19,7 @@ from cbr_grid.costs import path_cost, path_length
 from cbr_grid.distances import DistanceName, distance
 from cbr_grid.drive import DriveReport
 from cbr_grid.grid import Grid
+from cbr_grid.planning import plan_with, planner_of, planner_problem
 from cbr_grid.query import GridQuery, path_array, without_loops
 from cbr_grid.risk import record_map
 from cbr_kinematics import robot_kinematics
@@ -32,7 +33,7 @@ from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Case, Match, Outcome, Retrieval, Solution
-from cbrcore.options import option
+from cbrcore.options import option, reference
 
 _UNIT = attrs.validators.and_(attrs.validators.ge(0.0), attrs.validators.le(1.0))
 _POSITIVE = attrs.validators.gt(0.0)
@@ -121,10 +122,12 @@ class PathRetriever:
 
 @attrs.frozen
 class ReuseOptions:
-    connector: Literal["astar", "dijkstra", "randomized", "genetic"] = option(
-        "astar", "The search that extends the retrieved path from the new start to its first "
-        "cell and from its last cell to the new goal: A*, Dijkstra, the randomised search or "
-        "the genetic algorithm (as in Šeda & Dvořák).")
+    connector: str = reference(
+        "solver", "astar", "The search that extends the retrieved path from the new start to "
+        "its first cell and from its last cell to the new goal: astar, dijkstra, randomized "
+        "(with noise) or genetic (with generations; as in Šeda & Dvořák), each seeded from "
+        "the reuser's generator; or any other registered grid planner (the solver protocol), "
+        "built with its default options.", fits=planner_problem)
     margin: int = option(
         5, "How far beyond the box around the two cells an extension may go, in cells.",
         validator=attrs.validators.ge(0))
@@ -140,6 +143,11 @@ class ReuseOptions:
         validator=attrs.validators.ge(0.0))
 
 
+_COMPILED_CONNECTORS = ("astar", "dijkstra", "randomized", "genetic")
+"""The built-in searches the reuser calls directly with its own options and seeds, as it always
+has; every other connector is a grid planner from the registry."""
+
+
 class PathReuser:
     """Adaptation: extend the retrieved path to the new start and goal by a grid search."""
 
@@ -152,7 +160,12 @@ class PathReuser:
                            f"move; the configuration's kinematics is {type(robot).__name__}, "
                            f"for which the case graph plans (reuse: casegraph)")
         self.options = options
-        self.connect_search = load_search(options.connector)
+        self.connect_search = None
+        self.planner = None
+        if options.connector in _COMPILED_CONNECTORS:
+            self.connect_search = load_search(options.connector)
+        else:
+            self.planner = planner_of(options.connector, ctx, "reuse 'path_cases': connector")
         self.genetic = load_search("genetic") if options.improve == "genetic" else None
         self.rng = ctx.spawn_rng()
         base_of(ctx)
@@ -175,9 +188,13 @@ class PathReuser:
             return a[None, :]
         m = self.options.margin
         window = (*(np.minimum(a, b) - m).tolist(), *(np.maximum(a, b) + m).tolist())
-        found = self.connect_search(grid.factor, grid.passable, grid.corner_cutting,
-                                    tuple(a.tolist()), [tuple(b.tolist())], window,
-                                    **self._search_options(self.options.connector, seed))
+        start, goals = tuple(a.tolist()), np.array([b], dtype=np.int64)
+        if self.planner is not None:
+            found = plan_with(self.planner, grid, start, goals, window)
+        else:
+            found = self.connect_search(grid.factor, grid.passable, grid.corner_cutting, start,
+                                        goals, window,
+                                        **self._search_options(self.options.connector, seed))
         return None if found is None else found.path
 
     def _extend(self, grid: Grid, start: np.ndarray, goal: np.ndarray,

@@ -33,15 +33,9 @@ from cbr_grid.movingai import Scenario, load_scen
 from cbr_grid.query import Cell
 from cbrcore.errors import CbrError
 
-Search = Callable[..., Any]
-
-
-class SolverName(enum.StrEnum):
-    dijkstra = "dijkstra"
-    astar = "astar"
-    aistar = "aistar"
-    jps = "jps"
-    genetic = "genetic"
+Search = Callable[[Grid, Cell, list[Cell]], Any]
+"""A solver's search as ``cbr plan`` calls it: ``search(grid, start, goals)``, a result with a
+``path`` and a ``cost`` (and more from a built-in search), or None."""
 
 
 class FrameName(enum.StrEnum):
@@ -150,53 +144,102 @@ def _heading(text: str | None, option: str) -> int | None:
         raise typer.BadParameter(str(exc), param_hint=f"'{option}'") from None
 
 
-def _searcher(solver: SolverName, kinematics: str, heading: int | None,
-              final_heading: int | None, grid: Grid) -> Search:
-    """The search function of ``solver`` for the kinematic model named ``kinematics``, its
-    compiled kernels loaded, for ``grid``'s rules, before any timing."""
+def _searcher(solver: str, kinematics: str, heading: int | None,
+              final_heading: int | None, seed: int | None, grid: Grid) -> Search:
+    """The search of the solver component ``solver`` for the kinematic model named
+    ``kinematics``, warmed up for ``grid``'s rules before any timing: a built-in search called
+    directly, or any other registered grid planner through the solver protocol."""
+    from cbr_grid.planning import planner_problem
     from cbr_kinematics import kinematics_of
-    from cbr_solvers import KINEMATIC_MODULES, load_search, warm_grid, warm_query
+    from cbr_solvers import KINEMATIC_MODULES, SEARCH_MODULES, load_search, warm_grid, warm_query
     from cbrcore.context import Context
     from cbrcore.plugins import current
 
-    model = kinematics_of(kinematics, Context(registry=current().registry, seed=0),
-                          "--kinematics")
+    registry = current().registry
+    problem = planner_problem(registry, solver)
+    if problem is not None:
+        raise CbrError(f"--solver: {problem}")
+    if seed is not None and solver not in _SEEDED:
+        raise typer.BadParameter(f"--seed applies to --solver {' or '.join(_SEEDED)} only",
+                                 param_hint="'--seed'")
+    ctx = Context(registry=registry, seed=0, world=grid)
+    model = kinematics_of(kinematics, ctx, "--kinematics")
+    if model is None and (heading is not None or final_heading is not None):
+        raise typer.BadParameter(f"kinematics {kinematics!r} turns any way: headings apply "
+                                 "to a constrained model such as forward",
+                                 param_hint="'--heading' / '--final-heading'")
+    if solver not in SEARCH_MODULES:
+        return _registered(solver, ctx, model, heading, final_heading)
+    options: dict[str, Any] = {} if seed is None else {"seed": seed}
     if model is None:
-        if heading is not None or final_heading is not None:
-            raise typer.BadParameter(f"kinematics {kinematics!r} turns any way: headings apply "
-                                     "to a constrained model such as forward",
-                                     param_hint="'--heading' / '--final-heading'")
-        function: Search = load_search(solver.value)
+        function: Callable[..., Any] = functools.partial(load_search(solver), **options)
     else:
-        if solver.value not in KINEMATIC_MODULES:
+        if solver not in KINEMATIC_MODULES:
             raise typer.BadParameter(
-                f"--solver {solver.value} plans for holonomic robots only; for kinematics "
+                f"--solver {solver} plans for holonomic robots only; for kinematics "
                 f"{kinematics!r} use one of {', '.join(KINEMATIC_MODULES)}",
                 param_hint="'--kinematics'")
-        function = functools.partial(load_search(solver.value, kinematic=True),
-                                     kinematics=model, heading=heading,
-                                     final_heading=final_heading)
+        function = functools.partial(load_search(solver, kinematic=True), kinematics=model,
+                                     heading=heading, final_heading=final_heading, **options)
+
+    def search(on: Grid, start: Cell, goals: list[Cell]) -> Any:
+        return function(on.factor, on.passable, on.corner_cutting, start, goals)
+
     # The first call loads the kernels from the disk cache (or compiles them); a search around
     # a wall, with the map's rules and the same options, runs every kernel the timed search
     # will, so none of that reaches the times reported. 16 cells leave a constrained robot room
     # to turn to any heading.
     warm = warm_grid(grid, size=16)
     query = warm_query(warm)
-    function(warm.factor, warm.passable, warm.corner_cutting, query.start, [query.goal])
-    return function
+    search(warm, query.start, [query.goal])
+    return search
 
 
-def _plan(search: Search, solver: SolverName, grid: Grid, start: Cell,
+_SEEDED = ("genetic", "randomized")
+"""The built-in solvers ``--seed`` seeds."""
+
+
+def _registered(solver: str, ctx: Any, model: Any, heading: int | None,
+                final_heading: int | None) -> Search:
+    """The search of the registered grid planner ``solver`` (not a built-in search), built
+    with its default options in ``ctx`` (the map as world, the robot's model stashed) and
+    warmed up by its own ``cbr_warm`` hook when it has one, as a run's engine does."""
+    from cbr_grid.planning import plan_with, planner_of
+    from cbr_kinematics import KINEMATICS
+
+    if model is not None:
+        ctx.stash[KINEMATICS] = model
+    planner = planner_of(solver, ctx, "--solver")
+    if model is not None and not planner.constrained:
+        raise typer.BadParameter(f"--solver {solver} plans for robots that may make any move, "
+                                 f"not for kinematics {type(model).__name__}",
+                                 param_hint="'--kinematics'")
+    if final_heading is not None:
+        raise typer.BadParameter(f"--solver {solver} plans through the solver protocol, which "
+                                 "takes no final heading; the built-in searches do",
+                                 param_hint="'--final-heading'")
+    warm = getattr(planner, "cbr_warm", None)
+    if callable(warm):
+        warm(ctx=ctx)
+
+    def search(on: Grid, start: Cell, goals: list[Cell]) -> Any:
+        return plan_with(planner, on, start, np.array(goals, dtype=np.int64), heading=heading)
+
+    return search
+
+
+def _plan(search: Search, solver: str, grid: Grid, start: Cell,
           goal: Cell) -> dict[str, Any] | None:
     """Plan from ``start`` to ``goal``: the record ``cbr plan`` prints, or None without a path."""
     began = time.perf_counter()
-    result = search(grid.factor, grid.passable, grid.corner_cutting, start, [goal])
+    result = search(grid, start, [goal])
     time_ms = (time.perf_counter() - began) * 1000.0
     if result is None:
         return None
-    record = {"solver": solver.value, "length": path_length(result.path), "cost": result.cost,
-              "turns": turns(result.path), "time_ms": time_ms, "expanded": result.expanded,
-              "path": result.path.tolist()}
+    # a solver of the protocol reports no expanded cells
+    record = {"solver": solver, "length": path_length(result.path), "cost": result.cost,
+              "turns": turns(result.path), "time_ms": time_ms,
+              "expanded": getattr(result, "expanded", None), "path": result.path.tolist()}
     if hasattr(result, "headings"):
         record.update(headings=result.headings.tolist(), reversing=result.reversing.tolist())
     if hasattr(result, "search"):
@@ -249,7 +292,7 @@ def _spread(scenarios: list[Scenario], limit: int | None) -> list[Scenario]:
     return [ordered[i] for i in picks]
 
 
-def _plan_scenarios(search: Search, solver: SolverName, grid: Grid, scen: Path,
+def _plan_scenarios(search: Search, solver: str, grid: Grid, scen: Path,
                     limit: int | None, as_json: bool) -> None:
     """Plan the sampled scenarios of ``scen``: one line each, then a summary line."""
     scenarios = _spread(load_scen(scen, grid), limit)
@@ -265,7 +308,7 @@ def _plan_scenarios(search: Search, solver: SolverName, grid: Grid, scen: Path,
         record = _plan(search, solver, grid, start, goal)
         if record is None:
             # a scenario without a path still gets its line, so the output stays one per problem
-            record = {"solver": solver.value, "length": None, "cost": None, "turns": None,
+            record = {"solver": solver, "length": None, "cost": None, "turns": None,
                       "time_ms": None, "expanded": None, "path": None}
             agrees = False
         else:
@@ -307,14 +350,15 @@ def plan(
     limit: Annotated[int | None, typer.Option(
         "--limit", metavar="N", min=1, help="With --scen: plan this many scenarios, spread "
         "evenly over the buckets (default: all).", show_default=False)] = None,
-    solver: Annotated[SolverName, typer.Option("--solver", help=(
-        "The search to plan with: jps is jump point search (it hands a map with risk over to "
-        "astar); genetic, the genetic algorithm with its default options, may find no path "
-        "where one exists, and its path is seldom the cheapest."))]
-    = SolverName.astar,
+    solver: Annotated[str, typer.Option(
+        "--solver", metavar="NAME", help="The solver component to plan with: dijkstra, astar, "
+        "aistar, jps, genetic, randomized or another registered grid planner. jps is jump "
+        "point search (it hands a map with risk over to astar); genetic, the genetic algorithm "
+        "with its default options, may find no path where one exists, and its path is seldom "
+        "the cheapest.")] = "astar",
     seed: Annotated[int | None, typer.Option(
-        "--seed", metavar="N", min=0, help="With --solver genetic: the random seed (default 0).",
-        show_default=False)] = None,
+        "--seed", metavar="N", min=0, help="With --solver genetic or randomized: the random "
+        "seed (default 0).", show_default=False)] = None,
     kinematics: Annotated[str, typer.Option(
         "--kinematics", metavar="NAME", help="The robot's kinematic model: holonomic, forward, "
         "forward_backward or another registered one.")] = "holonomic",
@@ -366,8 +410,6 @@ def plan(
             raise typer.BadParameter("a scenario file's optimal lengths are for the map as it "
                                      "is: --scen plans without inflation",
                                      param_hint=" / ".join(f"'{o}'" for o in given))
-    if seed is not None and solver is not SolverName.genetic:
-        raise typer.BadParameter("--seed applies to --solver genetic only", param_hint="'--seed'")
     parse = _cell if frame is FrameName.cell else _point
     start_at = None if start is None else parse(start, "--start")
     goal_at = None if goal is None else parse(goal, "--goal")
@@ -377,9 +419,7 @@ def plan(
     if frame is FrameName.map and grid.frame is None:
         raise typer.BadParameter(f"{map_file} has no metric frame (ROS .yaml maps have one): "
                                  "give --start and --goal as cells", param_hint="'--frame'")
-    search = _searcher(solver, kinematics, start_heading, goal_heading, grid)
-    if seed is not None:
-        search = functools.partial(search, seed=seed)
+    search = _searcher(solver, kinematics, start_heading, goal_heading, seed, grid)
     if scen is not None:
         _plan_scenarios(search, solver, grid, scen, limit, as_json)
         return
