@@ -26,7 +26,7 @@ from cbrcore.plugins import current
 from cbrcore.reference import config_reference, hook_reference
 from cbrcore.registry import Registry
 from cbrcore.run import run_workload
-from cbrcore.run_folder import check_continuable, fresh_files, remove
+from cbrcore.run_folder import check_continuable, earlier_results, fresh_files, remove
 from cbrcore.tasks import open_tasks
 
 UNBOUNDED = 100_000
@@ -94,6 +94,7 @@ def run(
             remove(doomed)
     else:
         check_continuable(out_dir, checked)
+        earlier_results(out_dir)
     with Engine(checked, out_dir=out_dir.resolve()) as engine:
         cases = len(engine.casebase) if engine.casebase is not None else 0
         if cases or (out_dir / "results.csv").is_file():
