@@ -13,12 +13,14 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import io
 import json
 from pathlib import Path
 from typing import Any
 
 import attrs
 
+from cbrcore import files
 from cbrcore.config import Config
 from cbrcore.errors import CbrError
 from cbrcore.options import in_run_folder
@@ -62,11 +64,13 @@ def earlier_results(out_dir: Path) -> Earlier:
     a query number that is not a whole number), without quoting it.
     """
     path = out_dir / RESULTS
-    if not path.is_file():
+    if not path.exists():
         return Earlier()
     expected = "expected a run's results, or start afresh with --fresh"
     try:
-        with path.open(newline="", encoding="utf-8") as handle:
+        # a named pipe or a folder in its place is refused, not waited on
+        with files.open_regular(path) as raw, \
+                io.TextIOWrapper(raw, encoding="utf-8", newline="") as handle:
             reader = csv.DictReader(handle)
             columns = tuple(reader.fieldnames or ())
             if columns and "query" not in columns:
@@ -79,8 +83,8 @@ def earlier_results(out_dir: Path) -> Earlier:
                                    f"a whole number; {expected}")
                 last = max(last, int(number))
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        raise CbrError(f"{path}: cannot be read as a run's results "
-                       f"({type(exc).__name__}); {expected}") from exc
+        raise CbrError(f"{path}: cannot be read as a run's results ({_reason(exc)}); "
+                       f"{expected}") from exc
     return Earlier(rows=rows, next_query=last + 1, columns=columns)
 
 
@@ -88,14 +92,15 @@ def check_continuable(out_dir: Path, config: Config) -> None:
     """Refuse, with a CbrError, to continue ``out_dir`` when its manifest was written by another
     configuration, or is no run's manifest; a folder without a manifest may be continued."""
     path = out_dir / MANIFEST
-    if not path.is_file():
+    if not path.exists():
         return
     advice = ("run into another folder (--out), or start afresh with --fresh, which removes "
               "the folder's results and case base")
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        with files.open_regular(path) as raw:
+            data = json.loads(raw.read().decode("utf-8"))
     except (OSError, UnicodeDecodeError, ValueError) as exc:
-        raise CbrError(f"{path}: cannot be read as a run's manifest ({type(exc).__name__}); "
+        raise CbrError(f"{path}: cannot be read as a run's manifest ({_reason(exc)}); "
                        f"{advice}") from exc
     if not isinstance(data, dict) or not isinstance(data.get("config"), dict):
         raise CbrError(f"{path}: records no run's configuration (the folder holds something "
@@ -109,6 +114,14 @@ def check_continuable(out_dir: Path, config: Config) -> None:
         raise CbrError(f"{out_dir}: holds the results of a different configuration ({source}, "
                        f"configuration {recorded[:12]}, this one is "
                        f"{config_sha256(config)[:12]}); {advice}")
+
+
+def _reason(exc: Exception) -> str:
+    """Why a file could not be read, without quoting it: the system's words for an OSError
+    (``Is a directory``, ``is a named pipe``), else the kind of error."""
+    if isinstance(exc, OSError):
+        return str(exc.strerror or type(exc).__name__)
+    return "not JSON" if isinstance(exc, json.JSONDecodeError) else type(exc).__name__
 
 
 def fresh_files(out_dir: Path, config: Config) -> list[Path]:

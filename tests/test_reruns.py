@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import csv
 import json
+import os
+import stat
 from collections.abc import Callable
 from pathlib import Path
 
@@ -71,8 +73,10 @@ def summary(out: Path) -> dict[str, object]:
     return json.loads((out / "summary.json").read_text(encoding="utf-8"))  # type: ignore[no-any-return]
 
 
-def contents(out: Path) -> dict[str, bytes]:
-    return {path.name: path.read_bytes() for path in sorted(out.iterdir())}
+def contents(out: Path) -> dict[str, bytes | str]:
+    """The folder's regular files with their bytes, and anything else by its kind."""
+    return {path.name: path.read_bytes() if path.is_file() else stat.filemode(path.lstat().st_mode)
+            for path in sorted(out.iterdir())}
 
 
 def test_a_rerun_continues_the_folder_and_says_so(cbr_cli: Cli, config: Path,
@@ -162,10 +166,17 @@ def test_a_manifest_without_its_fingerprint_is_compared_by_its_configuration(
     assert cbr_cli("run", str(config), "--out", str(out)).exit_code == 2
 
 
+PIPE, FOLDER = "<a named pipe>", "<a folder>"
 BAD_FOLDERS = {
     "manifest that is not JSON": (
         {"manifest.json": f"{MARKER} password=hunter2\n"},
-        "manifest.json: cannot be read as a run's manifest (JSONDecodeError)"),
+        "manifest.json: cannot be read as a run's manifest (not JSON)"),
+    "manifest that is a named pipe": (
+        {"manifest.json": PIPE},
+        "manifest.json: cannot be read as a run's manifest (a named pipe, not a regular file)"),
+    "results that are a folder": (
+        {"results.csv": FOLDER},
+        "results.csv: cannot be read as a run's results (a folder, not a regular file)"),
     "manifest of an experiment": (
         {"manifest.json": json.dumps({"experiment": "x", "config": None, MARKER: 1})},
         "manifest.json: records no run's configuration"),
@@ -185,7 +196,12 @@ def test_a_folder_that_cannot_be_continued_is_refused_untouched(
     out = tmp_path / "out"
     out.mkdir()
     for name, text in files.items():
-        (out / name).write_text(text, encoding="utf-8")
+        if text == PIPE:
+            os.mkfifo(out / name)
+        elif text == FOLDER:
+            (out / name).mkdir()
+        else:
+            (out / name).write_text(text, encoding="utf-8")
     before = contents(out)
 
     result = cbr_cli("run", str(config), "--out", str(out))
