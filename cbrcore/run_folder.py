@@ -76,16 +76,24 @@ def earlier_results(out_dir: Path) -> Earlier:
             if columns and "query" not in columns:
                 raise CbrError(f"{path}: its header has no 'query' column; {expected}")
             rows, last = 0, -1
-            for rows, row in enumerate(reader, start=1):  # noqa: B007 - the count is kept
-                number = row.get("query") or ""
-                if not number.isdigit():
-                    raise CbrError(f"{path}, line {reader.line_num}: the query number is not "
-                                   f"a whole number; {expected}")
-                last = max(last, int(number))
+            for row in reader:
+                rows += 1
+                last = max(last, _query_number(row.get("query") or "", path, reader.line_num,
+                                               expected))
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise CbrError(f"{path}: cannot be read as a run's results ({_reason(exc)}); "
                        f"{expected}") from exc
     return Earlier(rows=rows, next_query=last + 1, columns=columns)
+
+
+def _query_number(text: str, path: Path, line: int, expected: str) -> int:
+    try:
+        # ASCII digits only: int() would also take '٣' or ' 3 '
+        if text.isascii() and text.isdigit():
+            return int(text)
+    except ValueError:  # more digits than Python converts
+        pass
+    raise CbrError(f"{path}, line {line}: the query number is not a whole number; {expected}")
 
 
 def check_continuable(out_dir: Path, config: Config) -> None:

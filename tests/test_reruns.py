@@ -186,6 +186,12 @@ BAD_FOLDERS = {
     "results with a query number that is none": (
         {"results.csv": f"query,source\n0,solver\n{MARKER},solver\n"},
         "results.csv, line 3: the query number is not a whole number"),
+    "results with a query number in other digits": (
+        {"results.csv": f"query,{MARKER}\n0,solver\n\u0663,solver\n"},
+        "results.csv, line 3: the query number is not a whole number"),
+    "results with a query number too long to convert": (
+        {"results.csv": f"query,{MARKER}\n{'9' * 5000},solver\n"},
+        "results.csv, line 2: the query number is not a whole number"),
 }
 
 
