@@ -143,9 +143,14 @@ def fresh_files(out_dir: Path, config: Config) -> list[Path]:
         database = in_run_folder(casebase.options.path or Path("casebase.sqlite"), out_dir,
                                  config.base_dir)
         if database.resolve().is_relative_to(out_dir.resolve()):
-            found += [database, *(database.with_name(database.name + suffix)
-                                  for suffix in _SQLITE_COMPANIONS)]
+            found += sqlite_files(database)
     return [path for path in found if path.is_file()]
+
+
+def sqlite_files(database: Path) -> list[Path]:
+    """A SQLite database and the files SQLite keeps beside it."""
+    return [database, *(database.with_name(database.name + suffix)
+                        for suffix in _SQLITE_COMPANIONS)]
 
 
 def remove(paths: list[Path]) -> None:
