@@ -42,7 +42,8 @@ class Experiment(Protocol):
     def run(self, size: Size, out_dir: Path, progress: Callable[[int, int], None]
             ) -> ExperimentResult:
         """Run at ``size`` (``ci``: minutes at most, for the test suite; ``full``: the paper's
-        scale), calling ``progress(done, total)`` as work completes.
+        scale), calling ``progress(done, total)`` with no work done as soon as the total is
+        known (a display shows it from then on), then as work completes.
 
         Independent work goes through :func:`cbrcore.tasks.task_runner` of the factory's
         context, so that ``cbr experiment --scheduler`` can spread it over processes or

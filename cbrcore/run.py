@@ -18,7 +18,10 @@ outcome becomes known (:mod:`cbrcore.workload`). A run writes into its output fo
     The configuration as resolved, the seed, and the versions of Python, cbrcore, its
     dependencies and every loaded plugin: what is needed to repeat the run.
 
-The summary and the manifest are replaced whole or not at all (:mod:`cbrcore.files`).
+The summary and the manifest are replaced whole or not at all (:mod:`cbrcore.files`). A run into
+a folder that holds an earlier run's results continues them (:mod:`cbrcore.run_folder`): its rows
+are appended to ``results.csv`` with query numbers following on, and the summary covers the latest
+run, saying where it started.
 """
 
 from __future__ import annotations
@@ -45,6 +48,7 @@ from cbrcore.errors import CbrError, ConfigError, PluginError
 from cbrcore.hookspecs import PHASE_HOOKS
 from cbrcore.model import CASEBASE, Outcome, Proposal
 from cbrcore.plugins import Plugins
+from cbrcore.run_folder import RESULTS, check_continuable, config_sha256, earlier_results
 from cbrcore.workload import Decision, Session, Write
 
 PHASES = (*PHASE_HOOKS, "learn")
@@ -88,6 +92,7 @@ def manifest(config: Config | None, plugins: Plugins, *, seed: int,
                     for p in plugins.loaded],
         "config_file": str(config.source) if config is not None and config.source else None,
         "config": config.resolved() if config is not None else None,
+        "config_sha256": config_sha256(config) if config is not None else None,
         **(extra or {}),
     }
 
@@ -113,13 +118,13 @@ def _milliseconds(timings: Mapping[str, float]) -> dict[str, float]:
             if phase in PHASES}
 
 
-def _row(index: int, problem: Any, proposal: Proposal, outcome: Outcome, engine: Engine
+def _row(query: int, problem: Any, proposal: Proposal, outcome: Outcome, engine: Engine
          ) -> dict[str, Any]:
     """A decision's row before its learn step: the learn step's columns are left empty, to be
     filled in once it has committed."""
     matches = proposal.retrieval.matches if proposal.retrieval is not None else ()
     row: dict[str, Any] = {
-        "query": index,
+        "query": query,
         **{f"q_{key}": value for key, value in engine.workload.describe(problem).items()},
         "source": proposal.source,
         "fallback_reason": proposal.fallback_reason or "",
@@ -206,8 +211,12 @@ def run_workload(engine: Engine, out_dir: Path, *, overrides: Sequence[str] = ()
                  progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
     """Run the engine's workload, writing results, summary and manifest into ``out_dir``.
 
-    ``progress(done, total)`` is called after each results row, ``total`` being
-    ``len(workload)``. Returns the summary.
+    A folder holding an earlier run of the same configuration is continued: the rows are
+    appended to its ``results.csv``, numbered after the earlier ones. One whose manifest records
+    another configuration is refused with a CbrError before anything is written
+    (:func:`~cbrcore.run_folder.check_continuable`). ``progress(done, total)`` is called once
+    before the first query and after each results row, ``total`` being ``len(workload)``.
+    Returns the summary, which covers this run.
     """
     if engine.workload is None:
         raise ConfigError(str(engine.config.source or "configuration"),
@@ -215,28 +224,37 @@ def run_workload(engine: Engine, out_dir: Path, *, overrides: Sequence[str] = ()
                            "produces the queries"])
     loop = _own_loop if _owns_its_loop(engine) else _default_loop
     output_folder(out_dir)
+    check_continuable(out_dir, engine.config)
+    earlier = earlier_results(out_dir)
+    cases = len(engine.casebase) if engine.casebase is not None else 0
     write_json(out_dir / "manifest.json", manifest(
         engine.config, engine.plugins, seed=engine.config.seed,
         extra={"overrides": [engine.config.masked(text) for text in overrides]}))
     total = len(engine.workload)
+    if progress is not None:
+        progress(0, total)
     rows: list[dict[str, Any]] = []
     started = time.perf_counter()
-    path = out_dir / "results.csv"
+    path = out_dir / RESULTS
     with writing(path):
-        # appended row by row rather than replaced whole: a killed run keeps its rows
-        handle = path.open("w", newline="", encoding="utf-8")
+        # appended row by row rather than replaced whole: a killed run keeps its rows, and a
+        # run continuing the folder keeps the earlier runs'
+        handle = path.open("a", newline="", encoding="utf-8")
     with handle:
         writer: csv.DictWriter[str] | None = None
-        columns: list[str] = []
+        columns: list[str] = list(earlier.columns)
 
         def record(decision: Decision, outcome: Outcome) -> Write:
-            row = _row(decision.index, decision.problem, decision.proposal, outcome, engine)
+            row = _row(earlier.next_query + decision.index, decision.problem,
+                       decision.proposal, outcome, engine)
             if not columns:
                 columns.extend(row)
             elif row.keys() != set(columns):
+                whose = ("the earlier runs' in results.csv" if earlier.columns
+                         else "those of the first query")
                 raise PluginError(f"query {decision.index}: the workload's describe() or a "
                                   f"metric gave columns {sorted(row)} instead of "
-                                  f"{sorted(columns)}")
+                                  f"{sorted(columns)}, {whose}")
 
             def write(learn_timings: Mapping[str, float]) -> None:
                 nonlocal writer
@@ -244,7 +262,8 @@ def run_workload(engine: Engine, out_dir: Path, *, overrides: Sequence[str] = ()
                 with writing(path):
                     if writer is None:
                         writer = csv.DictWriter(handle, fieldnames=columns)
-                        writer.writeheader()
+                        if not earlier.columns:
+                            writer.writeheader()
                     writer.writerow(row)
                     handle.flush()
                 rows.append(row)
@@ -259,7 +278,9 @@ def run_workload(engine: Engine, out_dir: Path, *, overrides: Sequence[str] = ()
         # learn steps skipped while another process held the case base's lock: their rows
         # are written as they commit; the summary counts any the lock still keeps out
         engine.retry_skipped()
-    summary = summarise(rows, engine, time.perf_counter() - started)
+    summary = {**summarise(rows, engine, time.perf_counter() - started),
+               "first_query": earlier.next_query, "earlier_queries": earlier.rows,
+               "cases_at_start": cases}
     write_json(out_dir / "summary.json", summary)
     return summary
 

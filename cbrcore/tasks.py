@@ -9,7 +9,8 @@ An experiment that has work to spread (seeds, arms, robots, chunks of queries) h
 
 ``map`` submits every task before it returns, so the caller may go on working while they run,
 and yields their results in the order of the items, whatever order they finish in;
-``progress(done, total)`` is called as each task finishes. A large value that many tasks take
+``progress(done, total)`` is called with no task done as they are submitted, so that a display
+knows the total from the start, then as each task finishes. A large value that many tasks take
 (a case graph planned on by every chunk of queries) goes into their items as
 ``runner.share(value)``, which a cluster sends to each worker once rather than with every task;
 ``priority`` lets the longest tasks start first. A task must depend on its argument alone (its
@@ -92,7 +93,8 @@ class TaskRunner(Protocol):
         """Submit ``function(item)`` for every item now; yield the results in the items' order.
 
         ``function`` is a top-level function and the items plain picklable values. ``progress``
-        is called with (tasks finished, tasks) as tasks finish. ``processes`` is how many
+        is called with (0, tasks) as they are submitted, then with (tasks finished, tasks) as
+        tasks finish. ``processes`` is how many
         processes the caller would use on this machine when no scheduler is given (1: in this
         process); a cluster decides for itself. ``priority(item)`` says which tasks start first
         where tasks run side by side: higher first, ties in the items' order. Giving the
@@ -132,6 +134,7 @@ class LocalTasks:
             progress: Progress | None = None, processes: int = 1,
             priority: Callable[[T], float] | None = None) -> Iterator[R]:
         work = list(items)
+        _submitted(progress, len(work))
         workers = min(processes, os.cpu_count() or 1, len(work))
         if workers <= 1:
             return _serial(function, work, progress)
@@ -175,6 +178,7 @@ class DaskTasks:
         futures = [self.client.submit(function, item, pure=False,
                                       priority=0 if priority is None else priority(item))
                    for item in items]
+        _submitted(progress, len(futures))
         return _closing(_in_order(futures, as_completed, progress),
                         lambda: self.client.cancel(futures))
 
@@ -184,6 +188,13 @@ class DaskTasks:
         # sending it does. A future inside a task's item is replaced by its value on the worker.
         [future] = self.client.scatter([value], broadcast=True, hash=False)
         return future  # type: ignore[no-any-return]
+
+
+def _submitted(progress: Progress | None, tasks: int) -> None:
+    """Tell ``progress`` how many tasks there are as soon as they are known: the results are
+    read lazily, and a display would otherwise show no total until the first task finished."""
+    if progress is not None:
+        progress(0, tasks)
 
 
 def _serial(function: Callable[[T], R], work: Sequence[T], progress: Progress | None
@@ -201,8 +212,6 @@ def _in_order(futures: Sequence[Any], as_completed: Callable[[Sequence[Any]], It
     index = {id(future): k for k, future in enumerate(futures)}
     finished: dict[int, Any] = {}
     following = 0
-    if progress is not None:
-        progress(0, len(futures))
     for done, future in enumerate(as_completed(futures), start=1):
         # result() raises the task's own exception, with its traceback from the worker
         finished[index[id(future)]] = future.result()

@@ -133,11 +133,14 @@ def test_map_gives_results_in_order_and_reports_each_task(runner: str,
     expected = [math.factorial(n).bit_length() for n in items]
     calls: list[tuple[int, int]] = []
     chosen = cluster if runner == "dask" else LocalTasks()
-    found = list(chosen.map(math.factorial, items,
-                            progress=lambda done, total: calls.append((done, total)),
-                            processes=2 if runner == "processes" else 1))
+    results = chosen.map(math.factorial, items,
+                         progress=lambda done, total: calls.append((done, total)),
+                         processes=2 if runner == "processes" else 1)
+    # the total is told on submitting, before any result is read
+    assert calls == [(0, len(items))]
+    found = list(results)
     assert [value.bit_length() for value in found] == expected
-    assert [done for done, _ in calls if done] == list(range(1, len(items) + 1))
+    assert [done for done, _ in calls] == list(range(len(items) + 1))
     assert {total for _, total in calls} == {len(items)}
 
 

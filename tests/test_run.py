@@ -150,7 +150,8 @@ def test_results_have_one_row_per_query_with_the_documented_columns(
     assert [int(r["query"]) for r in rows] == list(range(30))
     expected = np.random.default_rng(3).integers(0, 8, size=30)
     assert [int(r["q_x"]) for r in rows] == [int(x) for x in expected]
-    assert progress == [(done, 30) for done in range(1, 31)]
+    # the total is told before the first query, so a display shows it from the start
+    assert progress == [(done, 30) for done in range(31)]
 
 
 def test_rows_follow_the_toy_rules(
@@ -279,17 +280,23 @@ def test_a_second_run_continues_from_the_sqlite_case_base(plugins: Plugins,
                                                           tmp_path: Path) -> None:
     """Two runs of the same seed into one folder share casebase.sqlite: the second starts with
     the cases the first kept, so it answers some queries from the case base the first time it
-    sees them and its CBR share is higher."""
+    sees them and its CBR share is higher. Its rows follow the first run's in results.csv,
+    numbered on, and its summary says where it started."""
     config = toy_domain.TOY_CONFIG.replace("casebase: memory", "casebase: sqlite")
-    kept, shares, rows = [], [], []
+    kept, shares, summaries = [], [], []
     for _ in range(2):
         with engine_for(plugins, config, tmp_path) as engine:
             kept.append(engine.casebase.count(toy_domain.KIND))
-            shares.append(run_workload(engine, tmp_path)["cbr_share"])
+            summaries.append(run_workload(engine, tmp_path))
+            shares.append(summaries[-1]["cbr_share"])
             assert engine.casebase.count(toy_domain.KIND) == 6
-        rows.append(read_rows(tmp_path))
     assert kept == [0, 6]
     assert shares[1] > shares[0]
+    every = read_rows(tmp_path)
+    assert [int(row["query"]) for row in every] == list(range(60))
+    rows = [every[:30], every[30:]]
+    assert [(s["first_query"], s["earlier_queries"], s["cases_at_start"], s["queries"])
+            for s in summaries] == [(0, 0, 0, 30), (30, 30, 6, 30)]
     for run, expect_carried in zip(rows, (False, True), strict=True):
         seen: set[str] = set()
         carried = False

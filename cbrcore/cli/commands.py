@@ -8,18 +8,16 @@ from __future__ import annotations
 
 import enum
 import json
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 from rich.text import Text
 
 from cbrcore.cli import completion
+from cbrcore.cli.progress import progress as _progress
 from cbrcore.cli.reference import cli_reference
 from cbrcore.config import load_config
 from cbrcore.engine import Engine
@@ -29,6 +27,7 @@ from cbrcore.plugins import current
 from cbrcore.reference import config_reference, hook_reference
 from cbrcore.registry import Registry
 from cbrcore.run import run_workload
+from cbrcore.run_folder import check_continuable, earlier_results, fresh_files, remove
 from cbrcore.tasks import open_tasks
 
 UNBOUNDED = 100_000
@@ -71,31 +70,39 @@ def _json_option(what: str) -> Any:
     return typer.Option(False, "--json", help=f"Print {what} as one JSON object.")
 
 
-@contextmanager
-def _progress(label: str) -> Iterator[Callable[[int, int], None]]:
-    console = Console(stderr=True, markup=False, emoji=False)
-    bar = Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                   console=console, transient=True, disable=not console.is_terminal)
-    task = bar.add_task(label, total=None)
-    with bar:
-        yield lambda done, total: bar.update(task, completed=done, total=total)
-
-
 def run(
     config: Path = typer.Argument(..., metavar="CONFIG", help="The YAML configuration to run."),
     out: Path | None = typer.Option(
         None, "--out", "-o", metavar="DIR",
-        help="Output folder (default: runs/<config name>; a run into a folder that holds a "
-             "case base continues from it)."),
+        help="Output folder (default: runs/<config name>). A folder holding an earlier run "
+             "of the same configuration is continued: its case base keeps its cases and "
+             "results.csv grows; one holding another configuration's results is refused."),
+    fresh: bool = typer.Option(
+        False, "--fresh",
+        help="Start afresh: remove the output folder's results.csv, summary.json, "
+             "manifest.json and its SQLite case base (saying so first) before running."),
     set_: list[str] = _set_option(),
     as_json: bool = _json_option("the run's summary (that of summary.json)"),
 ) -> None:
     """Run the configured workload: results.csv, summary.json and manifest.json go to --out."""
     out_dir = out if out is not None else Path("runs") / config.stem
     checked = load_config(config, current().registry, set_)
-    with Engine(checked, out_dir=out_dir.resolve()) as engine, \
-            _progress("queries") as progress:
-        summary = run_workload(engine, out_dir, overrides=set_, progress=progress)
+    # settled before the engine opens the folder's case base: a refused run changes nothing
+    if fresh:
+        doomed = fresh_files(out_dir, checked)
+        if doomed:
+            typer.echo(f"cbr run: --fresh: removing {', '.join(p.name for p in doomed)} "
+                       f"from {out_dir}", err=True)
+            remove(doomed)
+    else:
+        check_continuable(out_dir, checked)
+        earlier_results(out_dir)
+    with Engine(checked, out_dir=out_dir.resolve()) as engine:
+        cases = len(engine.casebase) if engine.casebase is not None else 0
+        if cases or (out_dir / "results.csv").is_file():
+            typer.echo(f"cbr run: continuing from {cases} cases in {out_dir}", err=True)
+        with _progress("cbr run", "queries") as progress:
+            summary = run_workload(engine, out_dir, overrides=set_, progress=progress)
     if as_json:
         typer.echo(json.dumps(summary, indent=2, default=str))
         return
@@ -115,6 +122,10 @@ def run(
                  ("  still not learned", summary["learn_pending"])]
     rows += [(f"median {phase} ms", f"{ms:.3f}") for phase, ms in summary["median_ms"].items()]
     rows += [(name, f"{value:.4g}") for name, value in summary["metric_means"].items()]
+    if summary["earlier_queries"]:
+        rows.append(("continued", f"from {summary['cases_at_start']} cases; queries from "
+                                  f"{summary['first_query']}, after {summary['earlier_queries']} "
+                                  "in results.csv"))
     rows += [("wall time s", f"{summary['seconds']:.2f}"), ("output", str(out_dir))]
     for key, value in rows:
         table.add_row(key, str(value))
@@ -241,7 +252,8 @@ def experiment(
         raise typer.BadParameter("name an experiment, or use --list", param_hint="NAME")
     out_dir = out if out is not None else Path("experiments") / f"{name}-{size.value}"
     sized: ExperimentSize = "ci" if size is Size.ci else "full"
-    with open_tasks(scheduler, workers=workers) as tasks, _progress(name) as progress:
+    with open_tasks(scheduler, workers=workers) as tasks, \
+            _progress(f"cbr experiment {name}", "steps") as progress:
         written = run_experiment(name, current(), size=sized, out_dir=out_dir, seed=seed,
                                  progress=progress, tasks=tasks)
     console = _out()

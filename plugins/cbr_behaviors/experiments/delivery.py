@@ -46,6 +46,7 @@ from cbrcore.engine import Engine
 from cbrcore.experiment import ExperimentResult, Size, spread
 from cbrcore.plugins import current
 from cbrcore.run import run_workload
+from cbrcore.run_folder import fresh_files, remove
 from cbrcore.tasks import task_runner
 
 ARMS = ("fixed", "best-fixed", "potential-field", "cbr", "cbr-learning", "learned-weights")
@@ -141,8 +142,10 @@ def run_job(job: tuple[dict[str, Any], Path]) -> list[dict[str, float]]:
 def run_arm(config: dict[str, Any], out_dir: Path) -> list[dict[str, float]]:
     """Run ``config`` with the engine, its files in ``out_dir``; the rows of days.csv."""
     plugins = current()
-    with Engine(parse_config(dict(config), plugins.registry), plugins=plugins,
-                out_dir=out_dir) as engine:
+    parsed = parse_config(dict(config), plugins.registry)
+    # an experiment run again into its folder starts each arm afresh
+    remove(fresh_files(out_dir, parsed))
+    with Engine(parsed, plugins=plugins, out_dir=out_dir) as engine:
         run_workload(engine, out_dir)
     with (out_dir / "days.csv").open(encoding="utf-8") as handle:
         return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(handle)]

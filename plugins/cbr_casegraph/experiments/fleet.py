@@ -551,6 +551,7 @@ class Fleet:
             plan = [(store, n, mode) for store in stores for n in scale.fleets
                     for mode in (("shared",) if n == 1 else ("shared", "separate"))]
             plan += [(store, STALL_ROBOTS, "frozen") for store in stores]
+            progress(0, len(plan))
             for done, (store, n, mode) in enumerate(plan):
                 rows.append(self.fleet(store, n, mode, scale, grid, folder))
                 progress(done + 1, len(plan))

@@ -53,6 +53,7 @@ class TimeVsMapSize(GridExperiment):
         sides, per_graph = self.SCALE[size]
         settings = Settings()
         rows: list[dict[str, Any]] = []
+        progress(0, len(sides))
         for step, side in enumerate(sides):
             grid, cells = self.prepare(side)
             region = region_mask(grid, cells)
@@ -133,6 +134,7 @@ class TimeVsVertices(GridExperiment):
         graph = CaseGraph(grid)
         modes = {"full": Settings(), "selective": Settings(selective=True)}
         rows: list[dict[str, Any]] = []
+        progress(0, len(counts))
         for step, vertices in enumerate(counts):
             grow(graph, vertices, self.rng, cells=cells)
             tasks = cbr_tasks(graph, region, self.rng, per_graph, modes["full"])

@@ -51,6 +51,7 @@ from cbrcore.config import parse_config
 from cbrcore.engine import Engine
 from cbrcore.plugins import current
 from cbrcore.run import run_workload
+from cbrcore.run_folder import fresh_files, remove
 
 Progress = Callable[[int, int], None]
 
@@ -142,8 +143,11 @@ def consultations(path: Path) -> list[dict[str, Any]]:
 def drive(config: Mapping[str, Any], out_dir: Path) -> Driven:
     """Run ``config``'s trials with the engine, its files in ``out_dir``."""
     plugins = current()
-    with Engine(parse_config(dict(config), plugins.registry), plugins=plugins,
-                out_dir=out_dir) as engine:
+    parsed = parse_config(dict(config), plugins.registry)
+    # an experiment run again into its folder starts each run afresh: the results it reads
+    # back are this run's
+    remove(fresh_files(out_dir, parsed))
+    with Engine(parsed, plugins=plugins, out_dir=out_dir) as engine:
         run_workload(engine, out_dir)
         cases = engine.casebase.count("landmark_situation") if engine.casebase else 0
     with (out_dir / "trials.csv").open(encoding="utf-8") as handle:
