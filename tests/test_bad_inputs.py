@@ -192,9 +192,6 @@ CASES = {
     "worlds option of an unknown value": (
         _run("casebase: {use: sqlite, worlds: some}"),
         "casebase.worlds (line 1, column 33): expected one of 'one', 'any', got 'some'"),
-    "plan solver not among the choices": (
-        _cbr("plan", "small.map", "--solver", "nosuch"),
-        "--solver: 'nosuch' is not one of dijkstra, astar, aistar, jps, genetic"),
     "plan frame not among the choices": (
         _cbr("plan", "small.map", "--frame", "metres"),
         "--frame: 'metres' is not one of cell, map"),

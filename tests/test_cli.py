@@ -564,8 +564,10 @@ def test_reference_cli_documents_every_command_a_plugin_s_included(cbr_cli: Cli)
             "the papers' scale. | `ci` |") in lines
     assert "| `--seed SEED` | Seed of every random choice. At least 0. | `0` |" in lines
     assert "| `CONFIG` | The YAML configuration to run. | required |" in lines
-    assert ("| `--out`, `-o DIR` | Output folder (default: runs/<config name>; a run into a "
-            "folder that holds a case base continues from it). |  |") in lines
+    assert ("| `--out`, `-o DIR` | Output folder (default: runs/<config name>). A folder "
+            "holding an earlier run of the same configuration is continued: its case base "
+            "keeps its cases and results.csv grows; one holding another configuration's "
+            "results is refused. |  |") in lines
     assert "| `--loud` |  |  |" in lines
 
 
