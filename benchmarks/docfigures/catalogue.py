@@ -57,6 +57,7 @@ def _experiment(name: str, experiment: str, render: Callable[[], str]) -> Block:
 def _blocks() -> list[Block]:
     return [
         _bench("engine-overhead", "engine_overhead.md", bench_tables("engine_overhead", 0)),
+        _bench("cli-startup", "cli_startup.md", bench_tables("cli_startup", 0)),
         _bench("solvers-maps", "solvers.md", solvers.solvers_maps),
         _bench("solvers-pooled", "solvers.md", solvers.solvers_pooled),
         _bench("genetic", "genetic.md", bench_tables("genetic", 0)),

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import attrs
 import numpy as np
-from scipy import ndimage
 
 from cbr_grid.grid import Grid
 from cbrcore.errors import CbrError
@@ -131,6 +130,9 @@ def terrain_risk(grid: Grid, seed: Seed, scale: float = 4.0, amount: float = 0.5
         raise CbrError(f"the terrain amount must be within [0, 1), got {amount!r}")
     rng = np.random.default_rng(seed)
     noise = rng.standard_normal((grid.height, grid.width))
+    # scipy loads on first use: the command line imports every plugin to list its components
+    from scipy import ndimage
+
     smooth = ndimage.gaussian_filter(noise, scale, mode="wrap")
     spread = smooth.max() - smooth.min()
     hazard = (smooth - smooth.min()) / spread if spread > 0 else np.zeros_like(smooth)

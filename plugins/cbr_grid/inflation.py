@@ -29,7 +29,6 @@ import math
 
 import attrs
 import numpy as np
-from scipy import ndimage
 
 from cbr_grid.grid import Grid
 from cbrcore.options import option
@@ -79,6 +78,9 @@ def obstacle_distance(grid: Grid) -> np.ndarray:
     blocked = ~grid.passable
     if not blocked.any():
         return np.full(grid.risk.shape, np.inf)
+    # scipy loads on first use: the command line imports every plugin to list its components
+    from scipy import ndimage
+
     # in cells first, then scaled, as Nav2 does (distance * resolution)
     cells = ndimage.distance_transform_edt(~blocked)
     return cells if grid.frame is None else cells * grid.frame.resolution

@@ -39,7 +39,6 @@ import math
 from typing import Literal
 
 import attrs
-import networkx
 import numpy as np
 
 from cbr_landmarks.problem import RegionOptions, problem_view
@@ -118,9 +117,16 @@ def blocking_chain(obstacles: frozenset[tuple[int, int]], places: np.ndarray, ro
     nearest = int(np.argmin(gap))
     if gap[nearest] > reach:
         return frozenset()
-    graph = networkx.Graph(pairs)
-    chain = networkx.node_connected_component(graph, pairs[nearest][0])
-    return frozenset(p for p in pairs if p[0] in chain)
+    # scipy loads here, not with the module: the command line builds every plugin's registry
+    from scipy.sparse import coo_array
+    from scipy.sparse.csgraph import connected_components
+
+    ends = np.array(pairs).T
+    size = int(ends.max()) + 1
+    graph = coo_array((np.ones(len(pairs)), (ends[0], ends[1])), shape=(size, size))
+    _, label = connected_components(graph, directed=False)
+    chain = label[pairs[nearest][0]]
+    return frozenset(p for p in pairs if label[p[0]] == chain)
 
 
 class LandmarkDetour:
