@@ -244,13 +244,13 @@ def test_plan_takes_cells_off_a_robot_radius_on_an_inflated_map(cbr_cli: Cli) ->
 
 @pytest.mark.parametrize(("args", "message"), [
     (("--frame", "map", "--start", "-1,2", "--goal", "20,3.5"),
-     "--start (-1, 2) m falls in cell (-20, 266), outside the 604x307 grid, which covers "
+     "--start (-1, 2) m [cell -20, 266] is outside the 604x307 grid, which covers "
      "x 0 to 30.2 m and y 0 to 15.35 m"),
     # the centre of cell (150, 75), a leg of a shelf: x 150.5 cells, y 307 - 75 - 0.5 cells
     (("--frame", "map", "--start", "2,2", "--goal", "7.525,11.575"),
-     "--goal (7.525, 11.575) m falls in cell (150, 75), on an obstacle"),
+     "--goal (7.525, 11.575) m [cell 150, 75] is on an obstacle"),
     (("--frame", "map", "--start", "2,2", "--goal", "20,3.5", "--robot-radius", "0.6"),
-     "--goal (20, 3.5) m falls in cell (400, 236), within the robot radius (0.6 m) of an "
+     "--goal (20, 3.5) m [cell 400, 236] is within the robot radius (0.6 m) of an "
      "obstacle"),
     (("--start", "40,266", "--goal", "400,236", "--robot-radius", "0.6"),
      "goal (400, 236) within the robot radius (0.6 m) of an obstacle"),
@@ -275,7 +275,7 @@ UNKNOWN_HINT = ("on an unknown cell (lethal with --unknown-risk 1; give --unknow
     # (200, 383 - 360), in the unknown space outside the mapped room
     # the goals are the unknown top-left corner cell (0, 0), in metres its centre
     (("--frame", "map", "--start", "0,8", "--goal", "-9.975,9.175"),
-     "--start (0, 8) m falls in cell (200, 23),"),
+     "--start (0, 8) m [cell 200, 23] is"),
     (("--start", "200,23", "--goal", "0,0"), "start (200, 23) is"),
 ])
 def test_plan_says_how_to_cross_an_unknown_cell(cbr_cli: Cli, args: tuple[str, ...],
