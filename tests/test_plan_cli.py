@@ -84,9 +84,11 @@ def test_plan_prints_the_metrics_as_text(cbr_cli: Cli) -> None:
     result = cbr_cli("plan", str(ARENA), "--start", cell_option(scenario.start), "--goal",
                      cell_option(scenario.goal))
     assert result.exit_code == 0, result.stderr
-    values = dict(line.split() for line in result.stdout.splitlines())
-    assert list(values) == ["length", "cost", "turns", "time_ms", "expanded"]
+    values = dict(line.split(maxsplit=1) for line in result.stdout.splitlines())
+    assert list(values) == ["length", "cost", "turns", "time_ms", "expanded", "path"]
     assert scenario.agrees(float(values["length"]))
+    # the path itself is left to --json and --path-out: one short line says where it goes
+    assert values["path"].endswith(f"cells from {scenario.start} to {scenario.goal}")
 
 
 def test_plan_without_a_path_exits_1(cbr_cli: Cli, walled: Path) -> None:
@@ -221,8 +223,10 @@ def test_plan_a_ros_map_from_metres_to_metres_with_inflation(cbr_cli: Cli, tmp_p
     assert text.exit_code == 0, text.stderr
     values = dict(line.split(maxsplit=1) for line in text.stdout.splitlines())
     assert list(values) == ["length", "cost", "turns", "time_ms", "expanded", "length_m",
-                            "path_m"]
-    assert values["path_m"].split()[0] == "2.025,2.025"
+                            "path"]
+    # the ends are the centres of the cells the points fall in
+    assert values["path"].endswith("cells from (2.025, 2.025) m [cell 40, 266] to "
+                                   "(20.025, 3.525) m [cell 400, 236]")
     # the decaying cost makes the path dearer than its length
     assert float(values["cost"]) > float(values["length"])
 
@@ -253,7 +257,7 @@ def test_plan_takes_cells_off_a_robot_radius_on_an_inflated_map(cbr_cli: Cli) ->
      "--goal (20, 3.5) m [cell 400, 236] is within the robot radius (0.6 m) of an "
      "obstacle"),
     (("--start", "40,266", "--goal", "400,236", "--robot-radius", "0.6"),
-     "goal (400, 236) within the robot radius (0.6 m) of an obstacle"),
+     "goal (400, 236) is within the robot radius (0.6 m) of an obstacle"),
 ])
 def test_plan_names_a_bad_point_and_its_cell(cbr_cli: Cli, args: tuple[str, ...],
                                              message: str) -> None:
