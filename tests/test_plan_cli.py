@@ -412,3 +412,95 @@ def test_map_show_json_gives_the_facts_of_the_text(cbr_cli: Cli, tmp_path: Path)
     result = cbr_cli("map", "show", str(grid), "--json")
     assert json.loads(result.stdout) == {"map": str(grid), "width": 2, "height": 2,
                                          "passable": 3, "unknown": 0, "frame": None}
+
+
+def read_csv_path(path: Path) -> tuple[str, np.ndarray]:
+    """The header and the (n, 2) points of a path CSV file, read with the csv module."""
+    import csv
+
+    with path.open(newline="", encoding="utf-8") as file:
+        header, *rows = csv.reader(file)
+    return ",".join(header), np.array(rows, dtype=np.float64)
+
+
+@pytest.mark.parametrize("frame", ["cell", "map"])
+@pytest.mark.parametrize("name", ["path.csv", "path.geojson", "path.json"])
+def test_plan_writes_the_path_it_found_to_a_file(cbr_cli: Cli, tmp_path: Path, frame: str,
+                                                 name: str) -> None:
+    ends = (("--start", "2,2", "--goal", "20,3.5") if frame == "map"
+            else ("--start", cell_option(DEPOT_START), "--goal", cell_option(DEPOT_GOAL)))
+    common = ("plan", str(DEPOT), "--frame", frame, *ends)
+    cells = np.array(json.loads(cbr_cli(*common, "--json").stdout)["path"])
+    # the same cells in metres, by the map's own frame rather than by cbr plan
+    expected = load_grid(DEPOT).to_map(cells) if frame == "map" else cells
+    out = tmp_path / name
+    result = cbr_cli(*common, "--path-out", str(out))
+    assert result.exit_code == 0, result.stderr
+    if name.endswith(".csv"):
+        header, points = read_csv_path(out)
+        assert header == ("x_m,y_m" if frame == "map" else "x,y")
+    else:
+        feature = json.loads(out.read_text(encoding="utf-8"))
+        assert feature["type"] == "Feature"
+        assert feature["geometry"]["type"] == "LineString"
+        assert feature["properties"]["units"] == ("m" if frame == "map" else "cells")
+        points = np.array(feature["geometry"]["coordinates"])
+    assert points.shape == expected.shape
+    np.testing.assert_allclose(points, expected, rtol=0, atol=1e-9)
+    # the screen gets a summary, not the path
+    lines = result.stdout.splitlines()
+    assert lines[-1] == f"wrote {out}"
+    assert lines[-2].startswith(f"path      {len(cells)} cells from ")
+    assert len(result.stdout) < 500
+
+
+def test_plan_with_path_out_keeps_the_json_object(cbr_cli: Cli, tmp_path: Path) -> None:
+    out = tmp_path / "path.csv"
+    result = cbr_cli("plan", str(DEPOT), "--frame", "map", "--start", "2,2", "--goal", "20,3.5",
+                     "--path-out", str(out), "--json")
+    assert result.exit_code == 0, result.stderr
+    record = json.loads(result.stdout)
+    np.testing.assert_allclose(read_csv_path(out)[1], record["path_m"], rtol=0, atol=1e-9)
+
+
+def test_plan_says_when_it_cannot_write_the_path(cbr_cli: Cli, tmp_path: Path) -> None:
+    out = tmp_path / "missing" / "path.csv"
+    result = cbr_cli("plan", str(DEPOT), "--start", cell_option(DEPOT_START), "--goal",
+                     cell_option(DEPOT_GOAL), "--path-out", str(out))
+    assert result.exit_code == 2
+    assert f"error: {out}: cannot write the path: " in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_plan_without_a_path_in_metres_names_the_points_and_cells(
+        cbr_cli: Cli, tmp_path: Path) -> None:
+    # the walled map as a ROS map of 0.5 m cells from (0, 0): 3 rows, so the cell (x, y) spans
+    # x 0.5 x to 0.5 (x + 1) m and y 0.5 (2 - y) to 0.5 (3 - y) m
+    rows = WALLED.splitlines()[4:]
+    pixels = bytes(0 if c == "@" else 254 for row in rows for c in row)
+    (tmp_path / "walled.pgm").write_bytes(b"P5\n5 3\n255\n" + pixels)
+    (tmp_path / "walled.yaml").write_text(
+        "image: walled.pgm\nresolution: 0.5\norigin: [0, 0, 0]\nnegate: 0\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.196\n", encoding="utf-8")
+    out = tmp_path / "path.csv"
+    result = cbr_cli("plan", str(tmp_path / "walled.yaml"), "--frame", "map", "--start",
+                     "0.2,1.3", "--goal", "2.4,0.1", "--path-out", str(out))
+    assert result.exit_code == 1
+    assert ("no path from (0.2, 1.3) m [cell 0, 0] to (2.4, 0.1) m [cell 4, 2] on "
+            in result.stderr)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("args", [
+    # a Moving AI map has no metric frame to point to
+    (str(ARENA), "--start", "1.5,1", "--goal", "2,2"),
+    (str(ARENA), "--start", "1000,1", "--goal", "2,2"),
+    # a number that is not one is no metre
+    (str(DEPOT), "--start", "2,x", "--goal", "20,3"),
+])
+def test_plan_hints_at_metres_only_where_they_can_be(cbr_cli: Cli, args: tuple[str, ...]
+                                                     ) -> None:
+    result = cbr_cli("plan", *args)
+    assert result.exit_code == 2
+    assert "start" in result.stderr
+    assert "--frame map" not in result.stderr
