@@ -404,7 +404,8 @@ def plan(
         "point in metres.", show_default=False)] = None,
     frame: Annotated[FrameName, typer.Option(
         "--frame", help="How --start and --goal are written: cells, or metres in the map frame "
-        "of a ROS map.")] = FrameName.cell,
+        "of a ROS map (messages and the summary then give metres, each with its cell in "
+        "brackets).")] = FrameName.cell,
     scen: Annotated[Path | None, typer.Option(
         "--scen", metavar="FILE", help="Plan the scenarios of this Moving AI .scen file "
         "instead (with a .map only).", show_default=False)] = None,
