@@ -27,6 +27,9 @@ from cbrcore.testing import CliResult
 Cli = Callable[..., CliResult]
 
 HYBRID = Path(__file__).resolve().parents[1] / "configs" / "hybrid_grid.yaml"
+# 604x307 cells of 0.05 m from the origin (0, 0): x 0 to 30.2 m, y 0 to 15.35 m
+DEPOT = Path(__file__).resolve().parent / "data" / "ros" / "depot.yaml"
+DEPOT_SPAN = "did you mean --frame map? (the map's frame spans x 0 to 30.2 m and y 0 to 15.35 m)"
 SECRET = "TOPSECRET password=hunter2\nTOPSECRET: second line\n"
 MARKER = "TOPSECRET"
 
@@ -69,6 +72,16 @@ def _plan(*args: str) -> Case:
     def case(tmp: Path, cbr_cli: Cli) -> CliResult:
         return cbr_cli("plan", *(str(tmp / a) if a.endswith((".txt", ".map", ".scen")) else a
                                  for a in args))
+
+    return case
+
+
+def _plan_depot(*args: str) -> Case:
+    """``cbr plan`` on the depot, a ROS map with a metric frame, with ``args``, file names
+    ending in .txt taken in tmp."""
+    def case(tmp: Path, cbr_cli: Cli) -> CliResult:
+        return cbr_cli("plan", str(DEPOT), *(str(tmp / a) if a.endswith(".txt") else a
+                                             for a in args))
 
     return case
 
@@ -192,6 +205,33 @@ CASES = {
     "worlds option of an unknown value": (
         _run("casebase: {use: sqlite, worlds: some}"),
         "casebase.worlds (line 1, column 33): expected one of 'one', 'any', got 'some'"),
+    "plan metres given as cells": (
+        _plan_depot("--start", "2,2", "--goal", "20,3.5"),
+        f"Invalid value for '--goal': expected a cell of two integers X,Y, got '20,3.5'; "
+        f"{DEPOT_SPAN}"),
+    "plan a cell off a map with a metric frame": (
+        _plan_depot("--start", "40,266", "--goal", "400,2360"),
+        f"goal (400, 2360) is outside the 604x307 grid (x in 0..603, y in 0..306); "
+        f"{DEPOT_SPAN}"),
+    "plan metres off the map": (
+        _plan_depot("--frame", "map", "--start", "2,2", "--goal", "40,3.5"),
+        "--goal (40, 3.5) m [cell 800, 236] is outside the 604x307 grid, which covers x 0 to "
+        "30.2 m and y 0 to 15.35 m"),
+    "plan metres on an obstacle": (
+        _plan_depot("--frame", "map", "--start", "7.525,11.575", "--goal", "20,3.5"),
+        "--start (7.525, 11.575) m [cell 150, 75] is on an obstacle"),
+    "plan metres within the robot radius": (
+        _plan_depot("--frame", "map", "--start", "2,2", "--goal", "20,3.5",
+                    "--robot-radius", "0.6"),
+        "--goal (20, 3.5) m [cell 400, 236] is within the robot radius (0.6 m) of an "
+        "obstacle"),
+    "plan path written over a secret text file": (
+        _plan_depot("--start", "40,266", "--goal", "400,236", "--path-out", "secret.txt"),
+        "a path file is CSV or GeoJSON; expected the extension .csv, .geojson, .json, got "
+        "'.txt'"),
+    "plan path of scenarios": (
+        _plan("small.map", "--scen", "obstacle.scen", "--path-out", "path.csv"),
+        "--path-out writes one path, not the scenarios of --scen"),
     "plan frame not among the choices": (
         _cbr("plan", "small.map", "--frame", "metres"),
         "--frame: 'metres' is not one of cell, map"),

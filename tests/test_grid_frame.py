@@ -159,7 +159,7 @@ def test_a_blocked_unknown_cell_says_how_to_cross_unknown_space() -> None:
     with pytest.raises(CbrError, match=r"^start \(1, 0\) is on an obstacle$"):
         grid.check_cell((1, 0), "start")
     # in metres, the cell (0, 0) of a 1-row grid of 1 m cells spans x 0 to 1 m, y 0 to 1 m
-    with pytest.raises(CbrError, match=r"^--goal \(0\.5, 0\.5\) m falls in cell \(0, 0\), on an "
+    with pytest.raises(CbrError, match=r"^--goal \(0\.5, 0\.5\) m \[cell 0, 0\] is on an "
                                        r"unknown cell \(lethal with --unknown-risk 1"):
         grid.check_point((0.5, 0.5), "--goal", unknown_risk="--unknown-risk")
     assert grid.check_point((2.5, 0.5), "--goal") == (2, 0)

@@ -84,9 +84,11 @@ def test_plan_prints_the_metrics_as_text(cbr_cli: Cli) -> None:
     result = cbr_cli("plan", str(ARENA), "--start", cell_option(scenario.start), "--goal",
                      cell_option(scenario.goal))
     assert result.exit_code == 0, result.stderr
-    values = dict(line.split() for line in result.stdout.splitlines())
-    assert list(values) == ["length", "cost", "turns", "time_ms", "expanded"]
+    values = dict(line.split(maxsplit=1) for line in result.stdout.splitlines())
+    assert list(values) == ["length", "cost", "turns", "time_ms", "expanded", "path"]
     assert scenario.agrees(float(values["length"]))
+    # the path itself is left to --json and --path-out: one short line says where it goes
+    assert values["path"].endswith(f"cells from {scenario.start} to {scenario.goal}")
 
 
 def test_plan_without_a_path_exits_1(cbr_cli: Cli, walled: Path) -> None:
@@ -221,8 +223,10 @@ def test_plan_a_ros_map_from_metres_to_metres_with_inflation(cbr_cli: Cli, tmp_p
     assert text.exit_code == 0, text.stderr
     values = dict(line.split(maxsplit=1) for line in text.stdout.splitlines())
     assert list(values) == ["length", "cost", "turns", "time_ms", "expanded", "length_m",
-                            "path_m"]
-    assert values["path_m"].split()[0] == "2.025,2.025"
+                            "path"]
+    # the ends are the centres of the cells the points fall in
+    assert values["path"].endswith("cells from (2.025, 2.025) m [cell 40, 266] to "
+                                   "(20.025, 3.525) m [cell 400, 236]")
     # the decaying cost makes the path dearer than its length
     assert float(values["cost"]) > float(values["length"])
 
@@ -244,16 +248,16 @@ def test_plan_takes_cells_off_a_robot_radius_on_an_inflated_map(cbr_cli: Cli) ->
 
 @pytest.mark.parametrize(("args", "message"), [
     (("--frame", "map", "--start", "-1,2", "--goal", "20,3.5"),
-     "--start (-1, 2) m falls in cell (-20, 266), outside the 604x307 grid, which covers "
+     "--start (-1, 2) m [cell -20, 266] is outside the 604x307 grid, which covers "
      "x 0 to 30.2 m and y 0 to 15.35 m"),
     # the centre of cell (150, 75), a leg of a shelf: x 150.5 cells, y 307 - 75 - 0.5 cells
     (("--frame", "map", "--start", "2,2", "--goal", "7.525,11.575"),
-     "--goal (7.525, 11.575) m falls in cell (150, 75), on an obstacle"),
+     "--goal (7.525, 11.575) m [cell 150, 75] is on an obstacle"),
     (("--frame", "map", "--start", "2,2", "--goal", "20,3.5", "--robot-radius", "0.6"),
-     "--goal (20, 3.5) m falls in cell (400, 236), within the robot radius (0.6 m) of an "
+     "--goal (20, 3.5) m [cell 400, 236] is within the robot radius (0.6 m) of an "
      "obstacle"),
     (("--start", "40,266", "--goal", "400,236", "--robot-radius", "0.6"),
-     "goal (400, 236) within the robot radius (0.6 m) of an obstacle"),
+     "goal (400, 236) is within the robot radius (0.6 m) of an obstacle"),
 ])
 def test_plan_names_a_bad_point_and_its_cell(cbr_cli: Cli, args: tuple[str, ...],
                                              message: str) -> None:
@@ -275,7 +279,7 @@ UNKNOWN_HINT = ("on an unknown cell (lethal with --unknown-risk 1; give --unknow
     # (200, 383 - 360), in the unknown space outside the mapped room
     # the goals are the unknown top-left corner cell (0, 0), in metres its centre
     (("--frame", "map", "--start", "0,8", "--goal", "-9.975,9.175"),
-     "--start (0, 8) m falls in cell (200, 23),"),
+     "--start (0, 8) m [cell 200, 23] is"),
     (("--start", "200,23", "--goal", "0,0"), "start (200, 23) is"),
 ])
 def test_plan_says_how_to_cross_an_unknown_cell(cbr_cli: Cli, args: tuple[str, ...],
@@ -408,3 +412,95 @@ def test_map_show_json_gives_the_facts_of_the_text(cbr_cli: Cli, tmp_path: Path)
     result = cbr_cli("map", "show", str(grid), "--json")
     assert json.loads(result.stdout) == {"map": str(grid), "width": 2, "height": 2,
                                          "passable": 3, "unknown": 0, "frame": None}
+
+
+def read_csv_path(path: Path) -> tuple[str, np.ndarray]:
+    """The header and the (n, 2) points of a path CSV file, read with the csv module."""
+    import csv
+
+    with path.open(newline="", encoding="utf-8") as file:
+        header, *rows = csv.reader(file)
+    return ",".join(header), np.array(rows, dtype=np.float64)
+
+
+@pytest.mark.parametrize("frame", ["cell", "map"])
+@pytest.mark.parametrize("name", ["path.csv", "path.geojson", "path.json"])
+def test_plan_writes_the_path_it_found_to_a_file(cbr_cli: Cli, tmp_path: Path, frame: str,
+                                                 name: str) -> None:
+    ends = (("--start", "2,2", "--goal", "20,3.5") if frame == "map"
+            else ("--start", cell_option(DEPOT_START), "--goal", cell_option(DEPOT_GOAL)))
+    common = ("plan", str(DEPOT), "--frame", frame, *ends)
+    cells = np.array(json.loads(cbr_cli(*common, "--json").stdout)["path"])
+    # the same cells in metres, by the map's own frame rather than by cbr plan
+    expected = load_grid(DEPOT).to_map(cells) if frame == "map" else cells
+    out = tmp_path / name
+    result = cbr_cli(*common, "--path-out", str(out))
+    assert result.exit_code == 0, result.stderr
+    if name.endswith(".csv"):
+        header, points = read_csv_path(out)
+        assert header == ("x_m,y_m" if frame == "map" else "x,y")
+    else:
+        feature = json.loads(out.read_text(encoding="utf-8"))
+        assert feature["type"] == "Feature"
+        assert feature["geometry"]["type"] == "LineString"
+        assert feature["properties"]["units"] == ("m" if frame == "map" else "cells")
+        points = np.array(feature["geometry"]["coordinates"])
+    assert points.shape == expected.shape
+    np.testing.assert_allclose(points, expected, rtol=0, atol=1e-9)
+    # the screen gets a summary, not the path
+    lines = result.stdout.splitlines()
+    assert lines[-1] == f"wrote {out}"
+    assert lines[-2].startswith(f"path      {len(cells)} cells from ")
+    assert len(result.stdout) < 500
+
+
+def test_plan_with_path_out_keeps_the_json_object(cbr_cli: Cli, tmp_path: Path) -> None:
+    out = tmp_path / "path.csv"
+    result = cbr_cli("plan", str(DEPOT), "--frame", "map", "--start", "2,2", "--goal", "20,3.5",
+                     "--path-out", str(out), "--json")
+    assert result.exit_code == 0, result.stderr
+    record = json.loads(result.stdout)
+    np.testing.assert_allclose(read_csv_path(out)[1], record["path_m"], rtol=0, atol=1e-9)
+
+
+def test_plan_says_when_it_cannot_write_the_path(cbr_cli: Cli, tmp_path: Path) -> None:
+    out = tmp_path / "missing" / "path.csv"
+    result = cbr_cli("plan", str(DEPOT), "--start", cell_option(DEPOT_START), "--goal",
+                     cell_option(DEPOT_GOAL), "--path-out", str(out))
+    assert result.exit_code == 2
+    assert f"error: {out}: cannot write the path: " in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_plan_without_a_path_in_metres_names_the_points_and_cells(
+        cbr_cli: Cli, tmp_path: Path) -> None:
+    # the walled map as a ROS map of 0.5 m cells from (0, 0): 3 rows, so the cell (x, y) spans
+    # x 0.5 x to 0.5 (x + 1) m and y 0.5 (2 - y) to 0.5 (3 - y) m
+    rows = WALLED.splitlines()[4:]
+    pixels = bytes(0 if c == "@" else 254 for row in rows for c in row)
+    (tmp_path / "walled.pgm").write_bytes(b"P5\n5 3\n255\n" + pixels)
+    (tmp_path / "walled.yaml").write_text(
+        "image: walled.pgm\nresolution: 0.5\norigin: [0, 0, 0]\nnegate: 0\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.196\n", encoding="utf-8")
+    out = tmp_path / "path.csv"
+    result = cbr_cli("plan", str(tmp_path / "walled.yaml"), "--frame", "map", "--start",
+                     "0.2,1.3", "--goal", "2.4,0.1", "--path-out", str(out))
+    assert result.exit_code == 1
+    assert ("no path from (0.2, 1.3) m [cell 0, 0] to (2.4, 0.1) m [cell 4, 2] on "
+            in result.stderr)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("args", [
+    # a Moving AI map has no metric frame to point to
+    (str(ARENA), "--start", "1.5,1", "--goal", "2,2"),
+    (str(ARENA), "--start", "1000,1", "--goal", "2,2"),
+    # a number that is not one is no metre
+    (str(DEPOT), "--start", "2,x", "--goal", "20,3"),
+])
+def test_plan_hints_at_metres_only_where_they_can_be(cbr_cli: Cli, args: tuple[str, ...]
+                                                     ) -> None:
+    result = cbr_cli("plan", *args)
+    assert result.exit_code == 2
+    assert "start" in result.stderr
+    assert "--frame map" not in result.stderr

@@ -463,17 +463,17 @@ DEPOT = Path(__file__).parent / "data" / "ros" / "depot.yaml"
     # depot: origin (0, 0), 0.05 m cells, 604x307: (-1, 2) m is column floor(-20) = -20 and row
     # 306 - floor(40) = 266
     (DEPOT, {"places": [[2, 2], [-1, 2]]},
-     r"places\[1\] \(-1, 2\) m falls in cell \(-20, 266\), outside the 604x307 grid, which "
+     r"places\[1\] \(-1, 2\) m \[cell -20, 266\] is outside the 604x307 grid, which "
      r"covers x 0 to 30\.2 m and y 0 to 15\.35 m"),
     # the centre of cell (150, 75), a leg of a shelf: x 150.5 cells, y 307 - 75 - 0.5 cells
     (DEPOT, {"places": [[2, 2], [20, 3.5]],
              "sites": [{"cells": [[2.5, 2], [7.525, 11.575]], "appear": 0.5}]},
-     r"sites\[0\]\.cells\[1\] \(7\.525, 11\.575\) m falls in cell \(150, 75\), on an "
+     r"sites\[0\]\.cells\[1\] \(7\.525, 11\.575\) m \[cell 150, 75\] is on an "
      r"obstacle"),
     # map_circular: origin (-10, -10) m, 384 rows; (0, 8) m is column 200, row 383 - 360 = 23,
     # in the unknown space around the mapped room
     (ROS_MAP, {"places": [[0, 8], [0, 0]]},
-     r"places\[0\] \(0, 8\) m falls in cell \(200, 23\), on an unknown cell \(lethal with "
+     r"places\[0\] \(0, 8\) m \[cell 200, 23\] is on an unknown cell \(lethal with "
      r"unknown_risk 1; give unknown_risk below 1 to cross unknown space\)"),
 ])
 def test_bad_places_in_metres_are_quoted_as_written_with_their_cell(

@@ -34,6 +34,13 @@ def _positive(_: object, attribute: attrs.Attribute, value: float) -> None:
                        f"per cell, got {value!r}")
 
 
+def in_metres(point: ArrayLike, cell: ArrayLike) -> str:
+    """A map-frame ``point`` as messages write it, in metres with the grid cell it falls in
+    (or the cell whose centre it is) in brackets: ``(2, 3.5) m [cell 40, 236]``."""
+    (px, py), (x, y) = point, cell
+    return f"({px:g}, {py:g}) m [cell {x}, {y}]"
+
+
 def _points(value: ArrayLike, what: str) -> np.ndarray:
     """``value`` as an (n, 2) float array: one point, or a sequence of points."""
     try:
@@ -101,3 +108,15 @@ class MapFrame:
         c, s = self._axes()
         return np.column_stack((self.x + c * local[:, 0] - s * local[:, 1],
                                 self.y + s * local[:, 0] + c * local[:, 1]))
+
+    def extent(self, width: int, height: int) -> tuple[tuple[float, float], tuple[float, float]]:
+        """The smallest ranges of map-frame x and y, each (from, to) in metres, that hold the
+        whole grid of ``width`` by ``height`` cells."""
+        corners = self.corners(width, height)
+        (left, bottom), (right, top) = corners.min(0), corners.max(0)
+        return (float(left), float(right)), (float(bottom), float(top))
+
+    def spans(self, width: int, height: int) -> str:
+        """The grid's extent in words: ``x 0 to 30.2 m and y 0 to 15.35 m``."""
+        (left, right), (bottom, top) = self.extent(width, height)
+        return f"x {left:g} to {right:g} m and y {bottom:g} to {top:g} m"

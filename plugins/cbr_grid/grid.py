@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from cbr_grid.costs import CostModel
-from cbr_grid.frame import MapFrame
+from cbr_grid.frame import MapFrame, in_metres
 from cbr_grid.query import Cell, path_array
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
@@ -247,17 +247,16 @@ class Grid:
         point as written and the cell it falls in, unless that cell is on the grid and free
         (``unknown_risk`` as in :meth:`blocked_reason`)."""
         frame = self._frame(f"{what} in metres")
-        corners = frame.corners(self.width, self.height)
-        (left, bottom), (right, top) = corners.min(0), corners.max(0)
-        outside = (f"outside the {self.width}x{self.height} grid, which covers x {left:g} to "
-                   f"{right:g} m and y {bottom:g} to {top:g} m")
+        (left, right), (bottom, top) = frame.extent(self.width, self.height)
+        outside = (f"outside the {self.width}x{self.height} grid, which covers "
+                   f"{frame.spans(self.width, self.height)}")
         # farther off the grid than 2^52 cells, a cell would not fit an integer of 64 bits
         reach = 2.0**52 * frame.resolution
         if not (left - reach <= point[0] <= right + reach
                 and bottom - reach <= point[1] <= top + reach):
             raise CbrError(f"{what} ({point[0]:g}, {point[1]:g}) m is {outside}")
         x, y = (int(v) for v in frame.to_cells(point, self.height)[0])
-        said = f"{what} ({point[0]:g}, {point[1]:g}) m falls in cell ({x}, {y}),"
+        said = f"{what} {in_metres(point, (x, y))} is"
         if not self.in_bounds((x, y)):
             raise CbrError(f"{said} {outside}")
         if not self.passable[y, x]:

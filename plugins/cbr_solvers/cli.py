@@ -4,9 +4,11 @@ Both take every map :func:`cbr_grid.formats.load_grid` reads (Moving AI ``.map``
 map_server ``.yaml``, ``.png``, ``.npy``, ``.grid``) and can inflate its obstacles by a robot's
 radius (:mod:`cbr_grid.inflation`). ``cbr plan`` answers one start and goal, given as cells or,
 on a map with a metric frame, in metres; or a sample of a Moving AI ``.scen`` file's scenarios
-in one process, checking each length against the file's optimal one. The compiled searches and
-matplotlib are imported inside the commands, so that loading the plugin at every start of ``cbr``
-stays cheap.
+in one process, checking each length against the file's optimal one. With ``--frame map``
+every message is in metres (the cell in brackets); ``--path-out`` writes the path to a CSV or
+GeoJSON file (:mod:`cbr_grid.path_files`) while the screen gets a short summary. The compiled
+searches and matplotlib are imported inside the commands, so that loading the plugin at every
+start of ``cbr`` stays cheap.
 """
 
 from __future__ import annotations
@@ -27,9 +29,11 @@ import typer
 
 from cbr_grid.costs import path_length, turns
 from cbr_grid.formats import EXTENSIONS, load_grid
+from cbr_grid.frame import in_metres
 from cbr_grid.grid import Grid
 from cbr_grid.inflation import Inflation, inflate
 from cbr_grid.movingai import Scenario, load_scen
+from cbr_grid.path_files import path_format, write_path
 from cbr_grid.query import Cell
 from cbrcore.errors import CbrError
 
@@ -122,9 +126,40 @@ def _pair(text: str, option: str, number: type[int] | type[float], what: str) ->
     return x, y
 
 
-def _cell(text: str, option: str) -> Cell:
-    """The cell written ``X,Y`` in ``text``."""
-    return _pair(text, option, int, "a cell of two integers")
+def _cell(text: str, option: str, map_file: Path, unknown_risk: float) -> Cell:
+    """The cell written ``X,Y`` in ``text``; numbers that are not whole on a map with a metric
+    frame get the hint that they may be metres."""
+    try:
+        return _pair(text, option, int, "a cell of two integers")
+    except typer.BadParameter as exc:
+        try:
+            _pair(text, option, float, "")
+        except typer.BadParameter:
+            raise exc from None
+        hint = _frame_hint(_metric_map(map_file, unknown_risk))
+        if not hint:
+            raise
+        raise typer.BadParameter(f"{exc.message}{hint}", param_hint=f"'{option}'") from None
+
+
+def _metric_map(map_file: Path, unknown_risk: float) -> Grid | None:
+    """The map, read only to tell whether it has a metric frame: None for a format without
+    one, or a map that cannot be read (its own error comes when it is read for planning)."""
+    if map_file.suffix.lower() not in (".yaml", ".yml"):
+        return None
+    try:
+        return load_grid(map_file, unknown_risk=unknown_risk)
+    except CbrError:
+        return None
+
+
+def _frame_hint(grid: Grid | None) -> str:
+    """The hint, for coordinates that look like metres given as cells, that ``--frame map``
+    reads metres, with where the map's frame lies; empty for a map without a frame."""
+    if grid is None or grid.frame is None:
+        return ""
+    return (f"; did you mean --frame map? (the map's frame spans "
+            f"{grid.frame.spans(grid.width, grid.height)})")
 
 
 def _point(text: str, option: str) -> tuple[float, float]:
@@ -250,21 +285,47 @@ def _plan(search: Search, solver: str, grid: Grid, start: Cell,
     return record
 
 
+def _place(written: Cell | tuple[float, float], cell: Cell, frame: FrameName) -> str:
+    """A start or goal as messages write it: the cell, or the point in metres as written with
+    its cell in brackets."""
+    return in_metres(written, cell) if frame is FrameName.map else f"({cell[0]}, {cell[1]})"
+
+
 def _endpoint(read: Grid, grid: Grid, written: Cell | tuple[float, float], option: str,
               frame: FrameName, radius: float | None) -> Cell:
     """The cell of a start or goal written as a cell or a map-frame point: on ``grid`` (the
-    map as planned on) and free, or an error naming ``option`` and the cell."""
+    map as planned on) and free, or an error naming ``option`` and the cell (and the point)."""
     if frame is FrameName.map:
         x, y = read.check_point(written, option, unknown_risk=_UNKNOWN_RISK)
-        said = f"{option} ({written[0]:g}, {written[1]:g}) m falls in cell ({x}, {y}),"
+        said = f"{option} {_place(written, (x, y), frame)}"
     else:
         what = option.removeprefix("--")
-        x, y = read.check_cell(written, what, unknown_risk=_UNKNOWN_RISK)
+        try:
+            x, y = read.check_cell(written, what, unknown_risk=_UNKNOWN_RISK)
+        except CbrError as exc:
+            # Python's integers, since a cell past 64 bits is still only off the grid
+            on_grid = 0 <= written[0] < read.width and 0 <= written[1] < read.height
+            hint = "" if on_grid else _frame_hint(read)
+            if not hint:
+                raise
+            raise CbrError(f"{exc}{hint}") from exc
         said = f"{what} ({x}, {y})"
     if not grid.passable[y, x]:
         unit = "m" if grid.frame is not None else "cells"
-        raise CbrError(f"{said} within the robot radius ({radius:g} {unit}) of an obstacle")
+        raise CbrError(f"{said} is within the robot radius ({radius:g} {unit}) of an obstacle")
     return x, y
+
+
+def _summary(record: dict[str, Any], grid: Grid, frame: FrameName) -> str:
+    """The path in one line: how many cells, from where to where (in metres with ``frame``
+    map, each point the centre of its cell)."""
+    ends = [record["path"][0], record["path"][-1]]
+    if frame is FrameName.map:
+        start, goal = (in_metres(point, cell) for point, cell in zip(grid.to_map(ends).tolist(),
+                                                                      ends, strict=True))
+    else:
+        start, goal = (f"({x}, {y})" for x, y in ends)
+    return f"{len(record['path'])} cells from {start} to {goal}"
 
 
 def _save_plot(grid: Grid, out: Path, path: list[list[int]] | None = None,
@@ -343,7 +404,8 @@ def plan(
         "point in metres.", show_default=False)] = None,
     frame: Annotated[FrameName, typer.Option(
         "--frame", help="How --start and --goal are written: cells, or metres in the map frame "
-        "of a ROS map.")] = FrameName.cell,
+        "of a ROS map (messages and the summary then give metres, each with its cell in "
+        "brackets).")] = FrameName.cell,
     scen: Annotated[Path | None, typer.Option(
         "--scen", metavar="FILE", help="Plan the scenarios of this Moving AI .scen file "
         "instead (with a .map only).", show_default=False)] = None,
@@ -377,10 +439,15 @@ def plan(
         "alone, in milliseconds), expanded and path (a list of [x, y] cells); with --solver "
         "jps also search (jps, or astar when jps handed a map with risk over); with a "
         "constrained --kinematics also headings and reversing (per step); on a map with a "
-        "frame also length_m and path_m. With --scen one such object per scenario plus "
-        "optimal (the file's length; null values where no path exists), then one with "
-        "matched, total and median_time_ms."))] = False,
+        "frame also length_m and path_m (the cell centres in metres). With --scen one such "
+        "object per scenario plus optimal (the file's length; null values where no path "
+        "exists), then one with matched, total and median_time_ms."))] = False,
     plot: PlotPath = None,
+    path_out: Annotated[Path | None, typer.Option(
+        "--path-out", metavar="FILE", help="Write the path to this file: CSV (a header, then "
+        "one x,y line per cell) or, by the extension .geojson or .json, a GeoJSON LineString "
+        "feature; in metres in the map frame (cell centres) with --frame map, else cells.",
+        show_default=False)] = None,
 ) -> None:
     """Plan a path on a map: one start and goal, or the scenarios of a Moving AI .scen file."""
     if scen is None:
@@ -396,6 +463,9 @@ def plan(
         if plot is not None:
             raise typer.BadParameter("--plot draws one path, not the scenarios of --scen",
                                      param_hint="'--plot'")
+        if path_out is not None:
+            raise typer.BadParameter("--path-out writes one path, not the scenarios of --scen",
+                                     param_hint="'--path-out'")
         if map_file.suffix.lower() != ".map":
             raise typer.BadParameter(f"Moving AI scenarios go with a Moving AI .map, not "
                                      f"{map_file.name}", param_hint="'--scen'")
@@ -410,9 +480,17 @@ def plan(
             raise typer.BadParameter("a scenario file's optimal lengths are for the map as it "
                                      "is: --scen plans without inflation",
                                      param_hint=" / ".join(f"'{o}'" for o in given))
-    parse = _cell if frame is FrameName.cell else _point
-    start_at = None if start is None else parse(start, "--start")
-    goal_at = None if goal is None else parse(goal, "--goal")
+    if frame is FrameName.map:
+        start_at = None if start is None else _point(start, "--start")
+        goal_at = None if goal is None else _point(goal, "--goal")
+    else:
+        start_at = None if start is None else _cell(start, "--start", map_file, unknown_risk)
+        goal_at = None if goal is None else _cell(goal, "--goal", map_file, unknown_risk)
+    if path_out is not None:
+        try:
+            path_format(path_out)
+        except CbrError as exc:
+            raise typer.BadParameter(str(exc), param_hint="'--path-out'") from None
     start_heading = _heading(heading, "--heading")
     goal_heading = _heading(final_heading, "--final-heading")
     read, grid = _map(map_file, unknown_risk, robot_radius, inflation_radius, cost_scaling)
@@ -427,11 +505,17 @@ def plan(
     goal_cell = _endpoint(read, grid, goal_at, "--goal", frame, robot_radius)
     record = _plan(search, solver, grid, start_cell, goal_cell)
     if record is None:
-        typer.echo(f"no path from {start_cell} to {goal_cell} on {map_file}", err=True)
+        typer.echo(f"no path from {_place(start_at, start_cell, frame)} to "
+                   f"{_place(goal_at, goal_cell, frame)} on {map_file}", err=True)
         raise typer.Exit(1)
     if plot is not None:
         _save_plot(grid, plot, record["path"], start_cell, goal_cell, heading=start_heading,
                    final_heading=goal_heading, reversing=record.get("reversing"))
+    if path_out is not None:
+        metres = frame is FrameName.map
+        write_path(path_out, record["path_m"] if metres else record["path"], metres=metres,
+                   properties={key: record[key] for key in ("solver", "length", "cost",
+                                                            "length_m") if key in record})
     if as_json:
         typer.echo(json.dumps(record))
         return
@@ -446,10 +530,10 @@ def plan(
         typer.echo(f"{'headings':<9} {' '.join(NAMES[h] for h in record['headings'])}")
         typer.echo(f"{'reversing':<9} {sum(record['reversing'])} of {len(record['reversing'])} "
                    "steps")
-    if "path_m" in record:
-        typer.echo(f"{'path_m':<9} " + " ".join(f"{x:.3f},{y:.3f}" for x, y in record["path_m"]))
-    if plot is not None:
-        typer.echo(f"wrote {plot}")
+    typer.echo(f"{'path':<9} {_summary(record, grid, frame)}")
+    for written in (path_out, plot):
+        if written is not None:
+            typer.echo(f"wrote {written}")
 
 
 def show(
