@@ -132,7 +132,8 @@ class ReuseOptions:
     safe: bool = option(
         True, "Check that a carried-over diverting target can be reached as far as the robot "
         "knows (not inside a known obstacle chain, in line of sight or a short way round the "
-        "known walls) and try the next match when it cannot.")
+        "known walls) and that the case's walls do not stand where the robot has seen the way "
+        "open, and try the next match when not.")
     clearance: float = option(
         0.3, "Metres a diverting target must keep from a known wall; the way round the walls "
         "passes their ends this far off and more.", validator=attrs.validators.gt(0.0))
