@@ -11,11 +11,11 @@ from pathlib import Path
 import pytest
 
 import cbrcore.builtins
+import closed_loop_domain
 from cbrcore import Solution, hookimpl
 from cbrcore.context import Context
 from cbrcore.registry import Registry
 from cbrcore.testing import CliResult
-from tests import closed_loop_domain
 
 KERNEL_MODULE = "notice_kernel"
 KERNEL = """\
