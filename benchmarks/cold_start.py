@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -32,12 +33,14 @@ NOTICE = "cbr: compiling the kernels"
 
 
 def _run(config: Path, count: int, cache: Path, out: Path) -> dict[str, Any]:
-    """One ``cbr run`` process: its wall time, when its compile notice came (None: none did)."""
+    """One ``cbr run`` process: its wall time, its processor time (user and system: on a busy
+    machine the steadier figure), when its compile notice came (None: none did)."""
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
     env["CBR_CACHE_DIR"] = str(cache)
     command = [sys.executable, "-m", "cbrcore", "run", str(config), "--set",
                f"workload.count={count}", "--out", str(out)]
     notice: list[float] = []
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     started = time.perf_counter()
     process = subprocess.Popen(command, cwd=ROOT, env=env, stdout=subprocess.DEVNULL,
                                stderr=subprocess.PIPE, text=True)
@@ -53,9 +56,12 @@ def _run(config: Path, count: int, cache: Path, out: Path) -> dict[str, Any]:
     code = process.wait()
     seconds = time.perf_counter() - started
     reader.join()
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if code != 0:
         raise SystemExit(f"{' '.join(command)} exited with {code}")
-    return {"seconds": seconds, "notice_seconds": notice[0] if notice else None}
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return {"seconds": seconds, "cpu_seconds": cpu,
+            "notice_seconds": notice[0] if notice else None}
 
 
 def _commit() -> str:
@@ -81,6 +87,8 @@ def main() -> None:
                   f"warm {warm[-1]['seconds']:.1f} s", file=sys.stderr)
     cold_median = statistics.median(r["seconds"] for r in cold)
     warm_median = statistics.median(r["seconds"] for r in warm)
+    cold_cpu = statistics.median(r["cpu_seconds"] for r in cold)
+    warm_cpu = statistics.median(r["cpu_seconds"] for r in warm)
     notices = [r["notice_seconds"] for r in cold if r["notice_seconds"] is not None]
     result = {
         "commit": _commit(),
@@ -94,6 +102,10 @@ def main() -> None:
         "cold_median_seconds": cold_median,
         "warm_median_seconds": warm_median,
         "cold_over_warm": cold_median / warm_median,
+        "cold_cpu_seconds": [r["cpu_seconds"] for r in cold],
+        "warm_cpu_seconds": [r["cpu_seconds"] for r in warm],
+        "cold_median_cpu_seconds": cold_cpu,
+        "warm_median_cpu_seconds": warm_cpu,
         "notice_median_seconds": statistics.median(notices) if notices else None,
         "cold_runs_with_notice": len(notices),
         "warm_runs_with_notice": sum(r["notice_seconds"] is not None for r in warm),
@@ -109,13 +121,15 @@ def main() -> None:
         f"{result['cores']} cores (load average {result['load_average']:.1f} at the end), "
         f"commit `{result['commit'][:12]}`.",
         "",
-        "| cache | median wall s | runs (s) |",
-        "|---|---|---|",
-        f"| cold (empty) | {cold_median:.1f} | "
+        "| cache | median wall s | median processor s | runs, wall (s) |",
+        "|---|---|---|---|",
+        f"| cold (empty) | {cold_median:.1f} | {cold_cpu:.1f} | "
         f"{', '.join(f'{s:.1f}' for s in result['cold_seconds'])} |",
-        f"| warm | {warm_median:.1f} | {', '.join(f'{s:.1f}' for s in result['warm_seconds'])} |",
+        f"| warm | {warm_median:.1f} | {warm_cpu:.1f} | "
+        f"{', '.join(f'{s:.1f}' for s in result['warm_seconds'])} |",
         "",
-        f"Cold / warm: {result['cold_over_warm']:.1f}x. The compile notice came "
+        f"Cold / warm: {result['cold_over_warm']:.1f}x wall, {cold_cpu / warm_cpu:.1f}x "
+        "processor time. The compile notice came "
         + (f"{notice:.2f} s after the process started (median)" if notice is not None
            else "in no cold run")
         + f"; warm runs that wrote it: {result['warm_runs_with_notice']}.",
