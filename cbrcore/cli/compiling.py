@@ -5,9 +5,10 @@ A first run compiles the numba kernels it uses (tens of seconds) before its firs
 command that says nothing meanwhile looks hung. The line is written as soon as the command knows:
 at once when the kernel cache holds no kernel at all (a first run, a deleted cache), else when
 numba starts to compile a kernel missing from the cache (a new kernel after an upgrade, new
-argument types). Then a line every ``CBR_PROGRESS_SECONDS`` (:func:`cbrcore.cli.progress.interval`)
-while it compiles, and one when the command is done if it compiled anything. A warm cache
-writes nothing.
+argument types). While it compiles, a line when a compile ends ``CBR_PROGRESS_SECONDS``
+(:func:`cbrcore.cli.progress.interval`, 10 s unless set) or more after the last line (a kernel
+compiles the functions it calls one by one, so the lines come about that often), and one when the
+command is done if it compiled anything. A warm cache writes nothing.
 """
 
 from __future__ import annotations
