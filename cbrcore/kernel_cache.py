@@ -1,5 +1,5 @@
-"""Where compiled kernels are cached, whether that cache is empty, and who is told when kernels
-are compiled; without importing numba, so that a command can say so before it loads any kernel.
+"""Where compiled kernels are cached, and who is told when kernels are compiled; without
+importing numba, so that a command can listen before it loads any kernel.
 
 The cache folder is, in order of precedence,
 
@@ -39,13 +39,6 @@ def numba_cache_dir() -> Path:
     """Where compiled kernels are cached: ``NUMBA_CACHE_DIR`` if set, else ``cache_dir()/numba``."""
     own = os.environ.get("NUMBA_CACHE_DIR")
     return Path(own).expanduser() if own else cache_dir() / "numba"
-
-
-def holds_no_kernel(folder: Path | None = None) -> bool:
-    """Whether ``folder`` (default :func:`numba_cache_dir`) holds no cached kernel: no numba
-    index file (``*.nbi``, one per cached kernel) anywhere below it, or no folder at all."""
-    folder = numba_cache_dir() if folder is None else folder
-    return next(folder.rglob("*.nbi"), None) is None
 
 
 class CompileWatcher(Protocol):

@@ -87,15 +87,16 @@ def _notices(stderr: str) -> list[str]:
     return [line for line in stderr.splitlines() if line.startswith("cbr: compil")]
 
 
-def test_an_empty_cache_is_announced_before_the_first_result(lane: Callable[[], CliResult],
-                                                             tmp_path: Path) -> None:
+def test_a_kernel_compiled_into_an_empty_cache_is_announced_before_the_first_result(
+        lane: Callable[[], CliResult], tmp_path: Path) -> None:
     done = lane()
     assert done.exit_code == 0, done.stderr
     lines = done.stderr.splitlines()
-    assert lines[0].startswith(NOTICE)
-    assert f"cached in {tmp_path / 'cache' / 'numba'} for later runs" in lines[0]
-    # the progress line of the first query, and the table on stdout, come after it
-    assert any(line.startswith("cbr run: 1/") for line in lines[1:])
+    first = next(i for i, line in enumerate(lines) if line.startswith(NOTICE))
+    assert f"cached in {tmp_path / 'cache' / 'numba'} for later runs" in lines[first]
+    # numba compiles the kernel at the first query, so before that query's progress line
+    first_query = next(i for i, line in enumerate(lines) if line.startswith("cbr run: 1/"))
+    assert first < first_query, done.stderr
     assert "cbr: compiled 1 kernel in " in done.stderr
     assert "answered by the fallback solver" in done.stdout
     assert list((tmp_path / "cache" / "numba").rglob("notice_kernel.margin-*.nbi"))
@@ -111,7 +112,7 @@ def test_a_warm_cache_is_not_announced(lane: Callable[[], CliResult]) -> None:
 
 def test_a_kernel_missing_from_a_filled_cache_is_announced_when_it_compiles(
         lane: Callable[[], CliResult], tmp_path: Path) -> None:
-    # another kernel in the cache: the folder is not empty, yet the lane's kernel is not there
+    # another kernel in the cache, not the lane's
     (tmp_path / "src" / "other_kernel.py").write_text(OTHER_KERNEL, encoding="utf-8")
     sys.modules.pop("other_kernel", None)
     assert importlib.import_module("other_kernel").double(2) == 4
@@ -124,3 +125,13 @@ def test_a_kernel_missing_from_a_filled_cache_is_announced_when_it_compiles(
     # numba compiles it at the first query, so before that query's progress line
     first_query = next(i for i, line in enumerate(lines) if line.startswith("cbr run: 1/"))
     assert first < first_query, done.stderr
+
+
+def test_a_configuration_without_kernels_is_not_announced_on_an_empty_cache(
+        lane: Callable[[], CliResult], tmp_path: Path, cbr_cli: Callable[..., CliResult]) -> None:
+    plain = tmp_path / "plain.yaml"
+    plain.write_text(closed_loop_domain.LANE_CONFIG, encoding="utf-8")
+    done = cbr_cli("run", str(plain), "--out", str(tmp_path / "plain"))
+    assert done.exit_code == 0, done.stderr
+    assert _notices(done.stderr) == []
+    assert not (tmp_path / "cache").exists()

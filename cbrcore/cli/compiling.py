@@ -2,13 +2,14 @@
 progress while it compiles.
 
 A first run compiles the numba kernels it uses (tens of seconds) before its first result; a
-command that says nothing meanwhile looks hung. The line is written as soon as the command knows:
-at once when the kernel cache holds no kernel at all (a first run, a deleted cache), else when
-numba starts to compile a kernel missing from the cache (a new kernel after an upgrade, new
-argument types). While it compiles, a line when a compile ends ``CBR_PROGRESS_SECONDS``
-(:func:`cbrcore.cli.progress.interval`, 10 s unless set) or more after the last line (a kernel
-compiles the functions it calls one by one, so the lines come about that often), and one when the
-command is done if it compiled anything. A warm cache writes nothing.
+command that says nothing meanwhile looks hung. The line is written when numba starts to compile
+a kernel missing from the cache (a first run, a deleted cache, a new kernel after an upgrade, new
+argument types): numba's own compile event, raised only then, tells it, so a command whose
+configuration uses no kernel writes nothing even on an empty cache. While it compiles, a line
+when a compile ends ``CBR_PROGRESS_SECONDS`` (:func:`cbrcore.cli.progress.interval`, 10 s
+unless set) or more after the last line (a kernel compiles the functions it calls one by one,
+so the lines come about that often), and one when the command is done if it compiled anything.
+A warm cache writes nothing.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from cbrcore.cli.progress import interval
-from cbrcore.kernel_cache import holds_no_kernel, numba_cache_dir, watching
+from cbrcore.kernel_cache import numba_cache_dir, watching
 
 ABOUT_SECONDS = 30
 """What compiling the kernels of ``configs/hybrid_grid.yaml`` takes on an idle 2-core machine,
@@ -80,10 +81,7 @@ def _write(line: str) -> None:
 @contextmanager
 def announcing_compiles() -> Iterator[None]:
     """For the duration of the block, say on stderr when kernels are compiled (see the module)."""
-    folder = numba_cache_dir()
-    notice = CompileNotice(_write, folder=folder, every=interval())
-    if holds_no_kernel(folder):
-        notice.announce()
+    notice = CompileNotice(_write, folder=numba_cache_dir(), every=interval())
     with watching(notice):
         yield
     notice.done()
