@@ -3,47 +3,53 @@
 Every compiled kernel of cbrcore and its plugins is decorated with :func:`njit` (``@njit`` or
 ``@njit(inline="always")``), which is ``numba.njit(cache=True, ...)`` with the cache kept out
 of the source tree: an installed package's folder is often not writable, and a checkout should
-not fill with machine code. The cache folder is, in order of precedence,
-
-1. ``NUMBA_CACHE_DIR``, numba's own setting, when it is set;
-2. ``$CBR_CACHE_DIR/numba`` when ``CBR_CACHE_DIR`` is set;
-3. ``numba`` in the user cache folder of cbrcore (``platformdirs.user_cache_dir("cbrcore")``:
-   ``~/.cache/cbrcore/numba`` on Linux).
+not fill with machine code. The cache folder is :func:`cbrcore.kernel_cache.numba_cache_dir`.
 
 numba chooses where a kernel's cache lives when the kernel is decorated (when its module is
 imported), so the folder is read then; a folder that cannot be made falls back to numba's own
-choice. Importing this module imports numba: plugin modules import their kernel modules lazily,
-so that loading plugins (``cbr --help``, ``cbr plugins``) stays fast.
+choice. Every compile numba makes (a cache miss) is reported to the watchers of
+:mod:`cbrcore.kernel_cache`. Importing this module imports numba: plugin modules import their
+kernel modules lazily, so that loading plugins (``cbr --help``, ``cbr plugins``) stays fast.
 """
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any, TypeVar, overload
 
 import numba
-import platformdirs
+
+from cbrcore.kernel_cache import numba_cache_dir, watchers
 
 F = TypeVar("F", bound=Callable[..., Any])
 
-CACHE_VARIABLE = "CBR_CACHE_DIR"
-"""The environment variable that moves cbrcore's cache folder."""
+
+class _CompileEvents(numba.core.event.Listener):
+    """Forwards numba's compile events, raised only when a kernel is not in the cache, to the
+    watchers of :mod:`cbrcore.kernel_cache`, with how deeply the compile is nested."""
+
+    def __init__(self) -> None:
+        self.depth = 0
+
+    def on_start(self, event: numba.core.event.Event) -> None:
+        self.depth += 1
+        for watcher in watchers():
+            watcher.started(_name(event), self.depth)
+
+    def on_end(self, event: numba.core.event.Event) -> None:
+        try:
+            for watcher in watchers():
+                watcher.finished(_name(event), self.depth)
+        finally:
+            self.depth -= 1
 
 
-def cache_dir() -> Path:
-    """cbrcore's cache folder: ``$CBR_CACHE_DIR``, else the user cache folder of cbrcore."""
-    chosen = os.environ.get(CACHE_VARIABLE)
-    if chosen:
-        return Path(chosen).expanduser()
-    return Path(platformdirs.user_cache_dir("cbrcore"))
+def _name(event: numba.core.event.Event) -> str:
+    function = event.data["dispatcher"].py_func
+    return f"{function.__module__}.{function.__qualname__}"
 
 
-def numba_cache_dir() -> Path:
-    """Where compiled kernels are cached: ``NUMBA_CACHE_DIR`` if set, else ``cache_dir()/numba``."""
-    own = os.environ.get("NUMBA_CACHE_DIR")
-    return Path(own).expanduser() if own else cache_dir() / "numba"
+numba.core.event.register("numba:compile", _CompileEvents())
 
 
 @overload

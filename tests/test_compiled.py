@@ -10,7 +10,8 @@ from pathlib import Path
 
 import numba
 
-from cbrcore.compiled import cache_dir, njit, numba_cache_dir
+from cbrcore.compiled import njit
+from cbrcore.kernel_cache import cache_dir, numba_cache_dir
 
 KERNEL = textwrap.dedent("""\
     from cbrcore.compiled import njit

@@ -17,6 +17,7 @@ from rich.table import Table
 from rich.text import Text
 
 from cbrcore.cli import completion
+from cbrcore.cli.compiling import announcing_compiles
 from cbrcore.cli.progress import progress as _progress
 from cbrcore.cli.reference import cli_reference
 from cbrcore.config import load_config
@@ -97,7 +98,7 @@ def run(
     else:
         check_continuable(out_dir, checked)
         earlier_results(out_dir)
-    with Engine(checked, out_dir=out_dir.resolve()) as engine:
+    with announcing_compiles(), Engine(checked, out_dir=out_dir.resolve()) as engine:
         cases = len(engine.casebase) if engine.casebase is not None else 0
         if cases or (out_dir / "results.csv").is_file():
             typer.echo(f"cbr run: continuing from {cases} cases in {out_dir}", err=True)
@@ -252,7 +253,7 @@ def experiment(
         raise typer.BadParameter("name an experiment, or use --list", param_hint="NAME")
     out_dir = out if out is not None else Path("experiments") / f"{name}-{size.value}"
     sized: ExperimentSize = "ci" if size is Size.ci else "full"
-    with open_tasks(scheduler, workers=workers) as tasks, \
+    with announcing_compiles(), open_tasks(scheduler, workers=workers) as tasks, \
             _progress(f"cbr experiment {name}", "steps") as progress:
         written = run_experiment(name, current(), size=sized, out_dir=out_dir, seed=seed,
                                  progress=progress, tasks=tasks)

@@ -129,8 +129,10 @@ def local_links(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
             cell = (ay + i * dy - y0) * ww + (ax + i * dx - x0)
             want[cell] = True
     source = np.array([[cx, cy]], dtype=np.int64)
-    dist = wavefront(factor, passable, corner_cutting, source, x0, y0, x1, y1, COST_STEPS,
-                     np.flatnonzero(want))
+    # an int64, not the constant numba would type as the literal 1: the literal compiles a
+    # wavefront of its own, where int64 shares the one the planners compile from Python
+    dist = wavefront(factor, passable, corner_cutting, source, x0, y0, x1, y1,
+                     np.int64(COST_STEPS), np.flatnonzero(want))
     chosen = np.zeros(n, dtype=np.bool_)
     for k in range(count):
         a, b = e_a[cases[k]], e_b[cases[k]]

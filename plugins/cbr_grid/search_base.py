@@ -216,16 +216,30 @@ def move_masks(passable: np.ndarray, corner_cutting: bool) -> np.ndarray:
     return masks
 
 
+def read_only(array: np.ndarray) -> np.ndarray:
+    """``array`` itself when it is read-only, else a read-only view of it.
+
+    numba compiles a kernel apart for a writable and for a read-only array argument; the
+    searches hand their kernels read-only arrays only, so that a first run compiles each once
+    (a few seconds each) whichever arrays its callers hold.
+    """
+    if not array.flags.writeable:
+        return array
+    view = array.view()
+    view.flags.writeable = False
+    return view
+
+
 def checked_arguments(factor: np.ndarray, passable: np.ndarray, start: Sequence[int],
                       goals: object, window: Sequence[int] | None
                       ) -> tuple[np.ndarray, np.ndarray, tuple[int, int], np.ndarray,
                                  tuple[int, int, int, int]]:
     """The grid searches' arguments checked and converted: contiguous float64 factor and bool
-    passable arrays, the start, the goals as a (k, 2) int64 array and the window clipped to the
-    grid (the whole grid when None). ValueError names what is wrong.
+    passable arrays, read-only, the start, the goals as a (k, 2) int64 array and the window
+    clipped to the grid (the whole grid when None). ValueError names what is wrong.
     """
-    factor = np.ascontiguousarray(factor, dtype=np.float64)
-    passable = np.ascontiguousarray(passable, dtype=np.bool_)
+    factor = read_only(np.ascontiguousarray(factor, dtype=np.float64))
+    passable = read_only(np.ascontiguousarray(passable, dtype=np.bool_))
     if factor.ndim != 2 or factor.shape != passable.shape:
         raise ValueError(f"factor {factor.shape} and passable {passable.shape} must be one (h, w)"
                          " shape")
