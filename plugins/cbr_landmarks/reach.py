@@ -163,12 +163,17 @@ def distance_to_walls(points: np.ndarray, walls: np.ndarray) -> np.ndarray:
                               ).min(axis=1)
 
 
-def _point_to_segments(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The distance from ``points`` ``(..., 2)`` to the segments ``a``-``b`` (broadcast)."""
+def _nearest_on_segments(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The point of each segment ``a``-``b`` nearest ``points`` ``(..., 2)`` (broadcast)."""
     ab = b - a
     length2 = np.maximum((ab * ab).sum(axis=-1), _EPS)
     t = np.clip(((points - a) * ab).sum(axis=-1) / length2, 0.0, 1.0)
-    return np.hypot(*np.moveaxis(points - (a + t[..., None] * ab), -1, 0))
+    return a + t[..., None] * ab
+
+
+def _point_to_segments(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The distance from ``points`` ``(..., 2)`` to the segments ``a``-``b`` (broadcast)."""
+    return np.hypot(*np.moveaxis(points - _nearest_on_segments(points, a, b), -1, 0))
 
 
 def crossing(starts: np.ndarray, ends: np.ndarray, walls: np.ndarray) -> np.ndarray:
@@ -248,11 +253,7 @@ def narrow_gaps(walls: np.ndarray, passage: float, posts: np.ndarray | None = No
         return np.empty((0, 2, 2))
     points = walls.reshape(-1, 2)
     owner = np.repeat(np.arange(len(walls)), 2)
-    a, b = walls[None, :, 0], walls[None, :, 1]
-    ab = b - a
-    t = np.clip(((points[:, None, :] - a) * ab).sum(axis=-1)
-                / np.maximum((ab * ab).sum(axis=-1), _EPS), 0.0, 1.0)
-    nearest = a + t[..., None] * ab
+    nearest = _nearest_on_segments(points[:, None, :], walls[None, :, 0], walls[None, :, 1])
     apart = np.hypot(*np.moveaxis(points[:, None, :] - nearest, -1, 0))
     narrow = (owner[:, None] != np.arange(len(walls))[None, :]) & (apart > _EPS) & \
         (apart < passage)
