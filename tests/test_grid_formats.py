@@ -14,9 +14,9 @@ import cbr_grid
 import cbr_grid.formats
 from cbr_grid.formats import load_grid, load_npy, load_png, load_ros, load_text, read_image
 from cbr_grid.frame import MapFrame
-from cbr_grid.occupancy import occupancy_risk, occupancy_values
 from cbr_grid.grid import Grid
 from cbr_grid.inflation import Inflation, inflate
+from cbr_grid.occupancy import occupancy_risk, occupancy_values
 from cbrcore.context import Context
 from cbrcore.errors import CbrError, ConfigError
 from cbrcore.options import paths_relative_to, structure_options
