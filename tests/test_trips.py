@@ -499,6 +499,23 @@ def test_a_cell_of_unknown_space_says_how_to_cross_it(cbr_engine: Callable[..., 
     assert cbr_engine(config).workload.places.tolist() == [[0, 0], [200, 183]]
 
 
+def test_random_trips_and_obstacles_keep_to_the_cells_the_map_knows(
+        cbr_engine: Callable[..., Engine]) -> None:
+    # map_circular is mostly unknown space, crossable by default: random trips and random
+    # unknown obstacles are drawn from its known free cells only
+    engine = cbr_engine(map_config(ROS_MAP, count=6, unknown_static=20, unknown_dynamic=5,
+                                   min_distance=20))
+    known = ~engine.ctx.world.unknown & engine.ctx.world.passable
+    for x, y in [*engine.workload.true_world.static.tolist(),
+                 *engine.workload.true_world.dynamic.tolist()]:
+        assert known[y, x]
+    trips = drive(engine)
+    assert len(trips) == 6
+    for problem, *_ in trips:
+        for x, y in (problem.start, problem.goal):
+            assert known[y, x]
+
+
 def test_places_in_metres_need_a_map_frame_and_cells_whole_numbers(
         walled: Path, cbr_engine: Callable[..., Engine]) -> None:
     with pytest.raises(CbrError, match=r"workload 'trips': places are in metres \(frame: map\), "

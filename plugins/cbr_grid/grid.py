@@ -162,6 +162,11 @@ class Grid:
                    cost_model=CostModel() if cost_model is None else cost_model, frame=frame,
                    unknown=unknown)
 
+    def known_passable(self) -> np.ndarray:
+        """Boolean mask (height, width): the passable cells the map knows. Unknown space a
+        planner may cross (``allow_unknown``) is passable but no place to send a robot to."""
+        return self.passable if self.unknown is None else self.passable & ~self.unknown
+
     @property
     def width(self) -> int:
         """Number of columns (x runs over 0 .. width-1)."""
