@@ -221,6 +221,23 @@ def test_ros_grey_with_alpha_weighs_grey_as_three_channels(tmp_path: Path) -> No
         np.testing.assert_array_equal(values, [[white, 100]])
 
 
+def test_ros_transparent_grey_and_cmyk_read_as_colour_and_alpha(tmp_path: Path) -> None:
+    # a greyscale PNG whose white is the transparent grey (tRNS): in scale mode white is
+    # unknown and black, opaque, occupied
+    Image.fromarray(np.array([[0, 255]], dtype=np.uint8), "L").save(tmp_path / "map.png",
+                                                                    transparency=255)
+    grid = load_ros(ros_yaml(tmp_path, "map.png", mode="scale"), allow_unknown=False)
+    np.testing.assert_array_equal(grid.unknown, [[False, True]])
+    np.testing.assert_array_equal(grid.risk, [[1, 1]])
+    # CMYK black (K 255) and white (nothing) read as the RGB black and white they are, not as a
+    # colour with alpha
+    cmyk = np.array([[[0, 0, 0, 255], [0, 0, 0, 0]]], dtype=np.uint8)
+    Image.fromarray(cmyk, "CMYK").save(tmp_path / "map.tiff")
+    np.testing.assert_array_equal(read_image(tmp_path / "map.tiff"), [[[0, 0, 0], [1, 1, 1]]])
+    grid = load_ros(ros_yaml(tmp_path, "map.tiff"))
+    np.testing.assert_array_equal(grid.risk, [[1, 0]])
+
+
 def test_ros_scale_with_equal_thresholds_is_refused_only_with_a_pixel_between() -> None:
     # a pixel exactly at both thresholds would be scaled by a division by zero
     with pytest.raises(CbrError, match=r"^scale mode needs free_thresh below occupied_thresh, "

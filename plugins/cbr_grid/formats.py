@@ -22,7 +22,7 @@ ROS map_server (``.yaml``)
 Images (``.pgm`` and others inside a ROS map, ``.png``)
     Read with Pillow (:func:`read_image`): binary ``P5`` and plain ``P2`` greymaps of 8 or 16
     bits, PNG, and whatever else Pillow reads, up to :data:`MAX_IMAGE_PIXELS` pixels whatever
-    Pillow's own limit.
+    Pillow's own limit. Palettes and transparent colours become RGBA, other colour spaces RGB.
 PNG (``.png``)
     A colour image is reduced to luminance 0.299 R + 0.587 G + 0.114 B (alpha ignored). Cells
     darker than ``threshold`` (luminance in [0, 1]) are obstacles, the rest free.
@@ -85,6 +85,11 @@ _PILLOW_PROBLEMS = (
 )
 
 
+_NOT_RGB = ("CMYK", "YCbCr", "LAB", "HSV")
+"""Pillow's colour modes whose channels are converted to RGB before they are read: a map reader
+averages red, green, blue and alpha."""
+
+
 MAX_GRID_CELLS = 2**28
 """The most cells a map read from an image or a ``.npy`` file may have: 16384 x 16384, 820 m a
 side in 5 cm cells. Its risk values alone take 2 GiB, and planning on it several times that; a
@@ -137,6 +142,9 @@ def read_image(path: str | Path) -> np.ndarray:
             if image.mode in ("P", "PA") or "transparency" in image.info:
                 # a palette's colours, and a transparent colour or grey as alpha
                 image = image.convert("RGBA")
+            elif image.mode in _NOT_RGB:
+                # channels that are no colour channels or alpha, such as a JPEG's YCbCr
+                image = image.convert("RGB")
             mode = image.mode
             pixels = np.asarray(image)
     except UnidentifiedImageError as exc:
