@@ -30,6 +30,7 @@ HYBRID = Path(__file__).resolve().parents[1] / "configs" / "hybrid_grid.yaml"
 # 604x307 cells of 0.05 m from the origin (0, 0): x 0 to 30.2 m, y 0 to 15.35 m
 DEPOT = Path(__file__).resolve().parent / "data" / "ros" / "depot.yaml"
 DEPOT_SPAN = "did you mean --frame map? (the map's frame spans x 0 to 30.2 m and y 0 to 15.35 m)"
+ROS_WORLD = f"world: {{use: map_file, path: {DEPOT}"
 SECRET = "TOPSECRET password=hunter2\nTOPSECRET: second line\n"
 MARKER = "TOPSECRET"
 
@@ -205,6 +206,19 @@ CASES = {
     "worlds option of an unknown value": (
         _run("casebase: {use: sqlite, worlds: some}"),
         "casebase.worlds (line 1, column 33): expected one of 'one', 'any', got 'some'"),
+    "map_file unknown_risk, now Nav2's allow_unknown": (
+        _run(f"{ROS_WORLD}, unknown_risk: 1}}"),
+        # the column of the value
+        f"world.unknown_risk (line 1, column {len(ROS_WORLD + ', unknown_risk: ') + 1}): "
+        "unknown key; expected one "
+        "of: path, corner_cutting, allow_unknown"),
+    "map_file allow_unknown given a risk": (
+        _run(f"{ROS_WORLD}, allow_unknown: 0.5}}"),
+        f"world.allow_unknown (line 1, column {len(ROS_WORLD + ', allow_unknown: ') + 1}): "
+        "expected true or false, got 0.5"),
+    "plan --unknown-risk, now Nav2's --allow-unknown": (
+        _plan_depot("--start", "40,266", "--goal", "400,236", "--unknown-risk", "1"),
+        "No such option: --unknown-risk (Possible options: --allow-unknown)"),
     "plan metres given as cells": (
         _plan_depot("--start", "2,2", "--goal", "20,3.5"),
         f"Invalid value for '--goal': expected a cell of two integers X,Y, got '20,3.5'; "

@@ -8,6 +8,7 @@ from pathlib import Path
 import matplotlib.image
 import numpy as np
 import pytest
+from PIL import Image
 
 import cbr_grid
 import cbr_grid.formats
@@ -15,21 +16,26 @@ from cbr_grid.formats import load_grid, load_npy, load_png, load_ros, load_text,
 from cbr_grid.frame import MapFrame
 from cbr_grid.grid import Grid
 from cbr_grid.inflation import Inflation, inflate
+from cbr_grid.occupancy import occupancy_risk, occupancy_values
 from cbrcore.context import Context
 from cbrcore.errors import CbrError, ConfigError
 from cbrcore.options import paths_relative_to, structure_options
 from cbrcore.registry import Registry
 
-# with occupied_thresh 0.65 and free_thresh 0.2, p = (255 - v) / 255 reads these pixels as
-# occupied (0: p 1, 50: p 0.80), free (255: p 0, 230: p 0.098) and unknown (128: p 127/255,
-# 200: p 55/255, 100: p 155/255, 166: p 89/255)
+# with occupied_thresh 0.65 and free_thresh 0.2, occ = (255 - v) / 255 reads these pixels as
+# occupied (0: occ 1, 50: occ 0.80), free (255: occ 0, 230: occ 0.098) and in between (128: occ
+# 127/255, 200: occ 55/255, 100: occ 155/255, 166: occ 89/255)
 PIXELS = [[0, 255, 128, 230], [200, 100, 50, 166]]
-U = 0.5  # the unknown risk the trinary test asks for
-TRINARY = [[1, 0, U, 0], [U, U, 1, U]]
-SCALE = [[1, 0, 127 / 255, 0], [55 / 255, 155 / 255, 1, 89 / 255]]
-# negated, p = v / 255: 0 and 50 (0.196) free, 255, 230 (0.90) and 166 (0.651) occupied,
+A = 252 / 254  # the risk of unknown cells a planner may cross (Nav2's cost 252 of 254)
+TRINARY = [[1, 0, A, 0], [A, A, 1, A]]
+# scale: rint((occ - 0.2) / 0.45 * 100) for the in-between pixels: 128: 66.23 -> 66, 200: 3.49
+# -> 3, 100: 90.63 -> 91, 166: 33.12 -> 33; the static layer's cost int(v / 100 * 254) of each:
+# 167.64 -> 167, 7.62 -> 7, 231.14 -> 231, 83.82 -> 83
+SCALE_VALUES = [[100, 0, 66, 0], [3, 91, 100, 33]]
+SCALE = [[1, 0, 167 / 254, 0], [7 / 254, 231 / 254, 1, 83 / 254]]
+# negated, occ = v / 255: 0 and 50 (0.196) free, 255, 230 (0.90) and 166 (0.651) occupied,
 # 128 (0.502), 200 (0.784 > 0.65: occupied) and 100 (0.392) as marked
-NEGATED = [[0, 1, U, 1], [1, U, 0, 1]]
+NEGATED = [[0, 1, A, 1], [1, A, 0, 1]]
 
 P2 = b"P2\n# a hand-made map\n4 2\n255\n0 255 128 230\n200 100 50 166\n"
 P5 = b"P5\n4 2\n# comment in the header\n255\n" + np.array(PIXELS, dtype=np.uint8).tobytes()
@@ -65,8 +71,8 @@ def test_16_bit_pgm_reads_as_levels(tmp_path: Path) -> None:
     np.testing.assert_allclose(read_image(plain), [[0, 1, 0.25]], atol=0.5 / 65535)
     # a 16-bit map reads like an 8-bit one: 0 (p 1) occupied, 65535 (p 0) free and 32768
     # (p 32767 / 65535, just below 0.5) unknown
-    grid = load_ros(ros_yaml(tmp_path, "deep.pgm"), unknown_risk=U)
-    np.testing.assert_array_equal(grid.risk, [[1, 0, U]])
+    grid = load_ros(ros_yaml(tmp_path, "deep.pgm"))
+    np.testing.assert_array_equal(grid.risk, [[1, 0, A]])
 
 
 def test_a_map_image_past_pillows_pixel_limit_is_read(tmp_path: Path,
@@ -96,16 +102,15 @@ def test_a_map_image_past_the_map_limit_is_refused_for_its_size(
 @pytest.mark.parametrize("data", [P2, P5], ids=["P2", "P5"])
 def test_ros_trinary(tmp_path: Path, data: bytes) -> None:
     write(tmp_path, "map.pgm", data)
-    grid = load_ros(ros_yaml(tmp_path, "map.pgm"), unknown_risk=U)
+    grid = load_ros(ros_yaml(tmp_path, "map.pgm"))
     np.testing.assert_array_equal(grid.risk, TRINARY)
-    # the unknown cells are marked whatever risk they were given
-    np.testing.assert_array_equal(grid.unknown, np.array(TRINARY) == U)
-    # by default unknown cells are obstacles; 0 makes them free
-    default = load_ros(ros_yaml(tmp_path, "map.pgm", mode="trinary"))
-    np.testing.assert_array_equal(default.risk, np.where(np.array(TRINARY) == U, 1, TRINARY))
-    np.testing.assert_array_equal(default.unknown, grid.unknown)
-    free = load_ros(ros_yaml(tmp_path, "map.pgm"), unknown_risk=0)
-    np.testing.assert_array_equal(free.risk, np.where(np.array(TRINARY) == U, 0, TRINARY))
+    np.testing.assert_array_equal(grid.unknown, np.array(TRINARY) == A)
+    # by default a planner may cross unknown cells, at the highest cost short of an obstacle
+    assert grid.passable[grid.unknown].all()
+    # without allow_unknown they are obstacles, still marked unknown
+    lethal = load_ros(ros_yaml(tmp_path, "map.pgm", mode="trinary"), allow_unknown=False)
+    np.testing.assert_array_equal(lethal.risk, np.where(np.array(TRINARY) == A, 1, TRINARY))
+    np.testing.assert_array_equal(lethal.unknown, grid.unknown)
 
 
 def test_ros_keeps_resolution_and_origin_as_the_frame(tmp_path: Path) -> None:
@@ -124,23 +129,28 @@ def test_ros_accepts_nav2s_map_type_key(tmp_path: Path) -> None:
     assert load_ros(path).width == 4
 
 
-def test_ros_scale_gives_in_between_cells_their_occupancy(tmp_path: Path) -> None:
+def test_ros_scale_rescales_the_band_between_the_thresholds(tmp_path: Path) -> None:
     write(tmp_path, "map.pgm", P5)
-    grid = load_ros(ros_yaml(tmp_path, "map.pgm", mode="scale"))
+    path = ros_yaml(tmp_path, "map.pgm", mode="scale")
+    levels = read_image(path.parent / "map.pgm")
+    values = occupancy_values(levels, mode="scale", negate=False, occupied_thresh=0.65,
+                              free_thresh=0.2)
+    np.testing.assert_array_equal(values, SCALE_VALUES)
+    grid = load_ros(path)
     np.testing.assert_allclose(grid.risk, SCALE, rtol=0, atol=1e-15)
-    assert grid.unknown is None
+    assert grid.unknown is None  # an opaque image has no unknown pixel in scale mode
 
 
 def test_ros_negate(tmp_path: Path) -> None:
     write(tmp_path, "map.pgm", P2)
-    grid = load_ros(ros_yaml(tmp_path, "map.pgm", negate=1), unknown_risk=U)
+    grid = load_ros(ros_yaml(tmp_path, "map.pgm", negate=1))
     np.testing.assert_array_equal(grid.risk, NEGATED)
 
 
 def test_ros_thresholds_move_the_bands(tmp_path: Path) -> None:
     write(tmp_path, "map.pgm", P2)
     # free below 0.5, occupied above 0.55: 128 (0.498) and 200 become free, 100 (0.608) occupied
-    grid = load_ros(ros_yaml(tmp_path, "map.pgm", occupied=0.55, free=0.5), unknown_risk=U)
+    grid = load_ros(ros_yaml(tmp_path, "map.pgm", occupied=0.55, free=0.5))
     np.testing.assert_array_equal(grid.risk, [[1, 0, 0, 0], [0, 1, 1, 0]])
 
 
@@ -156,11 +166,97 @@ def test_ros_image_path_is_relative_to_the_yaml_file(tmp_path: Path, monkeypatch
 
 
 def test_ros_with_a_png_image_averages_channels(tmp_path: Path) -> None:
-    # red averages to 1/3 (p 2/3, occupied); white is free; black is occupied
-    rgb = np.array([[[1.0, 0, 0], [1, 1, 1], [0, 0, 0]]])
-    matplotlib.image.imsave(tmp_path / "map.png", rgb)
+    # red averages to 1/3 (occ 2/3, occupied); white is free; black is occupied
+    Image.fromarray(np.array([[[255, 0, 0], [255, 255, 255], [0, 0, 0]]], dtype=np.uint8),
+                    "RGB").save(tmp_path / "map.png")
     grid = load_ros(ros_yaml(tmp_path, "map.png"))
     np.testing.assert_array_equal(grid.risk, [[1, 0, 1]])
+
+
+# RGBA pixels: black and white opaque, white and black transparent, grey 102 (level 0.4)
+# opaque and half transparent (alpha 128), red opaque
+RGBA = [[[0, 0, 0, 255], [255, 255, 255, 255], [255, 255, 255, 0], [0, 0, 0, 0],
+         [102, 102, 102, 255], [102, 102, 102, 128], [255, 0, 0, 255]]]
+
+
+@pytest.mark.parametrize(("mode", "expected"), [
+    # the mean of R, G, B and alpha (1 opaque), occ = 1 - mean, against 0.65 and 0.2:
+    # black (0 + 0 + 0 + 1) / 4 = 0.25, occ 0.75: occupied; white 1: free; transparent white
+    # 0.75, occ 0.25: unknown; transparent black 0, occ 1: occupied; grey (1.2 + 1) / 4 = 0.55,
+    # occ 0.45: unknown; half-transparent grey (1.2 + 128/255) / 4 = 0.4255, occ 0.5745:
+    # unknown; red (1 + 1) / 4 = 0.5: unknown
+    ("trinary", [100, 0, -1, 100, -1, -1, -1]),
+    # every pixel that is not fully opaque unknown; the others by R, G, B: grey occ 0.6 is
+    # rint((0.6 - 0.2) / 0.45 * 100) = rint(88.9) = 89; red occ 2/3 > 0.65: occupied
+    ("scale", [100, 0, -1, -1, 89, -1, 100]),
+    # the mean of R, G and B as 0-255, alpha ignored: 0 and 85 (red) are values, 255 and 102
+    # are above 100: unknown
+    ("raw", [0, -1, -1, 0, -1, -1, 85]),
+])
+def test_ros_alpha_reads_as_map_server_reads_it(tmp_path: Path, mode: str,
+                                                expected: list[int]) -> None:
+    Image.fromarray(np.array(RGBA, dtype=np.uint8), "RGBA").save(tmp_path / "map.png")
+    path = ros_yaml(tmp_path, "map.png", mode=mode)
+    values = occupancy_values(read_image(tmp_path / "map.png"), mode=mode, negate=False,
+                              occupied_thresh=0.65, free_thresh=0.2)
+    np.testing.assert_array_equal(values, [expected])
+    grid = load_ros(path, allow_unknown=False)
+    np.testing.assert_array_equal(grid.unknown, [np.array(expected) == -1])
+    cost = np.floor(np.array(expected) / 100 * 254)
+    np.testing.assert_array_equal(grid.risk[0], np.where(
+        np.array(expected) == -1, 1, np.where(np.array(expected) == 100, 1, cost / 254)))
+
+
+def test_ros_grey_with_alpha_weighs_grey_as_three_channels(tmp_path: Path) -> None:
+    # map_server sees grey as three equal channels: the trinary mean is (3 L + A) / 4. White
+    # transparent: 0.75, occ 0.25; black opaque: 0.25, occ 0.75. (A mean of the two channels
+    # would read white transparent as 0.5, occ 0.5.)
+    Image.fromarray(np.array([[[255, 0], [0, 255]]], dtype=np.uint8), "LA").save(
+        tmp_path / "map.png")
+    levels = read_image(tmp_path / "map.png")
+    assert levels.shape == (1, 2, 2)
+    for free, white in ((0.2, -1), (0.3, 0)):
+        values = occupancy_values(levels, mode="trinary", negate=False, occupied_thresh=0.65,
+                                  free_thresh=free)
+        np.testing.assert_array_equal(values, [[white, 100]])
+
+
+def test_ros_transparent_grey_and_cmyk_read_as_colour_and_alpha(tmp_path: Path) -> None:
+    # a greyscale PNG whose white is the transparent grey (tRNS): in scale mode white is
+    # unknown and black, opaque, occupied
+    Image.fromarray(np.array([[0, 255]], dtype=np.uint8), "L").save(tmp_path / "map.png",
+                                                                    transparency=255)
+    grid = load_ros(ros_yaml(tmp_path, "map.png", mode="scale"), allow_unknown=False)
+    np.testing.assert_array_equal(grid.unknown, [[False, True]])
+    np.testing.assert_array_equal(grid.risk, [[1, 1]])
+    # CMYK black (K 255) and white (nothing) read as the RGB black and white they are, not as a
+    # colour with alpha
+    cmyk = np.array([[[0, 0, 0, 255], [0, 0, 0, 0]]], dtype=np.uint8)
+    Image.fromarray(cmyk, "CMYK").save(tmp_path / "map.tiff")
+    np.testing.assert_array_equal(read_image(tmp_path / "map.tiff"), [[[0, 0, 0], [1, 1, 1]]])
+    grid = load_ros(ros_yaml(tmp_path, "map.tiff"))
+    np.testing.assert_array_equal(grid.risk, [[1, 0]])
+
+
+def test_ros_scale_with_equal_thresholds_is_refused_only_with_a_pixel_between() -> None:
+    # a pixel exactly at both thresholds would be scaled by a division by zero
+    with pytest.raises(CbrError, match=r"^scale mode needs free_thresh below occupied_thresh, "
+                                       r"got both 0\.5$"):
+        occupancy_values(np.array([[0.5, 0.0]]), mode="scale", negate=False,
+                         occupied_thresh=0.5, free_thresh=0.5)
+    values = occupancy_values(np.array([[0.25, 0.0]]), mode="scale", negate=False,
+                              occupied_thresh=0.5, free_thresh=0.5)
+    np.testing.assert_array_equal(values, [[100, 100]])
+
+
+def test_occupancy_values_become_risk_as_the_static_layer_reads_them() -> None:
+    values = np.array([[0, 1, 50, 99, 100, -1]], dtype=np.int8)
+    # cost int(v / 100 * 254): 2.54 -> 2, 127, 251.46 -> 251; 100 lethal
+    risk, unknown = occupancy_risk(values, allow_unknown=True)
+    np.testing.assert_array_equal(risk, [[0, 2 / 254, 127 / 254, 251 / 254, 1, 252 / 254]])
+    np.testing.assert_array_equal(unknown, [[False] * 5 + [True]])
+    risk, _ = occupancy_risk(values, allow_unknown=False)
+    assert risk[0, -1] == 1
 
 
 def test_png_luminance_threshold(tmp_path: Path) -> None:
@@ -233,7 +329,8 @@ def test_bad_pgm(tmp_path: Path, data: bytes, message: str) -> None:
      "free_thresh: 0.6\n", "line 6: expected 'free_thresh' to be a number within "
      "[0, occupied_thresh = 0.5], got 0.6"),
     ("image: map.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.6\n"
-     "free_thresh: 0.2\nmode: raw\n", "line 7: expected 'mode' to be trinary or scale, got 'raw'"),
+     "free_thresh: 0.2\nmode: secret\n", "line 7: expected 'mode' to be trinary, scale, raw, got "
+     "a string"),
     ("image: map.pgm\nsize: 3\n", "line 2: expected only the keys"),
 ])
 def test_bad_ros_yaml(tmp_path: Path, text: str, message: str) -> None:

@@ -100,22 +100,24 @@ def test_from_array_reads_booleans_floats_and_occupancy() -> None:
     np.testing.assert_array_equal(grid.risk, [[1, 0]])
     assert grid.unknown is None and grid.frame is None
 
-    floats = Grid.from_array(np.array([[0.0, 0.25, np.nan]]), unknown_risk=0.5,
+    floats = Grid.from_array(np.array([[0.0, 0.25, np.nan]]), allow_unknown=False,
                              corner_cutting=True, cost_model=CostModel(risk_weight=2.0))
-    np.testing.assert_array_equal(floats.risk, [[0, 0.25, 0.5]])
+    np.testing.assert_array_equal(floats.risk, [[0, 0.25, 1]])
     np.testing.assert_array_equal(floats.unknown, [[False, False, True]])
     assert floats.corner_cutting and floats.cost_model.risk_weight == 2.0
 
-    # OccupancyGrid data: -1 unknown; above 65 % occupied, below 25 % free, between a risk
+    # OccupancyGrid data as Nav2's static layer reads it: -1 unknown, 100 an obstacle, v below
+    # it the cost int(v / 100 * 254): 24 -> 60.96 -> 60, 25 -> 63.5 -> 63, 65 -> 165.1 -> 165,
+    # 66 -> 167.64 -> 167, 99 -> 251.46 -> 251
     frame = MapFrame(0.05)
-    occupancy = Grid.from_array(np.array([[-1, 0, 24, 25, 65, 66, 100]], dtype=np.int8),
+    occupancy = Grid.from_array(np.array([[-1, 0, 24, 25, 65, 66, 99, 100]], dtype=np.int8),
                                 frame=frame)
-    np.testing.assert_allclose(occupancy.risk, [[1, 0, 0, 0.25, 0.65, 1, 1]])
-    np.testing.assert_array_equal(occupancy.unknown, [[True] + [False] * 6])
+    np.testing.assert_allclose(occupancy.risk, [[252 / 254, 0, 60 / 254, 63 / 254, 165 / 254,
+                                                 167 / 254, 251 / 254, 1]], rtol=0, atol=0)
+    np.testing.assert_array_equal(occupancy.unknown, [[True] + [False] * 7])
     assert occupancy.frame == frame
-    free = Grid.from_array(np.array([[-1, 50]], dtype=np.int8), unknown_risk=0.0,
-                           occupied_thresh=0.4, free_thresh=0.1)
-    np.testing.assert_allclose(free.risk, [[0, 1]])
+    lethal = Grid.from_array(np.array([[-1, 50]], dtype=np.int8), allow_unknown=False)
+    np.testing.assert_allclose(lethal.risk, [[1, 127 / 254]])
 
 
 @pytest.mark.parametrize("dtype", [np.int64, np.int32, np.uint8, np.int16])
@@ -139,8 +141,6 @@ def test_only_int8_reads_as_occupancy_other_integers_are_refused(dtype: type) ->
     (np.array([[-2]], dtype=np.int8), {}, "with -2"),
     (np.array([["a"]]), {}, r"expected a boolean, int8 \(ROS occupancy\) or float array, got "
                             r"<U1"),
-    (np.array([[0.5]]), {"unknown_risk": 2.0}, r"unknown cells must be within \[0, 1\]"),
-    (np.array([[0]]), {"free_thresh": 0.7}, "free_thresh <= occupied_thresh"),
     (np.array([[1.5]]), {}, r"within \[0, 1\]"),
 ])
 def test_from_array_refuses_bad_values(array: np.ndarray, kwargs: dict[str, float],
@@ -150,19 +150,21 @@ def test_from_array_refuses_bad_values(array: np.ndarray, kwargs: dict[str, floa
 
 
 def test_a_blocked_unknown_cell_says_how_to_cross_unknown_space() -> None:
-    # int8 occupancy: -1 unknown (lethal by default), 100 an obstacle, 0 free
-    grid = Grid.from_array(np.array([[-1, 100, 0]], dtype=np.int8), frame=MapFrame(1.0))
-    with pytest.raises(CbrError, match=r"^start \(0, 0\) is on an unknown cell \(lethal with "
-                                       r"unknown_risk 1; give unknown_risk below 1 to cross "
-                                       r"unknown space\)$"):
+    # int8 occupancy: -1 unknown (lethal without allow_unknown), 100 an obstacle, 0 free
+    grid = Grid.from_array(np.array([[-1, 100, 0]], dtype=np.int8), frame=MapFrame(1.0),
+                           allow_unknown=False)
+    with pytest.raises(CbrError, match=r"^start \(0, 0\) is on an unknown cell \(lethal as "
+                                       r"unknown space is not allowed; allow_unknown: true "
+                                       r"lets a planner cross it\)$"):
         grid.check_cell((0, 0), "start")
     with pytest.raises(CbrError, match=r"^start \(1, 0\) is on an obstacle$"):
         grid.check_cell((1, 0), "start")
     # in metres, the cell (0, 0) of a 1-row grid of 1 m cells spans x 0 to 1 m, y 0 to 1 m
     with pytest.raises(CbrError, match=r"^--goal \(0\.5, 0\.5\) m \[cell 0, 0\] is on an "
-                                       r"unknown cell \(lethal with --unknown-risk 1"):
-        grid.check_point((0.5, 0.5), "--goal", unknown_risk="--unknown-risk")
+                                       r"unknown cell \(lethal as unknown space is not "
+                                       r"allowed; --allow-unknown lets"):
+        grid.check_point((0.5, 0.5), "--goal", allow="--allow-unknown")
     assert grid.check_point((2.5, 0.5), "--goal") == (2, 0)
-    # a risk below 1 makes unknown space passable: the cell is no longer refused
-    assert Grid.from_array(np.array([[-1]], dtype=np.int8), unknown_risk=0.5).check_cell(
+    # allowed (the default), unknown space is passable: the cell is no longer refused
+    assert Grid.from_array(np.array([[-1]], dtype=np.int8)).check_cell(
         (0, 0), "start") == (0, 0)

@@ -50,7 +50,8 @@ def test_the_grid_gets_risk_one_within_the_radius_and_cost_over_254_beyond() -> 
     risk = single_obstacle(frame).risk.copy()
     risk[4, 8] = 0.7  # 0.4 m away, beyond the reach
     risk[4, 7] = 0.9  # 0.3 m away, above the inflation's 160 / 254
-    grid = Grid(risk, frame=frame, unknown=np.eye(9, dtype=bool))
+    # an unknown mask that misses the obstacle (4, 4)
+    grid = Grid(risk, frame=frame, unknown=np.fliplr(np.eye(9, dtype=bool)) & (risk == 0))
     inflated = inflate(grid, NAV2)
     assert inflated.frame == frame
     np.testing.assert_array_equal(inflated.unknown, grid.unknown)
@@ -61,6 +62,28 @@ def test_the_grid_gets_risk_one_within_the_radius_and_cost_over_254_beyond() -> 
     assert inflated.risk[4, 8] == 0.7
     assert inflated.risk[4, 7] == 0.9
     assert inflated.risk[0, 0] == 0
+
+
+def test_unknown_cells_are_not_inflated_even_as_obstacles() -> None:
+    # Nav2's inflation layer inflates lethal cells, not unknown ones (inflate_unknown false):
+    # a 9 x 9 grid whose left column is unknown and lethal, and one known obstacle at (6, 4)
+    risk = np.zeros((9, 9))
+    risk[:, 0] = 1.0
+    risk[4, 6] = 1.0
+    unknown = np.zeros((9, 9), dtype=bool)
+    unknown[:, 0] = True
+    frame = MapFrame(0.1)
+    cost = costs(Grid(risk, frame=frame, unknown=unknown), NAV2)
+    # only the known obstacle is inflated: the same costs as a map without the unknown column
+    known = np.zeros((9, 9))
+    known[4, 6] = 1.0
+    np.testing.assert_array_equal(cost, costs(Grid(known, frame=frame), NAV2))
+    assert cost[0, 1] == 0 and cost[4, 1] == 0 and cost[4, 0] == 0
+    # the unknown cells keep their own risk: obstacles still, since the map made them so
+    inflated = inflate(Grid(risk, frame=frame, unknown=unknown), NAV2)
+    assert (inflated.risk[:, 0] == 1).all() and inflated.risk[0, 1] == 0
+    # with no known obstacle nothing is inflated
+    assert not costs(Grid(risk * unknown, frame=frame, unknown=unknown), NAV2).any()
 
 
 def test_radii_are_cells_without_a_frame() -> None:

@@ -270,8 +270,8 @@ def test_plan_names_a_bad_point_and_its_cell(cbr_cli: Cli, args: tuple[str, ...]
 CIRCULAR = DEPOT.parent / "map_circular.yaml"
 
 
-UNKNOWN_HINT = ("on an unknown cell (lethal with --unknown-risk 1; give --unknown-risk below 1 "
-                "to cross unknown space)")
+UNKNOWN_HINT = ("on an unknown cell (lethal as unknown space is not allowed; --allow-unknown "
+                "lets a planner cross it)")
 
 
 @pytest.mark.parametrize(("args", "said"), [
@@ -285,12 +285,13 @@ UNKNOWN_HINT = ("on an unknown cell (lethal with --unknown-risk 1; give --unknow
 def test_plan_says_how_to_cross_an_unknown_cell(cbr_cli: Cli, args: tuple[str, ...],
                                                 said: str) -> None:
     assert load_grid(CIRCULAR).unknown[23, 200]
-    result = cbr_cli("plan", str(CIRCULAR), *args)
+    result = cbr_cli("plan", str(CIRCULAR), *args, "--no-allow-unknown")
     assert result.exit_code == 2
     assert f"error: {said} {UNKNOWN_HINT}" in result.stderr
-    # with unknown space free, the same start is a start like any other
-    crossing = cbr_cli("plan", str(CIRCULAR), *args, "--unknown-risk", "0")
-    assert crossing.exit_code == 0, crossing.stderr
+    # unknown space allowed, Nav2's default, the same start is a start like any other
+    for allowed in ((), ("--allow-unknown",)):
+        crossing = cbr_cli("plan", str(CIRCULAR), *args, *allowed)
+        assert crossing.exit_code == 0, crossing.stderr
 
 
 @pytest.mark.parametrize(("map_file", "args", "option"), [

@@ -46,10 +46,13 @@ def test_both_maps_load_with_their_frames() -> None:
     assert (circular.width, circular.height) == (384, 384)
     assert circular.frame == MapFrame(0.05, -10.0, -10.0, 0.0)
     # its grey 205 reads as p = 50/255 = 0.19608, just above free_thresh 0.196: unknown
-    # space, marked and, by default, lethal
-    assert circular.unknown is not None and circular.unknown.sum() > circular.passable.sum()
-    assert (circular.risk[circular.unknown] == 1).all()
+    # space, marked and, by default as in Nav2's planners, crossable at cost 252 of 254
+    assert circular.unknown is not None
+    assert circular.unknown.sum() > (circular.passable & ~circular.unknown).sum()
+    assert (circular.risk[circular.unknown] == 252 / 254).all()
     assert circular.unknown[0, 0]
+    lethal = load_grid(CIRCULAR, allow_unknown=False)
+    assert (lethal.risk[lethal.unknown] == 1).all()
 
 
 def test_metres_land_on_the_right_cells() -> None:
@@ -91,12 +94,21 @@ def test_pictures_have_metric_axes() -> None:
 
     circular = load_grid(CIRCULAR)
     axes = draw_grid(circular).axes[0]
+    # the whole map is drawn, the axes show the part it knows
     np.testing.assert_allclose(axes.images[0].get_extent(), [-10, 9.2, -10, 9.2])
+    rows, columns = np.nonzero(~circular.unknown)
+    x0, x1, y0, y1 = columns.min(), columns.max() + 1, rows.min(), rows.max() + 1
+    margin = max(2, int(np.ceil(0.05 * max(x1 - x0, y1 - y0))))
+    x0, y0, x1, y1 = max(x0 - margin, 0), max(y0 - margin, 0), x1 + margin, y1 + margin
+    np.testing.assert_allclose(axes.get_xlim(), [-10 + 0.05 * x0, -10 + 0.05 * x1])
+    np.testing.assert_allclose(axes.get_ylim(), [-10 + 0.05 * (384 - y1),
+                                                 -10 + 0.05 * (384 - y0)])
+    assert axes.get_xlim()[1] - axes.get_xlim()[0] < 0.8 * 19.2
     picture = axes.images[0].get_array()
     np.testing.assert_allclose(picture[0, 0], UNKNOWN_COLOUR)
     assert [text.get_text() for text in axes.get_legend().get_texts()] == ["unknown"]
     # free and obstacle cells keep white and black
-    free = np.argwhere(circular.passable)[0]
+    free = np.argwhere(circular.passable & ~circular.unknown)[0]
     blocked = np.argwhere(~circular.passable & ~circular.unknown)[0]
     np.testing.assert_allclose(picture[tuple(free)], [1, 1, 1])
     np.testing.assert_allclose(picture[tuple(blocked)], [0, 0, 0])
@@ -162,3 +174,38 @@ def test_a_frame_given_for_a_ros_map_is_the_frame_options_problem(
     assert caught.value.problems == [
         "world.frame: must be null for a ROS map (map_circular.yaml), which carries its own "
         "frame (resolution and origin)"]
+
+
+def test_pictures_of_maps_with_unknown_cells_are_cropped_to_the_known_cells() -> None:
+    # cells only: 40 x 30, known cells x 10-19 and y 5-9, a box 10 x 5 cells; the margin is
+    # 5 % of 10, less than 2 cells: 2. Shown: x 8-21 and y 3-11, so the limits are the cells'
+    # outer edges 7.5 to 21.5 and (row 0 at the top) 11.5 to 2.5
+    risk = np.zeros((30, 40))
+    unknown = np.ones((30, 40), dtype=bool)
+    unknown[5:10, 10:20] = False
+    grid = Grid(risk, unknown=unknown)
+    axes = draw_grid(grid).axes[0]
+    assert axes.get_xlim() == pytest.approx((7.5, 21.5))
+    assert axes.get_ylim() == pytest.approx((11.5, 2.5))
+    # a goal in unknown space widens the box to hold it: x 10-30, y 5-25, longest side 21
+    # cells, margin 2 (5 % is 1.05): x 8-32, y 3-27
+    axes = draw_grid(grid, path=[(19, 9), (30, 25)], goal=(30, 25)).axes[0]
+    assert axes.get_xlim() == pytest.approx((7.5, 32.5))
+    assert axes.get_ylim() == pytest.approx((27.5, 2.5))
+
+    # metres: 200 x 100 cells of 0.1 m, origin (-1, 2); known cells x 20-99 and y 10-49, a box
+    # 80 x 40 cells; margin 5 % of 80 = 4 cells: x 16-103 and rows 6-53. In metres x from
+    # -1 + 1.6 to -1 + 10.4, y from 2 + (100 - 54) 0.1 = 6.6 to 2 + (100 - 6) 0.1 = 11.4
+    unknown = np.ones((100, 200), dtype=bool)
+    unknown[10:50, 20:100] = False
+    grid = Grid(np.zeros((100, 200)), unknown=unknown, frame=MapFrame(0.1, -1.0, 2.0))
+    axes = draw_grid(grid).axes[0]
+    assert axes.get_xlim() == pytest.approx((0.6, 9.4))
+    assert axes.get_ylim() == pytest.approx((6.6, 11.4))
+    # a map that knows every cell, or none, is shown whole
+    for everywhere in (False, True):
+        grid = Grid(np.zeros((100, 200)), unknown=np.full((100, 200), everywhere),
+                    frame=MapFrame(0.1, -1.0, 2.0))
+        axes = draw_grid(grid).axes[0]
+        assert axes.get_xlim() == pytest.approx((-1, 19))
+        assert axes.get_ylim() == pytest.approx((2, 12))

@@ -471,27 +471,49 @@ DEPOT = Path(__file__).parent / "data" / "ros" / "depot.yaml"
      r"sites\[0\]\.cells\[1\] \(7\.525, 11\.575\) m \[cell 150, 75\] is on an "
      r"obstacle"),
     # map_circular: origin (-10, -10) m, 384 rows; (0, 8) m is column 200, row 383 - 360 = 23,
-    # in the unknown space around the mapped room
-    (ROS_MAP, {"places": [[0, 8], [0, 0]]},
-     r"places\[0\] \(0, 8\) m \[cell 200, 23\] is on an unknown cell \(lethal with "
-     r"unknown_risk 1; give unknown_risk below 1 to cross unknown space\)"),
+    # in the unknown space around the mapped room (lethal without allow_unknown)
+    (ROS_MAP, {"places": [[0, 8], [0, 0]], "world": {"allow_unknown": False}},
+     r"places\[0\] \(0, 8\) m \[cell 200, 23\] is on an unknown cell \(lethal as unknown "
+     r"space is not allowed; allow_unknown: true lets a planner cross it\)"),
 ])
 def test_bad_places_in_metres_are_quoted_as_written_with_their_cell(
         map_file: Path, workload: dict[str, Any], message: str,
         cbr_engine: Callable[..., Engine]) -> None:
+    config = map_config(map_file, frame="map",
+                        **{key: value for key, value in workload.items() if key != "world"})
+    config["world"] |= workload.get("world", {})
     with pytest.raises(CbrError, match=rf"^workload 'trips': {message}$"):
-        cbr_engine(map_config(map_file, frame="map", **workload))
+        cbr_engine(config)
 
 
 def test_a_cell_of_unknown_space_says_how_to_cross_it(cbr_engine: Callable[..., Engine]) -> None:
-    # map_circular's cell (0, 0), its top-left corner, is unknown: lethal by default, free with
-    # unknown_risk 0
-    with pytest.raises(CbrError, match=r"workload 'trips': places\[0\] \(0, 0\) is on an "
-                                       r"unknown cell \(lethal with unknown_risk 1"):
-        cbr_engine(map_config(ROS_MAP, places=[[0, 0], [200, 183]]))
+    # map_circular's cell (0, 0), its top-left corner, is unknown: crossable by default, as in
+    # Nav2's planners, lethal without allow_unknown
     config = map_config(ROS_MAP, places=[[0, 0], [200, 183]])
-    config["world"]["unknown_risk"] = 0.0
+    config["world"]["allow_unknown"] = False
+    with pytest.raises(CbrError, match=r"workload 'trips': places\[0\] \(0, 0\) is on an "
+                                       r"unknown cell \(lethal as unknown space is not allowed; "
+                                       r"allow_unknown: true lets"):
+        cbr_engine(config)
+    config["world"]["allow_unknown"] = True
     assert cbr_engine(config).workload.places.tolist() == [[0, 0], [200, 183]]
+
+
+def test_random_trips_and_obstacles_keep_to_the_cells_the_map_knows(
+        cbr_engine: Callable[..., Engine]) -> None:
+    # map_circular is mostly unknown space, crossable by default: random trips and random
+    # unknown obstacles are drawn from its known free cells only
+    engine = cbr_engine(map_config(ROS_MAP, count=6, unknown_static=20, unknown_dynamic=5,
+                                   min_distance=20))
+    known = ~engine.ctx.world.unknown & engine.ctx.world.passable
+    for x, y in [*engine.workload.true_world.static.tolist(),
+                 *engine.workload.true_world.dynamic.tolist()]:
+        assert known[y, x]
+    trips = drive(engine)
+    assert len(trips) == 6
+    for problem, *_ in trips:
+        for x, y in (problem.start, problem.goal):
+            assert known[y, x]
 
 
 def test_places_in_metres_need_a_map_frame_and_cells_whole_numbers(

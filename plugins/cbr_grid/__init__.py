@@ -107,9 +107,10 @@ class MapFileOptions:
                         ".yaml (ROS map_server), .png, .npy (risk array) or .grid (text).")
     corner_cutting: bool = option(
         False, "Let a diagonal step pass one blocked orthogonal cell.")
-    unknown_risk: float = option(
-        1.0, "ROS maps: the risk of cells neither free nor occupied: 1 treats them as obstacles "
-        "(lethal), 0 as free, a value between as a hazard.", validator=_UNIT)
+    allow_unknown: bool = option(
+        True, "ROS maps: let the planner cross cells the map leaves unknown, at the highest "
+        "cost short of an obstacle (Nav2's planners' option and default); false makes them "
+        "obstacles.")
     threshold: float = option(
         0.5, "PNG images: pixels darker than this luminance (0 black, 1 white) are obstacles.",
         validator=_UNIT)
@@ -128,7 +129,7 @@ def map_file_world(options: MapFileOptions, ctx: Context) -> Grid:
     radii are in metres.
     """
     grid = load_grid(options.path, corner_cutting=options.corner_cutting,
-                     unknown_risk=options.unknown_risk, threshold=options.threshold,
+                     allow_unknown=options.allow_unknown, threshold=options.threshold,
                      frame=None if options.frame is None else options.frame.frame())
     return _inflated(_named(grid, options.path.name), options.inflation)
 

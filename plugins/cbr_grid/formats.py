@@ -10,20 +10,19 @@ wrong file, a secret one say, must not get it printed.
 ROS map_server (``.yaml``)
     A YAML mapping with ``image`` (relative to the YAML file), ``resolution`` (> 0), ``origin``
     ([x, y, yaw]), ``negate`` (0/1 or false/true), ``occupied_thresh`` and ``free_thresh``
-    (0 <= free <= occupied <= 1) and optionally ``mode`` (``trinary``, the default, or
-    ``scale``; ``raw`` is refused); ``map_type`` (written by Nav2's test maps) is accepted and
-    ignored. ``resolution`` and ``origin`` become the grid's ``frame``
-    (:class:`~cbr_grid.frame.MapFrame`); y = 0 is the image's top row. A pixel of level l in
-    [0, 1] (v / m for a value v of maximum m) reads as the occupancy p = 1 - l, or l with
-    ``negate``. A cell is occupied (risk 1) when p > occupied_thresh, free (risk 0) when
-    p < free_thresh, and unknown otherwise: unknown cells are marked in the grid's ``unknown``
-    mask and get ``unknown_risk`` (1 by default: obstacles; 0 makes them free, a value between
-    a hazard). In ``scale`` mode the band between gets risk p instead and nothing is unknown.
-    Colour images are averaged over their channels (alpha ignored), as map_server does.
+    (0 <= free <= occupied <= 1) and optionally ``mode`` (``trinary``, the default, ``scale``
+    or ``raw``); ``map_type`` (written by Nav2's test maps) is accepted and ignored.
+    ``resolution`` and ``origin`` become the grid's ``frame``
+    (:class:`~cbr_grid.frame.MapFrame`); y = 0 is the image's top row. The pixels become
+    occupancy values exactly as Nav2's map_server computes them, modes and alpha included, and
+    the values become risk as Nav2's costmap static layer reads them
+    (:mod:`cbr_grid.occupancy`). Unknown cells are marked in the grid's ``unknown`` mask;
+    ``allow_unknown`` (True by default, as Nav2's planners) lets a planner cross them at the
+    highest cost short of an obstacle, False makes them obstacles.
 Images (``.pgm`` and others inside a ROS map, ``.png``)
     Read with Pillow (:func:`read_image`): binary ``P5`` and plain ``P2`` greymaps of 8 or 16
     bits, PNG, and whatever else Pillow reads, up to :data:`MAX_IMAGE_PIXELS` pixels whatever
-    Pillow's own limit.
+    Pillow's own limit. Palettes and transparent colours become RGBA, other colour spaces RGB.
 PNG (``.png``)
     A colour image is reduced to luminance 0.299 R + 0.587 G + 0.114 B (alpha ignored). Cells
     darker than ``threshold`` (luminance in [0, 1]) are obstacles, the rest free.
@@ -55,6 +54,7 @@ import yaml
 from cbr_grid.frame import MapFrame
 from cbr_grid.grid import Grid
 from cbr_grid.movingai import load_map
+from cbr_grid.occupancy import MODES, occupancy_risk, occupancy_values
 from cbrcore.documents import compose_yaml, construct_yaml, read_bytes
 from cbrcore.errors import CbrError
 
@@ -83,6 +83,11 @@ _PILLOW_PROBLEMS = (
     ("not enough image data", "its pixel data ends before the size its header gives"),
     ("too large for this mode", "a pixel value exceeds the image's maximum value"),
 )
+
+
+_NOT_RGB = ("CMYK", "YCbCr", "LAB", "HSV")
+"""Pillow's colour modes whose channels are converted to RGB before they are read: a map reader
+averages red, green, blue and alpha."""
 
 
 MAX_GRID_CELLS = 2**28
@@ -134,8 +139,12 @@ def read_image(path: str | Path) -> np.ndarray:
     try:
         with _map_image_limit(), Image.open(io.BytesIO(data)) as image:
             image.load()
-            if image.mode in ("P", "PA"):
+            if image.mode in ("P", "PA") or "transparency" in image.info:
+                # a palette's colours, and a transparent colour or grey as alpha
                 image = image.convert("RGBA")
+            elif image.mode in _NOT_RGB:
+                # channels that are no colour channels or alpha, such as a JPEG's YCbCr
+                image = image.convert("RGB")
             mode = image.mode
             pixels = np.asarray(image)
     except UnidentifiedImageError as exc:
@@ -241,17 +250,15 @@ IGNORED_KEYS = ("map_type",)
 ``map_type: occupancy``."""
 
 
-def load_ros(path: str | Path, *, unknown_risk: float = 1.0,
+def load_ros(path: str | Path, *, allow_unknown: bool = True,
              corner_cutting: bool = False) -> Grid:
     """The grid of a ROS map_server map: a YAML description and its image (PGM, PNG, ...).
 
     See the module docstring for the rules; y = 0 is the image's top row, the grid's ``frame``
-    holds ``resolution`` and ``origin`` and its ``unknown`` mask the cells of the unknown band.
+    holds ``resolution`` and ``origin`` and its ``unknown`` mask the cells map_server leaves
+    unknown.
     """
     path = Path(path)
-    if not 0 <= unknown_risk <= 1:
-        raise CbrError(f"{path}: the risk of unknown cells must be within [0, 1], "
-                       f"got {unknown_risk!r}")
     data, lines = _yaml_mapping(path)
     extra = sorted(str(k) for k in data if k not in KEYS and k not in IGNORED_KEYS)
     if extra:
@@ -271,26 +278,20 @@ def load_ros(path: str | Path, *, unknown_risk: float = 1.0,
                   f"a number within [0, occupied_thresh = {occupied}]",
                   lambda v: _number(v) and 0 <= v <= occupied)
     mode = data.get("mode", "trinary")
-    if mode not in ("trinary", "scale"):
-        # raw, map_server's third mode, is named; other values may be anything
-        got = "'raw'" if mode == "raw" else _kind(mode)
-        raise CbrError(f"{path}, line {lines.get('mode', 1)}: expected 'mode' to be trinary or "
-                       f"scale, got {got}")
+    if mode not in MODES:
+        # other values may be anything
+        raise CbrError(f"{path}, line {lines.get('mode', 1)}: expected 'mode' to be "
+                       f"{', '.join(MODES)}, got {_kind(mode)}")
 
-    level = read_image(path.parent / image)
-    if level.ndim == 3:
-        # map_server averages the colour channels and ignores alpha
-        level = level[:, :, :3].mean(axis=2) if level.shape[2] >= 3 else level[:, :, 0]
-    occupancy = level if negate else 1.0 - level
-    band = (occupancy <= occupied) & (occupancy >= free)
-    risk = np.where(occupancy > occupied, 1.0, 0.0)
-    if mode == "scale":
-        risk[band] = occupancy[band]
-        unknown = None
-    else:
-        risk[band] = unknown_risk
-        unknown = band if band.any() else None
-    return _grid(path, risk, corner_cutting, MapFrame(resolution, *origin), unknown)
+    levels = read_image(path.parent / image)
+    try:
+        values = occupancy_values(levels, mode=mode, negate=bool(negate),
+                                  occupied_thresh=occupied, free_thresh=free)
+    except CbrError as exc:
+        raise CbrError(f"{path}: {exc}") from exc
+    risk, unknown = occupancy_risk(values, allow_unknown=allow_unknown)
+    return _grid(path, risk, corner_cutting, MapFrame(resolution, *origin),
+                 unknown if unknown.any() else None)
 
 
 # --- NumPy and text ------------------------------------------------------------------------------
@@ -380,11 +381,11 @@ EXTENSIONS = (".map", ".yaml", ".yml", ".png", ".npy", ".grid")
 """The file extensions :func:`load_grid` knows."""
 
 
-def load_grid(path: str | Path, *, corner_cutting: bool = False, unknown_risk: float = 1.0,
+def load_grid(path: str | Path, *, corner_cutting: bool = False, allow_unknown: bool = True,
               threshold: float = 0.5, frame: MapFrame | None = None) -> Grid:
     """The grid of a map file, read by the loader its extension names (see :data:`EXTENSIONS`).
 
-    ``unknown_risk`` applies to ROS maps and ``threshold`` to PNG images. ``frame`` places a
+    ``allow_unknown`` applies to ROS maps and ``threshold`` to PNG images. ``frame`` places a
     map of cells only (every format but ROS maps, which carry their own) in a map frame.
     """
     path = Path(path)
@@ -393,7 +394,7 @@ def load_grid(path: str | Path, *, corner_cutting: bool = False, unknown_risk: f
         if frame is not None:
             raise CbrError(f"{path}: a ROS map has its own frame (resolution and origin); "
                            "expected no frame to be given")
-        return load_ros(path, unknown_risk=unknown_risk, corner_cutting=corner_cutting)
+        return load_ros(path, allow_unknown=allow_unknown, corner_cutting=corner_cutting)
     if suffix == ".map":
         grid = load_map(path, corner_cutting=corner_cutting)
     elif suffix == ".png":

@@ -20,11 +20,14 @@ from numpy.typing import ArrayLike
 
 from cbr_grid.costs import CostModel
 from cbr_grid.frame import MapFrame, in_metres
+from cbr_grid.occupancy import OCCUPIED, UNKNOWN, occupancy_risk, unknown_risk
 from cbr_grid.query import Cell, path_array
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.fingerprint import WorldFingerprint, fingerprint
 
+ALLOW_IN_YAML = "allow_unknown: true"
+"""How messages about unknown cells spell the setting that lets a planner cross them."""
 _LISTED = 5
 """How many offending cells or steps a problem message lists before summarising the rest."""
 
@@ -111,51 +114,40 @@ class Grid:
 
     @classmethod
     def from_array(cls, array: ArrayLike, *, frame: MapFrame | None = None,
-                   unknown_risk: float = 1.0, occupied_thresh: float = 0.65,
-                   free_thresh: float = 0.25, corner_cutting: bool = False,
+                   allow_unknown: bool = True, corner_cutting: bool = False,
                    cost_model: CostModel | None = None) -> Grid:
         """A grid of an in-memory map ``[y, x]``, row 0 at the top, read by its dtype:
 
         - booleans: True is an obstacle (risk 1), False free (risk 0);
         - floats: risk values in [0, 1]; NaN marks an unknown cell;
         - int8, the dtype of a ROS ``OccupancyGrid``'s data: -1 unknown and 0 to 100 the
-          occupancy in percent, read as map_server reads its image: above ``occupied_thresh``
-          an obstacle, below ``free_thresh`` free, in between the occupancy as risk (``scale``
-          mode). An ``OccupancyGrid`` lists its rows bottom first: flip it (``data[::-1]``)
-          first.
+          occupancy, read as Nav2's costmap static layer reads it
+          (:func:`~cbr_grid.occupancy.occupancy_risk`: 100 an obstacle, v below it the cost
+          ``int(v / 100 * 254)``). An ``OccupancyGrid`` lists its rows bottom first: flip it
+          (``data[::-1]``) first.
 
         Other integer dtypes are refused: an array of 0 and 1 for free and wall, the commonest
         hand-made map, would read as 0 % and 1 % occupancy, all free.
 
-        Unknown cells get ``unknown_risk`` (1, the default, makes them obstacles; 0 free) and
-        are marked in ``unknown``.
+        Unknown cells are marked in ``unknown``; ``allow_unknown`` (Nav2's planners' option and
+        default) lets a planner cross them at the highest cost short of an obstacle, False
+        makes them obstacles (:func:`~cbr_grid.occupancy.unknown_risk`).
         """
         values = np.asarray(array)
-        if not 0 <= unknown_risk <= 1:
-            raise CbrError(f"the risk of unknown cells must be within [0, 1], got "
-                           f"{unknown_risk!r}")
-        if not 0 <= free_thresh <= occupied_thresh <= 1:
-            raise CbrError(f"expected 0 <= free_thresh <= occupied_thresh <= 1, got "
-                           f"free_thresh={free_thresh!r}, occupied_thresh={occupied_thresh!r}")
         if values.dtype == bool:
             # The risk converter copies the booleans into float64 itself: no second copy.
             risk, unknown = values, None
         elif values.dtype == np.int8:
-            bad = (values < -1) | (values > 100)
+            bad = (values < UNKNOWN) | (values > OCCUPIED)
             if bad.any():
                 y, x = (int(i) for i in np.argwhere(bad)[0])
                 raise CbrError(f"occupancy values must be -1 (unknown) or 0 to 100; "
                                f"{int(bad.sum())} cell(s) are not, the first is ({x}, {y}) "
                                f"with {int(values[y, x])}")
-            unknown = values == -1
-            # thresholded in place: one float map besides the risk converter's private copy
-            risk = values / 100.0
-            risk[risk > occupied_thresh] = 1.0
-            risk[risk < free_thresh] = 0.0  # never a cell just set to 1: free_thresh <= 1
-            risk[unknown] = unknown_risk
+            risk, unknown = occupancy_risk(values, allow_unknown=allow_unknown)
         elif np.issubdtype(values.dtype, np.floating):
             unknown = np.isnan(values)
-            risk = np.where(unknown, unknown_risk, values)
+            risk = np.where(unknown, unknown_risk(allow_unknown), values)
         elif np.issubdtype(values.dtype, np.integer):
             raise CbrError(f"an array of {values.dtype} is ambiguous: expected booleans (True "
                            "an obstacle, e.g. array == 1 for a map of 0 free and 1 wall), "
@@ -169,6 +161,11 @@ class Grid:
         return cls(risk, corner_cutting=corner_cutting,
                    cost_model=CostModel() if cost_model is None else cost_model, frame=frame,
                    unknown=unknown)
+
+    def known_passable(self) -> np.ndarray:
+        """Boolean mask (height, width): the passable cells the map knows. Unknown space a
+        planner may cross (``allow_unknown``) is passable but no place to send a robot to."""
+        return self.passable if self.unknown is None else self.passable & ~self.unknown
 
     @property
     def width(self) -> int:
@@ -211,19 +208,19 @@ class Grid:
         """Whether ``cell`` (x, y) lies on the grid."""
         return bool(self.inside(cell)[0])
 
-    def blocked_reason(self, cell: Cell, unknown_risk: str = "unknown_risk") -> str:
+    def blocked_reason(self, cell: Cell, allow: str = ALLOW_IN_YAML) -> str:
         """Why the robot cannot stand on ``cell``, a blocked cell of the grid: ``on an
         obstacle``, or for a cell the map does not know the words that tell how to cross
-        unknown space, naming the option that sets its risk as ``unknown_risk`` spells it."""
+        unknown space, ``allow`` the setting that allows it as the caller spells it."""
         x, y = cell
         if self.unknown is not None and self.unknown[y, x]:
-            return (f"on an unknown cell (lethal with {unknown_risk} 1; give {unknown_risk} "
-                    f"below 1 to cross unknown space)")
+            return (f"on an unknown cell (lethal as unknown space is not allowed; {allow} "
+                    "lets a planner cross it)")
         return "on an obstacle"
 
-    def check_cell(self, cell: object, what: str, *, unknown_risk: str = "unknown_risk") -> Cell:
+    def check_cell(self, cell: object, what: str, *, allow: str = ALLOW_IN_YAML) -> Cell:
         """``cell`` as an (x, y) tuple of ints, or a CbrError saying why ``what`` can't be there
-        (``unknown_risk`` as in :meth:`blocked_reason`)."""
+        (``allow`` as in :meth:`blocked_reason`)."""
         try:
             xy = np.asarray(cell)
             # integers past 64 bits make an array of objects: on no grid, but integers still
@@ -238,14 +235,14 @@ class Grid:
             raise CbrError(f"{what} ({x}, {y}) is outside the {self.width}x{self.height} grid "
                            f"(x in 0..{self.width - 1}, y in 0..{self.height - 1})")
         if not self.passable[y, x]:
-            raise CbrError(f"{what} ({x}, {y}) is {self.blocked_reason((x, y), unknown_risk)}")
+            raise CbrError(f"{what} ({x}, {y}) is {self.blocked_reason((x, y), allow)}")
         return x, y
 
     def check_point(self, point: tuple[float, float], what: str, *,
-                    unknown_risk: str = "unknown_risk") -> Cell:
+                    allow: str = ALLOW_IN_YAML) -> Cell:
         """The cell (x, y) holding the map-frame ``point`` (metres), or a CbrError quoting the
         point as written and the cell it falls in, unless that cell is on the grid and free
-        (``unknown_risk`` as in :meth:`blocked_reason`)."""
+        (``allow`` as in :meth:`blocked_reason`)."""
         frame = self._frame(f"{what} in metres")
         (left, right), (bottom, top) = frame.extent(self.width, self.height)
         outside = (f"outside the {self.width}x{self.height} grid, which covers "
@@ -260,7 +257,7 @@ class Grid:
         if not self.in_bounds((x, y)):
             raise CbrError(f"{said} {outside}")
         if not self.passable[y, x]:
-            raise CbrError(f"{said} {self.blocked_reason((x, y), unknown_risk)}")
+            raise CbrError(f"{said} {self.blocked_reason((x, y), allow)}")
         return x, y
 
     def step_allowed(self, a: ArrayLike, b: ArrayLike) -> np.ndarray:

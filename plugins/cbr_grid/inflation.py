@@ -19,8 +19,10 @@ whole number of cells (0.3 m on 0.1 m cells) reaches the cells that far, whateve
 
 Distances and radii are in metres on a grid with a map frame, in cells otherwise. On the grid,
 lethal and inscribed cells become obstacles (risk 1) and a decaying cost c the risk c / 254,
-kept only where it exceeds the cell's own risk. The obstacles inflated are the cells of risk 1,
-so unknown cells inflate exactly when the map made them obstacles (``unknown_risk`` 1).
+kept only where it exceeds the cell's own risk. The obstacles inflated are the known cells of
+risk 1: as Nav2's inflation layer (``inflate_unknown`` false, its default) inflates lethal cells
+and not unknown ones, unknown cells are never inflated, even where ``allow_unknown`` false makes
+them obstacles themselves.
 """
 
 from __future__ import annotations
@@ -31,10 +33,9 @@ import attrs
 import numpy as np
 
 from cbr_grid.grid import Grid
+from cbr_grid.occupancy import LETHAL
 from cbrcore.options import option
 
-LETHAL = 254
-"""Nav2's cost of an obstacle cell."""
 INSCRIBED = 253
 """Nav2's cost of a cell within the inscribed radius of an obstacle."""
 _SLACK = 1e-9
@@ -72,10 +73,17 @@ class Inflation:
         return self.robot_radius if self.inflation_radius is None else self.inflation_radius
 
 
-def obstacle_distance(grid: Grid) -> np.ndarray:
-    """Per cell ``[y, x]``, the Euclidean distance from its centre to the nearest obstacle
-    cell's centre: metres with a map frame, cells otherwise; infinite without obstacles."""
+def _known_obstacles(grid: Grid) -> np.ndarray:
+    """The obstacle cells ``[y, x]`` the map knows: blocked and not unknown."""
     blocked = ~grid.passable
+    return blocked if grid.unknown is None else blocked & ~grid.unknown
+
+
+def obstacle_distance(grid: Grid) -> np.ndarray:
+    """Per cell ``[y, x]``, the Euclidean distance from its centre to the nearest known
+    obstacle cell's centre (unknown cells are none): metres with a map frame, cells otherwise;
+    infinite without obstacles."""
+    blocked = _known_obstacles(grid)
     if not blocked.any():
         return np.full(grid.risk.shape, np.inf)
     # scipy loads on first use: the command line imports every plugin to list its components
@@ -87,8 +95,8 @@ def obstacle_distance(grid: Grid) -> np.ndarray:
 
 
 def costs(grid: Grid, inflation: Inflation) -> np.ndarray:
-    """Nav2's inflation costs ``[y, x]`` (uint8, 0 to 254) of ``grid``'s obstacles."""
-    if grid.passable.all():
+    """Nav2's inflation costs ``[y, x]`` (uint8, 0 to 254) of ``grid``'s known obstacles."""
+    if not _known_obstacles(grid).any():
         return np.zeros(grid.risk.shape, dtype=np.uint8)
     distance = obstacle_distance(grid)
     slack = _SLACK * (1.0 if grid.frame is None else grid.frame.resolution)

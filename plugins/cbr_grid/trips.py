@@ -1,17 +1,18 @@
 """The ``trips`` workload: trips of a simulated robot on a world that may differ from its map.
 
 The configured world is the robot's map; the true world it drives on adds the obstacles the map
-does not show (:mod:`cbr_grid.true_world`). Each trip goes between random free cells, or between
-the configured ``places``, and never starts or ends on an unknown obstacle or a site; the robot
-follows the proposed path and replans around what it meets (:mod:`cbr_grid.drive`), and the
-outcome carries a :class:`~cbr_grid.drive.DriveReport`. The workload learns nothing itself: the
+does not show (:mod:`cbr_grid.true_world`). Each trip goes between random free cells the map
+knows (never in its unknown space, which a path may still cross), or between the configured
+``places``, and never starts or ends on an unknown obstacle or a site; the robot follows the
+proposed path and replans around what it meets (:mod:`cbr_grid.drive`), and the outcome
+carries a :class:`~cbr_grid.drive.DriveReport`. The workload learns nothing itself: the
 ``risk_map`` retainer (:mod:`cbr_grid.risk`) learns the map from the report inside the learn step.
 
 The random unknown cells are drawn once, uniformly and without repetition, from the cells free
-in the configured map that are neither a listed site's nor a fixed place's, from a generator
-derived from the run's seed (or the workload's own ``seed``), so a seed repeats the same true
-world, also in a later run that continues a case base; ``trip_seed`` draws the trips apart from
-it, so that robots sharing one world (and case base) drive their own trips.
+(and known) in the configured map that are neither a listed site's nor a fixed place's, from a
+generator derived from the run's seed (or the workload's own ``seed``), so a seed repeats the
+same true world, also in a later run that continues a case base; ``trip_seed`` draws the trips
+apart from it, so that robots sharing one world (and case base) drive their own trips.
 """
 
 from __future__ import annotations
@@ -89,7 +90,8 @@ class TripsOptions:
     places: list[tuple[float, float]] | None = option(
         None, "Fixed places (x, y) the trips go between: each trip's start and goal are two "
         "different places drawn uniformly (seeded), whatever min_distance says; null draws "
-        "random free cells. At least 2 distinct places, each free in the map and on no site.")
+        "random free cells the map knows (none in its unknown space). At least 2 distinct "
+        "places, each free in the map and on no site.")
     sites: list[Site] = option(
         doc="Named places where an obstacle missing from the map appears during a trip with its "
         "own probability, all its cells together: a door that is often shut, a crowded "
@@ -154,7 +156,7 @@ class Trips:
         sites = [(self._cells(site.cells, f"sites[{i}].cells"), site.appear)
                  for i, site in enumerate(options.sites)]
         # the random unknowns keep off the listed sites and the places, so they cannot collide
-        pool = self.configured.passable.copy()
+        pool = self.configured.known_passable().copy()
         for cells in self.true_world.site_cells([cells for cells, _ in sites]):
             pool[cells[:, 1], cells[:, 0]] = False
         if places is not None:
@@ -235,7 +237,7 @@ class Trips:
             start, goal = self.places[self._query_rng.choice(len(self.places), size=2,
                                                              replace=False)]
             return GridQuery((int(start[0]), int(start[1])), (int(goal[0]), int(goal[1])))
-        flat = np.flatnonzero(grid.passable & ~self.true_world.unknown)
+        flat = np.flatnonzero(grid.known_passable() & ~self.true_world.unknown)
         xy = np.column_stack((flat % grid.width, flat // grid.width))
         distance = self.options.min_distance
         starts = flat[:0]

@@ -55,11 +55,13 @@ PlotPath = Annotated[
     typer.Option("--plot", metavar="FILE", help="Draw the picture to this file (PNG, or "
                  "another format matplotlib knows by the extension).", show_default=False),
 ]
-_UNKNOWN_RISK = "--unknown-risk"
-"""How errors about unknown cells name the option that sets their risk."""
-UnknownRisk = Annotated[float, typer.Option(
-    _UNKNOWN_RISK, metavar="RISK", min=0.0, max=1.0,
-    help="ROS maps: the risk of unknown cells: 1 lethal (obstacles), 0 free, between a hazard.")]
+_ALLOW_UNKNOWN = "--allow-unknown"
+"""How errors about unknown cells name the option that lets a planner cross them."""
+AllowUnknown = Annotated[bool, typer.Option(
+    f"{_ALLOW_UNKNOWN}/--no-allow-unknown",
+    help="ROS maps: let the planner cross cells the map leaves unknown, at the highest cost "
+    "short of an obstacle (Nav2's planners' allow_unknown and default); --no-allow-unknown "
+    "makes them obstacles.")]
 RobotRadius = Annotated[float | None, typer.Option(
     "--robot-radius", metavar="R", min=0.0, help="Inflate the obstacles by the robot's "
     "inscribed radius R, as Nav2's inflation layer does (metres on a map with a frame, else "
@@ -72,7 +74,7 @@ CostScaling = Annotated[float | None, typer.Option(
     "decays beyond the robot radius, per metre or cell (default 3.0).", show_default=False)]
 
 
-def _map(map_file: Path, unknown_risk: float, robot_radius: float | None,
+def _map(map_file: Path, allow_unknown: bool, robot_radius: float | None,
          inflation_radius: float | None, cost_scaling: float | None) -> tuple[Grid, Grid]:
     """The map as read and as planned on (inflated when a robot radius is given)."""
     if robot_radius is None:
@@ -87,7 +89,7 @@ def _map(map_file: Path, unknown_risk: float, robot_radius: float | None,
                                   3.0 if cost_scaling is None else cost_scaling)
         except ValueError as exc:
             raise _inflation_usage(exc) from None
-    read = load_grid(map_file, unknown_risk=unknown_risk)
+    read = load_grid(map_file, allow_unknown=allow_unknown)
     if read.frame is not None and read.frame.yaw != 0:
         # Nav2's costmaps and AMCL ignore the yaw, so the same metres may mean other cells there
         typer.echo(f"warning: {map_file}: the origin's yaw is {read.frame.yaw:g} rad; metre "
@@ -126,7 +128,7 @@ def _pair(text: str, option: str, number: type[int] | type[float], what: str) ->
     return x, y
 
 
-def _cell(text: str, option: str, map_file: Path, unknown_risk: float) -> Cell:
+def _cell(text: str, option: str, map_file: Path, allow_unknown: bool) -> Cell:
     """The cell written ``X,Y`` in ``text``; numbers that are not whole on a map with a metric
     frame get the hint that they may be metres."""
     try:
@@ -136,19 +138,19 @@ def _cell(text: str, option: str, map_file: Path, unknown_risk: float) -> Cell:
             _pair(text, option, float, "")
         except typer.BadParameter:
             raise exc from None
-        hint = _frame_hint(_metric_map(map_file, unknown_risk))
+        hint = _frame_hint(_metric_map(map_file, allow_unknown))
         if not hint:
             raise
         raise typer.BadParameter(f"{exc.message}{hint}", param_hint=f"'{option}'") from None
 
 
-def _metric_map(map_file: Path, unknown_risk: float) -> Grid | None:
+def _metric_map(map_file: Path, allow_unknown: bool) -> Grid | None:
     """The map, read only to tell whether it has a metric frame: None for a format without
     one, or a map that cannot be read (its own error comes when it is read for planning)."""
     if map_file.suffix.lower() not in (".yaml", ".yml"):
         return None
     try:
-        return load_grid(map_file, unknown_risk=unknown_risk)
+        return load_grid(map_file, allow_unknown=allow_unknown)
     except CbrError:
         return None
 
@@ -296,12 +298,12 @@ def _endpoint(read: Grid, grid: Grid, written: Cell | tuple[float, float], optio
     """The cell of a start or goal written as a cell or a map-frame point: on ``grid`` (the
     map as planned on) and free, or an error naming ``option`` and the cell (and the point)."""
     if frame is FrameName.map:
-        x, y = read.check_point(written, option, unknown_risk=_UNKNOWN_RISK)
+        x, y = read.check_point(written, option, allow=_ALLOW_UNKNOWN)
         said = f"{option} {_place(written, (x, y), frame)}"
     else:
         what = option.removeprefix("--")
         try:
-            x, y = read.check_cell(written, what, unknown_risk=_UNKNOWN_RISK)
+            x, y = read.check_cell(written, what, allow=_ALLOW_UNKNOWN)
         except CbrError as exc:
             # Python's integers, since a cell past 64 bits is still only off the grid
             on_grid = 0 <= written[0] < read.width and 0 <= written[1] < read.height
@@ -430,7 +432,7 @@ def plan(
     final_heading: Annotated[str | None, typer.Option(
         "--final-heading", metavar="DIR", help="The direction in which the robot must be able "
         "to drive on from the goal (default: any).", show_default=False)] = None,
-    unknown_risk: UnknownRisk = 1.0,
+    allow_unknown: AllowUnknown = True,
     robot_radius: RobotRadius = None,
     inflation_radius: InflationRadius = None,
     cost_scaling: CostScaling = None,
@@ -484,8 +486,8 @@ def plan(
         start_at = None if start is None else _point(start, "--start")
         goal_at = None if goal is None else _point(goal, "--goal")
     else:
-        start_at = None if start is None else _cell(start, "--start", map_file, unknown_risk)
-        goal_at = None if goal is None else _cell(goal, "--goal", map_file, unknown_risk)
+        start_at = None if start is None else _cell(start, "--start", map_file, allow_unknown)
+        goal_at = None if goal is None else _cell(goal, "--goal", map_file, allow_unknown)
     if path_out is not None:
         try:
             path_format(path_out)
@@ -493,7 +495,7 @@ def plan(
             raise typer.BadParameter(str(exc), param_hint="'--path-out'") from None
     start_heading = _heading(heading, "--heading")
     goal_heading = _heading(final_heading, "--final-heading")
-    read, grid = _map(map_file, unknown_risk, robot_radius, inflation_radius, cost_scaling)
+    read, grid = _map(map_file, allow_unknown, robot_radius, inflation_radius, cost_scaling)
     if frame is FrameName.map and grid.frame is None:
         raise typer.BadParameter(f"{map_file} has no metric frame (ROS .yaml maps have one): "
                                  "give --start and --goal as cells", param_hint="'--frame'")
@@ -538,7 +540,7 @@ def plan(
 
 def show(
     map_file: MapPath,
-    unknown_risk: UnknownRisk = 1.0,
+    allow_unknown: AllowUnknown = True,
     robot_radius: RobotRadius = None,
     inflation_radius: InflationRadius = None,
     cost_scaling: CostScaling = None,
@@ -549,7 +551,7 @@ def show(
     plot: PlotPath = None,
 ) -> None:
     """Print a map's size, passable and unknown cells and metric frame; draw it with --plot."""
-    _, grid = _map(map_file, unknown_risk, robot_radius, inflation_radius, cost_scaling)
+    _, grid = _map(map_file, allow_unknown, robot_radius, inflation_radius, cost_scaling)
     unknown = 0 if grid.unknown is None else int(grid.unknown.sum())
     facts: dict[str, object] = {"map": str(map_file), "width": grid.width,
                                 "height": grid.height, "passable": int(grid.passable.sum()),
