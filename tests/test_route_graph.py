@@ -197,3 +197,20 @@ def test_a_route_graph_is_not_appended(cbr_cli: Cli, tmp_path: Path) -> None:
     assert result.exit_code == 2
     assert "a nav2-route document is a whole case base" in result.stderr
     assert not (tmp_path / "cb.sqlite").exists()
+
+
+def test_export_to_standard_output_and_an_unknown_format(cbr_cli: Cli, tmp_path: Path) -> None:
+    """Standard output takes any format; a format nobody offers is named with those offered."""
+    casebase = tmp_path / "cb.sqlite"
+    assert cbr_cli("casebase", "import", str(casebase), str(ROS / "depot_graph.geojson"),
+                   "--world", DEPOT_WORLD).exit_code == 0
+    shown = cbr_cli("casebase", "export", str(casebase), "--format", "nav2-route", "--world",
+                    DEPOT_WORLD)
+    assert shown.exit_code == 0
+    assert len(_points(json.loads(shown.stdout))) == 34
+    unknown = cbr_cli("casebase", "export", str(casebase), "--format", "geojson")
+    assert unknown.exit_code == 2
+    assert ("no case base format is called 'geojson'; expected one of: yaml, json, nav2-route "
+            "(casegraph)") in unknown.stderr
+    needless = cbr_cli("casebase", "export", str(casebase), "--world", DEPOT_WORLD)
+    assert needless.exit_code == 2 and "the yaml format needs no world" in needless.stderr
