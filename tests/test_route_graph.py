@@ -214,3 +214,45 @@ def test_export_to_standard_output_and_an_unknown_format(cbr_cli: Cli, tmp_path:
             "(casegraph)") in unknown.stderr
     needless = cbr_cli("casebase", "export", str(casebase), "--world", DEPOT_WORLD)
     assert needless.exit_code == 2 and "the yaml format needs no world" in needless.stderr
+
+
+def _components(pairs: list[tuple[Any, Any]]) -> int:
+    """How many connected pieces the undirected edges ``pairs`` make."""
+    parent: dict[Any, Any] = {}
+
+    def root(x: Any) -> Any:
+        parent.setdefault(x, x)
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    for a, b in pairs:
+        parent[root(a)] = root(b)
+    return len({root(x) for x in parent})
+
+
+def test_what_a_seeded_run_learns_is_reached_from_the_route_graph(cbr_cli: Cli,
+                                                                  tmp_path: Path) -> None:
+    """A run seeded with the depot graph learns paths that meet its edges inside their lines;
+    the export joins them there, so its route graph is in as many connected pieces as the case
+    graph. The given edges come back in their order, but for those whose line the run forgot
+    in part (``risky_segments`` forgets the segments of the staircases close to the shelves)."""
+    out = tmp_path / "run"
+    assert cbr_cli("run", str(CONFIG), "--out", str(out), "--set",
+                   f"casebase.initial={ROS / 'depot_graph.geojson'}").exit_code == 0
+    learned = tmp_path / "learned.geojson"
+    assert cbr_cli("casebase", "export", str(out / "casebase.sqlite"), "-o", str(learned),
+                   "--world", DEPOT_WORLD).exit_code == 0
+    with SQLiteStore(out / "casebase.sqlite") as store:
+        segments = [(tuple(c.problem["a"]), tuple(c.problem["b"])) for c in store.cases("segment")]
+    data = json.loads(learned.read_text(encoding="utf-8"))
+    edges = [(e["properties"]["startid"], e["properties"]["endid"]) for e in _edges(data)]
+    original = json.loads((ROS / "depot_graph.geojson").read_text(encoding="utf-8"))
+    given = [f["properties"] for f in _edges(original)]
+    # the depot graph's largest id is 10077: new edges count on from 10078
+    kept = [{k: v for k, v in e["properties"].items() if k != "metadata"}
+            for e in _edges(data) if e["properties"]["id"] <= 10077]
+    assert kept == [e for e in given if e in kept]
+    assert 0 < len(kept) < len(given) < len(edges)
+    assert _components(edges) == _components(segments)

@@ -19,7 +19,9 @@ were, with what the case graph has no use for (ids, exact coordinates, frames, c
 ``overridable``, ``metadata``, ``operations``, the collection's ``name`` and ``crs``): export
 gives them back, each node as it was and each edge as it was plus its ``cbr`` facts, as long as
 the case graph still holds its line, unblocked; then it adds what the case graph learned beyond
-them, with ids above the route graph's. The ``cbr`` key of an edge's metadata is the case
+them, with ids above the route graph's: the learned segments, and where one meets a given edge
+inside its line, the two parts of that edge from and to the meeting node, so that the learned
+ways are reached from the given ones. The ``cbr`` key of an edge's metadata is the case
 graph's: import drops it, so an exported graph imports back to the same case graph.
 """
 
@@ -225,7 +227,8 @@ class _Writer:
         self.node_at: dict[Cell, int] = {}
         self.points: dict[int, list[float]] = {}
         self.next_id = 0
-        self.left_out = 0
+        # the directed route graph edges given back: start node, end node, line of cells
+        self.lines: list[tuple[int, int, np.ndarray]] = []
 
     def facts(self, cost: float, risk: float, uses: int) -> dict[str, Any]:
         return {"cost": round(cost * self.resolution, 6), "risk": round(risk, 6),
@@ -260,17 +263,23 @@ class _Writer:
                 self.features.append(dict(feature))
                 continue
             line = placed.lines[index]
-            uses = None if _blocked(self.grid, line) else self._uses(line)
-            if uses is None:
-                self.left_out += 1
+            facts = None if _blocked(self.grid, line) else self._line_facts(line)
+            if facts is None:
                 continue
             self.covered[line[:, 1], line[:, 0]] = True
-            risk = float(self.grid.risk[line[:, 1], line[:, 0]].mean())
-            cost = float(step_costs(self.grid, line).sum())
+            self.lines.append((edge.start, edge.end, line))
             properties = dict(feature["properties"])
-            properties["metadata"] = {**properties.get("metadata", {}),
-                                      OWN: self.facts(cost, risk, uses)}
+            properties["metadata"] = {**properties.get("metadata", {}), OWN: facts}
             self.features.append({**feature, "properties": properties})
+
+    def _line_facts(self, line: np.ndarray) -> dict[str, Any] | None:
+        """The facts of a line of cells the case graph holds; None when it holds no longer
+        every step of it."""
+        uses = self._uses(line)
+        if uses is None:
+            return None
+        return self.facts(float(step_costs(self.grid, line).sum()),
+                          float(self.grid.risk[line[:, 1], line[:, 0]].mean()), uses)
 
     def _node(self, cell: Cell) -> int:
         """The id of the node on ``cell``, added when there is none."""
@@ -285,30 +294,44 @@ class _Writer:
             self.next_id += 1
         return self.node_at[cell]
 
+    def _edge(self, start: int, end: int, facts: dict[str, Any]) -> None:
+        """A new edge from node ``start`` to node ``end``, the case graph's cost its cost."""
+        self.features.append({"type": "Feature", "properties": {
+            "id": self.next_id, "startid": start, "endid": end, "cost": facts["cost"],
+            "metadata": {OWN: facts}},
+            "geometry": {"type": "MultiLineString",
+                         "coordinates": [[self.points[start], self.points[end]]]}})
+        self.next_id += 1
+
     def learned(self) -> None:
-        """The segments beyond the route graph's lines, each an edge each way."""
+        """The segments beyond the route graph's lines, each an edge each way; a learned
+        segment that meets a given edge inside its line joins it by the two parts of that
+        line, so that the route server finds the way from one to the other too."""
+        given = dict(self.node_at)
         edges = self.graph.edge_ids()
         starts, ends = self.graph.ends(edges)
         added = []
         for edge, a, b in zip(edges.tolist(), starts.tolist(), ends.tolist(), strict=True):
             cells = line_cells(tuple(a), tuple(b))
-            cost = float(self.graph.costs([edge])[0])
             if self.covered[cells[:, 1], cells[:, 0]].all():
                 continue
-            if not np.isfinite(cost):
-                self.left_out += 1
-                continue
-            added.append((edge, self._node(tuple(a)), self._node(tuple(b)), cost))
-        for edge, na, nb, cost in added:
-            facts = self.facts(cost, float(self.graph.risks([edge])[0]),
+            if np.isfinite(self.graph.costs([edge])[0]):
+                added.append((edge, self._node(tuple(a)), self._node(tuple(b))))
+        for edge, na, nb in added:
+            facts = self.facts(float(self.graph.costs([edge])[0]),
+                               float(self.graph.risks([edge])[0]),
                                int(self.graph.uses([edge])[0]))
-            for start, end in ((na, nb), (nb, na)):
-                points = [self.points[start], self.points[end]]
-                self.features.append({"type": "Feature", "properties": {
-                    "id": self.next_id, "startid": start, "endid": end, "cost": facts["cost"],
-                    "metadata": {OWN: facts}},
-                    "geometry": {"type": "MultiLineString", "coordinates": [points]}})
-                self.next_id += 1
+            self._edge(na, nb, facts)
+            self._edge(nb, na, facts)
+        junctions = {cell: node for cell, node in self.node_at.items() if cell not in given}
+        for start, end, line in self.lines:
+            for i, cell in enumerate(map(tuple, line[1:-1].tolist()), start=1):
+                node = junctions.get(cell)
+                if node is not None:
+                    for a, b, part in ((start, node, line[:i + 1]), (node, end, line[i:])):
+                        facts = self._line_facts(part)
+                        assert facts is not None  # part of a line the graph holds
+                        self._edge(a, b, facts)
 
 
 def dump_route_graph(document: Document, world: Any) -> str:
