@@ -10,6 +10,7 @@ only through ``--write``, so a page cannot quote a figure its results do not hol
     python benchmarks/figures.py --list      # the blocks and where their figures come from
     python benchmarks/figures.py --keep-experiment NAME DIR   # commit DIR's results for NAME
     python benchmarks/figures.py --keep-baseline  # rerun the navigation system without CBR
+    python benchmarks/figures.py --keep-route-graph  # relearn the depot's route graph
 """
 
 from __future__ import annotations

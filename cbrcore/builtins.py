@@ -9,7 +9,7 @@ import attrs
 
 from cbrcore.casebase import MemoryStore, SQLiteStore
 from cbrcore.casebase.conninfo import masked_dsn
-from cbrcore.casebase.exchange import read_document
+from cbrcore.casebase.formats import read_casebase
 from cbrcore.casebase.postgres_schema import schema_name_problem
 from cbrcore.casebase.store import CaseStore
 from cbrcore.casebase.worlds import ONE, WORLDS_DOC, WORLDS_VALIDATOR, Worlds
@@ -24,16 +24,18 @@ if TYPE_CHECKING:
 
 S = TypeVar("S", bound=CaseStore)
 
-_INITIAL_DOC = ("Hand-made cases to start from: an exported case base (YAML or JSON, the format "
-                "of 'cbr casebase export'; relative to the configuration file) loaded into the "
-                "case base when it is new, never into one that has held cases.")
+_INITIAL_DOC = ("Hand-made cases to start from, loaded into the case base when it is new, never "
+                "into one that has held cases: a file of 'cbr casebase export' in any format it "
+                "writes, told by its extension (YAML, JSON, or a plugin's, such as a Nav2 route "
+                "graph .geojson read on the run's world); relative to the configuration file.")
 
 
-def _started(store: S, initial: Path | None) -> S:
-    """``store``, holding the cases of ``initial`` if it is new."""
+def _started(store: S, initial: Path | None, ctx: Context) -> S:
+    """``store``, holding the cases of ``initial`` if it is new; a format that needs the world
+    reads them on the run's."""
     if initial is None:
         return store
-    document = read_document(initial)
+    document = read_casebase(initial, world=ctx.world)
     # checked under the write lock: two processes creating one case base load it once
     with store.transaction():
         if store.revision == 0 and len(store) == 0:
@@ -116,7 +118,7 @@ def memory_store(options: MemoryOptions, ctx: Context) -> MemoryStore:
     so it suits tests, benchmarks and runs that start from an empty case base every time (or
     from the same hand-made cases: ``initial``).
     """
-    return _started(MemoryStore(), options.initial)
+    return _started(MemoryStore(), options.initial, ctx)
 
 
 def sqlite_store(options: SQLiteOptions, ctx: Context) -> SQLiteStore:
@@ -136,7 +138,7 @@ def sqlite_store(options: SQLiteOptions, ctx: Context) -> SQLiteStore:
         path = ctx.out_dir / "casebase.sqlite"
     store = SQLiteStore(path, busy_timeout=options.busy_timeout, create=options.create,
                         read_only=options.read_only)
-    return store if options.read_only else _started(store, options.initial)
+    return store if options.read_only else _started(store, options.initial, ctx)
 
 
 def postgres_store(options: PostgresOptions, ctx: Context) -> PostgresStore:
@@ -155,7 +157,7 @@ def postgres_store(options: PostgresOptions, ctx: Context) -> PostgresStore:
     store = PostgresStore(options.dsn, schema=options.schema,
                           busy_timeout=options.busy_timeout, create=options.create,
                           read_only=options.read_only)
-    return store if options.read_only else _started(store, options.initial)
+    return store if options.read_only else _started(store, options.initial, ctx)
 
 
 @hookimpl

@@ -3,12 +3,13 @@
 Two sorts of hook live here.
 
 *Plugin hooks* (``cbr_register``, ``cbr_cli``, ``cbr_world_object``, ``cbr_world_fingerprint``,
-``cbr_check_casebase``) are implemented by plugin modules found through the ``cbr`` entry point
-group and are called on the manager of the loaded plugins: ``cbr_register`` once when plugins
-load, ``cbr_cli`` when the command line starts, ``cbr_world_object`` when an engine is given a
-world object instead of a configured world, ``cbr_world_fingerprint`` when an engine whose
-components use world-bound cases is built, ``cbr_check_casebase`` when ``cbr casebase check``
-checks a case base.
+``cbr_check_casebase``, ``cbr_casebase_formats``) are implemented by plugin modules found through
+the ``cbr`` entry point group and are called on the manager of the loaded plugins:
+``cbr_register`` once when plugins load, ``cbr_cli`` when the command line starts,
+``cbr_world_object`` when an engine is given a world object instead of a configured world,
+``cbr_world_fingerprint`` when an engine whose components use world-bound cases is built,
+``cbr_check_casebase`` when ``cbr casebase check`` checks a case base, ``cbr_casebase_formats``
+when a case base is exported, imported or started from initial cases.
 
 *Phase hooks* (``cbr_retrieve`` ... ``cbr_forget``, ``cbr_solve``) are implemented by component
 instances. An :class:`~cbrcore.engine.Engine` has its own plugin manager holding exactly the
@@ -32,6 +33,7 @@ import pluggy
 if TYPE_CHECKING:
     import typer
 
+    from cbrcore.casebase.formats import DocumentFormat
     from cbrcore.casebase.store import CaseStore
     from cbrcore.context import Context
     from cbrcore.fingerprint import WorldFingerprint
@@ -118,6 +120,25 @@ def cbr_check_casebase(casebase: CaseStore) -> list[str]:
     and needs no world: what it knows of the map the case base records. Return one message per
     broken invariant, naming the case (or meta key) and what was expected; an empty list (or
     None) when the plugin's cases are sound or the case base holds none of them.
+    """
+
+
+@hookspec
+def cbr_casebase_formats() -> list[DocumentFormat]:
+    """Offer document formats a case base is exported to and imported from.
+
+    Collect-all: called, in plugin order, whenever a case base document is written or read
+    (``cbr casebase export`` and ``import``, a store's ``initial`` cases), after cbrcore's own
+    ``yaml`` and ``json``. Return one :class:`~cbrcore.casebase.formats.DocumentFormat` per
+    format: its name (``--format NAME``), the file extensions it is known by, a one-line summary,
+    and the functions that write a whole case base as text and read text back into a case base
+    document. A format whose cases say where they lie in the world (cells in metres) states in
+    ``world`` what world it needs; it is then given the world of the configuration or of
+    ``--world``, and never called without one. ``parse`` raises
+    :class:`~cbrcore.errors.CaseBaseError` naming the file and every problem with its place in
+    it (the feature's id or index), so that nothing is stored from a bad file. A name that
+    another plugin (or cbrcore) already offers, or a hook that raises, is a
+    :class:`~cbrcore.errors.PluginError` where the formats are looked up.
     """
 
 
@@ -214,7 +235,7 @@ PHASE_HOOKS: dict[str, str] = {
 """Each phase of the cycle and the hook that carries it out."""
 
 PLUGIN_HOOKS = ("cbr_register", "cbr_cli", "cbr_world_object", "cbr_world_fingerprint",
-                "cbr_check_casebase")
+                "cbr_check_casebase", "cbr_casebase_formats")
 """Hooks implemented by plugin modules rather than by configured components."""
 
 COMPONENT_HOOKS = ("cbr_warm",)

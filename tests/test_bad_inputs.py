@@ -1,4 +1,5 @@
-"""Bad inputs to ``cbr run`` and ``cbr plan``: one clear error, exit code 2, no leaked content.
+"""Bad inputs to ``cbr run``, ``cbr plan`` and ``cbr casebase``: one clear error, exit code 2, no
+leaked content.
 
 A configuration or command that names a file of the wrong kind (a secret, say) must not get that
 file's text printed: the error names the file and line and says what was expected there. Output
@@ -8,8 +9,12 @@ paths that would leave the run folder are refused unless given absolute.
 from __future__ import annotations
 
 import importlib.util
+import json
+import os
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
+from unittest import mock
 
 import numpy as np
 import pytest
@@ -135,6 +140,48 @@ def _export_over_the_case_base(tmp: Path, cbr_cli: Cli) -> CliResult:
         assert store.count() == 1
     path.unlink()  # the common check asserts that no case base is left behind
     return result
+
+
+DEPOT_WORLD = f"{{use: map_file, path: {DEPOT}}}"
+
+
+def _node(node: Any, x: Any, y: Any) -> dict[str, Any]:
+    """A route graph node, ``node`` its id (None: without one)."""
+    properties = {} if node is None else {"id": node}
+    return {"type": "Feature", "properties": properties,
+            "geometry": {"type": "Point", "coordinates": [x, y]}}
+
+
+def _edge(edge: int, start: int, end: int) -> dict[str, Any]:
+    return {"type": "Feature", "properties": {"id": edge, "startid": start, "endid": end},
+            "geometry": {"type": "MultiLineString", "coordinates": [[[0, 0], [1, 1]]]}}
+
+
+# two nodes in the depot's open floor, and an edge each way
+ROUTE = [_node(0, 2, 2), _node(1, 2, 12), _edge(5, 0, 1), _edge(6, 1, 0)]
+
+
+def _route(features: list[dict[str, Any]] | str, *args: str, document: str = "graph.geojson",
+           environ: dict[str, str] | None = None) -> Case:
+    """``cbr casebase import`` into tmp's cb.sqlite of a route graph of ``features`` (or the
+    text) written to ``document`` in tmp (a file already there is left as it is), on the depot
+    or with ``args`` instead of ``--world``, with ``environ`` set."""
+    def case(tmp: Path, cbr_cli: Cli) -> CliResult:
+        path = tmp / document
+        if not path.exists():
+            path.write_text(features if isinstance(features, str) else json.dumps(
+                {"type": "FeatureCollection", "features": features}), encoding="utf-8")
+        given = [a.replace("small.map", str(tmp / "small.map")) for a in args]
+        with mock.patch.dict(os.environ, environ or {}):
+            return cbr_cli("casebase", "import", str(tmp / "cb.sqlite"), str(path),
+                           *(given or ("--world", DEPOT_WORLD)))
+
+    return case
+
+
+def _route_export_without_a_map(tmp: Path, cbr_cli: Cli) -> CliResult:
+    """``cbr casebase export --format nav2-route`` of a case base, no map given."""
+    return cbr_cli("casebase", "export", str(tmp / "other.sqlite"), "--format", "nav2-route")
 
 
 CASES = {
@@ -275,6 +322,50 @@ if importlib.util.find_spec("psycopg") is not None:
             _run("casebase: {use: postgres, dsn: 'postgresql://u:hunter2@db/x?TOPSECRET'}"),
             "casebase dsn: not a PostgreSQL connection string"),
     }
+CASES |= {
+    "route graph node without an id": (
+        _route([_node(None, 2, 2), *ROUTE[1:]]),
+        "features[0] (a node): required property 'id' is missing"),
+    "route graph edge naming an unknown node": (
+        _route([*ROUTE, _edge(7, 1, 9)]), "features[4] (edge 7): endid 9 names no node"),
+    "route graph node outside the map": (
+        _route([ROUTE[0], _node(1, 40, 2), *ROUTE[2:]]),
+        "features[1] (node 1) at (40, 2) m [cell 800, 266] lies outside the map (x 0 to 30.2 m "
+        "and y 0 to 15.35 m)"),
+    "route graph node ids twice": (
+        _route([*ROUTE, _node(1, 10, 2)]),
+        "features[4] (node 1): node id 1 is also that of features[1] (node 1)"),
+    "route graph edge twice": (
+        _route([*ROUTE, _edge(5, 0, 1)]),
+        "features[4] (edge 5): repeats features[2] (edge 5), from node 0 to node 1"),
+    "route graph coordinates not numbers": (
+        _route([_node(0, "2", 2), *ROUTE[1:]]),
+        "features[0] (node 0): coordinates: expected [x, y] in metres (finite numbers), got "
+        "['2', 2]"),
+    "route graph 20,000 lists deep": (
+        _route('{"type": "FeatureCollection", "features": ' + "[" * 20_000 + "]" * 20_000 + "}"),
+        "graph.geojson: line 1, column 142: collections nested more than 100 levels deep"),
+    "route graph of too many values": (
+        _route(ROUTE * 50, environ={"CBR_MAX_DOCUMENT_NODES": "1000"}),
+        "graph.geojson: the document holds more than 1000 values"),
+    "route graph edge through a wall": (
+        _route([ROUTE[0], _node(1, 12, 6), *ROUTE[2:]]),
+        "features[2] (edge 5) from node 0 to node 1 crosses an obstacle at (7.425, 4.175) m "
+        "[cell 148, 223]"),
+    "route graph without a map": (
+        _route(ROUTE, "--format", "nav2-route"),
+        "the nav2-route format needs the world the cases belong to (a grid map with a metric "
+        "frame); name it with --world or with a --config whose world slot names it"),
+    "route graph on a map without a frame": (
+        _route(ROUTE, "--world", "{use: map_file, path: small.map}"),
+        "a Nav2 route graph is in metres, and the 3x2 map has no metric frame"),
+    "a secret as a route graph": (
+        _route(ROUTE, "--world", DEPOT_WORLD, "--format", "nav2-route", document="secret.txt"),
+        "secret.txt: not valid JSON: Expecting value: line 1 column 1"),
+    "route graph export without a map": (
+        _route_export_without_a_map,
+        "the nav2-route format needs the world the cases belong to"),
+}
 
 
 @pytest.mark.parametrize(("case", "message"), CASES.values(), ids=list(CASES))

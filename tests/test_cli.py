@@ -540,10 +540,11 @@ def test_reference_hooks_documents_every_hook(cbr_cli: Cli) -> None:
     headings = [line for line in lines if line.startswith("## ")]
     assert headings == ["## `cbr_register`", "## `cbr_cli`", "## `cbr_world_object`",
                         "## `cbr_world_fingerprint`", "## `cbr_check_casebase`",
+                        "## `cbr_casebase_formats`",
                         "## `cbr_retrieve`", "## `cbr_reuse`", "## `cbr_revise`",
                         "## `cbr_solve`", "## `cbr_retain`", "## `cbr_forget`", "## `cbr_warm`"]
     assert lines.count("*firstresult*") == 6
-    assert lines.count("*collect-all*") == 6
+    assert lines.count("*collect-all*") == 7
 
 
 @pytest.mark.usefixtures("toy")

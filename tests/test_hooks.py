@@ -24,13 +24,14 @@ import cbr_observers
 import cbrcore.builtins
 import toy_domain
 from cbrcore import Case, Engine, Match, Outcome, Retrieval, Revision, Solution, hookimpl, hookspecs
-from cbrcore.casebase import MemoryStore, SQLiteStore
+from cbrcore.casebase import Document, MemoryStore, SQLiteStore
+from cbrcore.casebase.formats import DocumentFormat
 from cbrcore.casebase.store import CaseStore
 from cbrcore.casebase.worlds import WORLDS_KEY, OtherWorld
 from cbrcore.cli import main
 from cbrcore.config import parse_config
 from cbrcore.context import Context
-from cbrcore.errors import CbrError
+from cbrcore.errors import CaseBaseError, CbrError
 from cbrcore.fingerprint import WorldFingerprint, fingerprint
 from cbrcore.model import Proposal, no_action
 from cbrcore.options import option
@@ -323,6 +324,84 @@ def test_hook_cbr_check_casebase(tmp_path: Path, capsys: pytest.CaptureFixture[s
     with SQLiteStore(path) as store:
         assert store.revision == revision
     assert plugins.pm.hook.cbr_check_casebase(casebase=MemoryStore()) == [[]]
+
+
+@attrs.frozen
+class NumberOptions:
+    value: int = option(0, "The number.")
+
+
+def number(options: NumberOptions, ctx: Context) -> int:
+    """A world that is a number."""
+    return options.value
+
+
+class Tallies:
+    """A format that writes a case base as one line per case, ``problem solution``, on a world
+    that is a number added to each solution."""
+
+    @hookimpl
+    def cbr_register(self, registry: Registry) -> None:
+        registry.add("world", "number", number, options=NumberOptions)
+
+    @staticmethod
+    def dump(document: Document, world: Any) -> str:
+        return "".join(f"{c.problem} {c.solution + world}\n" for c in document.cases)
+
+    @staticmethod
+    def parse(text: str, source: str, world: Any) -> Document:
+        rows = [line.split() for line in text.splitlines()]
+        if not all(len(row) == 2 and all(v.isdigit() for v in row) for row in rows):
+            raise CaseBaseError(f"{source}: expected lines of two numbers")
+        return Document(1, {}, tuple(Case(int(p), int(s) - world, kind=toy_domain.KIND, id=i + 1)
+                                     for i, (p, s) in enumerate(rows)))
+
+    @hookimpl
+    def cbr_casebase_formats(self) -> list[DocumentFormat]:
+        return [DocumentFormat("tally", (".tally",), "toy cases, one a line", self.dump,
+                               self.parse, world="a number")]
+
+
+class Yaml:
+    """A plugin that offers a format under a name cbrcore's own has."""
+
+    @hookimpl
+    def cbr_casebase_formats(self) -> list[DocumentFormat]:
+        return [DocumentFormat("yaml", (".yml",), "another yaml", Tallies.dump, Tallies.parse)]
+
+
+def test_hook_cbr_casebase_formats(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``cbr_casebase_formats`` is collect-all on the loaded plugins, asked whenever a case base
+    is exported or imported: ``cbr casebase formats`` lists each format with its plugin,
+    ``--format`` (or the file's extension) picks it, and a format that needs a world gets the
+    one ``--world`` names, built as a run builds it. A name cbrcore or another plugin has is a
+    plugin error."""
+    path = tmp_path / "cb.sqlite"
+    with SQLiteStore(path) as store:
+        store.add(Case(3, 9, kind=toy_domain.KIND))
+        store.add(Case(4, 16, kind=toy_domain.KIND))
+    plugins = load(("tallies", Tallies()))
+    with use_plugins(plugins):
+        assert main(["casebase", "formats"]) == 0
+        assert "tally       .tally       tallies         toy cases, one a line; needs a number" \
+            in capsys.readouterr().out
+        tally = tmp_path / "cb.tally"
+        world = "{use: number, value: 10}"
+        assert main(["casebase", "export", str(path), "-o", str(tally), "--world", world]) == 0
+        assert tally.read_text() == "3 19\n4 26\n"
+        copy = tmp_path / "copy.sqlite"
+        assert main(["casebase", "import", str(copy), str(tally), "--format", "tally",
+                     "--world", world]) == 0
+        assert main(["casebase", "import", str(tmp_path / "no.sqlite"), str(tally)]) == 2
+        assert "the tally format needs the world the cases belong to (a number)" in \
+            capsys.readouterr().err
+    with SQLiteStore(copy) as store:
+        assert [(c.problem, c.solution) for c in store.cases()] == [(3, 9), (4, 16)]
+    assert plugins.pm.hook.cbr_casebase_formats()[0][0].name == "tally"
+    with use_plugins(load(("yaml", Yaml()))):
+        assert main(["casebase", "export", str(path), "--format", "json"]) == 2
+        assert "plugin 'yaml' offers the case base format 'yaml', which 'cbrcore' offers" in \
+            capsys.readouterr().err
 
 
 # --- phase hooks ------------------------------------------------------------------------------

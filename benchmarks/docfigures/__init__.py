@@ -17,7 +17,8 @@ command line.
 - ``solver_benchmarks``, ``case_benchmarks``, ``world2d_benchmarks``: the prose of the
   benchmarks page and of the pages that quote benchmarks.
 - ``casegraph_experiments``, ``pathcases_experiments``, ``landmark_experiments``,
-  ``rupart_experiments``, ``ros2005_baseline``: the experiments' pages.
+  ``rupart_experiments``, ``ros2005_baseline``: the experiments' pages; ``route_graph``: the
+  route graph learned on the depot, for the grid page.
 - ``catalogue``: every block, its source and renderer; ``pages``: finding, checking and
   rewriting the blocks of the pages; ``keep``: committing new results; ``cli``: the commands.
 """

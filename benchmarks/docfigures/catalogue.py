@@ -14,6 +14,7 @@ from . import fleet_experiment as fleet
 from . import landmark_experiments as landmarks
 from . import pathcases_experiments as pathcases
 from . import ros2005_baseline as baseline
+from . import route_graph
 from . import rupart_experiments as delivery
 from . import solver_benchmarks as solvers
 from . import world2d_benchmarks as world2d
@@ -166,6 +167,8 @@ def _blocks() -> list[Block]:
         _experiment("deviation-differences", "deviation-table", casegraph.deviation_differences),
         _experiment("cbr-share-against-paper", "cbr-share", casegraph.share_against_paper),
         _experiment("fleet-reading", "fleet", fleet.fleet_reading),
+        _experiment("depot-route-graph-reading", route_graph.ROUTE_GRAPH,
+                    route_graph.route_graph_reading),
         *[_experiment(f"{name}-table-{k + 1}", name, experiment_table(name, k))
           for name, count in (("cbr-share", 1), ("deviation-table", 2),
                               ("path-cases-learning", 2),

@@ -14,6 +14,7 @@ from .catalogue import BLOCKS
 from .keep import keep_baseline, keep_experiment
 from .pages import check, used, write
 from .results import ROOT, FiguresError
+from .route_graph import keep_route_graph
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -27,10 +28,16 @@ def main(argv: list[str] | None = None) -> int:
     mode.add_argument("--keep-baseline", action="store_true",
                       help="rerun the reproductions page's baseline (002 without CBR) and "
                            "commit its trials")
+    mode.add_argument("--keep-route-graph", action="store_true",
+                      help="rerun configs/ros_depot_route.yaml, commit its exported route graph "
+                           "and draw it over the depot")
     args = parser.parse_args(argv)
     try:
         if args.keep_baseline:
             print(keep_baseline().relative_to(ROOT))
+            return 0
+        if args.keep_route_graph:
+            print(keep_route_graph().relative_to(ROOT))
             return 0
         if args.keep_experiment:
             name, run = args.keep_experiment

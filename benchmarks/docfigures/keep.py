@@ -33,7 +33,7 @@ def keep_baseline() -> Path:
             "trials": [result.summary() for result in results]}
     data = {"command": "python benchmarks/figures.py --keep-baseline",
             "trials": BASELINE_TRIALS, "timeout": BASELINE_TIMEOUT, "scenarios": scenarios}
-    return _commit(f"{BASELINE}.json", data)
+    return commit_kept(f"{BASELINE}.json", data)
 
 
 def _curves_of(robots: Sequence[str]) -> Callable[[dict[str, Any]], dict[str, Any]]:
@@ -62,20 +62,20 @@ def keep_experiment(name: str, run: Path) -> Path:
                            f"{manifest.get('experiment')!r}, not {name!r}")
     seed = manifest.get("seed")
     data = {"command": f"cbr experiment {name} --size {size} --seed {seed}",
-            "commit": _head(),
+            "commit": head(),
             "table": read(run / "results.md"),
             "results": TRIMS.get(name, lambda kept: kept)(results)}
     # a run with another seed is kept beside seed 0's, for pages that quote both
-    return _commit(f"{name}.json" if not seed else f"{name}-seed-{seed}.json", data)
+    return commit_kept(f"{name}.json" if not seed else f"{name}-seed-{seed}.json", data)
 
 
-def _head() -> str:
+def head() -> str:
     """The commit checked out, which the results are kept from right after their run."""
     return subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
                           cwd=Path(__file__).parent, check=False).stdout.strip()
 
 
-def _commit(file: str, data: dict[str, Any]) -> Path:
+def commit_kept(file: str, data: dict[str, Any]) -> Path:
     """Write ``data`` into ``docs/figures/<file>``, where the pages' blocks read it."""
     KEPT.mkdir(exist_ok=True)
     target = KEPT / file

@@ -246,14 +246,19 @@ def document_from_data(data: Any, source: str, node: yaml.Node | None = None) ->
 
 def _refuse(problems: list[str], source: str) -> None:
     """Raise the error listing ``problems``, if there are any."""
-    if not problems:
-        return
+    if problems:
+        raise refusal(source, "a valid case base document", problems)
+
+
+def refusal(source: str, expected: str, problems: list[str]) -> CaseBaseError:
+    """The error refusing the document ``source`` for ``problems`` (at least one), each a line
+    naming its place in the document; the first 20 are listed. ``expected`` says what the
+    document is not: ``a valid case base document``."""
     listed = problems[:_MAX_LISTED]
     more = len(problems) - len(listed)
     lines = "\n".join(f"  - {p}" for p in listed) + (f"\n  ... and {more} more" if more else "")
     noun = "problem" if len(problems) == 1 else "problems"
-    raise CaseBaseError(f"{source}: not a valid case base document, {len(problems)} {noun}:\n"
-                        f"{lines}")
+    return CaseBaseError(f"{source}: not {expected}, {len(problems)} {noun}:\n{lines}")
 
 
 class _Dumper(yaml.SafeDumper):
@@ -314,8 +319,14 @@ def format_of(path: str | os.PathLike[str]) -> Format:
 def read_document(path: str | os.PathLike[str], format: Format | None = None) -> Document:
     """Read and validate an exported case base file (format from the extension by default)."""
     fmt = format or format_of(path)
+    return parse_document(read_document_text(path), fmt, str(path))
+
+
+def read_document_text(path: str | os.PathLike[str]) -> str:
+    """The text of a case base document file, read within the document limits
+    (:mod:`cbrcore.documents`); CaseBaseError when it cannot be read."""
     try:
-        text = read_text(path)
+        return read_text(path)
     except DocumentError as exc:
         raise CaseBaseError(str(exc)) from None
     except FileNotFoundError as exc:
@@ -324,7 +335,6 @@ def read_document(path: str | os.PathLike[str], format: Format | None = None) ->
         raise CaseBaseError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from exc
     except OSError as exc:
         raise CaseBaseError(f"cannot read {path}: {exc.strerror}") from exc
-    return parse_document(text, fmt, str(path))
 
 
 def write_document(document: Document, target: str | os.PathLike[str] | TextIO,
@@ -336,12 +346,16 @@ def write_document(document: Document, target: str | os.PathLike[str] | TextIO,
     if not isinstance(target, str | os.PathLike):
         target.write(dump_document(document, format or "yaml"))
         return
-    text = dump_document(document, format or format_of(target))
+    write_document_text(dump_document(document, format or format_of(target)), target)
+
+
+def write_document_text(text: str, path: str | os.PathLike[str]) -> None:
+    """Write a document's text to ``path`` whole; CaseBaseError when it cannot be written."""
     try:
         # a full disk or a kill leaves the earlier file, never a truncated one
-        files.write_text(Path(target), text)
+        files.write_text(Path(path), text)
     except OSError as exc:
-        raise CaseBaseError(f"cannot write {target}: {exc.strerror or exc}") from exc
+        raise CaseBaseError(f"cannot write {path}: {exc.strerror or exc}") from exc
 
 
 def load_document(store: CaseStore, document: Document, *, append: bool = False,

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import enum
 import json
 import os
 import secrets
@@ -15,15 +14,13 @@ from typing import Annotated, Any
 import attrs
 import typer
 
-from cbrcore.casebase import (
-    CaseStore,
-    UnusableCaseBase,
-    describe,
-    document_of,
-    dump_document,
-    load_document,
-    read_document,
-    write_document,
+from cbrcore.casebase import CaseStore, UnusableCaseBase, describe, document_of, load_document
+from cbrcore.casebase.formats import (
+    DocumentFormat,
+    document_formats,
+    format_for,
+    read_casebase,
+    write_casebase,
 )
 from cbrcore.casebase.worlds import recorded_worlds, store_policy, world_problems
 from cbrcore.config import Config, load_config, parse_config, parse_yaml
@@ -36,11 +33,6 @@ app = typer.Typer(
     help="Inspect, check, export and import case bases: a SQLite file, or any registered store.",
     no_args_is_help=True,
 )
-
-
-class TextFormat(enum.StrEnum):
-    yaml = "yaml"
-    json = "json"
 
 
 _SELECTORS = "FILE, --store or --config"
@@ -58,11 +50,17 @@ ConfigOption = Annotated[Path | None, typer.Option(
     "--config", "-c", metavar="CONFIG",
     help="A configuration file whose casebase slot names the store; relative paths resolve "
          "against its folder.", show_default=False)]
-FormatOption = Annotated[
-    TextFormat | None,
-    typer.Option("--format", help="yaml or json; default: from the file's extension (export "
-                 "to standard output writes yaml).", show_default=False),
-]
+FormatOption = Annotated[str | None, typer.Option(
+    "--format", metavar="FORMAT",
+    help="yaml, json or a format a plugin offers, such as nav2-route (cbr casebase formats "
+         "lists them); default: from the file's extension (export to standard output writes "
+         "yaml).", show_default=False)]
+WorldOption = Annotated[str | None, typer.Option(
+    "--world", metavar="WORLD",
+    help="The world the cases belong to, for a format that needs it (nav2-route: a map with a "
+         "metric frame), written as in a configuration's world slot, such as "
+         "'{use: map_file, path: depot.yaml}'; default: the world of --config. Relative paths "
+         "resolve against the working folder.", show_default=False)]
 
 
 def _casebase_slot(file: Path | None, store: str | None, config: Path | None, *,
@@ -113,6 +111,34 @@ def _with_store_options(selected: Config, **changes: Any) -> Config:
     assert selected.casebase is not None
     options = attrs.evolve(selected.casebase.options, **changes)
     return attrs.evolve(selected, casebase=attrs.evolve(selected.casebase, options=options))
+
+
+def _world_for(fmt: DocumentFormat, world: str | None, config: Path | None) -> Any:
+    """The world ``--world`` or the configuration names, built as a run builds it, when ``fmt``
+    needs one; None when it does not."""
+    if not fmt.world:
+        if world is not None:
+            raise typer.BadParameter(f"the {fmt.name} format needs no world", param_hint="--world")
+        return None
+    registry = current().registry
+    if world is not None:
+        raw, _ = parse_yaml(world, "--world")
+        try:
+            selected = Config(world=parse_config({"world": raw}, registry).world)
+        except ConfigError as exc:
+            raise ConfigError("--world", exc.problems) from None
+    elif config is not None:
+        loaded = load_config(config, registry)
+        selected = Config(seed=loaded.seed, world=loaded.world, source=loaded.source)
+    else:
+        selected = Config()
+    if selected.world is None:
+        where = "" if config is None else f" ({config} has none)"
+        raise typer.BadParameter(f"the {fmt.name} format needs the world the cases belong to "
+                                 f"({fmt.world}); name it with --world or with a --config whose "
+                                 f"world slot names it{where}", param_hint="--world")
+    with Engine(selected) as engine:
+        return engine.world
 
 
 @contextlib.contextmanager
@@ -234,17 +260,20 @@ def export(
         show_default=False,
     )] = None,
     fmt: FormatOption = None,
+    world: WorldOption = None,
 ) -> None:
-    """Write a case base as YAML or JSON text (YAML on standard output unless told)."""
+    """Write a case base as YAML or JSON text (YAML on standard output unless told), or in a
+    format a plugin offers (a case graph as a Nav2 route graph: --format nav2-route)."""
     selected = _casebase_slot(file, store, config, reading=True)
+    chosen = format_for(output, fmt) if output is not None else format_for("", fmt or "yaml")
+    on_world = _world_for(chosen, world, config)
     with _opened(selected) as (_, casebase):
         document = document_of(casebase)
-    chosen = fmt.value if fmt is not None else None
     if output is None:
-        typer.echo(dump_document(document, chosen or "yaml"), nl=False)
+        typer.echo(chosen.dump(document, on_world), nl=False)
         return
     _refuse_the_case_base_itself(selected, output)
-    write_document(document, output, chosen)
+    write_casebase(document, output, chosen.name, world=on_world)
     typer.echo(f"exported {len(document.cases)} cases (revision {document.revision}) "
                f"to {output}")
 
@@ -255,25 +284,32 @@ def import_(
         metavar="FILE", help="The SQLite case base file, created when missing (give the store "
         "with --store or --config instead, and DOCUMENT alone).", show_default=False)] = None,
     document: Annotated[Path | None, typer.Argument(
-        metavar="DOCUMENT", help="The exported YAML or JSON file (required).",
-        show_default=False)] = None,
+        metavar="DOCUMENT", help="The exported file (required): YAML, JSON, or a format a plugin "
+        "offers (a Nav2 route graph, .geojson).", show_default=False)] = None,
     store: StoreOption = None,
     config: ConfigOption = None,
     append: Annotated[bool, typer.Option(
         "--append", help="Add the cases, with new ids, to a case base that already has some.",
     )] = False,
     fmt: FormatOption = None,
+    world: WorldOption = None,
 ) -> None:
     """Load an exported document into a case base, all in one transaction.
 
-    A case base that already holds cases is refused unless --append is given.
+    A case base that already holds cases is refused unless --append is given. A Nav2 route
+    graph (--format nav2-route, or a .geojson file) seeds a case graph on the map of --world or
+    --config.
     """
     if document is None:  # one argument is the document
         file, document = None, file
     if document is None:
         raise typer.BadParameter("name the exported file to import", param_hint="DOCUMENT")
+    chosen = format_for(document, fmt)
+    if append and not chosen.append:
+        raise typer.BadParameter(f"a {chosen.name} document is a whole case base; it is "
+                                 "imported into an empty one, not appended", param_hint="--append")
     # read and validate first, so that a bad document does not leave an empty case base behind
-    loaded = read_document(document, fmt.value if fmt is not None else None)
+    loaded = read_casebase(document, chosen.name, world=_world_for(chosen, world, config))
     selected = _casebase_slot(file, store, config, reading=False)
     assert selected.casebase is not None
     worlds = store_policy(selected.casebase.options)
@@ -333,6 +369,17 @@ def _refuse_the_case_base_itself(selected: Config, output: Path) -> None:
         if os.path.samefile(output, casebase.options.path):
             raise CaseBaseError(f"cannot write {output}: it is the case base being exported; "
                                 f"expected another file (.yaml, .yml or .json)")
+
+
+@app.command("formats")
+def formats() -> None:
+    """List the formats a case base is exported to and imported from: cbrcore's own and those
+    the loaded plugins offer, with their file extensions and what each needs."""
+    for name, offered in document_formats().items():
+        fmt = offered.format
+        needs = f"; needs {fmt.world}" if fmt.world else ""
+        typer.echo(f"{name:<11} {' '.join(fmt.suffixes):<12} {offered.plugin:<15} "
+                   f"{fmt.summary}{needs}")
 
 
 def _move_into_place(partial: Path, target: Path) -> None:

@@ -32,6 +32,8 @@ from cbr_casegraph.components import (
 )
 from cbr_casegraph.experience_reuser import ExperienceGraphReuser, ExperienceOptions
 from cbr_casegraph.invariants import graph_problems
+from cbr_casegraph.route_graph import ROUTE_GRAPH
+from cbrcore.casebase.formats import DocumentFormat
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
@@ -69,6 +71,12 @@ def _experiment(module: str, cls: str) -> Callable[[object, Context], object]:
 def cbr_check_casebase(casebase: CaseStore) -> list[str]:
     """The case graph's invariants (:mod:`cbr_casegraph.invariants`)."""
     return graph_problems(casebase)
+
+
+@hookimpl
+def cbr_casebase_formats() -> list[DocumentFormat]:
+    """A case graph is written and read as a Nav2 route graph (:mod:`cbr_casegraph.route_graph`)."""
+    return [ROUTE_GRAPH]
 
 
 @hookimpl
