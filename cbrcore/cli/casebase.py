@@ -10,26 +10,20 @@ import secrets
 import stat
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import attrs
 import typer
 
-from cbrcore.casebase import (
-    CaseStore,
-    UnusableCaseBase,
-    describe,
-    document_of,
-    dump_document,
-    load_document,
-    read_document,
-    write_document,
-)
-from cbrcore.casebase.worlds import recorded_worlds, store_policy, world_problems
-from cbrcore.config import Config, load_config, parse_config, parse_yaml
-from cbrcore.engine import Engine
 from cbrcore.errors import CaseBaseError, CbrError, ConfigError
 from cbrcore.plugins import current
+
+if TYPE_CHECKING:
+    from cbrcore.casebase import CaseStore
+    from cbrcore.config import Config
+
+# the commands import the stores, the configuration machinery and the engine when they run, so
+# that every other command, ``cbr --help`` included, does not
 
 app = typer.Typer(
     name="casebase",
@@ -73,6 +67,8 @@ def _casebase_slot(file: Path | None, store: str | None, config: Path | None, *,
     read-only: that never creates a file or a schema, works in a folder the user may not write,
     and for a database role that may only read.
     """
+    from cbrcore.config import Config, load_config, parse_config, parse_yaml
+
     given = [name for name, value in (("FILE", file), ("--store", store), ("--config", config))
              if value is not None]
     if len(given) != 1:
@@ -123,6 +119,8 @@ def _opened(selected: Config) -> Iterator[tuple[str, CaseStore]]:
     It is opened by an engine configured with it alone, so the store is built exactly as a run
     builds it.
     """
+    from cbrcore.engine import Engine
+
     with Engine(selected) as engine:
         assert selected.casebase is not None and engine.casebase is not None
         yield selected.casebase.name, engine.casebase
@@ -145,6 +143,9 @@ def info(
     """Show a case base's store, revision, case counts by kind, the worlds its cases belong to,
     and what its store tells of it (for a SQLite file: path, schema version, sizes and journal
     mode)."""
+    from cbrcore.casebase import describe
+    from cbrcore.casebase.worlds import recorded_worlds
+
     with _opened(_casebase_slot(file, store, config, reading=True)) as (name, casebase):
         worlds, _ = recorded_worlds(casebase)
         facts: dict[str, Any] = {"store": name, "revision": casebase.revision,
@@ -182,6 +183,9 @@ def check(
     its store finds it unusable: corrupt, not a case base, or of another schema version); exits 2
     when it does not exist. With --json the exit codes are the same.
     """
+    from cbrcore.casebase import UnusableCaseBase
+    from cbrcore.casebase.worlds import world_problems
+
     label: str | None = None
     try:
         with _opened(_casebase_slot(file, store, config, reading=True)) as (_, casebase):
@@ -236,6 +240,8 @@ def export(
     fmt: FormatOption = None,
 ) -> None:
     """Write a case base as YAML or JSON text (YAML on standard output unless told)."""
+    from cbrcore.casebase import document_of, dump_document, write_document
+
     selected = _casebase_slot(file, store, config, reading=True)
     with _opened(selected) as (_, casebase):
         document = document_of(casebase)
@@ -268,6 +274,9 @@ def import_(
 
     A case base that already holds cases is refused unless --append is given.
     """
+    from cbrcore.casebase import load_document, read_document
+    from cbrcore.casebase.worlds import store_policy
+
     if document is None:  # one argument is the document
         file, document = None, file
     if document is None:

@@ -9,27 +9,21 @@ from __future__ import annotations
 import enum
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
-from rich.console import Console
-from rich.table import Table
-from rich.text import Text
 
 from cbrcore.cli import completion
-from cbrcore.cli.compiling import announcing_compiles
-from cbrcore.cli.progress import progress as _progress
-from cbrcore.cli.reference import cli_reference
-from cbrcore.config import load_config
-from cbrcore.engine import Engine
-from cbrcore.experiment import Size as ExperimentSize
-from cbrcore.experiment import run_experiment
 from cbrcore.plugins import current
-from cbrcore.reference import config_reference, hook_reference
-from cbrcore.registry import Registry
-from cbrcore.run import run_workload
-from cbrcore.run_folder import check_continuable, earlier_results, fresh_files, remove
-from cbrcore.tasks import open_tasks
+
+if TYPE_CHECKING:
+    from rich.console import Console
+    from rich.table import Table
+
+    from cbrcore.registry import Registry
+
+# each command imports what it runs with when it runs: ``cbr --help`` and every other command
+# would otherwise import the engine, the configuration machinery and rich's tables
 
 UNBOUNDED = 100_000
 """The width of output that is not a terminal: wide enough that no table is wrapped or cut."""
@@ -54,6 +48,8 @@ class Reference(enum.StrEnum):
 
 
 def _out() -> Console:
+    from rich.console import Console
+
     # cells and lines hold users' and plugins' text (kinds, names, errors): rich would read
     # ``[x]`` as markup and ``:x:`` as an emoji, so neither is interpreted
     console = Console(highlight=False, soft_wrap=True, markup=False, emoji=False)
@@ -86,6 +82,15 @@ def run(
     as_json: bool = _json_option("the run's summary (that of summary.json)"),
 ) -> None:
     """Run the configured workload: results.csv, summary.json and manifest.json go to --out."""
+    from rich.table import Table
+
+    from cbrcore.cli.compiling import announcing_compiles
+    from cbrcore.cli.progress import progress as _progress
+    from cbrcore.config import load_config
+    from cbrcore.engine import Engine
+    from cbrcore.run import run_workload
+    from cbrcore.run_folder import check_continuable, earlier_results, fresh_files, remove
+
     out_dir = out if out is not None else Path("runs") / config.stem
     checked = load_config(config, current().registry, set_)
     # settled before the engine opens the folder's case base: a refused run changes nothing
@@ -137,6 +142,8 @@ def run(
 
 def _evolution_table(stretches: list[dict[str, Any]]) -> Table:
     """The run's evolution: one row per stretch of queries."""
+    from rich.table import Table
+
     table = Table(title="as the run went on")
     metrics = [key for key in (stretches[0] if stretches else {})
                if key not in ("first", "last", "cbr_share", "median_plan_ms")]
@@ -158,6 +165,8 @@ def validate(
         "defaults filled in, as a run's manifest.json records them,"),
 ) -> None:
     """Check a configuration without running it; list the components it selects."""
+    from cbrcore.config import load_config
+
     checked = load_config(config, current().registry, set_)
     if as_json:
         typer.echo(json.dumps({"config": str(config), "resolved": checked.resolved()},
@@ -181,6 +190,9 @@ def plugins(
 ) -> None:
     """List the loaded plugins, their distributions, hooks, components and the component kinds
     they declare, and any failures."""
+    from rich.table import Table
+    from rich.text import Text
+
     loaded = current()
     if as_json:
         data = {
@@ -234,6 +246,14 @@ def experiment(
         help="With --scheduler local: worker processes (default: one per core)."),
 ) -> None:
     """Run an experiment registered by a plugin: results.json, results.md and PNG figures."""
+    from rich.table import Table
+
+    from cbrcore.cli.compiling import announcing_compiles
+    from cbrcore.cli.progress import progress as _progress
+    from cbrcore.experiment import Size as ExperimentSize
+    from cbrcore.experiment import run_experiment
+    from cbrcore.tasks import open_tasks
+
     registry = current().registry
     if list_:
         found = [c for c in registry if c.kind == "experiment"]
@@ -271,6 +291,9 @@ def reference(
              "cli: every command with its arguments and options."),
 ) -> None:
     """Print the configuration, hook or command-line reference as markdown."""
+    from cbrcore.cli.reference import cli_reference
+    from cbrcore.reference import config_reference, hook_reference
+
     if what is Reference.config:
         typer.echo(config_reference(current().registry), nl=False)
     elif what is Reference.hooks:
