@@ -11,16 +11,19 @@ registered (:meth:`Registry.unresolved`).
 
 from __future__ import annotations
 
+import ast
+import functools
 import importlib
+import importlib.util
 import inspect
 from collections.abc import Callable, Iterator, Mapping
+from pathlib import Path
 from typing import Any
 
 import attrs
 
 from cbrcore.errors import CbrError, PluginError
 from cbrcore.hookimpls import unknown_hooks
-from cbrcore.options import references, structure_options
 from cbrcore.stash import StashKey
 
 KINDS: dict[str, str] = {
@@ -130,6 +133,56 @@ def _imported(target: Named) -> Any:
     return found
 
 
+@functools.cache
+def _definitions(module: str) -> dict[str, ast.AST] | None:
+    """The classes and functions ``module``'s source defines at its top level, by name, read
+    without importing it (its parent packages are imported); None when there is no source to
+    read, or when a name is also assigned there, which only importing would settle."""
+    try:
+        spec = importlib.util.find_spec(module)
+    except (ImportError, ValueError):
+        return None
+    if spec is None or not spec.origin or not spec.origin.endswith(".py"):
+        return None
+    try:
+        tree = ast.parse(Path(spec.origin).read_bytes())
+    except (OSError, SyntaxError, ValueError):
+        return None
+    found: dict[str, ast.AST] = {}
+    for node in tree.body:
+        if isinstance(node, (ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            found[node.name] = node
+        elif isinstance(node, (ast.Assign, ast.AnnAssign, ast.Import, ast.ImportFrom)):
+            targets = (node.targets if isinstance(node, ast.Assign)
+                       else [node.target] if isinstance(node, ast.AnnAssign) else [])
+            names = [alias.asname or alias.name.split(".")[0]
+                     for alias in getattr(node, "names", [])]
+            names += [t.id for t in targets if isinstance(t, ast.Name)]
+            for name in names:
+                found.pop(name, None)
+    return found
+
+
+def _written_doc(target: Named) -> str | None:
+    """The docstring of the class or function ``target`` names, as :func:`inspect.getdoc` gives
+    it, read from its module's source without importing it; None when the source does not
+    settle it (no source, no docstring of its own, a name bound otherwise)."""
+    module, _, attribute = target.partition(":")
+    scope = _definitions(module)
+    node: ast.AST | None = None
+    for part in attribute.split("."):
+        node = scope.get(part) if scope is not None else None
+        if node is None:
+            return None
+        scope = {child.name: child for child in getattr(node, "body", [])
+                 if isinstance(child, (ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef))}
+    if not isinstance(node, (ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+        return None
+    if node.decorator_list and not isinstance(node, ast.ClassDef):
+        return None  # a decorated function may be replaced, docstring and all
+    return ast.get_docstring(node)
+
+
 def _references(label: str, factory: Any, options: Any) -> dict[str, str]:
     """The references of a component's ``options``, once its factory and options are checked:
     what :meth:`Registry.add` refuses raises a :class:`PluginError`."""
@@ -139,6 +192,11 @@ def _references(label: str, factory: Any, options: Any) -> dict[str, str]:
         raise PluginError(f"{label}: options must be an attrs class, got {options!r}")
     if isinstance(factory, type) and (misspelt := unknown_hooks(factory)):
         raise PluginError(f"{label}: {'; '.join(misspelt)}")
+    if not attrs.fields(options):  # NoOptions and the like: nothing to resolve or refer to
+        return {}
+    # cattrs and yaml load with the first options checked, not with the registry
+    from cbrcore.options import references
+
     try:
         return dict(references(options))
     except NameError as exc:  # an annotation naming something the module does not define
@@ -196,6 +254,11 @@ class Component:
         docstring."""
         if self._doc is not None:
             return self._doc
+        if isinstance(self._factory, str) and not self._loaded:
+            # read from the source, so that listing components (TAB completion, say) imports none
+            written = _written_doc(self._factory)
+            if written is not None:
+                return written
         return inspect.getdoc(self.factory) or ""
 
     @property
@@ -354,6 +417,8 @@ class Registry:
         """Build component ``name`` of ``kind`` from an options instance (or a dict of options)."""
         component = self.get(kind, name)
         if not isinstance(options, component.options):
+            from cbrcore.options import structure_options
+
             options = structure_options(component.options, options or {}, f"{kind} {name}")
         return component.factory(options, ctx)
 
