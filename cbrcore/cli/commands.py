@@ -82,9 +82,12 @@ def run(
     as_json: bool = _json_option("the run's summary (that of summary.json)"),
 ) -> None:
     """Run the configured workload: results.csv, summary.json and manifest.json go to --out."""
+    from cbrcore.cli.compiling import announce_cold_cache, announcing_compiles
+
+    cold = announce_cold_cache()  # before the components' imports, which take seconds
+
     from rich.table import Table
 
-    from cbrcore.cli.compiling import announcing_compiles
     from cbrcore.cli.progress import progress as _progress
     from cbrcore.config import load_config
     from cbrcore.engine import Engine
@@ -103,7 +106,8 @@ def run(
     else:
         check_continuable(out_dir, checked)
         earlier_results(out_dir)
-    with announcing_compiles(), Engine(checked, out_dir=out_dir.resolve()) as engine:
+    with announcing_compiles(announced=cold), \
+            Engine(checked, out_dir=out_dir.resolve()) as engine:
         cases = len(engine.casebase) if engine.casebase is not None else 0
         if cases or (out_dir / "results.csv").is_file():
             typer.echo(f"cbr run: continuing from {cases} cases in {out_dir}", err=True)
@@ -248,7 +252,7 @@ def experiment(
     """Run an experiment registered by a plugin: results.json, results.md and PNG figures."""
     from rich.table import Table
 
-    from cbrcore.cli.compiling import announcing_compiles
+    from cbrcore.cli.compiling import announce_cold_cache, announcing_compiles
     from cbrcore.cli.progress import progress as _progress
     from cbrcore.experiment import Size as ExperimentSize
     from cbrcore.experiment import run_experiment
@@ -273,7 +277,8 @@ def experiment(
         raise typer.BadParameter("name an experiment, or use --list", param_hint="NAME")
     out_dir = out if out is not None else Path("experiments") / f"{name}-{size.value}"
     sized: ExperimentSize = "ci" if size is Size.ci else "full"
-    with announcing_compiles(), open_tasks(scheduler, workers=workers) as tasks, \
+    cold = announce_cold_cache()  # before the experiment's imports, which take seconds
+    with announcing_compiles(announced=cold), open_tasks(scheduler, workers=workers) as tasks, \
             _progress(f"cbr experiment {name}", "steps") as progress:
         written = run_experiment(name, current(), size=sized, out_dir=out_dir, seed=seed,
                                  progress=progress, tasks=tasks)
