@@ -133,32 +133,70 @@ def _imported(target: Named) -> Any:
     return found
 
 
-@functools.cache
-def _definitions(module: str) -> dict[str, ast.AST] | None:
-    """The classes and functions ``module``'s source defines at its top level, by name, read
-    without importing it (its parent packages are imported); None when there is no source to
-    read, or when a name is also assigned there, which only importing would settle."""
+_DEFINITIONS = (ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)
+
+
+def _bound(node: ast.AST) -> set[str]:
+    """The names a statement binds, in any of its branches."""
+    names = set()
+    for inner in ast.walk(node):
+        if isinstance(inner, ast.Name) and isinstance(inner.ctx, ast.Store):
+            names.add(inner.id)
+        elif isinstance(inner, _DEFINITIONS):
+            names.add(inner.name)
+        elif isinstance(inner, (ast.Import, ast.ImportFrom)):
+            names.update(alias.asname or alias.name.split(".")[0] for alias in inner.names)
+    return names
+
+
+def _source(module: str) -> Path | None:
+    """The source file of ``module``, found without importing it or its parent packages (whose
+    ``__init__`` may import what naming the component was meant to spare); None when it is not
+    a plain ``.py`` file in its top-level package's folders."""
+    top, *inner = module.split(".")
     try:
-        spec = importlib.util.find_spec(module)
+        spec = importlib.util.find_spec(top)
     except (ImportError, ValueError):
         return None
-    if spec is None or not spec.origin or not spec.origin.endswith(".py"):
+    if spec is None:
+        return None
+    if not inner:
+        return Path(spec.origin) if spec.origin and spec.origin.endswith(".py") else None
+    for folder in spec.submodule_search_locations or []:
+        base = Path(folder, *inner[:-1])
+        for path in (base / f"{inner[-1]}.py", base / inner[-1] / "__init__.py"):
+            if path.is_file():
+                return path
+    return None
+
+
+def _definitions(module: str) -> dict[str, ast.AST] | None:
+    """The classes and functions ``module``'s source defines at its top level, by name, read
+    without importing it; None when it has no source file. A name a later statement binds
+    otherwise (an assignment, an import, a definition in a branch) is left out: only importing
+    would tell what it is."""
+    path = _source(module)
+    if path is None:
         return None
     try:
-        tree = ast.parse(Path(spec.origin).read_bytes())
+        return _parsed(str(path), path.stat().st_mtime_ns)
+    except OSError:
+        return None
+
+
+@functools.cache
+def _parsed(origin: str, mtime: int) -> dict[str, ast.AST] | None:
+    """:func:`_definitions` of the source file ``origin``, as it was at ``mtime``."""
+    try:
+        tree = ast.parse(Path(origin).read_bytes())
     except (OSError, SyntaxError, ValueError):
         return None
     found: dict[str, ast.AST] = {}
     for node in tree.body:
-        if isinstance(node, (ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+        if isinstance(node, _DEFINITIONS):
             found[node.name] = node
-        elif isinstance(node, (ast.Assign, ast.AnnAssign, ast.Import, ast.ImportFrom)):
-            targets = (node.targets if isinstance(node, ast.Assign)
-                       else [node.target] if isinstance(node, ast.AnnAssign) else [])
-            names = [alias.asname or alias.name.split(".")[0]
-                     for alias in getattr(node, "names", [])]
-            names += [t.id for t in targets if isinstance(t, ast.Name)]
-            for name in names:
+        else:
+            for name in _bound(node):
                 found.pop(name, None)
     return found
 
@@ -175,8 +213,8 @@ def _written_doc(target: Named) -> str | None:
         if node is None:
             return None
         scope = {child.name: child for child in getattr(node, "body", [])
-                 if isinstance(child, (ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef))}
-    if not isinstance(node, (ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+                 if isinstance(child, _DEFINITIONS)}
+    if not isinstance(node, _DEFINITIONS):
         return None
     if node.decorator_list and not isinstance(node, ast.ClassDef):
         return None  # a decorated function may be replaced, docstring and all
@@ -219,9 +257,10 @@ class Component:
     :func:`cbrcore.options.reference`) to the kind it names. ``world_independent`` says that
     the cases the component reads or writes hold in any world (see :meth:`Registry.add`).
     A component registered with a named factory or options class imports them when
-    ``factory``, ``options``, ``references`` or (with no ``doc`` given) ``doc`` is first read;
-    a module that fails to import, or what :meth:`Registry.add` would have refused, is then a
-    :class:`~cbrcore.errors.PluginError` naming the plugin and the component.
+    ``factory``, ``options`` or ``references`` is first read; a module that fails to import, or
+    what :meth:`Registry.add` would have refused, is then a
+    :class:`~cbrcore.errors.PluginError` naming the plugin and the component. Its ``doc`` is
+    read from the factory's source when it can be, without importing it.
     """
 
     kind: str

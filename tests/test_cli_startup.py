@@ -45,6 +45,9 @@ def _cbr(args: list[str], **env: str) -> dict:
     ("completion", [], {"_CBR_COMPLETE": "complete_bash",
                         "COMP_WORDS": "cbr\nrun\nx.yaml\n--set\nretrieve\n=",
                         "COMP_CWORD": "5"}, "landmarks"),
+    ("store completion", [], {"_CBR_COMPLETE": "complete_bash",
+                              "COMP_WORDS": "cbr\nrun\nx.yaml\n--set\ncasebase\n=",
+                              "COMP_CWORD": "5"}, "sqlite"),
 ])
 def test_the_command_line_starts_without_heavy_libraries(
         case: str, args: list[str], env: dict[str, str], shown: str) -> None:
