@@ -1,4 +1,8 @@
-"""``cbr casebase``: look into, check, export and import case bases of any registered store."""
+"""``cbr casebase``: look into, check, export and import case bases of any registered store.
+
+The commands import the stores, the configuration machinery and the engine when they run, so
+that every other command, ``cbr --help`` included, does not.
+"""
 
 from __future__ import annotations
 
@@ -21,9 +25,6 @@ from cbrcore.plugins import current
 if TYPE_CHECKING:
     from cbrcore.casebase import CaseStore
     from cbrcore.config import Config
-
-# the commands import the stores, the configuration machinery and the engine when they run, so
-# that every other command, ``cbr --help`` included, does not
 
 app = typer.Typer(
     name="casebase",

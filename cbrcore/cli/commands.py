@@ -2,6 +2,9 @@
 
 Tables fit the terminal they are shown in; written to a pipe or a file they keep every cell
 whole, however wide (``--json`` gives the same facts for programs).
+
+Each command imports what it runs with when it runs: ``cbr --help`` and every other command
+would otherwise import the engine, the configuration machinery and rich's tables.
 """
 
 from __future__ import annotations
@@ -21,9 +24,6 @@ if TYPE_CHECKING:
     from rich.table import Table
 
     from cbrcore.registry import Registry
-
-# each command imports what it runs with when it runs: ``cbr --help`` and every other command
-# would otherwise import the engine, the configuration machinery and rich's tables
 
 UNBOUNDED = 100_000
 """The width of output that is not a terminal: wide enough that no table is wrapped or cut."""

@@ -6,9 +6,9 @@ radius (:mod:`cbr_grid.inflation`). ``cbr plan`` answers one start and goal, giv
 on a map with a metric frame, in metres; or a sample of a Moving AI ``.scen`` file's scenarios
 in one process, checking each length against the file's optimal one. With ``--frame map``
 every message is in metres (the cell in brackets); ``--path-out`` writes the path to a CSV or
-GeoJSON file (:mod:`cbr_grid.path_files`) while the screen gets a short summary. The compiled
-searches and matplotlib are imported inside the commands, so that loading the plugin at every
-start of ``cbr`` stays cheap.
+GeoJSON file (:mod:`cbr_grid.path_files`) while the screen gets a short summary. The grid, its
+map formats, NumPy, the compiled searches and matplotlib are imported inside the commands, so
+that loading the plugin at every start of ``cbr`` stays cheap.
 """
 
 from __future__ import annotations
@@ -33,8 +33,6 @@ if TYPE_CHECKING:
     from cbr_grid.grid import Grid
     from cbr_grid.movingai import Scenario
     from cbr_grid.query import Cell
-
-# the grid, its map formats and NumPy load when a command runs, not with every start of ``cbr``
 
 Search = Callable[["Grid", "Cell", list["Cell"]], Any]
 """A solver's search as ``cbr plan`` calls it: ``search(grid, start, goals)``, a result with a
