@@ -58,7 +58,7 @@ class CompileNotice:
             return
         self.since = self.last = self.clock()
         if not self.announced:
-            self.write(first_line(self.folder))
+            self.write(_first_line(self.folder))
 
     def started(self, name: str, depth: int) -> None:
         self.announce()
@@ -85,7 +85,7 @@ class CompileNotice:
                        f"(cached for later runs)\n")
 
 
-def first_line(folder: Path) -> str:
+def _first_line(folder: Path) -> str:
     """The line that says kernels compile, and where they are cached."""
     return (f"cbr: compiling the kernels this command uses, once (about {ABOUT_SECONDS} s on 2 "
             f"cores; cached in {folder} for later runs)\n")
@@ -105,7 +105,7 @@ def announce_cold_cache() -> bool:
     folder = numba_cache_dir()
     if folder.exists():
         return False
-    _write(first_line(folder))
+    _write(_first_line(folder))
     return True
 
 
