@@ -270,7 +270,7 @@ class Component:
     _factory: Callable[[Any, Any], Any] | Named
     _options: type | Named
     _doc: str | None
-    _kinds: Callable[[], Mapping[str, Kind]] = attrs.field(eq=False, repr=False)
+    _registry: Registry = attrs.field(eq=False, repr=False)
     _loaded: list[_Loaded] = attrs.field(factory=list, eq=False, repr=False)
 
     @property
@@ -327,7 +327,7 @@ class Component:
                                   f"{type(exc).__name__}: {exc}") from exc
         factory, options = found
         refers = _references(label, factory, options)
-        kinds = self._kinds()
+        kinds = self._registry.kinds
         undeclared = {option: kind for option, kind in refers.items() if kind not in kinds}
         if undeclared:
             option, kind = next(iter(undeclared.items()))
@@ -438,7 +438,7 @@ class Registry:
         if taken is not None:
             raise PluginError(f"{label} is already registered by plugin {taken.plugin!r}")
         component = Component(kind, name, self._plugin, world_independent, factory, options,
-                              doc, lambda: self._kinds)
+                              doc, self)
         if not isinstance(factory, str) and not isinstance(options, str):
             # given, not named: checked now, and the component is loaded
             component._loaded.append(_Loaded(factory, options,
