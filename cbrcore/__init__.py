@@ -5,9 +5,22 @@ forget, each phase a pluggy hook served by components that plugins register and 
 selects.
 """
 
-from cbrcore.engine import Engine, EngineStats
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
 from cbrcore.hookspecs import hookimpl
-from cbrcore.model import Case, Match, Outcome, Proposal, Retrieval, Revision, Solution
+
+if TYPE_CHECKING:
+    from cbrcore.engine import Engine, EngineStats
+    from cbrcore.model import Case, Match, Outcome, Proposal, Retrieval, Revision, Solution
+
+_LAZY = {"Engine": "cbrcore.engine", "EngineStats": "cbrcore.engine",
+         **dict.fromkeys(["Case", "Match", "Outcome", "Proposal", "Retrieval", "Revision",
+                          "Solution"], "cbrcore.model")}
+"""Where each name exported here is defined: imported when first asked for, so that a plugin
+importing ``hookimpl`` and the command line do not import the engine and NumPy with it."""
 
 __all__ = [
     "Case",
@@ -21,3 +34,12 @@ __all__ = [
     "Solution",
     "hookimpl",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'cbrcore' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value

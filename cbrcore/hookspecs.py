@@ -55,9 +55,11 @@ def cbr_register(registry: Registry) -> None:
     component the plugin supplies, of one of cbrcore's kinds (:data:`cbrcore.registry.KINDS`) or
     of a kind a plugin declares with ``registry.add_kind(kind, doc)``. The factory is called as
     ``factory(options, ctx)`` with a validated instance of the attrs options class and the run's
-    :class:`~cbrcore.context.Context`. A name or kind already taken by another plugin, an
-    exception raised here, or a kind that no plugin has declared once all have registered marks
-    this plugin as failed; the others still load.
+    :class:`~cbrcore.context.Context`. The factory and the options class may be named as
+    ``"package.module:Attribute"`` instead, so that the module is imported only when the
+    component is first used (every ``cbr`` command calls this hook). A name or kind already
+    taken by another plugin, an exception raised here, or a kind that no plugin has declared
+    once all have registered marks this plugin as failed; the others still load.
     """
 
 

@@ -38,7 +38,7 @@ import contextvars
 import os
 import types
 import warnings
-from collections.abc import Iterator, Mapping, Sequence, Set
+from collections.abc import Callable, Iterator, Mapping, Sequence, Set
 from importlib import metadata
 from typing import Any
 
@@ -48,7 +48,7 @@ import pluggy
 from cbrcore import hookspecs
 from cbrcore.errors import PluginError, PluginWarning
 from cbrcore.hookimpls import implemented_hooks, unknown_hooks
-from cbrcore.registry import KIND_HOOK, Registry
+from cbrcore.registry import KIND_HOOK, Component, Registry
 
 ENTRY_POINT_GROUP = "cbr"
 BUILTIN_DISTRIBUTION = "cbrcore"
@@ -72,9 +72,15 @@ class PluginInfo:
     module: str
     distribution: str | None
     version: str | None
-    hooks: tuple[str, ...]
     components: tuple[str, ...]
     kinds: tuple[str, ...]
+    _hooks: Callable[[], tuple[str, ...]] = attrs.field(eq=False, repr=False)
+
+    @property
+    def hooks(self) -> tuple[str, ...]:
+        """The hooks the plugin implements: its module's, its components' kinds', and those
+        of its component classes (which imports the components it registered by name)."""
+        return self._hooks()
 
 
 @attrs.frozen
@@ -158,13 +164,16 @@ def _is_builtin(source: Any, dist: Source, modules: Set[str]) -> bool:
     return isinstance(source, types.ModuleType) and source.__name__ in modules
 
 
-def _component_hooks(registry: Registry, name: str) -> set[str]:
-    hooks = set()
-    for component in registry.by_plugin(name):
-        if component.kind in KIND_HOOK:
-            hooks.add(KIND_HOOK[component.kind])
-        if isinstance(component.factory, type):
-            hooks.update(implemented_hooks(component.factory))
+def _hooks(obj: Any, components: Sequence[Component]) -> Callable[[], tuple[str, ...]]:
+    def hooks() -> tuple[str, ...]:
+        found = set(implemented_hooks(obj))
+        for component in components:
+            if component.kind in KIND_HOOK:
+                found.add(KIND_HOOK[component.kind])
+            if isinstance(component.factory, type):
+                found.update(implemented_hooks(component.factory))
+        return tuple(sorted(found))
+
     return hooks
 
 
@@ -272,15 +281,15 @@ def load_plugins(extra: Sequence[tuple[str, Any]] = (), *, entry_points: bool = 
     # listed as they came (entry point names, then code): `cbr plugins` and manifests
     for name in (n for n in sources if n in registered):
         obj = plugins.pm.get_plugin(name)
-        hooks = set(implemented_hooks(obj)) | _component_hooks(plugins.registry, name)
+        components = plugins.registry.by_plugin(name)
         plugins.loaded.append(PluginInfo(
             name=name,
             module=getattr(obj, "__name__", type(obj).__name__),
             distribution=sources[name][0],
             version=sources[name][1],
-            hooks=tuple(sorted(hooks)),
-            components=tuple(f"{c.kind}:{c.name}" for c in plugins.registry.by_plugin(name)),
+            components=tuple(f"{c.kind}:{c.name}" for c in components),
             kinds=tuple(k.name for k in plugins.registry.kinds_by_plugin(name)),
+            hooks=_hooks(obj, components),
         ))
     return plugins
 

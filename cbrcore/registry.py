@@ -11,15 +11,19 @@ registered (:meth:`Registry.unresolved`).
 
 from __future__ import annotations
 
+import ast
+import functools
+import importlib
+import importlib.util
 import inspect
 from collections.abc import Callable, Iterator, Mapping
+from pathlib import Path
 from typing import Any
 
 import attrs
 
 from cbrcore.errors import CbrError, PluginError
 from cbrcore.hookimpls import unknown_hooks
-from cbrcore.options import references, structure_options
 from cbrcore.stash import StashKey
 
 KINDS: dict[str, str] = {
@@ -110,6 +114,141 @@ class NoOptions:
     """A component that takes no options."""
 
 
+Named = str
+"""A factory or options class named as ``"package.module:Attribute"`` (``Attribute`` may be
+dotted, ``Outer.Inner``), imported when first needed."""
+
+
+def _is_named(target: str) -> bool:
+    module, sep, attribute = target.partition(":")
+    return bool(sep) and all(part.isidentifier() for part in
+                             (*module.split("."), *attribute.split(".")))
+
+
+def _imported(target: Named) -> Any:
+    module, _, attribute = target.partition(":")
+    found: Any = importlib.import_module(module)
+    for part in attribute.split("."):
+        found = getattr(found, part)
+    return found
+
+
+_DEFINITIONS = (ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)
+
+
+def _bound(node: ast.AST) -> set[str]:
+    """The names a statement binds, in any of its branches."""
+    names = set()
+    for inner in ast.walk(node):
+        if isinstance(inner, ast.Name) and isinstance(inner.ctx, ast.Store):
+            names.add(inner.id)
+        elif isinstance(inner, _DEFINITIONS):
+            names.add(inner.name)
+        elif isinstance(inner, (ast.Import, ast.ImportFrom)):
+            names.update(alias.asname or alias.name.split(".")[0] for alias in inner.names)
+    return names
+
+
+def _source(module: str) -> Path | None:
+    """The source file of ``module``, found without importing it or its parent packages (whose
+    ``__init__`` may import what naming the component was meant to spare); None when it is not
+    a plain ``.py`` file in its top-level package's folders."""
+    top, *inner = module.split(".")
+    try:
+        spec = importlib.util.find_spec(top)
+    except (ImportError, ValueError):
+        return None
+    if spec is None:
+        return None
+    if not inner:
+        return Path(spec.origin) if spec.origin and spec.origin.endswith(".py") else None
+    for folder in spec.submodule_search_locations or []:
+        base = Path(folder, *inner[:-1])
+        for path in (base / f"{inner[-1]}.py", base / inner[-1] / "__init__.py"):
+            if path.is_file():
+                return path
+    return None
+
+
+def _definitions(module: str) -> dict[str, ast.AST] | None:
+    """The classes and functions ``module``'s source defines at its top level, by name, read
+    without importing it; None when it has no source file. A name a later statement binds
+    otherwise (an assignment, an import, a definition in a branch) is left out: only importing
+    would tell what it is."""
+    path = _source(module)
+    if path is None:
+        return None
+    try:
+        return _parsed(str(path), path.stat().st_mtime_ns)
+    except OSError:
+        return None
+
+
+@functools.cache
+def _parsed(origin: str, mtime: int) -> dict[str, ast.AST] | None:
+    """:func:`_definitions` of the source file ``origin``, as it was at ``mtime``."""
+    try:
+        tree = ast.parse(Path(origin).read_bytes())
+    except (OSError, SyntaxError, ValueError):
+        return None
+    found: dict[str, ast.AST] = {}
+    for node in tree.body:
+        if isinstance(node, _DEFINITIONS):
+            found[node.name] = node
+        else:
+            for name in _bound(node):
+                found.pop(name, None)
+    return found
+
+
+def _written_doc(target: Named) -> str | None:
+    """The docstring of the class or function ``target`` names, as :func:`inspect.getdoc` gives
+    it, read from its module's source without importing it; None when the source does not
+    settle it (no source, no docstring of its own, a name bound otherwise)."""
+    module, _, attribute = target.partition(":")
+    scope = _definitions(module)
+    node: ast.AST | None = None
+    for part in attribute.split("."):
+        node = scope.get(part) if scope is not None else None
+        if node is None:
+            return None
+        scope = {child.name: child for child in getattr(node, "body", [])
+                 if isinstance(child, _DEFINITIONS)}
+    if not isinstance(node, _DEFINITIONS):
+        return None
+    if node.decorator_list and not isinstance(node, ast.ClassDef):
+        return None  # a decorated function may be replaced, docstring and all
+    return ast.get_docstring(node)
+
+
+def _references(label: str, factory: Any, options: Any) -> dict[str, str]:
+    """The references of a component's ``options``, once its factory and options are checked:
+    what :meth:`Registry.add` refuses raises a :class:`PluginError`."""
+    if not callable(factory):
+        raise PluginError(f"{label}: the factory must be callable, got {factory!r}")
+    if not (isinstance(options, type) and attrs.has(options)):
+        raise PluginError(f"{label}: options must be an attrs class, got {options!r}")
+    if isinstance(factory, type) and (misspelt := unknown_hooks(factory)):
+        raise PluginError(f"{label}: {'; '.join(misspelt)}")
+    if not attrs.fields(options):  # NoOptions and the like: nothing to resolve or refer to
+        return {}
+    # cattrs and yaml load with the first options checked, not with the registry
+    from cbrcore.options import references
+
+    try:
+        return dict(references(options))
+    except NameError as exc:  # an annotation naming something the module does not define
+        raise PluginError(f"{label}: the annotations of {options.__qualname__} do not "
+                          f"resolve: {exc}") from None
+
+
+@attrs.frozen
+class _Loaded:
+    factory: Callable[[Any, Any], Any]
+    options: type
+    references: Mapping[str, str]
+
+
 @attrs.frozen
 class Component:
     """One registered component: how to build it and which plugin supplied it.
@@ -117,20 +256,85 @@ class Component:
     ``references`` maps each option that names another component (see
     :func:`cbrcore.options.reference`) to the kind it names. ``world_independent`` says that
     the cases the component reads or writes hold in any world (see :meth:`Registry.add`).
+    A component registered with a named factory or options class imports them when
+    ``factory``, ``options`` or ``references`` is first read; a module that fails to import, or
+    what :meth:`Registry.add` would have refused, is then a
+    :class:`~cbrcore.errors.PluginError` naming the plugin and the component. Its ``doc`` is
+    read from the factory's source when it can be, without importing it.
     """
 
     kind: str
     name: str
-    factory: Callable[[Any, Any], Any]
-    options: type
     plugin: str
-    doc: str
-    references: Mapping[str, str]
-    world_independent: bool = False
+    world_independent: bool
+    _factory: Callable[[Any, Any], Any] | Named
+    _options: type | Named
+    _doc: str | None
+    _registry: Registry = attrs.field(eq=False, repr=False)
+    _loaded: list[_Loaded] = attrs.field(factory=list, eq=False, repr=False)
+
+    @property
+    def factory(self) -> Callable[[Any, Any], Any]:
+        """``factory(options, ctx)`` builds the component."""
+        return self._load().factory
+
+    @property
+    def options(self) -> type:
+        """The attrs class of the component's options."""
+        return self._load().options
+
+    @property
+    def references(self) -> Mapping[str, str]:
+        return self._load().references
+
+    @property
+    def doc(self) -> str:
+        """What the component does: the ``doc`` it was registered with, else its factory's
+        docstring."""
+        if self._doc is not None:
+            return self._doc
+        if isinstance(self._factory, str) and not self._loaded:
+            # read from the source, so that listing components (TAB completion, say) imports none
+            written = _written_doc(self._factory)
+            if written is not None:
+                return written
+        return inspect.getdoc(self.factory) or ""
 
     @property
     def summary(self) -> str:
         return self.doc.strip().splitlines()[0] if self.doc.strip() else ""
+
+    @property
+    def loaded(self) -> bool:
+        """Whether the factory and options class are imported and checked."""
+        return bool(self._loaded)
+
+    def _load(self) -> _Loaded:
+        if self._loaded:
+            return self._loaded[0]
+        label = f"plugin {self.plugin!r}: {self.kind} {self.name!r}"
+        found = []
+        for target in (self._factory, self._options):
+            if not isinstance(target, str):
+                found.append(target)
+                continue
+            try:
+                found.append(_imported(target))
+            except KeyboardInterrupt:
+                raise
+            except BaseException as exc:  # whatever the plugin's module raises is its failure
+                raise PluginError(f"{label}: cannot import {target!r}: "
+                                  f"{type(exc).__name__}: {exc}") from exc
+        factory, options = found
+        refers = _references(label, factory, options)
+        kinds = self._registry.kinds
+        undeclared = {option: kind for option, kind in refers.items() if kind not in kinds}
+        if undeclared:
+            option, kind = next(iter(undeclared.items()))
+            raise PluginError(f"{label}: option {option!r} refers to kind {kind!r}, which no "
+                              f"plugin declares; kinds: {', '.join(sorted(kinds))}")
+        self._loaded.append(_Loaded(factory, options, refers))
+        return self._loaded[0]
 
 
 class UnknownComponent(CbrError):
@@ -199,8 +403,8 @@ class Registry:
         return {kind.slot.name: kind.slot for kind in self._kinds.values()
                 if kind.slot is not None}
 
-    def add(self, kind: str, name: str, factory: Callable[[Any, Any], Any], *,
-            options: type = NoOptions, doc: str | None = None,
+    def add(self, kind: str, name: str, factory: Callable[[Any, Any], Any] | Named, *,
+            options: type | Named = NoOptions, doc: str | None = None,
             world_independent: bool = False) -> None:
         """Register ``factory`` as component ``name`` of ``kind``.
 
@@ -216,24 +420,30 @@ class Registry:
         and refuses a case base of another. Refused: a name taken within the kind, options
         whose type annotations do not resolve, and a factory class with a hook implementation
         that names no cbrcore hook (see :func:`cbrcore.hookimpls.unknown_hooks`).
+
+        ``factory`` and ``options`` may each be named as ``"package.module:Attribute"``
+        instead: the module is imported when the component is first used (a configuration
+        names it, it is built, or a reference lists it), and the checks above are made then,
+        along with that of the kinds its options refer to.
         """
 
         label = f"{kind} {name!r}"
-        if not attrs.has(options):
+        for what, target in (("factory", factory), ("options", options)):
+            if isinstance(target, str) and not _is_named(target):
+                raise PluginError(f"{label}: a named {what} is written "
+                                  f"'package.module:Attribute', got {target!r}")
+        if not isinstance(options, str) and not attrs.has(options):
             raise PluginError(f"{label}: options must be an attrs class, got {options!r}")
         taken = self._components.get((kind, name))
         if taken is not None:
             raise PluginError(f"{label} is already registered by plugin {taken.plugin!r}")
-        if isinstance(factory, type) and (misspelt := unknown_hooks(factory)):
-            raise PluginError(f"{label}: {'; '.join(misspelt)}")
-        try:
-            refers = dict(references(options))
-        except NameError as exc:  # an annotation naming something the module does not define
-            raise PluginError(f"{label}: the annotations of {options.__qualname__} do not "
-                              f"resolve: {exc}") from None
-        text = doc if doc is not None else inspect.getdoc(factory) or ""
-        self._components[kind, name] = Component(kind, name, factory, options, self._plugin, text,
-                                                 refers, world_independent)
+        component = Component(kind, name, self._plugin, world_independent, factory, options,
+                              doc, self)
+        if not isinstance(factory, str) and not isinstance(options, str):
+            # given, not named: checked now, and the component is loaded
+            component._loaded.append(_Loaded(factory, options,
+                                             _references(label, factory, options)))
+        self._components[kind, name] = component
 
     def get(self, kind: str, name: str) -> Component:
         """The component ``name`` of ``kind``; the error lists the registered alternatives."""
@@ -246,6 +456,8 @@ class Registry:
         """Build component ``name`` of ``kind`` from an options instance (or a dict of options)."""
         component = self.get(kind, name)
         if not isinstance(options, component.options):
+            from cbrcore.options import structure_options
+
             options = structure_options(component.options, options or {}, f"{kind} {name}")
         return component.factory(options, ctx)
 
@@ -264,7 +476,8 @@ class Registry:
         A component of an undeclared kind, an option referring to an undeclared kind, and a
         slot default that names no registered component are each a problem of the plugin that
         registered the component or declared the kind. Called once every plugin has registered,
-        since a kind may be declared by a plugin that loads after the one using it.
+        since a kind may be declared by a plugin that loads after the one using it. The
+        options of a component registered by name are checked when it loads instead.
         """
         problems: dict[str, list[str]] = {}
         kinds = f"kinds: {', '.join(sorted(self._kinds))}"
@@ -272,6 +485,8 @@ class Registry:
         for component in self:
             if component.kind not in self._kinds:
                 orphans.setdefault((component.plugin, component.kind), []).append(component.name)
+            if not component.loaded:  # its references are checked when it loads
+                continue
             for option, kind in component.references.items():
                 if kind not in self._kinds:
                     problems.setdefault(component.plugin, []).append(

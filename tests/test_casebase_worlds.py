@@ -20,7 +20,8 @@ from hypothesis import strategies as st
 
 import cbr_grid
 import cbr_world2d
-from cbr_grid import MapFrame, generate
+from cbr_grid import MapFrame
+from cbr_grid.generate import generate
 from cbr_grid.grid import Grid, grid_fingerprint
 from cbr_world2d.worldfile import load_world
 from cbrcore.casebase import CaseStore, MemoryStore, SQLiteStore, document_of, load_document

@@ -1,6 +1,7 @@
 """The command line starts without the heavy libraries: ``cbr --help`` and TAB completion load
-every plugin to list its commands and components, and the plugins load numba, matplotlib and
-scipy only where a component does its work (benchmarks/cli_startup.py times it)."""
+every plugin to list its commands and components, and the built-in plugins register their
+components by name, so that NumPy, numba, matplotlib and scipy load only where a component is
+used (benchmarks/cli_startup.py times it)."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-HEAVY = ("numba", "matplotlib", "scipy", "networkx")
+HEAVY = ("numpy", "numba", "matplotlib", "scipy", "networkx")
 
 PROBE = """
 import contextlib, io, json, sys
@@ -44,6 +45,9 @@ def _cbr(args: list[str], **env: str) -> dict:
     ("completion", [], {"_CBR_COMPLETE": "complete_bash",
                         "COMP_WORDS": "cbr\nrun\nx.yaml\n--set\nretrieve\n=",
                         "COMP_CWORD": "5"}, "landmarks"),
+    ("store completion", [], {"_CBR_COMPLETE": "complete_bash",
+                              "COMP_WORDS": "cbr\nrun\nx.yaml\n--set\ncasebase\n=",
+                              "COMP_CWORD": "5"}, "sqlite"),
 ])
 def test_the_command_line_starts_without_heavy_libraries(
         case: str, args: list[str], env: dict[str, str], shown: str) -> None:

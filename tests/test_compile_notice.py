@@ -94,6 +94,9 @@ def test_a_kernel_compiled_into_an_empty_cache_is_announced_before_the_first_res
     lines = done.stderr.splitlines()
     first = next(i for i, line in enumerate(lines) if line.startswith(NOTICE))
     assert f"cached in {tmp_path / 'cache' / 'numba'} for later runs" in lines[first]
+    # written at once, the cache folder being missing, and not again at the compile
+    assert first == 0, done.stderr
+    assert [line for line in lines if line.startswith(NOTICE)] == [lines[first]]
     # numba compiles the kernel at the first query, so before that query's progress line
     first_query = next(i for i, line in enumerate(lines) if line.startswith("cbr run: 1/"))
     assert first < first_query, done.stderr
@@ -127,11 +130,33 @@ def test_a_kernel_missing_from_a_filled_cache_is_announced_when_it_compiles(
     assert first < first_query, done.stderr
 
 
-def test_a_configuration_without_kernels_is_not_announced_on_an_empty_cache(
+def test_a_configuration_without_kernels_is_announced_once_on_an_empty_cache(
         lane: Callable[[], CliResult], tmp_path: Path, cbr_cli: Callable[..., CliResult]) -> None:
     plain = tmp_path / "plain.yaml"
     plain.write_text(closed_loop_domain.LANE_CONFIG, encoding="utf-8")
-    done = cbr_cli("run", str(plain), "--out", str(tmp_path / "plain"))
-    assert done.exit_code == 0, done.stderr
-    assert _notices(done.stderr) == []
+
+    def run(name: str) -> CliResult:
+        done = cbr_cli("run", str(plain), "--out", str(tmp_path / name))
+        assert done.exit_code == 0, done.stderr
+        return done
+
+    # no cache folder: the first line comes before the components load, and nothing follows
+    first = run("plain")
+    assert [line[:len(NOTICE)] for line in _notices(first.stderr)] == [NOTICE]
+    # the folder it made says that the cache is not cold any more
+    assert (tmp_path / "cache" / "numba").is_dir()
+    assert not list((tmp_path / "cache" / "numba").iterdir())
+    assert _notices(run("again").stderr) == []
+
+
+def test_an_invalid_configuration_on_an_empty_cache_is_announced_before_its_error(
+        lane: Callable[[], CliResult], tmp_path: Path, cbr_cli: Callable[..., CliResult]) -> None:
+    broken = tmp_path / "broken.yaml"
+    broken.write_text(CONFIG.replace("solver: compiled_margin", "solver: no_such_solver"),
+                      encoding="utf-8")
+    done = cbr_cli("run", str(broken), "--out", str(tmp_path / "broken"))
+    assert done.exit_code == 2
+    lines = done.stderr.splitlines()
+    assert lines[0].startswith(NOTICE) and "no_such_solver" in done.stderr
+    # it compiled nothing and ran nothing: the cache stays cold for the next run
     assert not (tmp_path / "cache").exists()

@@ -12,9 +12,9 @@ import pytest
 
 import cbr_world2d
 import cbrcore.builtins
-from cbr_world2d import GeneratedWorldOptions, generated_world
 from cbr_world2d.generate import office_floor
 from cbr_world2d.world import World
+from cbr_world2d.world_components import GeneratedWorldOptions, generated_world
 from cbr_world2d.worldfile import dump_world, free_point
 from cbrcore.config import parse_config
 from cbrcore.context import Context

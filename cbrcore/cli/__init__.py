@@ -15,10 +15,9 @@ import traceback
 import warnings
 from collections.abc import Callable, Sequence
 from importlib import metadata
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
 import typer
-from rich.console import Console
 from typer.models import CommandInfo
 
 from cbrcore.cli import casebase, commands
@@ -26,6 +25,9 @@ from cbrcore.cli.conventions import CONTEXT_SETTINGS, follow_conventions
 from cbrcore.cli.plugin_commands import cbr_commands
 from cbrcore.errors import CbrError, PluginWarning
 from cbrcore.plugins import Plugins, current
+
+if TYPE_CHECKING:
+    from rich.console import Console
 
 
 def _show_version(value: bool) -> None:
@@ -84,10 +86,28 @@ def build_app() -> typer.Typer:
     return app
 
 
+class _Stderr:
+    """The console of the messages on stderr, made when the first is printed: most commands
+    print none, and rich's console takes a noticeable part of ``cbr --help``'s start."""
+
+    def __init__(self) -> None:
+        self._console: Console | None = None
+
+    def print(self, text: str) -> None:
+        if self._console is None:
+            from rich.console import Console
+
+            # messages quote users' files and plugins' text: printed as written, no markup or
+            # emoji
+            self._console = Console(stderr=True, highlight=False, soft_wrap=True, markup=False,
+                                    emoji=False)
+        self._console.print(text)
+
+
 ShowWarning = Callable[[Warning | str, type[Warning], str, int, TextIO | None, str | None], None]
 
 
-def _plugin_warnings_as_lines(err: Console, show: ShowWarning) -> ShowWarning:
+def _plugin_warnings_as_lines(err: _Stderr, show: ShowWarning) -> ShowWarning:
     """A ``warnings.showwarning`` printing a :class:`PluginWarning` as one ``warning:`` line.
 
     The source line a warning names is cbrcore's, not the user's, so it would only distract;
@@ -106,15 +126,14 @@ def _plugin_warnings_as_lines(err: Console, show: ShowWarning) -> ShowWarning:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``cbr`` with ``argv`` (default: the process's arguments); return the exit code."""
-    # messages quote users' files and plugins' text: printed as written, no markup or emoji
-    err = Console(stderr=True, highlight=False, soft_wrap=True, markup=False, emoji=False)
+    err = _Stderr()
     # catch_warnings restores the display on return, for callers running ``main`` in-process
     with warnings.catch_warnings():
         warnings.showwarning = _plugin_warnings_as_lines(err, warnings.showwarning)
         return _run(list(sys.argv[1:] if argv is None else argv), err)
 
 
-def _run(args: list[str], err: Console) -> int:
+def _run(args: list[str], err: _Stderr) -> int:
     show_traceback = "--traceback" in args
     if not args:  # ``cbr`` alone asks what there is to do: help, and success
         args = ["--help"]

@@ -1,4 +1,8 @@
-"""``cbr casebase``: look into, check, export and import case bases of any registered store."""
+"""``cbr casebase``: look into, check, export and import case bases of any registered store.
+
+The commands import the stores, the configuration machinery and the engine when they run, so
+that every other command, ``cbr --help`` included, does not.
+"""
 
 from __future__ import annotations
 
@@ -9,24 +13,18 @@ import secrets
 import stat
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import attrs
 import typer
 
-from cbrcore.casebase import CaseStore, UnusableCaseBase, describe, document_of, load_document
-from cbrcore.casebase.formats import (
-    DocumentFormat,
-    document_formats,
-    format_for,
-    read_casebase,
-    write_casebase,
-)
-from cbrcore.casebase.worlds import recorded_worlds, store_policy, world_problems
-from cbrcore.config import Config, load_config, parse_config, parse_yaml
-from cbrcore.engine import Engine
 from cbrcore.errors import CaseBaseError, CbrError, ConfigError
 from cbrcore.plugins import current
+
+if TYPE_CHECKING:
+    from cbrcore.casebase import CaseStore
+    from cbrcore.casebase.formats import DocumentFormat
+    from cbrcore.config import Config
 
 app = typer.Typer(
     name="casebase",
@@ -71,6 +69,8 @@ def _casebase_slot(file: Path | None, store: str | None, config: Path | None, *,
     read-only: that never creates a file or a schema, works in a folder the user may not write,
     and for a database role that may only read.
     """
+    from cbrcore.config import Config, load_config, parse_config, parse_yaml
+
     given = [name for name, value in (("FILE", file), ("--store", store), ("--config", config))
              if value is not None]
     if len(given) != 1:
@@ -116,6 +116,9 @@ def _with_store_options(selected: Config, **changes: Any) -> Config:
 def _world_for(fmt: DocumentFormat, world: str | None, config: Path | None) -> Any:
     """The world ``--world`` or the configuration names, built as a run builds it, when ``fmt``
     needs one; None when it does not."""
+    from cbrcore.config import Config, load_config, parse_config, parse_yaml
+    from cbrcore.engine import Engine
+
     if not fmt.world:
         if world is not None:
             raise typer.BadParameter(f"the {fmt.name} format needs no world", param_hint="--world")
@@ -149,6 +152,8 @@ def _opened(selected: Config) -> Iterator[tuple[str, CaseStore]]:
     It is opened by an engine configured with it alone, so the store is built exactly as a run
     builds it.
     """
+    from cbrcore.engine import Engine
+
     with Engine(selected) as engine:
         assert selected.casebase is not None and engine.casebase is not None
         yield selected.casebase.name, engine.casebase
@@ -171,6 +176,9 @@ def info(
     """Show a case base's store, revision, case counts by kind, the worlds its cases belong to,
     and what its store tells of it (for a SQLite file: path, schema version, sizes and journal
     mode)."""
+    from cbrcore.casebase import describe
+    from cbrcore.casebase.worlds import recorded_worlds
+
     with _opened(_casebase_slot(file, store, config, reading=True)) as (name, casebase):
         worlds, _ = recorded_worlds(casebase)
         facts: dict[str, Any] = {"store": name, "revision": casebase.revision,
@@ -208,6 +216,9 @@ def check(
     its store finds it unusable: corrupt, not a case base, or of another schema version); exits 2
     when it does not exist. With --json the exit codes are the same.
     """
+    from cbrcore.casebase import UnusableCaseBase
+    from cbrcore.casebase.worlds import world_problems
+
     label: str | None = None
     try:
         with _opened(_casebase_slot(file, store, config, reading=True)) as (_, casebase):
@@ -264,6 +275,9 @@ def export(
 ) -> None:
     """Write a case base as YAML or JSON text (YAML on standard output unless told), or in a
     format a plugin offers (a case graph as a Nav2 route graph: --format nav2-route)."""
+    from cbrcore.casebase import document_of
+    from cbrcore.casebase.formats import format_for, write_casebase
+
     selected = _casebase_slot(file, store, config, reading=True)
     chosen = format_for(output, fmt) if output is not None else format_for("", fmt or "yaml")
     on_world = _world_for(chosen, world, config)
@@ -300,6 +314,10 @@ def import_(
     graph (--format nav2-route, or a .geojson file) seeds a case graph on the map of --world or
     --config.
     """
+    from cbrcore.casebase import load_document
+    from cbrcore.casebase.formats import format_for, read_casebase
+    from cbrcore.casebase.worlds import store_policy
+
     if document is None:  # one argument is the document
         file, document = None, file
     if document is None:
@@ -375,6 +393,8 @@ def _refuse_the_case_base_itself(selected: Config, output: Path) -> None:
 def formats() -> None:
     """List the formats a case base is exported to and imported from: cbrcore's own and those
     the loaded plugins offer, with their file extensions and what each needs."""
+    from cbrcore.casebase.formats import document_formats
+
     for name, offered in document_formats().items():
         fmt = offered.format
         needs = f"; needs {fmt.world}" if fmt.world else ""

@@ -2,6 +2,9 @@
 
 Tables fit the terminal they are shown in; written to a pipe or a file they keep every cell
 whole, however wide (``--json`` gives the same facts for programs).
+
+Each command imports what it runs with when it runs: ``cbr --help`` and every other command
+would otherwise import the engine, the configuration machinery and rich's tables.
 """
 
 from __future__ import annotations
@@ -9,27 +12,18 @@ from __future__ import annotations
 import enum
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
-from rich.console import Console
-from rich.table import Table
-from rich.text import Text
 
 from cbrcore.cli import completion
-from cbrcore.cli.compiling import announcing_compiles
-from cbrcore.cli.progress import progress as _progress
-from cbrcore.cli.reference import cli_reference
-from cbrcore.config import load_config
-from cbrcore.engine import Engine
-from cbrcore.experiment import Size as ExperimentSize
-from cbrcore.experiment import run_experiment
 from cbrcore.plugins import current
-from cbrcore.reference import config_reference, hook_reference
-from cbrcore.registry import Registry
-from cbrcore.run import run_workload
-from cbrcore.run_folder import check_continuable, earlier_results, fresh_files, remove
-from cbrcore.tasks import open_tasks
+
+if TYPE_CHECKING:
+    from rich.console import Console
+    from rich.table import Table
+
+    from cbrcore.registry import Registry
 
 UNBOUNDED = 100_000
 """The width of output that is not a terminal: wide enough that no table is wrapped or cut."""
@@ -54,6 +48,8 @@ class Reference(enum.StrEnum):
 
 
 def _out() -> Console:
+    from rich.console import Console
+
     # cells and lines hold users' and plugins' text (kinds, names, errors): rich would read
     # ``[x]`` as markup and ``:x:`` as an emoji, so neither is interpreted
     console = Console(highlight=False, soft_wrap=True, markup=False, emoji=False)
@@ -86,6 +82,18 @@ def run(
     as_json: bool = _json_option("the run's summary (that of summary.json)"),
 ) -> None:
     """Run the configured workload: results.csv, summary.json and manifest.json go to --out."""
+    from cbrcore.cli.compiling import announce_cold_cache, announcing_compiles
+
+    cold = announce_cold_cache()  # before the components' imports, which take seconds
+
+    from rich.table import Table
+
+    from cbrcore.cli.progress import progress as _progress
+    from cbrcore.config import load_config
+    from cbrcore.engine import Engine
+    from cbrcore.run import run_workload
+    from cbrcore.run_folder import check_continuable, earlier_results, fresh_files, remove
+
     out_dir = out if out is not None else Path("runs") / config.stem
     checked = load_config(config, current().registry, set_)
     # settled before the engine opens the folder's case base: a refused run changes nothing
@@ -98,7 +106,8 @@ def run(
     else:
         check_continuable(out_dir, checked)
         earlier_results(out_dir)
-    with announcing_compiles(), Engine(checked, out_dir=out_dir.resolve()) as engine:
+    with announcing_compiles(announced=cold), \
+            Engine(checked, out_dir=out_dir.resolve()) as engine:
         cases = len(engine.casebase) if engine.casebase is not None else 0
         if cases or (out_dir / "results.csv").is_file():
             typer.echo(f"cbr run: continuing from {cases} cases in {out_dir}", err=True)
@@ -137,6 +146,8 @@ def run(
 
 def _evolution_table(stretches: list[dict[str, Any]]) -> Table:
     """The run's evolution: one row per stretch of queries."""
+    from rich.table import Table
+
     table = Table(title="as the run went on")
     metrics = [key for key in (stretches[0] if stretches else {})
                if key not in ("first", "last", "cbr_share", "median_plan_ms")]
@@ -158,6 +169,8 @@ def validate(
         "defaults filled in, as a run's manifest.json records them,"),
 ) -> None:
     """Check a configuration without running it; list the components it selects."""
+    from cbrcore.config import load_config
+
     checked = load_config(config, current().registry, set_)
     if as_json:
         typer.echo(json.dumps({"config": str(config), "resolved": checked.resolved()},
@@ -181,6 +194,9 @@ def plugins(
 ) -> None:
     """List the loaded plugins, their distributions, hooks, components and the component kinds
     they declare, and any failures."""
+    from rich.table import Table
+    from rich.text import Text
+
     loaded = current()
     if as_json:
         data = {
@@ -234,6 +250,14 @@ def experiment(
         help="With --scheduler local: worker processes (default: one per core)."),
 ) -> None:
     """Run an experiment registered by a plugin: results.json, results.md and PNG figures."""
+    from rich.table import Table
+
+    from cbrcore.cli.compiling import announce_cold_cache, announcing_compiles
+    from cbrcore.cli.progress import progress as _progress
+    from cbrcore.experiment import Size as ExperimentSize
+    from cbrcore.experiment import run_experiment
+    from cbrcore.tasks import open_tasks
+
     registry = current().registry
     if list_:
         found = [c for c in registry if c.kind == "experiment"]
@@ -253,7 +277,8 @@ def experiment(
         raise typer.BadParameter("name an experiment, or use --list", param_hint="NAME")
     out_dir = out if out is not None else Path("experiments") / f"{name}-{size.value}"
     sized: ExperimentSize = "ci" if size is Size.ci else "full"
-    with announcing_compiles(), open_tasks(scheduler, workers=workers) as tasks, \
+    cold = announce_cold_cache()  # before the experiment's imports, which take seconds
+    with announcing_compiles(announced=cold), open_tasks(scheduler, workers=workers) as tasks, \
             _progress(f"cbr experiment {name}", "steps") as progress:
         written = run_experiment(name, current(), size=sized, out_dir=out_dir, seed=seed,
                                  progress=progress, tasks=tasks)
@@ -271,6 +296,9 @@ def reference(
              "cli: every command with its arguments and options."),
 ) -> None:
     """Print the configuration, hook or command-line reference as markdown."""
+    from cbrcore.cli.reference import cli_reference
+    from cbrcore.reference import config_reference, hook_reference
+
     if what is Reference.config:
         typer.echo(config_reference(current().registry), nl=False)
     elif what is Reference.hooks:

@@ -17,24 +17,17 @@ retainers, the ``rupart_quality`` forgetter, the ``delivery`` workload, the expe
 
 from __future__ import annotations
 
-import typer
+from typing import TYPE_CHECKING
 
-from cbr_behaviors.components import (
-    CaseLearner,
-    ForgetOptions,
-    QualityForgetter,
-    RetainOptions,
-    RetrieveOptions,
-    ReuseOptions,
-    RupartRetriever,
-    RupartReuser,
-    WeightLearner,
-    WeightOptions,
-)
-from cbr_behaviors.delivery import Delivery, DeliveryOptions
-from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
-from cbrcore.registry import Registry
+
+if TYPE_CHECKING:
+    import typer
+
+    from cbrcore.context import Context
+    from cbrcore.registry import Registry
+
+_COMPONENTS = "cbr_behaviors.components"
 
 
 def _delivery_experiment(options: object, ctx: Context) -> object:
@@ -46,17 +39,20 @@ def _delivery_experiment(options: object, ctx: Context) -> object:
 
 @hookimpl
 def cbr_register(registry: Registry) -> None:
-    # situations and behaviors, not a floor's cells: the cases hold on any office floor
-    registry.add("retriever", "rupart", RupartRetriever, options=RetrieveOptions,
-                 world_independent=True)
-    registry.add("reuser", "rupart", RupartReuser, options=ReuseOptions, world_independent=True)
-    registry.add("retainer", "rupart_cases", CaseLearner, options=RetainOptions,
-                 world_independent=True)
-    registry.add("retainer", "rupart_weights", WeightLearner, options=WeightOptions,
-                 world_independent=True)
-    registry.add("forgetter", "rupart_quality", QualityForgetter, options=ForgetOptions,
-                 world_independent=True)
-    registry.add("workload", "delivery", Delivery, options=DeliveryOptions)
+    # named, not imported: the components load when a configuration uses them. Situations
+    # and behaviors, not a floor's cells: the cases hold on any office floor
+    registry.add("retriever", "rupart", f"{_COMPONENTS}:RupartRetriever",
+                 options=f"{_COMPONENTS}:RetrieveOptions", world_independent=True)
+    registry.add("reuser", "rupart", f"{_COMPONENTS}:RupartReuser",
+                 options=f"{_COMPONENTS}:ReuseOptions", world_independent=True)
+    registry.add("retainer", "rupart_cases", f"{_COMPONENTS}:CaseLearner",
+                 options=f"{_COMPONENTS}:RetainOptions", world_independent=True)
+    registry.add("retainer", "rupart_weights", f"{_COMPONENTS}:WeightLearner",
+                 options=f"{_COMPONENTS}:WeightOptions", world_independent=True)
+    registry.add("forgetter", "rupart_quality", f"{_COMPONENTS}:QualityForgetter",
+                 options=f"{_COMPONENTS}:ForgetOptions", world_independent=True)
+    registry.add("workload", "delivery", "cbr_behaviors.delivery:Delivery",
+                 options="cbr_behaviors.delivery:DeliveryOptions")
     registry.add("experiment", "rupart-delivery", _delivery_experiment,
                  doc="004's delivery robot evaluated: a fixed behavior set against CBR "
                  "selection, with adaptation and learning, and with learned weights, over "

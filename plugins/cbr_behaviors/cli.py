@@ -23,7 +23,6 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from cbrcore.documents import found
 from cbrcore.errors import CbrError, ConfigError
 
 if TYPE_CHECKING:
@@ -150,7 +149,7 @@ def _manifest(run_dir: Path) -> dict[str, Any]:
     if not run_dir.is_dir():
         raise CbrError(f"{run_dir}: no such run folder; expected the output folder of "
                        f"'cbr run' with the {DELIVERY} workload")
-    from cbrcore.documents import DocumentError, load_json, read_text
+    from cbrcore.documents import DocumentError, found, load_json, read_text
 
     path = run_dir / "manifest.json"
     try:

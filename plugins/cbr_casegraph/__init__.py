@@ -16,28 +16,17 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
-from cbr_casegraph.components import (
-    CaseGraphRetainer,
-    CaseGraphRetriever,
-    CaseGraphReuser,
-    LimitOptions,
-    RedundantVertices,
-    RetainOptions,
-    RetrieveOptions,
-    ReuseOptions,
-    RiskyOptions,
-    RiskySegments,
-    VertexLimit,
-)
-from cbr_casegraph.experience_reuser import ExperienceGraphReuser, ExperienceOptions
-from cbr_casegraph.invariants import graph_problems
-from cbr_casegraph.route_graph import ROUTE_GRAPH
-from cbrcore.casebase.formats import DocumentFormat
-from cbrcore.casebase.store import CaseStore
-from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
-from cbrcore.registry import Registry
+
+if TYPE_CHECKING:
+    from cbrcore.casebase.formats import DocumentFormat
+    from cbrcore.casebase.store import CaseStore
+    from cbrcore.context import Context
+    from cbrcore.registry import Registry
+
+_COMPONENTS = "cbr_casegraph.components"
 
 EXPERIMENTS = {
     "cbr-share": ("cbr_casegraph.experiments.share", "Share",
@@ -70,23 +59,35 @@ def _experiment(module: str, cls: str) -> Callable[[object, Context], object]:
 @hookimpl
 def cbr_check_casebase(casebase: CaseStore) -> list[str]:
     """The case graph's invariants (:mod:`cbr_casegraph.invariants`)."""
+    from cbr_casegraph.invariants import graph_problems
+
     return graph_problems(casebase)
 
 
 @hookimpl
 def cbr_casebase_formats() -> list[DocumentFormat]:
     """A case graph is written and read as a Nav2 route graph (:mod:`cbr_casegraph.route_graph`)."""
+    from cbr_casegraph.route_graph import ROUTE_GRAPH
+
     return [ROUTE_GRAPH]
 
 
 @hookimpl
 def cbr_register(registry: Registry) -> None:
-    registry.add("retriever", "casegraph", CaseGraphRetriever, options=RetrieveOptions)
-    registry.add("reuser", "casegraph", CaseGraphReuser, options=ReuseOptions)
-    registry.add("reuser", "experience_graph", ExperienceGraphReuser, options=ExperienceOptions)
-    registry.add("retainer", "casegraph", CaseGraphRetainer, options=RetainOptions)
-    registry.add("forgetter", "redundant_vertices", RedundantVertices)
-    registry.add("forgetter", "risky_segments", RiskySegments, options=RiskyOptions)
-    registry.add("forgetter", "vertex_limit", VertexLimit, options=LimitOptions)
+    # named, not imported: the components load with the grid when a configuration uses them
+    registry.add("retriever", "casegraph", f"{_COMPONENTS}:CaseGraphRetriever",
+                 options=f"{_COMPONENTS}:RetrieveOptions")
+    registry.add("reuser", "casegraph", f"{_COMPONENTS}:CaseGraphReuser",
+                 options=f"{_COMPONENTS}:ReuseOptions")
+    registry.add("reuser", "experience_graph",
+                 "cbr_casegraph.experience_reuser:ExperienceGraphReuser",
+                 options="cbr_casegraph.experience_reuser:ExperienceOptions")
+    registry.add("retainer", "casegraph", f"{_COMPONENTS}:CaseGraphRetainer",
+                 options=f"{_COMPONENTS}:RetainOptions")
+    registry.add("forgetter", "redundant_vertices", f"{_COMPONENTS}:RedundantVertices")
+    registry.add("forgetter", "risky_segments", f"{_COMPONENTS}:RiskySegments",
+                 options=f"{_COMPONENTS}:RiskyOptions")
+    registry.add("forgetter", "vertex_limit", f"{_COMPONENTS}:VertexLimit",
+                 options=f"{_COMPONENTS}:LimitOptions")
     for name, (module, cls, doc) in EXPERIMENTS.items():
         registry.add("experiment", name, _experiment(module, cls), doc=doc)

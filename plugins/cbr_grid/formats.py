@@ -51,6 +51,7 @@ import attrs
 import numpy as np
 import yaml
 
+from cbr_grid import EXTENSIONS
 from cbr_grid.frame import MapFrame
 from cbr_grid.grid import Grid
 from cbr_grid.movingai import load_map
@@ -377,8 +378,6 @@ def load_text(path: str | Path, *, corner_cutting: bool = False) -> Grid:
 
 # --- by extension --------------------------------------------------------------------------------
 
-EXTENSIONS = (".map", ".yaml", ".yml", ".png", ".npy", ".grid")
-"""The file extensions :func:`load_grid` knows."""
 
 
 def load_grid(path: str | Path, *, corner_cutting: bool = False, allow_unknown: bool = True,

@@ -12,17 +12,21 @@ edge-based Dijkstra and A* that respect it, which search grids
 
 from __future__ import annotations
 
-from cbr_kinematics.models import Forward, ForwardBackward, Holonomic, Kinematics
-from cbrcore.context import Context
+from typing import TYPE_CHECKING
+
 from cbrcore.errors import CbrError
 from cbrcore.hookspecs import hookimpl
-from cbrcore.registry import Registry
 from cbrcore.stash import StashKey
+
+if TYPE_CHECKING:
+    from cbr_kinematics.models import Kinematics
+    from cbrcore.context import Context
+    from cbrcore.registry import Registry
 
 HOLONOMIC = "holonomic"
 """The name of the model without constraints, the slot's default."""
 
-KINEMATICS = StashKey[Kinematics]()
+KINEMATICS = StashKey["Kinematics"]()
 """The run's kinematic model, built from the configuration's ``kinematics`` slot."""
 
 
@@ -42,6 +46,8 @@ def robot_kinematics(ctx: Context, where: str) -> Kinematics | None:
 def checked(model: object, name: str, where: str) -> Kinematics | None:
     """``model`` if it is a constrained kinematic model whose turn table is sound, None if it
     allows every turn; a CbrError naming ``where`` and ``name`` otherwise."""
+    from cbr_kinematics.models import Kinematics
+
     if not isinstance(model, Kinematics):
         raise CbrError(f"{where}: kinematics {name!r} is a {type(model).__name__}, not a "
                        "cbr_kinematics.models.Kinematics")
@@ -57,6 +63,7 @@ def cbr_register(registry: Registry) -> None:
     registry.add_kind("kinematics", "a robot's move condition: which move may follow which at a "
                                     "vertex; the run's model, declared once, plans every path",
                       slot="kinematics", default=HOLONOMIC, key=KINEMATICS)
-    registry.add("kinematics", HOLONOMIC, Holonomic)
-    registry.add("kinematics", "forward", Forward)
-    registry.add("kinematics", "forward_backward", ForwardBackward)
+    # named, not imported: the models and NumPy load when a run plans with them
+    registry.add("kinematics", HOLONOMIC, "cbr_kinematics.models:Holonomic")
+    registry.add("kinematics", "forward", "cbr_kinematics.models:Forward")
+    registry.add("kinematics", "forward_backward", "cbr_kinematics.models:ForwardBackward")

@@ -15,20 +15,15 @@ Registers the ``landmarks`` retriever and reuser, the ``landmark_trouble`` retai
 
 from __future__ import annotations
 
-from cbr_landmarks.components import (
-    ForgetOptions,
-    LandmarkRetriever,
-    LandmarkReuser,
-    RetainOptions,
-    RetrieveOptions,
-    ReuseOptions,
-    TroubleRetainer,
-    UnhelpfulSituations,
-)
-from cbr_landmarks.detour import DetourOptions, LandmarkDetour
-from cbrcore.context import Context
+from typing import TYPE_CHECKING
+
 from cbrcore.hookspecs import hookimpl
-from cbrcore.registry import Registry
+
+if TYPE_CHECKING:
+    from cbrcore.context import Context
+    from cbrcore.registry import Registry
+
+_COMPONENTS = "cbr_landmarks.components"
 
 
 def _scenarios(options: object, ctx: Context) -> object:
@@ -46,16 +41,18 @@ def _learning(options: object, ctx: Context) -> object:
 
 @hookimpl
 def cbr_register(registry: Registry) -> None:
-    # landmark graphs compared by matching, not a world's landmarks: the cases hold in any world
-    registry.add("retriever", "landmarks", LandmarkRetriever, options=RetrieveOptions,
-                 world_independent=True)
-    registry.add("reuser", "landmarks", LandmarkReuser, options=ReuseOptions,
-                 world_independent=True)
-    registry.add("retainer", "landmark_trouble", TroubleRetainer, options=RetainOptions,
-                 world_independent=True)
-    registry.add("forgetter", "unhelpful_situations", UnhelpfulSituations,
-                 options=ForgetOptions, world_independent=True)
-    registry.add("solver", "landmark_detour", LandmarkDetour, options=DetourOptions)
+    # named, not imported: the components load with the 2D world when a configuration uses them.
+    # Landmark graphs compared by matching, not a world's landmarks: the cases hold in any world
+    registry.add("retriever", "landmarks", f"{_COMPONENTS}:LandmarkRetriever",
+                 options=f"{_COMPONENTS}:RetrieveOptions", world_independent=True)
+    registry.add("reuser", "landmarks", f"{_COMPONENTS}:LandmarkReuser",
+                 options=f"{_COMPONENTS}:ReuseOptions", world_independent=True)
+    registry.add("retainer", "landmark_trouble", f"{_COMPONENTS}:TroubleRetainer",
+                 options=f"{_COMPONENTS}:RetainOptions", world_independent=True)
+    registry.add("forgetter", "unhelpful_situations", f"{_COMPONENTS}:UnhelpfulSituations",
+                 options=f"{_COMPONENTS}:ForgetOptions", world_independent=True)
+    registry.add("solver", "landmark_detour", "cbr_landmarks.detour:LandmarkDetour",
+                 options="cbr_landmarks.detour:DetourOptions")
     registry.add("experiment", "landmark-scenarios", _scenarios,
                  doc="002 Figures 6 and 7: the two scenarios with and without the CBR agent "
                  "and its hand-made cases.")

@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
-from cbr_observers.trace import Trace, TraceOptions
+from typing import TYPE_CHECKING
+
 from cbrcore.hookspecs import hookimpl
-from cbrcore.registry import Registry
+
+if TYPE_CHECKING:
+    from cbrcore.registry import Registry
 
 
 @hookimpl
 def cbr_register(registry: Registry) -> None:
-    registry.add("observer", "trace", Trace, options=TraceOptions)
+    # named, not imported: the observer loads when a configuration uses it
+    registry.add("observer", "trace", "cbr_observers.trace:Trace",
+                 options="cbr_observers.trace:TraceOptions")

@@ -13,25 +13,28 @@ experiment is in :mod:`cbr_pathcases.experiments`.
 
 from __future__ import annotations
 
-from cbr_pathcases.base import path_problems
-from cbr_pathcases.components import (
-    PathRetainer,
-    PathRetriever,
-    PathReuser,
-    RetainOptions,
-    RetrieveOptions,
-    ReuseOptions,
-)
-from cbr_pathcases.forgetting import (
-    CAPACITY_STRATEGIES,
-    CapacityOptions,
-    NearDuplicateOptions,
-    NearDuplicatePaths,
-)
-from cbrcore.casebase.store import CaseStore
-from cbrcore.context import Context
+from typing import TYPE_CHECKING
+
 from cbrcore.hookspecs import hookimpl
-from cbrcore.registry import Registry
+
+if TYPE_CHECKING:
+    from cbrcore.casebase.store import CaseStore
+    from cbrcore.context import Context
+    from cbrcore.registry import Registry
+
+CAPACITY_FORGETTERS = {
+    "worst_paths": "WorstPaths",
+    "average_paths": "AveragePaths",
+    "best_paths": "BestPaths",
+    "least_recent_paths": "LeastRecentPaths",
+    "least_used_paths": "LeastUsedPaths",
+    "oldest_paths": "OldestPaths",
+    "newest_paths": "NewestPaths",
+}
+"""Each capacity strategy's forgetter name and its class in :mod:`cbr_pathcases.forgetting`."""
+
+_COMPONENTS = "cbr_pathcases.components"
+_FORGETTING = "cbr_pathcases.forgetting"
 
 
 def _learning(options: object, ctx: Context) -> object:
@@ -44,18 +47,25 @@ def _learning(options: object, ctx: Context) -> object:
 @hookimpl
 def cbr_check_casebase(casebase: CaseStore) -> list[str]:
     """The invariants of the whole-path cases (:func:`cbr_pathcases.base.path_problems`)."""
+    from cbr_pathcases.base import path_problems
+
     return path_problems(casebase)
 
 
 @hookimpl
 def cbr_register(registry: Registry) -> None:
-    registry.add("retriever", "path_cases", PathRetriever, options=RetrieveOptions)
-    registry.add("reuser", "path_cases", PathReuser, options=ReuseOptions)
-    registry.add("retainer", "path_cases", PathRetainer, options=RetainOptions)
-    for name, strategy in CAPACITY_STRATEGIES.items():
-        registry.add("forgetter", name, strategy, options=CapacityOptions)
-    registry.add("forgetter", "near_duplicate_paths", NearDuplicatePaths,
-                 options=NearDuplicateOptions)
+    # named, not imported: the components load with the grid when a configuration uses them
+    registry.add("retriever", "path_cases", f"{_COMPONENTS}:PathRetriever",
+                 options=f"{_COMPONENTS}:RetrieveOptions")
+    registry.add("reuser", "path_cases", f"{_COMPONENTS}:PathReuser",
+                 options=f"{_COMPONENTS}:ReuseOptions")
+    registry.add("retainer", "path_cases", f"{_COMPONENTS}:PathRetainer",
+                 options=f"{_COMPONENTS}:RetainOptions")
+    for name, strategy in CAPACITY_FORGETTERS.items():
+        registry.add("forgetter", name, f"{_FORGETTING}:{strategy}",
+                     options=f"{_FORGETTING}:CapacityOptions")
+    registry.add("forgetter", "near_duplicate_paths", f"{_FORGETTING}:NearDuplicatePaths",
+                 options=f"{_FORGETTING}:NearDuplicateOptions")
     registry.add("experiment", "path-cases-learning", _learning,
                  doc="Travel cost of whole-path cases against map-only planning as the robot "
                  "learns, and the forgetting strategies at a fixed capacity.")

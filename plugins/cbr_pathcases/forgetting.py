@@ -29,6 +29,7 @@ import attrs
 import numpy as np
 
 from cbr_grid.distances import DistanceName
+from cbr_pathcases import CAPACITY_FORGETTERS
 from cbr_pathcases.base import PathBase, base_of
 from cbrcore.context import Context
 from cbrcore.hookspecs import hookimpl
@@ -118,14 +119,7 @@ class NewestPaths(CapacityForgetter):
 
 
 CAPACITY_STRATEGIES: dict[str, type[CapacityForgetter]] = {
-    "worst_paths": WorstPaths,
-    "average_paths": AveragePaths,
-    "best_paths": BestPaths,
-    "least_recent_paths": LeastRecentPaths,
-    "least_used_paths": LeastUsedPaths,
-    "oldest_paths": OldestPaths,
-    "newest_paths": NewestPaths,
-}
+    name: globals()[cls] for name, cls in CAPACITY_FORGETTERS.items()}
 """Each capacity strategy by forgetter name."""
 
 

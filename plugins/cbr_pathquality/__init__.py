@@ -5,13 +5,18 @@ the optimum (:mod:`cbr_pathquality.metric`)."""
 
 from __future__ import annotations
 
-from cbr_pathquality.metric import PathQuality, PathQualityOptions
-from cbr_pathquality.reviser import QualityOptions, QualityTest
+from typing import TYPE_CHECKING
+
 from cbrcore.hookspecs import hookimpl
-from cbrcore.registry import Registry
+
+if TYPE_CHECKING:
+    from cbrcore.registry import Registry
 
 
 @hookimpl
 def cbr_register(registry: Registry) -> None:
-    registry.add("reviser", "path_quality", QualityTest, options=QualityOptions)
-    registry.add("metric", "path_quality", PathQuality, options=PathQualityOptions)
+    # named, not imported: the components load with the grid when a configuration uses them
+    registry.add("reviser", "path_quality", "cbr_pathquality.reviser:QualityTest",
+                 options="cbr_pathquality.reviser:QualityOptions")
+    registry.add("metric", "path_quality", "cbr_pathquality.metric:PathQuality",
+                 options="cbr_pathquality.metric:PathQualityOptions")

@@ -6,9 +6,9 @@ radius (:mod:`cbr_grid.inflation`). ``cbr plan`` answers one start and goal, giv
 on a map with a metric frame, in metres; or a sample of a Moving AI ``.scen`` file's scenarios
 in one process, checking each length against the file's optimal one. With ``--frame map``
 every message is in metres (the cell in brackets); ``--path-out`` writes the path to a CSV or
-GeoJSON file (:mod:`cbr_grid.path_files`) while the screen gets a short summary. The compiled
-searches and matplotlib are imported inside the commands, so that loading the plugin at every
-start of ``cbr`` stays cheap.
+GeoJSON file (:mod:`cbr_grid.path_files`) while the screen gets a short summary. The grid, its
+map formats, NumPy, the compiled searches and matplotlib are imported inside the commands, so
+that loading the plugin at every start of ``cbr`` stays cheap.
 """
 
 from __future__ import annotations
@@ -22,22 +22,19 @@ import statistics
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
-import numpy as np
 import typer
 
-from cbr_grid.costs import path_length, turns
-from cbr_grid.formats import EXTENSIONS, load_grid
-from cbr_grid.frame import in_metres
-from cbr_grid.grid import Grid
-from cbr_grid.inflation import Inflation, inflate
-from cbr_grid.movingai import Scenario, load_scen
-from cbr_grid.path_files import path_format, write_path
-from cbr_grid.query import Cell
+from cbr_grid import EXTENSIONS
 from cbrcore.errors import CbrError
 
-Search = Callable[[Grid, Cell, list[Cell]], Any]
+if TYPE_CHECKING:
+    from cbr_grid.grid import Grid
+    from cbr_grid.movingai import Scenario
+    from cbr_grid.query import Cell
+
+Search = Callable[["Grid", "Cell", list["Cell"]], Any]
 """A solver's search as ``cbr plan`` calls it: ``search(grid, start, goals)``, a result with a
 ``path`` and a ``cost`` (and more from a built-in search), or None."""
 
@@ -77,6 +74,9 @@ CostScaling = Annotated[float | None, typer.Option(
 def _map(map_file: Path, allow_unknown: bool, robot_radius: float | None,
          inflation_radius: float | None, cost_scaling: float | None) -> tuple[Grid, Grid]:
     """The map as read and as planned on (inflated when a robot radius is given)."""
+    from cbr_grid.formats import load_grid
+    from cbr_grid.inflation import Inflation, inflate
+
     if robot_radius is None:
         if inflation_radius is not None or cost_scaling is not None:
             raise typer.BadParameter("--inflation-radius and --cost-scaling inflate by a robot "
@@ -147,6 +147,8 @@ def _cell(text: str, option: str, map_file: Path, allow_unknown: bool) -> Cell:
 def _metric_map(map_file: Path, allow_unknown: bool) -> Grid | None:
     """The map, read only to tell whether it has a metric frame: None for a format without
     one, or a map that cannot be read (its own error comes when it is read for planning)."""
+    from cbr_grid.formats import load_grid
+
     if map_file.suffix.lower() not in (".yaml", ".yml"):
         return None
     try:
@@ -241,6 +243,8 @@ def _registered(solver: str, ctx: Any, model: Any, heading: int | None,
     """The search of the registered grid planner ``solver`` (not a built-in search), built
     with its default options in ``ctx`` (the map as world, the robot's model stashed) and
     warmed up by its own ``cbr_warm`` hook when it has one, as a run's engine does."""
+    import numpy as np
+
     from cbr_grid.planning import plan_with, planner_of
     from cbr_kinematics import KINEMATICS
 
@@ -268,6 +272,8 @@ def _registered(solver: str, ctx: Any, model: Any, heading: int | None,
 def _plan(search: Search, solver: str, grid: Grid, start: Cell,
           goal: Cell) -> dict[str, Any] | None:
     """Plan from ``start`` to ``goal``: the record ``cbr plan`` prints, or None without a path."""
+    from cbr_grid.costs import path_length, turns
+
     began = time.perf_counter()
     result = search(grid, start, [goal])
     time_ms = (time.perf_counter() - began) * 1000.0
@@ -290,6 +296,8 @@ def _plan(search: Search, solver: str, grid: Grid, start: Cell,
 def _place(written: Cell | tuple[float, float], cell: Cell, frame: FrameName) -> str:
     """A start or goal as messages write it: the cell, or the point in metres as written with
     its cell in brackets."""
+    from cbr_grid.frame import in_metres
+
     return in_metres(written, cell) if frame is FrameName.map else f"({cell[0]}, {cell[1]})"
 
 
@@ -321,6 +329,8 @@ def _endpoint(read: Grid, grid: Grid, written: Cell | tuple[float, float], optio
 def _summary(record: dict[str, Any], grid: Grid, frame: FrameName) -> str:
     """The path in one line: how many cells, from where to where (in metres with ``frame``
     map, each point the centre of its cell)."""
+    from cbr_grid.frame import in_metres
+
     ends = [record["path"][0], record["path"][-1]]
     if frame is FrameName.map:
         start, goal = (in_metres(point, cell) for point, cell in zip(grid.to_map(ends).tolist(),
@@ -346,6 +356,8 @@ def _save_plot(grid: Grid, out: Path, path: list[list[int]] | None = None,
 
 def _spread(scenarios: list[Scenario], limit: int | None) -> list[Scenario]:
     """``limit`` scenarios evenly spaced over the buckets (in bucket order); all without one."""
+    import numpy as np
+
     # sorted() is stable, so scenarios keep their file order within a bucket
     ordered = sorted(scenarios, key=lambda scenario: scenario.bucket)
     if limit is None or limit >= len(ordered):
@@ -358,6 +370,8 @@ def _spread(scenarios: list[Scenario], limit: int | None) -> list[Scenario]:
 def _plan_scenarios(search: Search, solver: str, grid: Grid, scen: Path,
                     limit: int | None, as_json: bool) -> None:
     """Plan the sampled scenarios of ``scen``: one line each, then a summary line."""
+    from cbr_grid.movingai import load_scen
+
     scenarios = _spread(load_scen(scen, grid), limit)
     matched = 0
     times = []
@@ -452,6 +466,8 @@ def plan(
         show_default=False)] = None,
 ) -> None:
     """Plan a path on a map: one start and goal, or the scenarios of a Moving AI .scen file."""
+    from cbr_grid.path_files import path_format, write_path
+
     if scen is None:
         if start is None or goal is None:
             raise typer.BadParameter("give --start and --goal, or --scen",

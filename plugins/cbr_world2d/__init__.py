@@ -10,90 +10,23 @@ metric, and the ``cbr sim`` commands. See docs/world2d.md.
 
 from __future__ import annotations
 
-from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING
 
-import attrs
-import typer
-
-from cbr_world2d.cli import add_commands
-from cbr_world2d.metric import DivertTarget
-from cbr_world2d.pilots import (
-    PILOT,
-    BehaviorPilotOptions,
-    PotentialFieldOptions,
-    behavior_pilot,
-    potential_field_pilot,
-)
-from cbr_world2d.pilots.rescuer import RescuerOptions
-from cbr_world2d.solver import RescuerSolver
-from cbr_world2d.workload import Trials, TrialsOptions
-from cbr_world2d.world import World
-from cbr_world2d.worldfile import load_world
-from cbrcore.context import Context
-from cbrcore.fingerprint import WorldFingerprint, fingerprint
 from cbrcore.hookspecs import hookimpl
-from cbrcore.options import option
-from cbrcore.registry import Registry
+from cbrcore.stash import StashKey
 
+if TYPE_CHECKING:
+    import typer
 
-@attrs.frozen
-class WorldFileOptions:
-    path: Path = option(doc="The world file (YAML; relative to the configuration file).")
+    from cbr_world2d.pilots.base import Pilot
+    from cbrcore.fingerprint import WorldFingerprint
+    from cbrcore.registry import Registry
 
+PILOT: StashKey[Pilot] = StashKey()
+"""The run's configured pilot, as the trials workload reads it."""
 
-def world_file(options: WorldFileOptions, ctx: Context) -> World:
-    """A 2D world read from a world file (docs/world2d.md lists its keys)."""
-    return load_world(options.path)
-
-
-def _office_only(instance: GeneratedWorldOptions, attribute: attrs.Attribute,
-                 value: object) -> None:
-    if value is not None and value is not False and instance.kind not in OFFICES:
-        raise ValueError(f"'{attribute.name}' is an option of the office floors "
-                         f"({', '.join(OFFICES)}), not of kind {instance.kind!r}")
-
-
-_COUNT = attrs.validators.optional(attrs.validators.and_(attrs.validators.instance_of(int),
-                                                         attrs.validators.ge(0)))
-OFFICES = ("office", "office_floor")
-"""The generated kinds that are office floors."""
-
-
-@attrs.frozen
-class GeneratedWorldOptions:
-    kind: Literal["semi_structured", "scenario", "office", "office_floor"] = option(
-        doc="The layout: landmarks joined by linear obstacles into walls, corners, U-shapes and "
-        "dead ends (002 Figure 1); one V, U, wall, dead-end corridor, wall with a gap or room "
-        "round the start in the way from start to target, like 002's scenarios (Figure 7); an "
-        "office floor of a hallway with four rooms a side, doors on schedules and people "
-        "(004's building, the reproduction's floor); or an "
-        "office floor whose layout (rooms, one or two hallways, widths) is drawn from the "
-        "seed as well.")
-    seed: int | None = option(None, "The layout's seed; none uses the run's seed.")
-    people: int | None = option(
-        None, "Office floors: how many people walk the hallways (none: the generator's "
-        "choice).", validator=[_COUNT, _office_only])
-    objects: int | None = option(
-        None, "Office floors: how many transient objects (carts, boxes) stand in the hallways "
-        "for a while (none: the generator's choice).", validator=[_COUNT, _office_only])
-    doors_open: bool = option(False, "Office floors: every door open all day.",
-                              validator=_office_only)
-
-
-def generated_world(options: GeneratedWorldOptions, ctx: Context) -> World:
-    """A 2D world generated from a seed: the same seed always gives the same world."""
-    # the layouts are placed with numba kernels, loaded when a world is generated rather than
-    # with the registration at every start of cbr
-    from cbr_world2d.generate import office, office_floor, scenario, semi_structured
-
-    seed = ctx.seed if options.seed is None else options.seed
-    if options.kind in OFFICES:
-        counts = {k: v for k, v in (("people", options.people), ("objects", options.objects))
-                  if v is not None}
-        make = office if options.kind == "office" else office_floor
-        return make(seed, doors_open=options.doors_open, **counts)
-    return {"semi_structured": semi_structured, "scenario": scenario}[options.kind](seed)
+_WORLDS = "cbr_world2d.world_components"
+_PILOTS = "cbr_world2d.pilots"
 
 
 @hookimpl
@@ -101,20 +34,31 @@ def cbr_register(registry: Registry) -> None:
     registry.add_kind("pilot", "the 2D robot's local controller: turns observations and a "
                                "target into speed and turn rate commands",
                       slot="pilot", key=PILOT)
-    registry.add("pilot", "potential_field", potential_field_pilot,
-                 options=PotentialFieldOptions)
-    registry.add("pilot", "behaviors", behavior_pilot, options=BehaviorPilotOptions)
-    registry.add("world", "world2d_file", world_file, options=WorldFileOptions)
-    registry.add("world", "world2d_generated", generated_world, options=GeneratedWorldOptions)
-    registry.add("workload", "trials", Trials, options=TrialsOptions)
-    registry.add("solver", "rescuer", RescuerSolver, options=RescuerOptions)
-    registry.add("metric", "divert_target", DivertTarget)
+    # named, not imported: the simulator loads when a configuration uses a component
+    registry.add("pilot", "potential_field", f"{_PILOTS}:potential_field_pilot",
+                 options=f"{_PILOTS}:PotentialFieldOptions")
+    registry.add("pilot", "behaviors", f"{_PILOTS}:behavior_pilot",
+                 options=f"{_PILOTS}:BehaviorPilotOptions")
+    registry.add("world", "world2d_file", f"{_WORLDS}:world_file",
+                 options=f"{_WORLDS}:WorldFileOptions")
+    registry.add("world", "world2d_generated", f"{_WORLDS}:generated_world",
+                 options=f"{_WORLDS}:GeneratedWorldOptions")
+    registry.add("workload", "trials", "cbr_world2d.workload:Trials",
+                 options="cbr_world2d.workload:TrialsOptions")
+    registry.add("solver", "rescuer", "cbr_world2d.solver:RescuerSolver",
+                 options="cbr_world2d.pilots.rescuer:RescuerOptions")
+    registry.add("metric", "divert_target", "cbr_world2d.metric:DivertTarget")
 
 
 @hookimpl
 def cbr_world_fingerprint(world: object) -> WorldFingerprint | None:
     """A 2D world's fingerprint: its bounds, walls, polygons, point obstacles, landmarks, doors
     with their schedules, people and places (not its name), described by its name and size."""
+    import attrs
+
+    from cbr_world2d.world import World
+    from cbrcore.fingerprint import fingerprint
+
     if not isinstance(world, World):
         return None
     content = {field.name: getattr(world, field.name) for field in attrs.fields(World)
@@ -128,4 +72,6 @@ def cbr_world_fingerprint(world: object) -> WorldFingerprint | None:
 @hookimpl
 def cbr_cli(app: typer.Typer) -> None:
     """``cbr sim show``, ``cbr sim run`` and ``cbr sim batch``."""
+    from cbr_world2d.cli import add_commands
+
     add_commands(app)

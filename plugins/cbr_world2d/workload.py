@@ -30,12 +30,12 @@ from typing import TYPE_CHECKING, Any, Literal
 import attrs
 import numpy as np
 
-from cbr_world2d import checks
+from cbr_world2d import PILOT, checks
 from cbr_world2d.actions import TRIAL_ENDED, Action, ActionReport
 from cbr_world2d.landmark_memory import LandmarkMemory, MemoryOptions
 from cbr_world2d.navigator import Navigator, NavigatorOptions
 from cbr_world2d.obstacle_map import ObstacleMap, PerceptionOptions
-from cbr_world2d.pilots.base import PILOT, Pilot
+from cbr_world2d.pilots.base import Pilot
 from cbr_world2d.triggers import TRIGGERS, Trigger, Triggers
 from cbr_world2d.world import Point, World, world_of
 from cbrcore import files

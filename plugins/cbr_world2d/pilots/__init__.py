@@ -13,6 +13,7 @@ from their options.
 
 from __future__ import annotations
 
+from cbr_world2d import PILOT
 from cbr_world2d.pilots.arguments import (
     PRIORITIES,
     SPEEDS,
@@ -21,7 +22,7 @@ from cbr_world2d.pilots.arguments import (
     TURN_RATES,
     register_argument,
 )
-from cbr_world2d.pilots.base import PILOT, Command, Pilot, Point, bearing_error, wrap_angle
+from cbr_world2d.pilots.base import Command, Pilot, Point, bearing_error, wrap_angle
 from cbr_world2d.pilots.behaviors import (
     BEHAVIORS,
     ActiveBehavior,

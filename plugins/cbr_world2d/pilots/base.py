@@ -13,8 +13,6 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
-from cbrcore.stash import StashKey
-
 if TYPE_CHECKING:
     from cbr_world2d.sensors import Observation
 
@@ -36,8 +34,6 @@ class Pilot(Protocol):
         ...
 
 
-PILOT: StashKey[Pilot] = StashKey()
-"""The run's configured pilot, as the trials workload reads it."""
 
 
 def wrap_angle(angle: float) -> float:
