@@ -16,20 +16,16 @@ from hypothesis import strategies as st
 from matplotlib.path import Path as MplPath
 from scipy.sparse.csgraph import dijkstra
 
-from cbr_world2d.world import Landmark, Mover, Wall, World
-from cbr_world2d.worldfile import (
-    dump_world,
+from cbr_world2d.shapes import (
     free_point,
     inside_polygon,
-    load_world,
     polygon_problem,
-    save_world,
-    schema_reference,
     segment_distances,
     segments_meet,
-    world_from_data,
-    world_yaml,
 )
+from cbr_world2d.world import Landmark, Mover, Wall, World
+from cbr_world2d.worldfile import load_world, schema_reference, world_from_data
+from cbr_world2d.worldfile_writer import dump_world, save_world, world_yaml
 from cbrcore.errors import ConfigError
 
 WORLDS = resources.files("cbr_world2d") / "worlds"

@@ -4,7 +4,7 @@ scenarios (Figure 7) and office floors (004's building).
 Each generator draws every choice from ``numpy.random.default_rng(seed)``, so one seed always
 gives the same world, writes the world as world file data and reads it back with
 :func:`cbr_world2d.worldfile.world_from_data`: a generated world passes the same checks as a
-file, and :func:`~cbr_world2d.worldfile.world_yaml` writes it out as one. Coordinates are
+file, and :func:`~cbr_world2d.worldfile_writer.world_yaml` writes it out as one. Coordinates are
 rounded to the millimetre and times to the tenth of a second, so the files read well.
 """
 
