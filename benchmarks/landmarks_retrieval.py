@@ -62,8 +62,8 @@ from cbr_world2d.fuzzy import TWO_PI
 from cbr_world2d.generate import semi_structured
 from cbr_world2d.robot import Pose
 from cbr_world2d.sensors import Camera
+from cbr_world2d.shapes import free_point
 from cbr_world2d.world import World
-from cbr_world2d.worldfile import free_point
 
 CAMERA = Camera(fov=math.radians(180.0))
 REACH = 5.0

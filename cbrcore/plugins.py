@@ -191,28 +191,37 @@ def load_plugins(extra: Sequence[tuple[str, Any]] = (), *, entry_points: bool = 
     from (see the module's documentation).
     """
     environ = os.environ if environ is None else environ
-    allow = _names(environ, "CBR_PLUGINS")
-    block = _names(environ, "CBR_DISABLE_PLUGINS") or set()
     strict = environ.get("CBR_STRICT_PLUGINS", "") not in ("", "0")
     plugins = Plugins(pm=new_plugin_manager(), registry=Registry(), strict=strict)
-    sources: dict[str, Source] = {}
-
-    def fail(name: str, dist: Source, stage: str, error: str) -> None:
-        failure = PluginFailure(name, dist[0], dist[1], stage, error)
-        if strict:
-            raise PluginError(failure.describe())
-        plugins.failed.append(failure)
-        warnings.warn(failure.describe(), PluginWarning, stacklevel=3)
-
     candidates: list[tuple[str, Any, Source]] = []
     if entry_points:
         for ep in sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
             candidates.append((ep.name, ep, _distribution(ep)))
     candidates.extend((name, obj, (None, None)) for name, obj in extra)
+    wanted, reserved = _wanted(plugins, candidates, environ)
+    loading = _Loading(plugins)
+    loading.add(wanted, reserved)
+    registered = loading.register()
+    loading.withdraw_unresolved(registered)
+    loading.note_loaded(registered)
+    return plugins
+
+
+Wanted = tuple[str, Any, Source, bool]
+"""A plugin to load: its name, its entry point or module, its distribution, whether it is a
+built-in."""
+
+
+def _wanted(plugins: Plugins, candidates: Sequence[tuple[str, Any, Source]],
+            environ: Mapping[str, str]) -> tuple[list[Wanted], dict[str, Source]]:
+    """The candidates that ``CBR_PLUGINS`` and ``CBR_DISABLE_PLUGINS`` let load (the others
+    noted as skipped), and the names the built-ins among them reserve."""
+    allow = _names(environ, "CBR_PLUGINS")
+    block = _names(environ, "CBR_DISABLE_PLUGINS") or set()
     # names go to whoever comes first, and that must be a built-in whatever the order: its
     # plugin name is reserved here, its component names and kinds by registering first
     modules = set(builtin_plugins().values())
-    wanted: list[tuple[str, Any, Source, bool]] = []
+    wanted: list[Wanted] = []
     reserved: dict[str, Source] = {}
     for name, source, dist in candidates:
         if name in block or (allow is not None and name not in allow):
@@ -222,76 +231,108 @@ def load_plugins(extra: Sequence[tuple[str, Any]] = (), *, entry_points: bool = 
         if builtin:
             reserved.setdefault(name, dist)
         wanted.append((name, source, dist, builtin))
+    return wanted, reserved
 
-    builtins = plugins.builtins
-    for name, source, dist, builtin in wanted:
-        taken = sources.get(name) or (None if builtin else reserved.get(name))
-        if taken is not None:
-            owner = taken[0] or "a plugin registered in code"
-            fail(name, dist, "load", f"the plugin name is already taken by {owner}")
-            continue
-        try:
-            obj = source.load() if _is_entry_point(source) else source
-        except KeyboardInterrupt:
-            raise
-        except BaseException as exc:  # a broken plugin, even one calling sys.exit, stops no other
-            fail(name, dist, "import", describe_exception(exc))
-            continue
-        if plugins.pm.is_registered(obj):
-            # a plugin's own tests pass its module in code while it is installed too
-            continue
-        misspelt = unknown_hooks(obj)
-        if misspelt:
-            fail(name, dist, "load", "; ".join(misspelt))
-            continue
-        try:
-            plugins.pm.register(obj, name=name)
-        except Exception as exc:  # e.g. a hook implementation taking an argument of no hookspec
-            fail(name, dist, "import", describe_exception(exc))
-            continue
-        sources[name] = dist
-        if builtin:
-            builtins.add(name)
 
-    registered = []
-    for name in sorted(sources, key=lambda n: n not in builtins):  # stable: the built-ins first
-        dist = sources[name]
-        obj = plugins.pm.get_plugin(name)
-        plugins.registry._begin(name)
-        try:
-            register = getattr(obj, "cbr_register", None)
-            if register is not None and "cbr_register" in implemented_hooks(obj):
-                register(registry=plugins.registry)
-        except KeyboardInterrupt:
-            raise
-        except BaseException as exc:  # a broken plugin must not stop the others
-            _withdraw(plugins, name)
-            fail(name, dist, "register", describe_exception(exc))
-            continue
-        registered.append(name)
+class _Loading:
+    """One loading of plugins, step by step; each step calls :meth:`fail` itself, so that a
+    failure's warning points at the caller of :func:`load_plugins`."""
 
-    # withdrawing a plugin withdraws the kinds it declared, which others may have used
-    while unresolved := plugins.registry.unresolved():
-        for name, problems in unresolved.items():
-            _withdraw(plugins, name)
-            registered.remove(name)
-            builtins.discard(name)
-            fail(name, sources[name], "register", "; ".join(problems))
+    def __init__(self, plugins: Plugins) -> None:
+        self.plugins = plugins
+        self.sources: dict[str, Source] = {}
 
-    # listed as they came (entry point names, then code): `cbr plugins` and manifests
-    for name in (n for n in sources if n in registered):
-        obj = plugins.pm.get_plugin(name)
-        components = plugins.registry.by_plugin(name)
-        plugins.loaded.append(PluginInfo(
-            name=name,
-            module=getattr(obj, "__name__", type(obj).__name__),
-            distribution=sources[name][0],
-            version=sources[name][1],
-            components=tuple(f"{c.kind}:{c.name}" for c in components),
-            kinds=tuple(k.name for k in plugins.registry.kinds_by_plugin(name)),
-            hooks=_hooks(obj, components),
-        ))
-    return plugins
+    def fail(self, name: str, dist: Source, stage: str, error: str) -> None:
+        failure = PluginFailure(name, dist[0], dist[1], stage, error)
+        if self.plugins.strict:
+            raise PluginError(failure.describe())
+        self.plugins.failed.append(failure)
+        # past this method and the step: the caller of load_plugins
+        warnings.warn(failure.describe(), PluginWarning, stacklevel=4)
+
+    def add(self, wanted: Sequence[Wanted], reserved: Mapping[str, Source]) -> None:
+        """Import each wanted plugin and add it to the plugin manager."""
+        plugins = self.plugins
+        for name, source, dist, builtin in wanted:
+            taken = self.sources.get(name) or (None if builtin else reserved.get(name))
+            if taken is not None:
+                owner = taken[0] or "a plugin registered in code"
+                self.fail(name, dist, "load", f"the plugin name is already taken by {owner}")
+                continue
+            try:
+                obj = source.load() if _is_entry_point(source) else source
+            except KeyboardInterrupt:
+                raise
+            except BaseException as exc:
+                # a broken plugin, even one calling sys.exit, stops no other
+                self.fail(name, dist, "import", describe_exception(exc))
+                continue
+            if plugins.pm.is_registered(obj):
+                # a plugin's own tests pass its module in code while it is installed too
+                continue
+            misspelt = unknown_hooks(obj)
+            if misspelt:
+                self.fail(name, dist, "load", "; ".join(misspelt))
+                continue
+            try:
+                plugins.pm.register(obj, name=name)
+            except Exception as exc:
+                # e.g. a hook implementation taking an argument of no hookspec
+                self.fail(name, dist, "import", describe_exception(exc))
+                continue
+            self.sources[name] = dist
+            if builtin:
+                plugins.builtins.add(name)
+
+    def register(self) -> list[str]:
+        """Call each added plugin's ``cbr_register``, the built-ins first; the names of those
+        that registered."""
+        plugins = self.plugins
+        registered = []
+        for name in sorted(self.sources, key=lambda n: n not in plugins.builtins):  # stable
+            dist = self.sources[name]
+            obj = plugins.pm.get_plugin(name)
+            plugins.registry._begin(name)
+            try:
+                register = getattr(obj, "cbr_register", None)
+                if register is not None and "cbr_register" in implemented_hooks(obj):
+                    register(registry=plugins.registry)
+            except KeyboardInterrupt:
+                raise
+            except BaseException as exc:  # a broken plugin must not stop the others
+                _withdraw(plugins, name)
+                self.fail(name, dist, "register", describe_exception(exc))
+                continue
+            registered.append(name)
+        return registered
+
+    def withdraw_unresolved(self, registered: list[str]) -> None:
+        """Withdraw the plugins whose registrations name what no plugin left declares."""
+        plugins = self.plugins
+        # withdrawing a plugin withdraws the kinds it declared, which others may have used
+        while unresolved := plugins.registry.unresolved():
+            for name, problems in unresolved.items():
+                _withdraw(plugins, name)
+                registered.remove(name)
+                plugins.builtins.discard(name)
+                self.fail(name, self.sources[name], "register", "; ".join(problems))
+
+    def note_loaded(self, registered: Sequence[str]) -> None:
+        """Note what each registered plugin brought."""
+        plugins = self.plugins
+        # listed as they came (entry point names, then code): `cbr plugins` and manifests
+        for name in (n for n in self.sources if n in registered):
+            obj = plugins.pm.get_plugin(name)
+            components = plugins.registry.by_plugin(name)
+            plugins.loaded.append(PluginInfo(
+                name=name,
+                module=getattr(obj, "__name__", type(obj).__name__),
+                distribution=self.sources[name][0],
+                version=self.sources[name][1],
+                components=tuple(f"{c.kind}:{c.name}" for c in components),
+                kinds=tuple(k.name for k in plugins.registry.kinds_by_plugin(name)),
+                hooks=_hooks(obj, components),
+            ))
 
 
 _active: contextvars.ContextVar[Plugins | None] = contextvars.ContextVar(

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from cbr_behaviors.adaptation import Edit, adapt, adapt_case, applicable, merge_weights
-from cbr_behaviors.cases import BehaviorCase, Change, Strategy
+from cbr_behaviors.casetypes import BehaviorCase, Change, Strategy
 from cbr_behaviors.index import FEATURES, Index, Scales, feature_distances
 from cbr_behaviors.memory import CaseMemory
 from cbrcore.casebase.memory import MemoryStore

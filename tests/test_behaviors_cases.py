@@ -1,5 +1,5 @@
-"""RUPART's case files (``cbr_behaviors.sexpr``, ``cbr_behaviors.cases``,
-``cbr_behaviors.casefiles``, ``cbr rupart``).
+"""RUPART's case files (``cbr_behaviors.sexpr``, ``cbr_behaviors.casetypes``,
+``cbr_behaviors.casedata``, ``cbr_behaviors.casefiles``, ``cbr rupart``).
 
 004 Figure 4's two behavior sets are read as printed (with the typos of the text fixed:
 ``curt-head`` is ``curr-head``, ``i00`` is ``100``, and the priorities the extraction lost at
@@ -23,6 +23,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from cbr_behaviors import sexpr
+from cbr_behaviors.casedata import case_of, document, from_case
 from cbr_behaviors.casefiles import (
     export,
     parse_sexp,
@@ -34,7 +35,7 @@ from cbr_behaviors.casefiles import (
     to_yaml,
     write_cases,
 )
-from cbr_behaviors.cases import (
+from cbr_behaviors.casetypes import (
     BEHAVIOR,
     META,
     PLAN,
@@ -44,9 +45,6 @@ from cbr_behaviors.cases import (
     Change,
     PlanCase,
     Strategy,
-    case_of,
-    document,
-    from_case,
 )
 from cbr_behaviors.index import Index
 from cbr_world2d.generate import office

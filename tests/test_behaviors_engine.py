@@ -32,7 +32,8 @@ import yaml
 import cbr_behaviors
 import cbr_world2d
 import cbrcore.builtins
-from cbr_behaviors.cases import BEHAVIOR, BehaviorCase, Change, PlanCase, Strategy, case_of
+from cbr_behaviors.casedata import case_of
+from cbr_behaviors.casetypes import BEHAVIOR, BehaviorCase, Change, PlanCase, Strategy
 from cbr_behaviors.components import retained_index
 from cbr_behaviors.index import FEATURES, Index
 from cbr_behaviors.moment import InstallBehaviors, InstallPlan, Moment, SpellReport

@@ -25,7 +25,7 @@ import cbr_solvers
 import cbr_world2d
 import cbrcore.builtins
 from cbr_behaviors.casefiles import read_cases, shipped_cases
-from cbr_behaviors.cases import Strategy
+from cbr_behaviors.casetypes import Strategy
 from cbr_behaviors.experiments.delivery import (
     ALL_STRATEGIES,
     ARMS,

@@ -15,8 +15,10 @@ from matplotlib.path import Path as Outline
 from scipy import ndimage
 
 from cbr_world2d.generate import SCENES, office, scenario, semi_structured
+from cbr_world2d.shapes import free_point
 from cbr_world2d.world import World
-from cbr_world2d.worldfile import dump_world, free_point, world_from_data, world_yaml
+from cbr_world2d.worldfile import world_from_data
+from cbr_world2d.worldfile_writer import dump_world, world_yaml
 from cbrcore.errors import CbrError
 
 ROBOT = 0.25

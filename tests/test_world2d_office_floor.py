@@ -13,9 +13,10 @@ import pytest
 import cbr_world2d
 import cbrcore.builtins
 from cbr_world2d.generate import office_floor
+from cbr_world2d.shapes import free_point
 from cbr_world2d.world import World
 from cbr_world2d.world_components import GeneratedWorldOptions, generated_world
-from cbr_world2d.worldfile import dump_world, free_point
+from cbr_world2d.worldfile_writer import dump_world
 from cbrcore.config import parse_config
 from cbrcore.context import Context
 from cbrcore.errors import CbrError, ConfigError

@@ -19,6 +19,7 @@ from cbr_world2d.navigator import Navigator, NavigatorOptions
 from cbr_world2d.pilots import PotentialFieldOptions, potential_field_pilot
 from cbr_world2d.robot import PIONEER_2DX, Pose, RobotSpec
 from cbr_world2d.sensors import Observation, Odometry, Sensors, SonarRing
+from cbr_world2d.shapes import free_point
 from cbr_world2d.simulation import (
     REACHED,
     TIMEOUT,
@@ -31,7 +32,7 @@ from cbr_world2d.simulation import (
     trial_seeds,
 )
 from cbr_world2d.world import Door, Landmark, Mover, Point, Wall, World
-from cbr_world2d.worldfile import free_point, load_world
+from cbr_world2d.worldfile import load_world
 from cbrcore.errors import CbrError
 from cbrcore.registry import Registry, UnknownComponent
 

@@ -4,6 +4,8 @@ round trip, door phases, free points and the polygon and segment tests behind th
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 from fractions import Fraction
 from importlib import resources
 from pathlib import Path
@@ -16,20 +18,16 @@ from hypothesis import strategies as st
 from matplotlib.path import Path as MplPath
 from scipy.sparse.csgraph import dijkstra
 
-from cbr_world2d.world import Landmark, Mover, Wall, World
-from cbr_world2d.worldfile import (
-    dump_world,
+from cbr_world2d.shapes import (
     free_point,
     inside_polygon,
-    load_world,
     polygon_problem,
-    save_world,
-    schema_reference,
     segment_distances,
     segments_meet,
-    world_from_data,
-    world_yaml,
 )
+from cbr_world2d.world import Landmark, Mover, Wall, World
+from cbr_world2d.worldfile import load_world, schema_reference, world_from_data
+from cbr_world2d.worldfile_writer import dump_world, save_world, world_yaml
 from cbrcore.errors import ConfigError
 
 WORLDS = resources.files("cbr_world2d") / "worlds"
@@ -567,3 +565,16 @@ def test_not_simple_polygons(vertices: list, fragment: str) -> None:
 
 def test_docs_list_every_world_file_key() -> None:
     assert schema_reference() in DOCS.read_text(encoding="utf-8")
+
+
+def test_reading_and_writing_a_world_file_imports_no_compiled_kernels() -> None:
+    """The checks' geometry is numpy (cbr_world2d.shapes): a world file is read, checked and
+    written without importing numba, whose import alone takes a noticeable part of a second."""
+    code = ("import sys; from cbr_world2d.worldfile import load_world; "
+            "from cbr_world2d.worldfile_writer import world_yaml; "
+            f"world_yaml(load_world({str(WORLDS / 'office.yaml')!r})); "
+            "print('numba' in sys.modules)")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            timeout=120, check=True)
+    assert result.stdout.split() == ["False"]
+

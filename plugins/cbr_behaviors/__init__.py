@@ -2,7 +2,7 @@
 
 One case memory holds behavior cases (004 Figure 4: which primitive behaviors to activate,
 their parameters and priorities), plan cases (high-level routes), meta-plans (fall-back
-behaviors) and adaptation strategies (:mod:`cbr_behaviors.cases`, written in YAML or the
+behaviors) and adaptation strategies (:mod:`cbr_behaviors.casetypes`, written in YAML or the
 paper's s-expressions, :mod:`cbr_behaviors.sexpr`); one retrieval reads it, over the index of
 Figure 5 (:mod:`cbr_behaviors.index`, :mod:`cbr_behaviors.memory`). The robot works days of
 message delivery on an office floor (:mod:`cbr_behaviors.delivery`): messages become goals

@@ -1,7 +1,7 @@
 """Adapting a retrieved behavior case with the adaptation strategies of the case memory (004,
 "Adaptation and Learning of Behavior Cases").
 
-Strategies (:class:`~cbr_behaviors.cases.Strategy`) are indexed by the kind of case they adapt
+Strategies (:class:`~cbr_behaviors.casetypes.Strategy`) are indexed by the kind of case they adapt
 and by the per-feature distances ``D_f`` the retrieval reports between the query and the case
 (:mod:`cbr_behaviors.index`). :func:`applicable` finds those that hold for a retrieval and
 ranks them by how well their index matches the distance profile, by their *fit*:
@@ -10,7 +10,7 @@ ranks them by how well their index matches the distance profile, by their *fit*:
   holds: for ``sonar``, ``closer`` when the query's mean range is shorter than the case's
   (``farther``: longer); for ``map``, ``closer`` when the query has more names near the robot
   than the case (``farther``: fewer); for ``closing``, ``closer`` when the person closes in
-  faster; for the other distances of :data:`~cbr_behaviors.cases.SENSED` (the sectors, the
+  faster; for the other distances of :data:`~cbr_behaviors.casetypes.SENSED` (the sectors, the
   width, the person, the doorway), ``closer`` when the query's is shorter; ``any`` always.
   Its fit is ``D_f - min``, how far past its threshold the situation lies;
 - a ``merge`` strategy holds when some shared features match very badly (``D_f >= high``) and
@@ -21,7 +21,7 @@ ranks them by how well their index matches the distance profile, by their *fit*:
 Ties keep the memory's order. Then (:func:`adapt`):
 
 1. every holding alter strategy, best first, applies its changes: for each behavior a
-   :class:`~cbr_behaviors.cases.Change` names, each argument of the target kind (speed,
+   :class:`~cbr_behaviors.casetypes.Change` names, each argument of the target kind (speed,
    distance, turn_rate, by :data:`cbr_world2d.pilots.behaviors.BEHAVIORS`' signatures) or the
    priority becomes ``old * (1 + scale * D_f)``. Symbolic values are resolved first (``slow``:
    10 cm/s, ``moderate`` turning: 50 deg/s, ``med``: 0.6) and the result is written as a number
@@ -50,7 +50,7 @@ from typing import TYPE_CHECKING, Any
 import attrs
 import numpy as np
 
-from cbr_behaviors.cases import BEHAVIOR, SENSED, BehaviorCase, Item, Strategy, params_of
+from cbr_behaviors.casetypes import BEHAVIOR, SENSED, BehaviorCase, Item, Strategy, params_of
 from cbr_behaviors.index import FEATURES, SONAR_MAX, Index, Scales, overall
 from cbr_world2d.pilots.behaviors import (
     LENGTH_UNITS,

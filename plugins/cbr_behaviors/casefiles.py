@@ -1,5 +1,6 @@
-"""RUPART's case files (004): the cases of :mod:`cbr_behaviors.cases` in 004's s-expression
-form or in YAML, read with the line of every problem, and written.
+"""RUPART's case files (004): the cases of :mod:`cbr_behaviors.casetypes` in 004's s-expression
+form or in YAML, read with the line of every problem (each form read into a located tree that
+:func:`cbr_behaviors.casedata.build_case` makes a case of), and written.
 
 A case file is a sequence of forms. In the s-expression form (``.sexp``)::
 
@@ -74,19 +75,15 @@ from typing import Any, Literal
 import yaml
 
 from cbr_behaviors import sexpr
-from cbr_behaviors.cases import (
+from cbr_behaviors.casedata import FORMS, Located, build_case, document, from_case
+from cbr_behaviors.casetypes import (
     ALL,
-    FORMS,
     HAND_MADE,
     KINDS,
     AnyCase,
     CaseFormatError,
-    Located,
     PlanCase,
     Strategy,
-    build_case,
-    document,
-    from_case,
     index_data,
 )
 from cbr_behaviors.index import FRACTIONS

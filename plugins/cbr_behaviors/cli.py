@@ -26,7 +26,7 @@ import typer
 from cbrcore.errors import CbrError, ConfigError
 
 if TYPE_CHECKING:
-    from cbr_behaviors.cases import AnyCase
+    from cbr_behaviors.casetypes import AnyCase
     from cbr_world2d.world import World
     from cbrcore.config import Config
 
@@ -57,7 +57,7 @@ def _read_all(paths: list[Path]) -> list[AnyCase]:
     """The cases of every file, all files read before any is used; one error listing the
     problems of every bad file."""
     from cbr_behaviors.casefiles import read_cases
-    from cbr_behaviors.cases import CaseFormatError
+    from cbr_behaviors.casetypes import CaseFormatError
 
     cases: list[AnyCase] = []
     errors: list[str] = []
@@ -99,7 +99,7 @@ def _store_only(store: str | None, config: Path | None) -> tuple[Config, Path | 
 @app.command()
 def add(files: FilesArgument, store: StoreOption = None, config: ConfigOption = None) -> None:
     """Add the cases of case files to a case base, all in one transaction."""
-    from cbr_behaviors.cases import KINDS
+    from cbr_behaviors.casetypes import KINDS
     from cbrcore.engine import Engine
 
     if (store is None) == (config is None):

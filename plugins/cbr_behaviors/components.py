@@ -34,7 +34,7 @@ from typing import Any
 import attrs
 import numpy as np
 
-from cbr_behaviors.cases import BEHAVIOR, HAND_MADE, META, PLAN, BehaviorCase, PlanCase
+from cbr_behaviors.casetypes import BEHAVIOR, HAND_MADE, META, PLAN, BehaviorCase, PlanCase
 from cbr_behaviors.index import (
     ATTRIBUTES,
     FEATURES,

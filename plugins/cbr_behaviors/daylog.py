@@ -35,7 +35,7 @@ drove into something, or stalled."""
 GOAL_EVENTS = ("message", "delivered", "missed", "unfinished")
 """The event kinds about a message, whose text is the message's place."""
 RETRIEVAL_KINDS = ("behavior_case", "meta_plan", "plan_case", "")
-"""The kinds of case a retrieval installs (:data:`cbr_behaviors.cases.KINDS` less the
+"""The kinds of case a retrieval installs (:data:`cbr_behaviors.casetypes.KINDS` less the
 adaptation strategies, which are never installed), and ``""`` for a consultation that
 installed none."""
 

@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING, Any
 import attrs
 import numpy as np
 
-from cbr_behaviors.cases import freeze
+from cbr_behaviors.casetypes import freeze
 from cbr_behaviors.moment import InstallBehaviors, InstallPlan, Moment, SpellReport
 from cbr_behaviors.triggers import TriggerOptions
 from cbr_grid.planning import planner_problem

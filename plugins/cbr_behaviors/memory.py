@@ -18,7 +18,8 @@ from typing import TYPE_CHECKING
 import attrs
 import numpy as np
 
-from cbr_behaviors.cases import (
+from cbr_behaviors.casedata import case_of, strategy_of
+from cbr_behaviors.casetypes import (
     BEHAVIOR,
     META,
     PLAN,
@@ -26,7 +27,6 @@ from cbr_behaviors.cases import (
     BehaviorCase,
     PlanCase,
     Strategy,
-    case_of,
     freeze,
 )
 from cbr_behaviors.index import Index, Scales
@@ -80,7 +80,7 @@ class CaseMemory:
         cases = [c for kind in INDEXED for c in store.cases(kind)]
         cases.sort(key=lambda c: c.id or 0)
         decoded = [case_of(c, source) for c in cases]
-        strategies = [Strategy.from_case(c, source) for c in store.cases(STRATEGY)]
+        strategies = [strategy_of(c, source) for c in store.cases(STRATEGY)]
         return cls(store, cases, decoded, strategies)  # type: ignore[arg-type]
 
     def __len__(self) -> int:

@@ -221,40 +221,11 @@ class ReplanMonitor:
     def check(self, snapshot: Snapshot) -> list[str]:
         """The triggers that fire at ``snapshot``, in the order of :data:`TRIGGERS`."""
         o = self.options
-        self._changed += snapshot.added + snapshot.removed
-        if self._changed >= o.map_cells:
-            self._events.add("map")
-        if snapshot.critical:
-            self._events.add("message")
-        if snapshot.plan_installed:
-            self._events.add("plan")
-        if self._no_progress(snapshot):
-            self._events.add("impasse")
-            self._progress.clear()
-            self._record(snapshot)
+        self._note_events(snapshot)
         fired = set(self._events)
         base = self._base
         if base is not None:
-            if snapshot.sonar.shape != base.sonar.shape:
-                raise ValueError(f"the sonar has {snapshot.sonar.shape[0]} ranges now and had "
-                                 f"{base.sonar.shape[0]} at the last retrieval")
-            if (snapshot.situation is not None and base.situation is not None
-                    and float(np.max(np.abs(snapshot.situation[_WATCHED]
-                                            - base.situation[_WATCHED]))) > o.change):
-                if self._moved is None:
-                    self._moved = snapshot.t
-                if snapshot.t - self._moved >= o.settle:
-                    fired.add("situation")
-            else:
-                self._moved = None
-            if self._in_way(snapshot) and not self._in_way(base):
-                fired.add("person")
-            if (snapshot.status in STUCK and base.status not in STUCK
-                    and not snapshot.waiting and snapshot.busy):
-                fired.add("impasse")
-            if (snapshot.confidence < o.confidence <= base.confidence
-                    or base.confidence - snapshot.confidence >= o.confidence_drop):
-                fired.add("location")
+            fired |= self._changes(snapshot, base)
         if base is not None and snapshot.t - base.t < o.hold:
             fired &= CRITICAL
             if self._person is not None and snapshot.t - self._person < o.hold:
@@ -266,6 +237,49 @@ class ReplanMonitor:
                           or snapshot.distance - base.distance >= o.distance):
             fired.add("period")
         return [name for name in TRIGGERS if name in fired]
+
+    def _note_events(self, snapshot: Snapshot) -> None:
+        """Remember the events since the last retrieval that ``snapshot`` reports: map
+        changes, critical messages, an installed plan, no progress."""
+        self._changed += snapshot.added + snapshot.removed
+        if self._changed >= self.options.map_cells:
+            self._events.add("map")
+        if snapshot.critical:
+            self._events.add("message")
+        if snapshot.plan_installed:
+            self._events.add("plan")
+        if self._no_progress(snapshot):
+            self._events.add("impasse")
+            self._progress.clear()
+            self._record(snapshot)
+
+    def _changes(self, snapshot: Snapshot, base: Snapshot) -> set[str]:
+        """The triggers that fire on what changed since the last retrieval ``base``: the
+        situation (once it has settled), a person coming into the way, the robot getting
+        stuck, the location confidence falling."""
+        o = self.options
+        fired: set[str] = set()
+        if snapshot.sonar.shape != base.sonar.shape:
+            raise ValueError(f"the sonar has {snapshot.sonar.shape[0]} ranges now and had "
+                             f"{base.sonar.shape[0]} at the last retrieval")
+        if (snapshot.situation is not None and base.situation is not None
+                and float(np.max(np.abs(snapshot.situation[_WATCHED]
+                                        - base.situation[_WATCHED]))) > o.change):
+            if self._moved is None:
+                self._moved = snapshot.t
+            if snapshot.t - self._moved >= o.settle:
+                fired.add("situation")
+        else:
+            self._moved = None
+        if self._in_way(snapshot) and not self._in_way(base):
+            fired.add("person")
+        if (snapshot.status in STUCK and base.status not in STUCK
+                and not snapshot.waiting and snapshot.busy):
+            fired.add("impasse")
+        if (snapshot.confidence < o.confidence <= base.confidence
+                or base.confidence - snapshot.confidence >= o.confidence_drop):
+            fired.add("location")
+        return fired
 
     def _in_way(self, snapshot: Snapshot) -> bool:
         """Whether a person stands within ``near`` metres and ``ahead`` degrees ahead."""

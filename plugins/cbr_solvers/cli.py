@@ -469,41 +469,12 @@ def plan(
     from cbr_grid.path_files import path_format, write_path
 
     if scen is None:
-        if start is None or goal is None:
-            raise typer.BadParameter("give --start and --goal, or --scen",
-                                     param_hint="'--start' / '--goal'")
-        if limit is not None:
-            raise typer.BadParameter("--limit applies to --scen only", param_hint="'--limit'")
+        _check_one_plan(start, goal, limit)
     else:
-        if start is not None or goal is not None:
-            raise typer.BadParameter("--scen plans the file's own starts and goals",
-                                     param_hint="'--start' / '--goal'")
-        if plot is not None:
-            raise typer.BadParameter("--plot draws one path, not the scenarios of --scen",
-                                     param_hint="'--plot'")
-        if path_out is not None:
-            raise typer.BadParameter("--path-out writes one path, not the scenarios of --scen",
-                                     param_hint="'--path-out'")
-        if map_file.suffix.lower() != ".map":
-            raise typer.BadParameter(f"Moving AI scenarios go with a Moving AI .map, not "
-                                     f"{map_file.name}", param_hint="'--scen'")
-        if frame is FrameName.map:
-            raise typer.BadParameter("scenarios give cells: --frame map does not apply",
-                                     param_hint="'--frame'")
-        given = [option for option, value in (("--robot-radius", robot_radius),
-                                              ("--inflation-radius", inflation_radius),
-                                              ("--cost-scaling", cost_scaling))
-                 if value is not None]
-        if given:
-            raise typer.BadParameter("a scenario file's optimal lengths are for the map as it "
-                                     "is: --scen plans without inflation",
-                                     param_hint=" / ".join(f"'{o}'" for o in given))
-    if frame is FrameName.map:
-        start_at = None if start is None else _point(start, "--start")
-        goal_at = None if goal is None else _point(goal, "--goal")
-    else:
-        start_at = None if start is None else _cell(start, "--start", map_file, allow_unknown)
-        goal_at = None if goal is None else _cell(goal, "--goal", map_file, allow_unknown)
+        _check_scenario_plans(map_file, start, goal, frame, plot, path_out,
+                              (robot_radius, inflation_radius, cost_scaling))
+    start_at = _given(start, "--start", frame, map_file, allow_unknown)
+    goal_at = _given(goal, "--goal", frame, map_file, allow_unknown)
     if path_out is not None:
         try:
             path_format(path_out)
@@ -537,6 +508,62 @@ def plan(
     if as_json:
         typer.echo(json.dumps(record))
         return
+    _print_plan(record, grid, frame)
+    for written in (path_out, plot):
+        if written is not None:
+            typer.echo(f"wrote {written}")
+
+
+def _check_one_plan(start: str | None, goal: str | None, limit: int | None) -> None:
+    if start is None or goal is None:
+        raise typer.BadParameter("give --start and --goal, or --scen",
+                                 param_hint="'--start' / '--goal'")
+    if limit is not None:
+        raise typer.BadParameter("--limit applies to --scen only", param_hint="'--limit'")
+
+
+def _check_scenario_plans(map_file: Path, start: str | None, goal: str | None,
+                          frame: FrameName, plot: Path | None, path_out: Path | None,
+                          inflation: tuple[float | None, float | None, float | None]) -> None:
+    """Refuse the options that do not go with ``--scen``; ``inflation`` holds the values of
+    --robot-radius, --inflation-radius and --cost-scaling."""
+    if start is not None or goal is not None:
+        raise typer.BadParameter("--scen plans the file's own starts and goals",
+                                 param_hint="'--start' / '--goal'")
+    if plot is not None:
+        raise typer.BadParameter("--plot draws one path, not the scenarios of --scen",
+                                 param_hint="'--plot'")
+    if path_out is not None:
+        raise typer.BadParameter("--path-out writes one path, not the scenarios of --scen",
+                                 param_hint="'--path-out'")
+    if map_file.suffix.lower() != ".map":
+        raise typer.BadParameter(f"Moving AI scenarios go with a Moving AI .map, not "
+                                 f"{map_file.name}", param_hint="'--scen'")
+    if frame is FrameName.map:
+        raise typer.BadParameter("scenarios give cells: --frame map does not apply",
+                                 param_hint="'--frame'")
+    given = [option for option, value in zip(("--robot-radius", "--inflation-radius",
+                                              "--cost-scaling"), inflation, strict=True)
+             if value is not None]
+    if given:
+        raise typer.BadParameter("a scenario file's optimal lengths are for the map as it "
+                                 "is: --scen plans without inflation",
+                                 param_hint=" / ".join(f"'{o}'" for o in given))
+
+
+def _given(text: str | None, option: str, frame: FrameName, map_file: Path,
+           allow_unknown: bool) -> Cell | tuple[float, float] | None:
+    """The --start or --goal written: a point in metres with --frame map, else a cell; None
+    when not given."""
+    if text is None:
+        return None
+    if frame is FrameName.map:
+        return _point(text, option)
+    return _cell(text, option, map_file, allow_unknown)
+
+
+def _print_plan(record: dict[str, Any], grid: Grid, frame: FrameName) -> None:
+    """A planned path's summary, one fact a line."""
     for key in ("length", "cost", "turns", "time_ms", "expanded", "search", "length_m"):
         value = record.get(key)
         if value is not None:
@@ -549,10 +576,6 @@ def plan(
         typer.echo(f"{'reversing':<9} {sum(record['reversing'])} of {len(record['reversing'])} "
                    "steps")
     typer.echo(f"{'path':<9} {_summary(record, grid, frame)}")
-    for written in (path_out, plot):
-        if written is not None:
-            typer.echo(f"wrote {written}")
-
 
 def show(
     map_file: MapPath,

@@ -1,10 +1,27 @@
-"""attrs validators of the 2D world's numbers: finite, and on the right side of zero."""
+"""attrs validators of the 2D world's numbers: finite, and on the right side of zero; and the
+way problems show those numbers."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import attrs
+
+from cbrcore.documents import found
+
+
+def number_text(value: float) -> str:
+    """A number as an error shows it: integers without a decimal point, 15 digits at most."""
+    try:
+        return format(float(value), ".15g")
+    except OverflowError:  # an integer past the largest float
+        return found(value, setting=True)
+
+
+def point_text(point: Sequence[float]) -> str:
+    """A point (or bounds) as an error shows it: ``[x, y]``."""
+    return f"[{', '.join(number_text(v) for v in point)}]"
 
 
 def positive(instance: object, attribute: attrs.Attribute, value: float) -> None:

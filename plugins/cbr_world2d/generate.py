@@ -4,16 +4,17 @@ scenarios (Figure 7) and office floors (004's building).
 Each generator draws every choice from ``numpy.random.default_rng(seed)``, so one seed always
 gives the same world, writes the world as world file data and reads it back with
 :func:`cbr_world2d.worldfile.world_from_data`: a generated world passes the same checks as a
-file, and :func:`~cbr_world2d.worldfile.world_yaml` writes it out as one. Coordinates are
+file, and :func:`~cbr_world2d.worldfile_writer.world_yaml` writes it out as one. Coordinates are
 rounded to the millimetre and times to the tenth of a second, so the files read well.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
+import attrs
 import numpy as np
 
 from cbr_world2d.geometry import clearance
@@ -308,6 +309,38 @@ def office(seed: Seed, *, rooms: int = 4, room_width: float = 4.0, room_depth: f
     two hallways ``hall_1_west``, ... ``hall_2_east``, and ``hall_west``, ``hall_east`` for
     the first hallway's ends as well). ``doors_open`` keeps every door open all the time.
     """
+    _check_office(rooms, room_width, room_depth, hallway_width, hallways, door_width)
+    if people < 0 or objects < 0 or not 0 <= furniture <= 1:
+        raise CbrError(f"expected people, objects >= 0 and furniture in [0, 1], got "
+                       f"{people}, {objects}, {furniture}")
+    rng = np.random.default_rng(seed)
+    # the bounds are rounded as every coordinate is, so rounding keeps everything inside
+    floor = _Floor(rooms, room_width, room_depth, hallway_width, hallways, door_width,
+                   _mm(rooms * room_width),
+                   _mm((3 * room_depth + 2 * hallway_width) if hallways == 2
+                       else (2 * room_depth + hallway_width)))
+    boxes, walls, lines = _office_rooms(rng, floor)
+    doors, landmarks, places, gaps = _office_doors(rng, floor, boxes, doors_open)
+    for y, x0, x1 in lines:
+        for a, b in _pieces(x0, x1, gaps.get(y, [])):
+            walls.append({"a": [_mm(a), _mm(y)], "b": [_mm(b), _mm(y)]})
+    places.update(_hallway_places(floor))
+    # furniture last, clear of everything so far: a desk against the far wall, then a chair
+    frame = world_from_data({"bounds": [0.0, 0.0, floor.width, floor.height], "walls": walls,
+                             "landmarks": landmarks}, "office")
+    polygons, chairs = _office_furniture(rng, floor, boxes, furniture, frame, places, doors)
+    movers = ([_person(rng, floor) for _ in range(people)]
+              + [_object(rng, floor) for _ in range(objects)])
+    data = {"name": _name(name, seed), "bounds": [0.0, 0.0, float(floor.width),
+                                                  float(floor.height)],
+            "landmarks": landmarks, "walls": walls, "polygons": polygons,
+            "points": [{"at": c[:2], "radius": c[2]} for c in chairs], "doors": doors,
+            "movers": movers, "places": places}
+    return world_from_data(data, f"office(seed={seed})")
+
+
+def _check_office(rooms: int, room_width: float, room_depth: float, hallway_width: float,
+                  hallways: int, door_width: float) -> None:
     if rooms < (2 if hallways == 2 else 1) or hallways not in (1, 2):
         raise CbrError(f"expected hallways 1 or 2 and at least {2 if hallways == 2 else 1} "
                        f"rooms a side, got hallways={hallways}, rooms={rooms}")
@@ -317,43 +350,77 @@ def office(seed: Seed, *, rooms: int = 4, room_width: float = 4.0, room_depth: f
     if room_depth < 3.0 or hallway_width < 1.5:
         raise CbrError(f"expected rooms at least 3 m deep and hallways at least 1.5 m wide, got "
                        f"room_depth={room_depth}, hallway_width={hallway_width}")
-    if people < 0 or objects < 0 or not 0 <= furniture <= 1:
-        raise CbrError(f"expected people, objects >= 0 and furniture in [0, 1], got "
-                       f"{people}, {objects}, {furniture}")
-    rng = np.random.default_rng(seed)
-    depth, hall = room_depth, hallway_width
-    # the bounds are rounded as every coordinate is, so rounding keeps everything inside
-    width = _mm(rooms * room_width)
-    height = _mm((3 * depth + 2 * hall) if hallways == 2 else (2 * depth + hall))
-    # each room: its box, the y of its door's wall and which way the hallway lies from it
-    boxes: list[tuple[float, float, float, float, float, int]] = [
-        (k * room_width, 0.0, (k + 1) * room_width, depth, depth, 1) for k in range(rooms)]
+
+
+@attrs.frozen
+class _Floor:
+    """An office floor's dimensions (see :func:`office`), ``width`` and ``height`` its
+    bounds'."""
+
+    rooms: int
+    room_width: float
+    depth: float
+    hall: float
+    hallways: int
+    door_width: float
+    width: float
+    height: float
+
+    @property
+    def hallway_ys(self) -> list[float]:
+        """The lower side of each hallway."""
+        return [self.depth] if self.hallways == 1 else [self.depth, 2 * self.depth + self.hall]
+
+
+Room = tuple[float, float, float, float, float, int]
+"""A room: its box ``x0, y0, x1, y1``, the y of its door's wall and which way (+1 up, -1 down)
+the hallway lies from it."""
+
+
+def _office_rooms(rng: np.random.Generator, floor: _Floor
+                  ) -> tuple[list[Room], list[dict[str, Any]], list[tuple[float, float, float]]]:
+    """The rooms, the walls between them and the hallway walls ``(y, x0, x1)`` that the doors
+    break."""
+    depth, hall, width, height = floor.depth, floor.hall, floor.width, floor.height
+    boxes: list[Room] = [(k * floor.room_width, 0.0, (k + 1) * floor.room_width, depth, depth, 1)
+                         for k in range(floor.rooms)]
     walls: list[dict[str, Any]] = []
-    lines = [(depth, 0.0, width)]  # hallway walls: (y, x0, x1)
-    if hallways == 2:
-        middle = (width - 2 * hall) / (rooms - 1)
-        if middle < door_width + 1.4:
+    lines = [(depth, 0.0, width)]
+    if floor.hallways == 2:
+        middle = (width - 2 * hall) / (floor.rooms - 1)
+        if middle < floor.door_width + 1.4:
             raise CbrError(f"the middle row's rooms would be {middle:.3g} m wide, less than "
                            f"the door plus 1.4 m; widen the rooms or narrow the hallways")
         low, high = depth + hall, 2 * depth + hall
-        for k in range(rooms - 1):
+        for k in range(floor.rooms - 1):
             down = bool(rng.random() < 0.5)
             boxes.append((hall + k * middle, low, hall + (k + 1) * middle, high,
                           low if down else high, -1 if down else 1))
         lines += [(low, hall, width - hall), (high, hall, width - hall)]
         for x in (hall, width - hall):
             walls.append({"a": [_mm(x), _mm(low)], "b": [_mm(x), _mm(high)]})
-        for k in range(1, rooms - 1):
+        for k in range(1, floor.rooms - 1):
             x = _mm(hall + k * middle)
             walls.append({"a": [x, _mm(low)], "b": [x, _mm(high)]})
     top = height - depth
-    boxes += [(k * room_width, top, (k + 1) * room_width, height, top, -1) for k in range(rooms)]
+    boxes += [(k * floor.room_width, top, (k + 1) * floor.room_width, height, top, -1)
+              for k in range(floor.rooms)]
     lines.append((top, 0.0, width))
-    for k in range(1, rooms):
-        x = _mm(k * room_width)
+    for k in range(1, floor.rooms):
+        x = _mm(k * floor.room_width)
         walls += [{"a": [x, 0.0], "b": [x, _mm(depth)]},
                   {"a": [x, _mm(top)], "b": [x, _mm(height)]}]
-    doors, landmarks, places, polygons, gaps = [], [], {}, [], {}
+    return boxes, walls, lines
+
+
+def _office_doors(rng: np.random.Generator, floor: _Floor, boxes: Sequence[Room],
+                  doors_open: bool) -> tuple[list[dict[str, Any]], list[dict[str, Any]],
+                                             dict[str, list[float]],
+                                             dict[float, list[tuple[float, float]]]]:
+    """Each room's door and sign, the rooms' places, and the doors' gaps in each hallway wall
+    (by its y)."""
+    door_width = floor.door_width
+    doors, landmarks, places, gaps = [], [], {}, {}
     for k, (bx0, by0, bx1, by1, wall_y, side) in enumerate(boxes, start=1):
         centre = _mm(rng.uniform(bx0 + door_width / 2 + 0.4, bx1 - door_width / 2 - 0.4))
         g0, g1 = _mm(centre - door_width / 2), _mm(centre + door_width / 2)
@@ -368,19 +435,27 @@ def office(seed: Seed, *, rooms: int = 4, room_width: float = 4.0, room_depth: f
         landmarks.append({"id": f"sign_{k}", "at": [_mm(sign_x), _mm(wall_y + side * 0.15)],
                           "radius": 0.1})
         places[f"room_{k}"] = [_mm((bx0 + bx1) / 2), _mm((by0 + by1) / 2)]
-    for y, x0, x1 in lines:
-        for a, b in _pieces(x0, x1, gaps.get(y, [])):
-            walls.append({"a": [_mm(a), _mm(y)], "b": [_mm(b), _mm(y)]})
-    hallway_ys = [depth] if hallways == 1 else [depth, 2 * depth + hall]
-    for n, y in enumerate(hallway_ys, start=1):
-        prefix = "hall" if hallways == 1 else f"hall_{n}"
-        places[f"{prefix}_west"] = [0.75, _mm(y + hall / 2)]
-        places[f"{prefix}_east"] = [_mm(width - 0.75), _mm(y + hall / 2)]
-        if n == 1 and hallways == 2:
+    return doors, landmarks, places, gaps
+
+
+def _hallway_places(floor: _Floor) -> dict[str, list[float]]:
+    places: dict[str, list[float]] = {}
+    for n, y in enumerate(floor.hallway_ys, start=1):
+        prefix = "hall" if floor.hallways == 1 else f"hall_{n}"
+        places[f"{prefix}_west"] = [0.75, _mm(y + floor.hall / 2)]
+        places[f"{prefix}_east"] = [_mm(floor.width - 0.75), _mm(y + floor.hall / 2)]
+        if n == 1 and floor.hallways == 2:
             places["hall_west"], places["hall_east"] = places["hall_1_west"], places["hall_1_east"]
-    # furniture last, clear of everything so far: a desk against the far wall, then a chair
-    frame = world_from_data({"bounds": [0.0, 0.0, width, height], "walls": walls,
-                             "landmarks": landmarks}, "office")
+    return places
+
+
+def _office_furniture(rng: np.random.Generator, floor: _Floor, boxes: Sequence[Room],
+                      furniture: float, frame: World, places: Mapping[str, list[float]],
+                      doors: Sequence[Mapping[str, Any]]
+                      ) -> tuple[list[list[list[float]]], list[list[float]]]:
+    """A desk (a polygon) against each furnished room's far wall, and a chair (a disc
+    ``[x, y, radius]``) where one fits clear of the room's centre, its door and its desk."""
+    polygons: list[list[list[float]]] = []
     chairs: list[list[float]] = []
     for k, (bx0, by0, bx1, by1, wall_y, side) in enumerate(boxes, start=1):
         if rng.random() >= furniture:
@@ -396,41 +471,43 @@ def office(seed: Seed, *, rooms: int = 4, room_width: float = 4.0, room_depth: f
         spot = _free_spot(rng, (bx0, by0), (bx1, by1), r, 0.3, frame.static_segments,
                           np.asarray(chairs, dtype=float).reshape(-1, 3),
                           [(*places[f"room_{k}"], 0.8 + r),
-                           ((door["a"][0] + door["b"][0]) / 2, wall_y, door_width / 2 + 0.7 + r),
+                           ((door["a"][0] + door["b"][0]) / 2, wall_y,
+                            floor.door_width / 2 + 0.7 + r),
                            *desk])
         if spot is not None:
             chairs.append([*spot, r])
-    lanes = [(y + 0.55, y + hall - 0.55) for y in hallway_ys]
-    movers: list[dict[str, Any]] = []
-    for _ in range(people):
-        offset = rng.uniform(0.55, hall - 0.55)
-        if hallways == 1:
-            y = _mm(depth + offset)
-            path = [[_mm(rng.uniform(0.5, width / 2 - 1)), y],
-                    [_mm(rng.uniform(width / 2 + 1, width - 0.5)), y]]
-        else:
-            lo, hi = depth + offset, 2 * depth + 2 * hall - offset
-            path = [[_mm(offset), _mm(lo)], [_mm(width - offset), _mm(lo)],
-                    [_mm(width - offset), _mm(hi)], [_mm(offset), _mm(hi)]]
-            if rng.random() < 0.5:
-                path.reverse()
-            turn = int(rng.integers(len(path)))
-            path = path[turn:] + path[:turn]
-        movers.append({"waypoints": path, "speed": round(rng.uniform(0.5, 1.3), 2),
-                       "radius": 0.25, "kind": "person", "appears": round(rng.uniform(0, 20), 1),
-                       "yields": True})
-    for _ in range(objects):
-        y0, y1 = lanes[int(rng.integers(len(lanes)))]
-        appears = round(rng.uniform(0, 60), 1)
-        movers.append({"waypoints": [[_mm(rng.uniform(1.0, width - 1.0)),
-                                      _mm(rng.uniform(y0, y1))]],
-                       "speed": 0.0, "radius": _mm(rng.uniform(0.2, 0.35)), "kind": "object",
-                       "appears": appears, "leaves": round(appears + rng.uniform(30, 120), 1)})
-    data = {"name": _name(name, seed), "bounds": [0.0, 0.0, float(width), float(height)],
-            "landmarks": landmarks, "walls": walls, "polygons": polygons,
-            "points": [{"at": c[:2], "radius": c[2]} for c in chairs], "doors": doors,
-            "movers": movers, "places": places}
-    return world_from_data(data, f"office(seed={seed})")
+    return polygons, chairs
+
+
+def _person(rng: np.random.Generator, floor: _Floor) -> dict[str, Any]:
+    """A person walking the hallway: back and forth along it with one, round the loop with
+    two."""
+    depth, hall, width = floor.depth, floor.hall, floor.width
+    offset = rng.uniform(0.55, hall - 0.55)
+    if floor.hallways == 1:
+        y = _mm(depth + offset)
+        path = [[_mm(rng.uniform(0.5, width / 2 - 1)), y],
+                [_mm(rng.uniform(width / 2 + 1, width - 0.5)), y]]
+    else:
+        lo, hi = depth + offset, 2 * depth + 2 * hall - offset
+        path = [[_mm(offset), _mm(lo)], [_mm(width - offset), _mm(lo)],
+                [_mm(width - offset), _mm(hi)], [_mm(offset), _mm(hi)]]
+        if rng.random() < 0.5:
+            path.reverse()
+        turn = int(rng.integers(len(path)))
+        path = path[turn:] + path[:turn]
+    return {"waypoints": path, "speed": round(rng.uniform(0.5, 1.3), 2), "radius": 0.25,
+            "kind": "person", "appears": round(rng.uniform(0, 20), 1), "yields": True}
+
+
+def _object(rng: np.random.Generator, floor: _Floor) -> dict[str, Any]:
+    """A transient object standing in a hallway for a while."""
+    lanes = [(y + 0.55, y + floor.hall - 0.55) for y in floor.hallway_ys]
+    y0, y1 = lanes[int(rng.integers(len(lanes)))]
+    appears = round(rng.uniform(0, 60), 1)
+    return {"waypoints": [[_mm(rng.uniform(1.0, floor.width - 1.0)), _mm(rng.uniform(y0, y1))]],
+            "speed": 0.0, "radius": _mm(rng.uniform(0.2, 0.35)), "kind": "object",
+            "appears": appears, "leaves": round(appears + rng.uniform(30, 120), 1)}
 
 
 def office_floor(seed: Seed, *, people: int | None = None, objects: int | None = None,

@@ -31,8 +31,8 @@ from cbr_world2d.pilots.monitor import STUCK
 from cbr_world2d.robot import PIONEER_2DX, Pose, RobotSpec, RobotState
 from cbr_world2d.robot import step as robot_step
 from cbr_world2d.sensors import Observation, Sensors
+from cbr_world2d.shapes import free_point
 from cbr_world2d.world import Point, World
-from cbr_world2d.worldfile import free_point
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.options import structure_options

@@ -1,5 +1,5 @@
-"""The YAML world file: its schema, reading it into a :class:`~cbr_world2d.world.World` with
-every problem reported at once, and writing a world back.
+"""The YAML world file: its schema, and reading it into a :class:`~cbr_world2d.world.World`
+with every problem reported at once (:mod:`cbr_world2d.worldfile_writer` writes a world back).
 
 A world file is a mapping (lengths in metres, times in seconds)::
 
@@ -38,24 +38,21 @@ import functools
 import math
 import re
 import typing
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Literal, NewType, Protocol
+from typing import Any, Literal, NewType, Protocol, TypeVar
 
 import attrs
 import numpy as np
-import yaml
 
+from cbr_world2d.checks import number_text, point_text
+from cbr_world2d.shapes import MIN_LENGTH, free_point, polygon_problem, rim_wall
 from cbr_world2d.world import Door, Landmark, Mover, Point, Wall, World
 from cbrcore.config import read_yaml
 from cbrcore.documents import found
 from cbrcore.errors import ConfigError
 from cbrcore.names import name_problem
 from cbrcore.options import converter, option, option_problems
-
-MIN_LENGTH = 1e-6
-"""Walls, doors and polygon edges shorter than this (a micrometre) count as zero-length: the
-geometry kernels divide by their lengths."""
 
 MAX_MAGNITUDE = 1e6
 """The largest magnitude of a number in a world file: coordinates within a thousand
@@ -75,16 +72,9 @@ Pair = NewType("Pair", tuple[str, str])
 Box = NewType("Box", tuple[float, float, float, float])
 """Bounds ``[xmin, ymin, xmax, ymax]`` with ``xmin < xmax`` and ``ymin < ymax``."""
 
-def _number(value: Any) -> bool:
+def is_number(value: Any) -> bool:
+    """Whether ``value`` is a number as YAML writes one (a boolean is not)."""
     return isinstance(value, int | float) and not isinstance(value, bool)
-
-
-def _num(value: float) -> str:
-    """A number as an error shows it: integers without a decimal point, 15 digits at most."""
-    try:
-        return format(float(value), ".15g")
-    except OverflowError:  # an integer past the largest float
-        return found(value, setting=True)
 
 
 def _finite(value: float) -> bool:
@@ -92,19 +82,15 @@ def _finite(value: float) -> bool:
     return isinstance(value, int) or math.isfinite(value)
 
 
-def _pt(point: Sequence[float]) -> str:
-    return f"[{', '.join(_num(v) for v in point)}]"
-
-
 def _numbers(value: Any, count: int, label: str) -> tuple[float, ...]:
     if not (isinstance(value, list | tuple) and len(value) == count
-            and all(_number(v) for v in value)):
+            and all(is_number(v) for v in value)):
         raise TypeError(f"expected {label}, got {found(value, setting=True)}")
     if not all(_finite(v) for v in value):
-        raise ValueError(f"expected {label} of finite numbers, got {_pt(value)}")
+        raise ValueError(f"expected {label} of finite numbers, got {point_text(value)}")
     if not all(abs(v) <= MAX_MAGNITUDE for v in value):
         raise ValueError(f"expected {label} of numbers within ±{MAX_MAGNITUDE:g} (the limit), "
-                         f"got {_pt(value)}")
+                         f"got {point_text(value)}")
     return tuple(float(v) for v in value)
 
 
@@ -114,13 +100,13 @@ def _structure_xy(value: Any, _: type) -> tuple[float, float]:
 
 
 def _structure_finite(value: Any, _: type) -> float:
-    if not _number(value):
+    if not is_number(value):
         raise TypeError(f"expected a number, got {found(value, setting=True)}")
     if not _finite(value):
-        raise ValueError(f"expected a finite number, got {_num(value)}")
+        raise ValueError(f"expected a finite number, got {number_text(value)}")
     if abs(value) > MAX_MAGNITUDE:
         raise ValueError(f"expected a number within ±{MAX_MAGNITUDE:g} (the limit), got "
-                         f"{_num(value)}")
+                         f"{number_text(value)}")
     return float(value)
 
 
@@ -135,7 +121,7 @@ def _structure_box(value: Any, _: type) -> tuple[float, float, float, float]:
     xmin, ymin, xmax, ymax = _numbers(value, 4, "bounds [xmin, ymin, xmax, ymax]")
     if not (xmin < xmax and ymin < ymax):
         raise ValueError(f"expected bounds [xmin, ymin, xmax, ymax] with xmin < xmax and "
-                         f"ymin < ymax, got {_pt(value)}")
+                         f"ymin < ymax, got {point_text(value)}")
     return xmin, ymin, xmax, ymax
 
 
@@ -268,6 +254,9 @@ class _NoMarks:
 
 
 Problems = list[tuple[str, str]]
+T = TypeVar("T")
+Bounds = Sequence[float] | None
+"""A world file's bounds, None when they are wrong themselves (and reported)."""
 
 
 # --- structuring ---------------------------------------------------------------------------------
@@ -359,118 +348,44 @@ def _structure(data: Mapping[str, Any], problems: Problems) -> dict[str, Any]:
 
 # --- geometry checks -----------------------------------------------------------------------------
 
-def _box(bounds: Sequence[float]) -> str:
-    return _pt(bounds)
 
 
-def _in_bounds(bounds: Sequence[float] | None, x: float, y: float, margin: float = 0.0) -> bool:
+def _in_bounds(bounds: Bounds, x: float, y: float, margin: float = 0.0) -> bool:
     if bounds is None:
         return True  # the bounds are wrong themselves, and reported
     xmin, ymin, xmax, ymax = bounds
     return xmin + margin <= x <= xmax - margin and ymin + margin <= y <= ymax - margin
 
 
-def _check_point(bounds: Sequence[float] | None, point: Point, path: str,
+def _check_point(bounds: Bounds, point: Point, path: str,
                  problems: Problems) -> None:
     if not _in_bounds(bounds, *point):
         assert bounds is not None
-        problems.append((path, f"expected a point inside the bounds {_box(bounds)}, got "
-                               f"{_pt(point)}"))
+        problems.append((path, f"expected a point inside the bounds {point_text(bounds)}, got "
+                               f"{point_text(point)}"))
 
 
-def _check_disc(bounds: Sequence[float] | None, at: Point, radius: float, path: str,
+def _check_disc(bounds: Bounds, at: Point, radius: float, path: str,
                 problems: Problems) -> None:
     if radius <= 0:
-        problems.append((f"{path}.radius", f"expected a positive number, got {_num(radius)}"))
+        problems.append((f"{path}.radius", f"expected a positive number, got "
+                                           f"{number_text(radius)}"))
     elif not _in_bounds(bounds, *at, radius):
         assert bounds is not None
-        problems.append((f"{path}.at", f"expected a disc inside the bounds {_box(bounds)}, got "
-                                       f"centre {_pt(at)} and radius {_num(radius)}"))
+        problems.append((f"{path}.at", f"expected a disc inside the bounds "
+                                       f"{point_text(bounds)}, got centre {point_text(at)} and "
+                                       f"radius {number_text(radius)}"))
 
 
-def _check_segment(bounds: Sequence[float] | None, a: Point, b: Point, path: str,
+def _check_segment(bounds: Bounds, a: Point, b: Point, path: str,
                    problems: Problems) -> bool:
     _check_point(bounds, a, f"{path}.a", problems)
     _check_point(bounds, b, f"{path}.b", problems)
     if math.hypot(b[0] - a[0], b[1] - a[1]) < MIN_LENGTH:
-        problems.append((f"{path}.b", f"expected an end apart from a {_pt(a)} (a zero-length "
-                                      f"segment), got {_pt(b)}"))
+        problems.append((f"{path}.b", f"expected an end apart from a {point_text(a)} (a "
+                                      f"zero-length segment), got {point_text(b)}"))
         return False
     return True
-
-
-def _orient(ox: np.ndarray, oy: np.ndarray, ax: np.ndarray, ay: np.ndarray, bx: np.ndarray,
-            by: np.ndarray) -> np.ndarray:
-    return np.sign((ax - ox) * (by - oy) - (ay - oy) * (bx - ox))
-
-
-def _on_box(p: np.ndarray, qx: np.ndarray, qy: np.ndarray) -> np.ndarray:
-    """Whether ``(qx, qy)``, collinear with segment ``p``, lies within its bounding box."""
-    return ((np.minimum(p[:, 0], p[:, 2]) <= qx) & (qx <= np.maximum(p[:, 0], p[:, 2]))
-            & (np.minimum(p[:, 1], p[:, 3]) <= qy) & (qy <= np.maximum(p[:, 1], p[:, 3])))
-
-
-def segments_meet(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Whether the closed segments ``p[i]`` and ``q[i]`` (rows ``x0, y0, x1, y1``) share a
-    point, touching included; exact orientation tests, vectorised over the rows."""
-    d1 = _orient(q[:, 0], q[:, 1], q[:, 2], q[:, 3], p[:, 0], p[:, 1])
-    d2 = _orient(q[:, 0], q[:, 1], q[:, 2], q[:, 3], p[:, 2], p[:, 3])
-    d3 = _orient(p[:, 0], p[:, 1], p[:, 2], p[:, 3], q[:, 0], q[:, 1])
-    d4 = _orient(p[:, 0], p[:, 1], p[:, 2], p[:, 3], q[:, 2], q[:, 3])
-    proper = (d1 * d2 < 0) & (d3 * d4 < 0)
-    touch = (((d1 == 0) & _on_box(q, p[:, 0], p[:, 1])) | ((d2 == 0) & _on_box(q, p[:, 2], p[:, 3]))
-             | ((d3 == 0) & _on_box(p, q[:, 0], q[:, 1]))
-             | ((d4 == 0) & _on_box(p, q[:, 2], q[:, 3])))
-    return proper | touch
-
-
-def polygon_problem(vertices: np.ndarray) -> tuple[int | None, str] | None:
-    """Why the vertices ``(k, 2)`` do not make a simple polygon, as ``(vertex index or None,
-    message)``, or None when they do: fewer than three vertices, two consecutive ones the same,
-    no area, or edges that cross, touch or fold back on each other."""
-    k = len(vertices)
-    if k < 3:
-        return None, f"expected at least 3 vertices [x, y], got {k}"
-    nxt = np.roll(vertices, -1, axis=0)
-    lengths = np.hypot(*(nxt - vertices).T)
-    if (short := np.flatnonzero(lengths < MIN_LENGTH)).size:
-        i = int(short[0])
-        return (i + 1) % k, (f"expected a vertex apart from vertex {i} {_pt(vertices[i])}, got "
-                             f"{_pt(vertices[(i + 1) % k])}")
-    edges = np.concatenate([vertices, nxt], axis=1)
-    # consecutive edges share a vertex; they overlap only when they fold straight back
-    before, after = vertices - np.roll(vertices, 1, axis=0), nxt - vertices
-    cross = before[:, 0] * after[:, 1] - before[:, 1] * after[:, 0]
-    dot = (before * after).sum(axis=1)
-    if (fold := np.flatnonzero((cross == 0) & (dot < 0))).size:
-        i = int(fold[0])
-        return i, f"expected a simple polygon, got edges {(i - 1) % k} and {i} folding back at " \
-                  f"vertex {i} {_pt(vertices[i])}"
-    i, j = np.triu_indices(k, 2)
-    apart = ~((i == 0) & (j == k - 1))
-    i, j = i[apart], j[apart]
-    meet = segments_meet(edges[i], edges[j])
-    if meet.any():
-        first = int(np.flatnonzero(meet)[0])
-        return None, f"expected a simple polygon, got edges {i[first]} and {j[first]} crossing " \
-                     "or touching"
-    # a simple polygon has an area; this catches what rounding let through the tests above
-    area = 0.5 * float(np.sum(vertices[:, 0] * nxt[:, 1] - nxt[:, 0] * vertices[:, 1]))
-    extent = float(np.ptp(vertices, axis=0).max())
-    if abs(area) <= 1e-12 * extent * extent:
-        return None, f"expected a polygon with an area, got area {area:.3g}"
-    return None
-
-
-def _rim_wall(first: LandmarkSpec, second: LandmarkSpec) -> tuple[Point, Point] | None:
-    """The segment joining the facing rim points of two landmarks, None when they overlap."""
-    dx, dy = second.at[0] - first.at[0], second.at[1] - first.at[1]
-    gap = math.hypot(dx, dy)
-    if gap - first.radius - second.radius < MIN_LENGTH:
-        return None
-    ux, uy = dx / gap, dy / gap
-    return ((first.at[0] + first.radius * ux, first.at[1] + first.radius * uy),
-            (second.at[0] - second.radius * ux, second.at[1] - second.radius * uy))
 
 
 def _door_phase(seed: int, index: int, period: float) -> float:
@@ -494,123 +409,163 @@ def _build(values: dict[str, Any], raw: Mapping[str, Any], seed: int,
     bounds = values["bounds"]
     if values["seed"] < 0:
         problems.append(("seed", f"expected a non-negative integer, got {values['seed']}"))
-    landmarks: dict[str, LandmarkSpec] = {}
+    landmarks, marks = _landmarks(values["landmarks"], bounds, problems)
+    known = set(landmarks) | _ids(raw.get("landmarks"))
+    walls = _made(_wall(spec, f"walls.{i}", bounds, landmarks, known, problems)
+                  for i, spec in values["walls"])
+    polygons = _made(_polygon(vertices, f"polygons.{i}", bounds, problems)
+                     for i, vertices in values["polygons"])
+    points = []
+    for i, spec in values["points"]:
+        _check_disc(bounds, spec.at, spec.radius, f"points.{i}", problems)
+        points.append((spec.at[0], spec.at[1], spec.radius))
+    doors = _made(_door(spec, i, seed, bounds, problems) for i, spec in values["doors"])
+    movers = _made(_mover(spec, f"{section}.{i}", bounds, problems)
+                   for section in ("people", "movers") for i, spec in values[section])
+    if bounds is None:
+        return None
+    world = World(bounds, walls, polygons, tuple(points), tuple(marks), doors, movers, {},
+                  values["name"])
+    return attrs.evolve(world, places=_places(world, values["places"], problems))
+
+
+def _made(built: Iterable[T | None]) -> tuple[T, ...]:
+    """The items built, without those that were not (their problems are reported)."""
+    return tuple(item for item in built if item is not None)
+
+
+def _landmarks(items: list[tuple[int, LandmarkSpec]], bounds: Bounds,
+               problems: Problems) -> tuple[dict[str, Landmark], list[Landmark]]:
+    """The landmarks by id (those whose id is good and unique) and all of them, in order."""
+    landmarks: dict[str, Landmark] = {}
     marks = []
-    for i, spec in values["landmarks"]:
+    for i, spec in items:
         path = f"landmarks.{i}"
+        mark = Landmark(spec.id, spec.at[0], spec.at[1], spec.radius)
         if not spec.id:
             problems.append((f"{path}.id", "expected a non-empty string, got ''"))
         elif name_problem(spec.id) is not None:
             problems.append((f"{path}.id", f"expected a landmark id, but "
                                            f"{name_problem(spec.id)}"))
         elif spec.id in landmarks:
-            first = next(j for j, s in values["landmarks"] if s.id == spec.id)
+            first = next(j for j, s in items if s.id == spec.id)
             problems.append((f"{path}.id", f"expected a unique landmark id, got {spec.id!r} "
                                            f"again (first at landmarks.{first})"))
         else:
-            landmarks[spec.id] = spec
+            landmarks[spec.id] = mark
         _check_disc(bounds, spec.at, spec.radius, path, problems)
-        marks.append(Landmark(spec.id, spec.at[0], spec.at[1], spec.radius))
-    known = set(landmarks) | _ids(raw.get("landmarks"))
-    walls = []
-    for i, spec in values["walls"]:
-        path = f"walls.{i}"
-        has_ends = (spec.a is not None, spec.b is not None)
-        if spec.between is not None:
-            if any(has_ends):
-                problems.append((path, "expected either a and b or between, got both"))
-                continue
-            first, second = spec.between
-            missing = [(k, name) for k, name in enumerate(spec.between) if name not in known]
-            for k, name in missing:
-                listed = ", ".join(sorted(known)[:20]) or "none"
-                problems.append((f"{path}.between.{k}", f"unknown landmark {name!r}; expected "
-                                                        f"one of: {listed}"))
-            if first == second:
-                problems.append((f"{path}.between", f"expected two different landmarks, got "
-                                                    f"{first!r} twice"))
-            elif not missing and first in landmarks and second in landmarks:
-                ends = _rim_wall(landmarks[first], landmarks[second])
-                if ends is None:
-                    problems.append((f"{path}.between", f"expected landmarks apart, got "
-                                                        f"{first!r} and {second!r} touching or "
-                                                        "overlapping"))
-                else:
-                    walls.append(Wall(*ends, between=(first, second)))
-        elif all(has_ends):
-            if _check_segment(bounds, spec.a, spec.b, path, problems):
-                walls.append(Wall(spec.a, spec.b))
-        else:
-            got = "a only" if has_ends[0] else "b only" if has_ends[1] else "neither"
-            problems.append((path, f"expected both a and b, or between, got {got}"))
-    polygons = []
-    for i, vertices in values["polygons"]:
-        path = f"polygons.{i}"
-        for j, vertex in enumerate(vertices):
-            _check_point(bounds, vertex, f"{path}.{j}", problems)
-        found = polygon_problem(np.asarray(vertices, dtype=float).reshape(-1, 2))
-        if found is None:
-            polygons.append(tuple(vertices))
-        else:
-            vertex, message = found
-            problems.append((path if vertex is None else f"{path}.{vertex}", message))
-    points = []
-    for i, spec in values["points"]:
-        _check_disc(bounds, spec.at, spec.radius, f"points.{i}", problems)
-        points.append((spec.at[0], spec.at[1], spec.radius))
-    doors = []
-    for i, spec in values["doors"]:
-        path = f"doors.{i}"
-        fine = _check_segment(bounds, spec.a, spec.b, path, problems)
-        if spec.period <= 0:
-            problems.append((f"{path}.period", f"expected a positive number of seconds, got "
-                                               f"{_num(spec.period)}"))
-        elif not 0 <= spec.open_for <= spec.period:
-            problems.append((f"{path}.open_for", f"expected seconds from 0 to the period "
-                                                 f"{_num(spec.period)}, got "
-                                                 f"{_num(spec.open_for)}"))
-        elif fine:
-            phase = (_door_phase(seed, i, spec.period) if spec.phase is None else spec.phase)
-            doors.append(Door(spec.a, spec.b, spec.period, spec.open_for, phase, spec.name))
-    movers = []
-    for section in ("people", "movers"):
-        for i, spec in values[section]:
-            path = f"{section}.{i}"
-            fine = True
-            if not spec.waypoints:
-                problems.append((f"{path}.waypoints", "expected at least one waypoint [x, y], "
-                                                      "got none"))
-                fine = False
-            for j, point in enumerate(spec.waypoints):
-                _check_point(bounds, point, f"{path}.waypoints.{j}", problems)
-            if not 0 <= spec.speed <= MAX_SPEED:
-                problems.append((f"{path}.speed", f"expected a speed from 0 to {MAX_SPEED:g} m/s "
-                                                  f"(the limit), got {_num(spec.speed)}"))
-                fine = False
-            if spec.radius <= 0:
-                problems.append((f"{path}.radius", f"expected a positive number, got "
-                                                   f"{_num(spec.radius)}"))
-                fine = False
-            if spec.leaves is not None and spec.leaves <= spec.appears:
-                problems.append((f"{path}.leaves", f"expected a time after appears "
-                                                   f"({_num(spec.appears)}), got "
-                                                   f"{_num(spec.leaves)}"))
-            if fine:
-                movers.append(Mover(tuple(spec.waypoints), spec.speed, spec.radius, spec.kind,
-                                    spec.appears, spec.leaves, spec.yields))
-    if bounds is None:
+        marks.append(mark)
+    return landmarks, marks
+
+
+def _wall(spec: WallSpec, path: str, bounds: Bounds, landmarks: Mapping[str, Landmark],
+          known: set[str], problems: Problems) -> Wall | None:
+    """The wall ``spec`` describes, or None with its problems appended. ``known`` holds every
+    landmark id written, ``landmarks`` those that make a wall."""
+    has_ends = (spec.a is not None, spec.b is not None)
+    if spec.between is not None:
+        if any(has_ends):
+            problems.append((path, "expected either a and b or between, got both"))
+            return None
+        return _between(spec.between, path, landmarks, known, problems)
+    if all(has_ends):
+        if _check_segment(bounds, spec.a, spec.b, path, problems):
+            return Wall(spec.a, spec.b)
         return None
-    world = World(bounds, tuple(walls), tuple(polygons), tuple(points), tuple(marks),
-                  tuple(doors), tuple(movers), {}, values["name"])
-    places = {}
-    for name, point in values["places"].items():
+    got = "a only" if has_ends[0] else "b only" if has_ends[1] else "neither"
+    problems.append((path, f"expected both a and b, or between, got {got}"))
+    return None
+
+
+def _between(pair: tuple[str, str], path: str, landmarks: Mapping[str, Landmark],
+             known: set[str], problems: Problems) -> Wall | None:
+    """The linear obstacle joining the rims of the landmarks ``pair`` names, or None with its
+    problems appended."""
+    first, second = pair
+    missing = [(k, name) for k, name in enumerate(pair) if name not in known]
+    for k, name in missing:
+        listed = ", ".join(sorted(known)[:20]) or "none"
+        problems.append((f"{path}.between.{k}", f"unknown landmark {name!r}; expected "
+                                                f"one of: {listed}"))
+    if first == second:
+        problems.append((f"{path}.between", f"expected two different landmarks, got "
+                                            f"{first!r} twice"))
+        return None
+    if missing or first not in landmarks or second not in landmarks:
+        return None
+    ends = rim_wall(landmarks[first], landmarks[second])
+    if ends is None:
+        problems.append((f"{path}.between", f"expected landmarks apart, got {first!r} and "
+                                            f"{second!r} touching or overlapping"))
+        return None
+    return Wall(*ends, between=(first, second))
+
+
+def _polygon(vertices: list[Point], path: str, bounds: Bounds,
+             problems: Problems) -> tuple[Point, ...] | None:
+    for j, vertex in enumerate(vertices):
+        _check_point(bounds, vertex, f"{path}.{j}", problems)
+    found = polygon_problem(np.asarray(vertices, dtype=float).reshape(-1, 2))
+    if found is None:
+        return tuple(vertices)
+    vertex, message = found
+    problems.append((path if vertex is None else f"{path}.{vertex}", message))
+    return None
+
+
+def _door(spec: DoorSpec, index: int, seed: int, bounds: Bounds,
+          problems: Problems) -> Door | None:
+    path = f"doors.{index}"
+    fine = _check_segment(bounds, spec.a, spec.b, path, problems)
+    if spec.period <= 0:
+        problems.append((f"{path}.period", f"expected a positive number of seconds, got "
+                                           f"{number_text(spec.period)}"))
+    elif not 0 <= spec.open_for <= spec.period:
+        problems.append((f"{path}.open_for", f"expected seconds from 0 to the period "
+                                             f"{number_text(spec.period)}, got "
+                                             f"{number_text(spec.open_for)}"))
+    elif fine:
+        phase = _door_phase(seed, index, spec.period) if spec.phase is None else spec.phase
+        return Door(spec.a, spec.b, spec.period, spec.open_for, phase, spec.name)
+    return None
+
+
+def _mover(spec: MoverSpec, path: str, bounds: Bounds, problems: Problems) -> Mover | None:
+    fine = True
+    if not spec.waypoints:
+        problems.append((f"{path}.waypoints", "expected at least one waypoint [x, y], got none"))
+        fine = False
+    for j, point in enumerate(spec.waypoints):
+        _check_point(bounds, point, f"{path}.waypoints.{j}", problems)
+    if not 0 <= spec.speed <= MAX_SPEED:
+        problems.append((f"{path}.speed", f"expected a speed from 0 to {MAX_SPEED:g} m/s (the "
+                                          f"limit), got {number_text(spec.speed)}"))
+        fine = False
+    if spec.radius <= 0:
+        problems.append((f"{path}.radius", f"expected a positive number, got "
+                                           f"{number_text(spec.radius)}"))
+        fine = False
+    if spec.leaves is not None and spec.leaves <= spec.appears:
+        problems.append((f"{path}.leaves", f"expected a time after appears "
+                                           f"({number_text(spec.appears)}), got "
+                                           f"{number_text(spec.leaves)}"))
+    if not fine:
+        return None
+    return Mover(tuple(spec.waypoints), spec.speed, spec.radius, spec.kind, spec.appears,
+                 spec.leaves, spec.yields)
+
+
+def _places(world: World, places: Mapping[str, Point], problems: Problems) -> dict[str, Point]:
+    """The places that stand free in ``world``, the others' problems appended."""
+    free = {}
+    for name, point in places.items():
         reason = free_point(world, *point)
         if reason is None:
-            places[name] = point
+            free[name] = point
         else:
-            problems.append((f"places.{name}", f"expected a free point, got {_pt(point)}, which "
-                                               f"{reason}"))
-    return attrs.evolve(world, places=places)
+            problems.append((f"places.{name}", f"expected a free point, got "
+                                               f"{point_text(point)}, which {reason}"))
+    return free
 
 
 def world_from_data(data: Any, source: str, marks: Marks | None = None, seed: int = 0) -> World:
@@ -654,191 +609,6 @@ def load_world(path: str | Path) -> World:
     data, marks = read_yaml(path)
     world = world_from_data(data, str(path), marks)
     return world if world.name else attrs.evolve(world, name=path.stem)
-
-
-# --- writing -------------------------------------------------------------------------------------
-
-def _plain(point: Sequence[float]) -> list[float]:
-    return [float(v) for v in point]
-
-
-def _between_matches(world: World, wall: Wall) -> bool:
-    """Whether the wall is exactly the rim segment its ``between`` names (then it is written as
-    ``between``, and reading rebuilds the same floats)."""
-    if wall.between is None:
-        return False
-    try:
-        first, second = (world.landmark(id) for id in wall.between)
-    except KeyError:
-        return False
-    ends = _rim_wall(LandmarkSpec(first.id, (first.x, first.y), first.radius),
-                     LandmarkSpec(second.id, (second.x, second.y), second.radius))
-    return ends is not None and ends == (tuple(wall.a), tuple(wall.b))
-
-
-def dump_world(world: World) -> dict[str, Any]:
-    """The world as plain data in the world file's format: :func:`world_from_data` of it gives
-    the same world (every number written exactly, door phases included). A wall whose
-    ``between`` no longer matches its landmarks' rims is written by its ends."""
-    data: dict[str, Any] = {"name": world.name} if world.name else {}
-    data["bounds"] = _plain(world.bounds)
-    if world.landmarks:
-        data["landmarks"] = [{"id": m.id, "at": [float(m.x), float(m.y)],
-                              "radius": float(m.radius)} for m in world.landmarks]
-    if world.walls:
-        data["walls"] = [{"between": list(w.between)} if _between_matches(world, w)
-                         else {"a": _plain(w.a), "b": _plain(w.b)} for w in world.walls]
-    if world.polygons:
-        data["polygons"] = [[_plain(v) for v in polygon] for polygon in world.polygons]
-    if world.points:
-        data["points"] = [{"at": _plain(p[:2]), "radius": float(p[2])} for p in world.points]
-    if world.doors:
-        data["doors"] = [{"a": _plain(d.a), "b": _plain(d.b), "period": float(d.period),
-                          "open_for": float(d.open_for), "phase": float(d.phase),
-                          **({"name": d.name} if d.name else {})} for d in world.doors]
-    if world.movers:
-        data["movers"] = [{"waypoints": [_plain(p) for p in m.waypoints],
-                           "speed": float(m.speed), "radius": float(m.radius), "kind": m.kind,
-                           "appears": float(m.appears),
-                           **({"leaves": float(m.leaves)} if m.leaves is not None else {}),
-                           **({"yields": True} if m.yields else {})}
-                          for m in world.movers]
-    if world.places:
-        data["places"] = {name: _plain(point) for name, point in world.places.items()}
-    return data
-
-
-class _Flow(dict):  # type: ignore[type-arg]
-    """A mapping written on one line."""
-
-
-class _Dumper(yaml.SafeDumper):
-    pass
-
-
-def _represent_list(dumper: yaml.SafeDumper, data: list[Any]) -> yaml.Node:
-    flat = all(_number(v) or (isinstance(v, list) and all(_number(w) for w in v)) for v in data)
-    return dumper.represent_sequence("tag:yaml.org,2002:seq", data, flow_style=flat and bool(data))
-
-
-def _represent_flow(dumper: yaml.SafeDumper, data: _Flow) -> yaml.Node:
-    return dumper.represent_mapping("tag:yaml.org,2002:map", data.items(), flow_style=True)
-
-
-_Dumper.add_representer(list, _represent_list)
-_Dumper.add_representer(_Flow, _represent_flow)
-
-
-def world_yaml(world: World) -> str:
-    """The world file text of ``world``: one line per item, points written ``[x, y]``."""
-    data = dump_world(world)
-    for key, value in data.items():
-        if isinstance(value, list) and value and isinstance(value[0], dict):
-            data[key] = [_Flow(item) for item in value]
-    return yaml.dump(data, Dumper=_Dumper, sort_keys=False, width=100, allow_unicode=True)
-
-
-def save_world(world: World, path: str | Path) -> None:
-    """Write ``world`` as a world file at ``path``."""
-    Path(path).write_text(world_yaml(world), encoding="utf-8")
-
-
-# --- free points ---------------------------------------------------------------------------------
-
-def segment_distances(x: float, y: float, segments: np.ndarray) -> np.ndarray:
-    """The distance from ``(x, y)`` to each segment of ``segments`` ``(n, 4)``, ``(n,)``."""
-    a = segments[:, :2]
-    d = segments[:, 2:] - a
-    p = np.array([x, y], dtype=float)
-    length2 = (d * d).sum(axis=1)
-    u = np.clip(((p - a) * d).sum(axis=1) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
-    return np.hypot(*(a + u[:, None] * d - p).T)
-
-
-def inside_polygon(x: float, y: float, polygon: np.ndarray) -> bool:
-    """Whether ``(x, y)`` lies inside the polygon of vertices ``(k, 2)`` (even-odd rule: a ray
-    from the point toward +x crosses its edges an odd number of times)."""
-    xi, yi = polygon[:, 0], polygon[:, 1]
-    xj, yj = np.roll(xi, 1), np.roll(yi, 1)
-    spans = (yi > y) != (yj > y)
-    # a horizontal edge spans nothing, so its division by zero is never counted
-    with np.errstate(divide="ignore", invalid="ignore"):
-        crossing = xi + (y - yi) * (xj - xi) / (yj - yi)
-    return bool(np.count_nonzero(spans & (x < crossing)) % 2)
-
-
-def _rows(items: Sequence[Sequence[float]], width: int) -> np.ndarray:
-    return np.asarray(items, dtype=float).reshape(-1, width)
-
-
-def _nearest(gaps: np.ndarray, radius: float) -> int | None:
-    """The index of the first gap not above ``radius``, None when every gap is larger."""
-    hit = np.flatnonzero(gaps <= radius)
-    return int(hit[np.argmin(gaps[hit])]) if hit.size else None
-
-
-def _phrase(gap: float, radius: float, label: str, solid: bool) -> str:
-    if gap <= 0:
-        return f"is {'inside' if solid else 'on'} {label}"
-    return f"is {gap:.3g} m from {label}, within the radius {radius:g}"
-
-
-def free_point(world: World, x: float, y: float, radius: float = 0.0,
-               t: float | None = None) -> str | None:
-    """Why a disc of ``radius`` at ``(x, y)`` cannot stand in ``world``, or None when it can.
-
-    The reason is a phrase to follow the point (``"is inside polygon 2"``, ``"is 0.05 m from
-    landmark 'l1', within the radius 0.2"``) naming the first thing in the way: the bounds,
-    a polygon, a wall, a door (shut or open: it may shut), a point obstacle, a landmark, and,
-    when ``t`` is given, a mover present at ``t``. Touching counts as in the way.
-    """
-    if not (math.isfinite(x) and math.isfinite(y)):
-        return "is not a finite point"
-    if not (math.isfinite(radius) and radius >= 0):
-        raise ValueError(f"expected a non-negative radius, got {radius!r}")
-    if not world.inside(x, y):
-        return f"is outside the bounds {_box(world.bounds)}"
-    xmin, ymin, xmax, ymax = world.bounds
-    edge = min(x - xmin, xmax - x, y - ymin, ymax - y)
-    if edge <= radius:
-        return _phrase(edge, radius, f"the edge of the bounds {_box(world.bounds)}", False)
-    for k, polygon in enumerate(world.polygons):
-        vertices = _rows(polygon, 2)
-        if inside_polygon(x, y, vertices):
-            return f"is inside polygon {k}"
-        gap = float(segment_distances(x, y, np.concatenate(
-            [vertices, np.roll(vertices, -1, axis=0)], axis=1)).min())
-        if gap <= radius:
-            return _phrase(gap, radius, f"polygon {k}", False)
-    checks: list[tuple[np.ndarray, Callable[[int], str], bool]] = [
-        (segment_distances(x, y, _rows([(*w.a, *w.b) for w in world.walls], 4)),
-         lambda i: _wall_label(world.walls[i], i), False),
-        (segment_distances(x, y, world.door_segments),
-         lambda i: f"door {world.doors[i].name or i}", False),
-        (_disc_gaps(x, y, _rows(world.points, 3)), lambda i: f"point obstacle {i}", True),
-        (_disc_gaps(x, y, world.landmark_array),
-         lambda i: f"landmark {world.landmarks[i].id!r}", True)]
-    if t is not None:
-        present = [m for m in world.movers if m.present(t)]
-        where = [m.position(t) for m in present]
-        checks.append((_disc_gaps(x, y, _rows([(*p, m.radius) for p, m in zip(
-            where, present, strict=True)], 3)),
-            lambda i: f"a {present[i].kind} at {_pt(where[i])} at t = {t:g}", True))
-    for gaps, label, solid in checks:
-        hit = _nearest(gaps, radius)
-        if hit is not None:
-            return _phrase(float(gaps[hit]), radius, label(hit), solid)
-    return None
-
-
-def _disc_gaps(x: float, y: float, discs: np.ndarray) -> np.ndarray:
-    return np.hypot(discs[:, 0] - x, discs[:, 1] - y) - discs[:, 2]
-
-
-def _wall_label(wall: Wall, index: int) -> str:
-    if wall.between is not None:
-        return f"wall {index} (between {wall.between[0]!r} and {wall.between[1]!r})"
-    return f"wall {index} from {_pt(wall.a)} to {_pt(wall.b)}"
 
 
 # --- the schema as docs --------------------------------------------------------------------------

@@ -235,7 +235,7 @@ def ablation_memories(folder: Path) -> dict[str, Path]:
     """The shipped memory with every adaptation strategy, and without each in turn, written as
     case bases into ``folder``: variant name -> file."""
     from cbr_behaviors.casefiles import export, shipped_cases
-    from cbr_behaviors.cases import Strategy
+    from cbr_behaviors.casetypes import Strategy
 
     cases = shipped_cases()
     names = [c.name for c in cases if isinstance(c, Strategy)]
