@@ -344,7 +344,8 @@ def _walk(exc: BaseException, path: str) -> Iterator[tuple[str, str]]:
     if isinstance(exc, ForbiddenExtraKeysError):
         fields = [a.name for a in attrs.fields(exc.cl)] if attrs.has(exc.cl) else []
         expected = f"one of: {', '.join(fields)}" if fields else "no options"
-        for key in sorted(exc.extra_fields):
+        # YAML allows keys that are not text (3: 1): sorted as text, so they mix with names
+        for key in sorted(exc.extra_fields, key=str):
             yield f"{path}.{key}", f"unknown key; expected {expected}"
     elif isinstance(exc, ClassValidationError | IterableValidationError):
         noted, plain = exc.group_exceptions()

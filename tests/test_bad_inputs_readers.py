@@ -34,6 +34,7 @@ FILES = {
     "tag.json": f'{{"format": "{MARKER}", "schema": 1, "cases": []}}\n',
     "broken.yaml": f"{MARKER}: [unclosed: {MARKER}\n",
     "list.json": f'["{MARKER}"]\n',
+    "numbered.yaml": "bounds: [0, 0, 5, 5]\nwalls: [{3: 1, x: 2}]\n",
     "waypoints.yaml": ("bounds: [0, 0, 8, 6]\n"
                        "movers: [{waypoints: nowhere, speed: 1, radius: 0.2}]\n"),
 }
@@ -65,6 +66,10 @@ CASES: dict[str, tuple[tuple[str, ...], str]] = {
     "sim show keys that are no world's": (
         ("sim", "show", "{tmp}/keys.yaml"),
         "keys.yaml: 1 problem:\n  - line 2, column 1: unknown key; expected one of: bounds"),
+    "sim show a wall with a number and a name for keys": (
+        ("sim", "show", "{tmp}/numbered.yaml"),
+        "numbered.yaml: 2 problems:\n  - walls.0.3 (line 2, column 13): unknown key; expected "
+        "one of: a, b, between\n  - walls.0.x (line 2, column 19): unknown key"),
     "sim show waypoints that are a string": (
         ("sim", "show", "{tmp}/waypoints.yaml"),
         "waypoints.yaml: 1 problem:\n  - movers.0.waypoints (line 2, column 22): expected a "
