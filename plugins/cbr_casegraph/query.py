@@ -312,7 +312,10 @@ def extend(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
     parts = temporary - first_part
     if parts > 0:
         priced = run_costs(factor, passable, corner_cutting, part_from[:parts], part_to[:parts])
-        ew[first_part:temporary] = priced
+        # element by element: an array assigned to a slice compiles numba's formatted shape
+        # error, seconds of a first run's compile
+        for p in range(parts):
+            ew[first_part + p] = priced[p]
     n = base + counts[0]
     # the overlay in CSR form, each temporary edge in both directions, stably by tail vertex
     o_ptr = np.zeros(n + 1, dtype=np.int64)
@@ -332,7 +335,8 @@ def extend(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
             fill[tail] += 1
             o_target[slot], o_weight[slot], o_edge[slot] = head, ew[k], k
     all_xy = np.empty((n, 2), dtype=np.int64)
-    all_xy[:base] = xy[:base]
+    for v in range(base):
+        all_xy[v, 0], all_xy[v, 1] = xy[v, 0], xy[v, 1]
     for i in range(counts[0]):
         all_xy[base + i, 0], all_xy[base + i, 1] = vx[i], vy[i]
     found, _, vertices, codes, settled = graph_search(
@@ -428,8 +432,13 @@ def cut_loops(path: np.ndarray) -> np.ndarray:
     width = 0
     for i in range(n):
         width = max(width, path[i, 0] + 1)
-    flat = path[:, 1] * width + path[:, 0]
-    order = np.argsort(flat, kind="mergesort")
+    # the visits of a cell in path order: a stable sort of the cells, as the default sort of
+    # keys made unique by the position (a mergesort would be compiled for this alone)
+    keys = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        keys[i] = (path[i, 1] * width + path[i, 0]) * n + i
+    order = np.argsort(keys)
+    flat = keys // n
     last = np.empty(n, dtype=np.int64)
     j = n - 1
     while j >= 0:
