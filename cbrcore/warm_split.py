@@ -106,9 +106,11 @@ def _help(jobs: Sequence[Callable[[], None]], ends: _Ends) -> None:
     try:
         # an interrupt is the engine's to handle: it kills the helper
         signal.signal(signal.SIGINT, signal.SIG_IGN)
-        quiet = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(quiet, 1)
-        os.dup2(quiet, 2)
+        # silent at both levels: sys.stdout may be another object than file descriptor 1
+        quiet = open(os.devnull, "w")  # noqa: SIM115 - open until the process leaves
+        os.dup2(quiet.fileno(), 1)
+        os.dup2(quiet.fileno(), 2)
+        sys.stdout = sys.stderr = quiet
         while (index := ends.take(front=True)) is not None:
             jobs[index]()
         code = 0
