@@ -9,7 +9,8 @@ alternates from one repeat to the next, so both see the same machine. It reports
 wall and processor time of each, the median over repeats of this checkout's time over the
 baseline's (the figure to trust on a busy machine), the median time from the process's start to
 the compile notice on stderr (the cold runs' first line), and checks that warm runs write no
-notice.
+notice. A checkout whose Python files are edited is reported as such (an edited kernel module turns
+a warm cache cold).
 
     python benchmarks/cold_start.py [--baseline e717407] [--config configs/hybrid_grid.yaml]
                                     [--count 20] [--repeats 3] [--out benchmarks/results]
@@ -80,6 +81,15 @@ def _commit(checkout: Path, name: str = "HEAD") -> str:
                           cwd=checkout, check=True).stdout.strip()
 
 
+def _edited(checkout: Path) -> bool:
+    """Whether tracked Python files differ from the commit: the runs then measure no commit
+    (and an edited kernel module turns a warm cache cold)."""
+    return bool(subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--",
+                                "*.py"],
+                               capture_output=True, text=True, cwd=checkout,
+                               check=True).stdout.strip())
+
+
 @contextlib.contextmanager
 def _worktree(commit: str, scratch: Path) -> Iterator[Path]:
     """``commit`` checked out in a temporary worktree of this repository."""
@@ -140,6 +150,10 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     args = parser.parse_args()
     config = args.config.resolve().relative_to(ROOT)
+    edited = _edited(ROOT)
+    if edited:
+        print("warning: this checkout has uncommitted changes; the results say so",
+              file=sys.stderr)
     with tempfile.TemporaryDirectory() as folder, contextlib.ExitStack() as stack:
         scratch = Path(folder)
         checkouts = {"current": ROOT}
@@ -149,6 +163,7 @@ def main() -> None:
         commits = {name: _commit(path) for name, path in checkouts.items()}
     result: dict[str, Any] = {
         "commit": commits["current"],
+        "uncommitted_changes": edited or _edited(ROOT),
         "baseline_commit": commits.get("baseline"),
         "config": str(config),
         "queries": args.count,
@@ -182,6 +197,7 @@ def _markdown(result: dict[str, Any], names: list[str]) -> str:
         f"`cbr run {result['config']} --set workload.count={result['queries']}`, "
         f"{result['repeats']} repeats, {result['cores']} cores (load average "
         f"{result['load_average']:.1f} at the end), commit `{result['commit'][:12]}`"
+        + (" with uncommitted changes" if result["uncommitted_changes"] else "")
         + (f" beside `{result['baseline_commit'][:12]}`" if result["baseline_commit"] else "")
         + ".",
         "",

@@ -48,7 +48,7 @@ def cases_near(vertex_at: np.ndarray, owner: np.ndarray, indptr: np.ndarray, edg
     x0, y0 = max(cx - delta, 0), max(cy - delta, 0)
     x1, y1 = min(cx + delta, w - 1), min(cy + delta, h - 1)
     found = np.empty(64, dtype=np.int64)
-    count = 0
+    count = np.int64(0)  # not the literal 0: numba would compile _sorted_unique for it too
     for y in range(y0, y1 + 1):
         for x in range(x0, x1 + 1):
             inside = owner[y, x]
