@@ -203,8 +203,8 @@ def cbr_warm(ctx: Context) -> None:
 
     On an empty kernel cache (a first run) the engine also calls it in a helper process forked
     to compile beside it (:mod:`cbrcore.warm_split`): a warm-up must change nothing outside
-    its own process but the kernel cache (no file written, no output), and must not rely on
-    being called once.
+    its own process but the kernel cache (no file written, no output), must not use the run's
+    case base (the helper would share its connection) and must not rely on being called once.
     """
 
 

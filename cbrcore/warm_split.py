@@ -85,19 +85,28 @@ def warm_in_turn(jobs: Sequence[Callable[[], None]], *, helper: bool) -> None:
     pid = os.fork()
     if pid == 0:
         _help(jobs, ends)
-    finished = False
     try:
         while (index := ends.take(front=False)) is not None:
             jobs[index]()
-        finished = True
+    except BaseException:  # an error or an interrupt: the helper's work is not wanted now
+        os.kill(pid, signal.SIGKILL)
+        raise
     finally:
-        if not finished:  # an error or an interrupt: the helper's work is not wanted now
-            os.kill(pid, signal.SIGKILL)
-        os.waitpid(pid, 0)
+        _reap(pid)
         taken = ends.front()
         ends.close()
     for index in range(taken):
         jobs[index]()
+
+
+def _reap(pid: int) -> None:
+    """Wait for the helper to leave; one interrupted while it waits kills it."""
+    try:
+        os.waitpid(pid, 0)
+    except BaseException:
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+        raise
 
 
 def _help(jobs: Sequence[Callable[[], None]], ends: _Ends) -> None:
