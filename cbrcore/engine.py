@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import functools
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -29,10 +30,12 @@ from cbrcore.errors import (
 from cbrcore.fingerprint import WorldFingerprint, fingerprint
 from cbrcore.hookimpls import implemented_hooks, unknown_hooks
 from cbrcore.hookspecs import PHASE_HOOKS
+from cbrcore.kernel_cache import holds_no_kernels
 from cbrcore.model import CASEBASE, Outcome, Proposal, Retrieval, Revision, Solution, no_action
 from cbrcore.options import unstructure
 from cbrcore.plugins import Plugins, current, new_plugin_manager
 from cbrcore.registry import KIND_HOOK
+from cbrcore.warm_split import warm_in_turn
 
 _PHASE_OF_HOOK = {hook: phase for phase, hook in PHASE_HOOKS.items()}
 
@@ -246,6 +249,8 @@ class Engine:
         """How long the components' warm-up (``cbr_warm``) took while the engine was built."""
         self._closed = False
         self._skipped: collections.deque[SkippedStep] = collections.deque()
+        # read before any component is built: building one may compile (and cache) a kernel
+        self._first_compile = holds_no_kernels()
         made = out_dir is not None and not out_dir.exists()
         if out_dir is not None:
             output_folder(out_dir)
@@ -407,13 +412,22 @@ class Engine:
                 raise PluginError(f"{path}: {ref.kind} {ref.name!r} (plugin {plugin!r}): {exc}"
                                   ) from exc
             owners[path] = f"{ref.name} ({plugin})"
+        # one job per component, in the order pluggy calls them (the last registered first)
+        names = [impl.plugin_name for impl in reversed(pm.hook.cbr_warm.get_hookimpls())]
+
+        def warm(name: str) -> None:
+            others = [pm.get_plugin(other) for other in names if other != name]
+            caller = pm.subset_hook_caller("cbr_warm", remove_plugins=others)
+            try:
+                caller(ctx=self.ctx)
+            except CbrError:
+                raise
+            except Exception as exc:
+                raise PhaseError(WARM, culprit(caller, exc, owners), exc) from exc
+
         started = time.perf_counter()
-        try:
-            pm.hook.cbr_warm(ctx=self.ctx)
-        except CbrError:
-            raise
-        except Exception as exc:
-            raise PhaseError(WARM, culprit(pm.hook.cbr_warm, exc, owners), exc) from exc
+        warm_in_turn([functools.partial(warm, name) for name in names],
+                     helper=self._first_compile)
         return time.perf_counter() - started
 
     def _refs(self) -> list[ComponentRef]:

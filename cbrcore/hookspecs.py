@@ -223,6 +223,11 @@ def cbr_warm(ctx: Context) -> None:
     world and case base; warm on a problem of your own (a few cells of the same types as the
     world's) and leave the case base, the run's generator and the stash as they were. Return
     value ignored.
+
+    On an empty kernel cache (a first run) the engine also calls it in a helper process forked
+    to compile beside it (:mod:`cbrcore.warm_split`): a warm-up must change nothing outside
+    its own process but the kernel cache (no file written, no output), must not use the run's
+    case base (the helper would share its connection) and must not rely on being called once.
     """
 
 

@@ -41,6 +41,16 @@ def numba_cache_dir() -> Path:
     return Path(own).expanduser() if own else cache_dir() / "numba"
 
 
+def holds_no_kernels() -> bool:
+    """Whether the cache folder holds no compiled kernel yet (it may not exist): a first run, or
+    a cache deleted since; the engine then warms its components up in two processes
+    (:mod:`cbrcore.warm_split`)."""
+    try:
+        return not any(numba_cache_dir().rglob("*.nbi"))
+    except OSError:  # a folder that cannot be read compiles as it would without a helper
+        return False
+
+
 class CompileWatcher(Protocol):
     """Told when numba compiles: ``started`` before a kernel compiles, ``finished`` after, both
     for the kernels and functions it compiles on the way (``depth`` 1 is the outermost)."""

@@ -48,7 +48,7 @@ def cases_near(vertex_at: np.ndarray, owner: np.ndarray, indptr: np.ndarray, edg
     x0, y0 = max(cx - delta, 0), max(cy - delta, 0)
     x1, y1 = min(cx + delta, w - 1), min(cy + delta, h - 1)
     found = np.empty(64, dtype=np.int64)
-    count = 0
+    count = np.int64(0)  # not the literal 0: numba would compile _sorted_unique for it too
     for y in range(y0, y1 + 1):
         for x in range(x0, x1 + 1):
             inside = owner[y, x]
@@ -66,7 +66,7 @@ def cases_near(vertex_at: np.ndarray, owner: np.ndarray, indptr: np.ndarray, edg
             for k in range(lo, hi):
                 found[count] = edge[k]
                 count += 1
-    edges = np.unique(found[:count])
+    edges = _sorted_unique(found, count)
     keep = np.zeros(edges.shape[0], dtype=np.bool_)
     reach = 3 * delta
     for i in range(edges.shape[0]):
@@ -83,6 +83,25 @@ def cases_near(vertex_at: np.ndarray, owner: np.ndarray, indptr: np.ndarray, edg
     vertex = vertex_at[cy, cx]
     on_graph = owner[cy, cx] >= 0 or (vertex >= 0 and indptr[vertex + 1] > indptr[vertex])
     return edges[keep], on_graph
+
+
+@njit
+def _sorted_unique(values: np.ndarray, count: int) -> np.ndarray:
+    """The distinct values of ``values[:count]``, ascending, sorted in place by insertion: the
+    edges around a cell are few, and numba's own sort would take seconds to compile."""
+    for i in range(1, count):
+        value = values[i]
+        j = i - 1
+        while j >= 0 and values[j] > value:
+            values[j + 1] = values[j]
+            j -= 1
+        values[j + 1] = value
+    distinct = 0
+    for i in range(count):
+        if distinct == 0 or values[i] != values[distinct - 1]:
+            values[distinct] = values[i]
+            distinct += 1
+    return values[:distinct].copy()
 
 
 @njit(inline="always")
@@ -298,10 +317,17 @@ def extend(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
                 points[m] = base + split_at[t]
                 along[m] = max(abs(vx[split_at[t]] - ax), abs(vy[split_at[t]] - ay))
                 m += 1
-        order = np.argsort(along[:m])
+        # the points in order along the edge, sorted by insertion: an edge holds few
+        for i in range(1, m):
+            point, at = points[i], along[i]
+            j = i - 1
+            while j >= 0 and along[j] > at:
+                points[j + 1], along[j + 1] = points[j], along[j]
+                j -= 1
+            points[j + 1], along[j + 1] = point, at
         previous = a
         for j in range(m + 1):
-            following = b if j == m else points[order[j]]
+            following = b if j == m else points[j]
             eu[temporary], ev[temporary] = previous, following
             kind[temporary], link_of[temporary] = split, -1
             p = temporary - first_part
@@ -312,7 +338,10 @@ def extend(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
     parts = temporary - first_part
     if parts > 0:
         priced = run_costs(factor, passable, corner_cutting, part_from[:parts], part_to[:parts])
-        ew[first_part:temporary] = priced
+        # element by element: an array assigned to a slice compiles numba's formatted shape
+        # error, seconds of a first run's compile
+        for p in range(parts):
+            ew[first_part + p] = priced[p]
     n = base + counts[0]
     # the overlay in CSR form, each temporary edge in both directions, stably by tail vertex
     o_ptr = np.zeros(n + 1, dtype=np.int64)
@@ -332,7 +361,8 @@ def extend(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
             fill[tail] += 1
             o_target[slot], o_weight[slot], o_edge[slot] = head, ew[k], k
     all_xy = np.empty((n, 2), dtype=np.int64)
-    all_xy[:base] = xy[:base]
+    for v in range(base):
+        all_xy[v, 0], all_xy[v, 1] = xy[v, 0], xy[v, 1]
     for i in range(counts[0]):
         all_xy[base + i, 0], all_xy[base + i, 1] = vx[i], vy[i]
     found, _, vertices, codes, settled = graph_search(
@@ -428,21 +458,31 @@ def cut_loops(path: np.ndarray) -> np.ndarray:
     width = 0
     for i in range(n):
         width = max(width, path[i, 0] + 1)
-    flat = path[:, 1] * width + path[:, 0]
-    order = np.argsort(flat, kind="mergesort")
-    last = np.empty(n, dtype=np.int64)
-    j = n - 1
-    while j >= 0:
-        k = j
-        while k >= 0 and flat[order[k]] == flat[order[j]]:
-            last[order[k]] = order[j]
-            k -= 1
-        j = k
+    # the last visit of each cell, from a hash table of the cells with linear probing, at most
+    # half full (linear time; a sort would compile numba's, seconds of a first run)
+    bits = 1
+    while (1 << bits) < 2 * n:
+        bits += 1
+    mask = (1 << bits) - 1
+    table_cell = np.full(mask + 1, -1, dtype=np.int64)
+    table_last = np.empty(mask + 1, dtype=np.int64)
+    slot_of = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        cell = path[i, 1] * width + path[i, 0]
+        # Fibonacci hashing of the cell's low 31 bits: rows of a map whose width is a power of
+        # two would otherwise fall on one slot
+        slot = (((cell & 0x7FFFFFFF) * 2654435769) & 0xFFFFFFFF) >> (32 - min(bits, 32))
+        slot &= mask
+        while table_cell[slot] != -1 and table_cell[slot] != cell:
+            slot = (slot + 1) & mask
+        table_cell[slot] = cell
+        table_last[slot] = i
+        slot_of[i] = slot
     count = 0
     i = 0
     while i < n:
         count += 1
-        i = last[i] + 1
+        i = table_last[slot_of[i]] + 1
     if count == n:
         return path
     out = np.empty((count, 2), dtype=np.int64)
@@ -451,5 +491,5 @@ def cut_loops(path: np.ndarray) -> np.ndarray:
     while i < n:
         out[count, 0], out[count, 1] = path[i, 0], path[i, 1]
         count += 1
-        i = last[i] + 1
+        i = table_last[slot_of[i]] + 1
     return out

@@ -40,8 +40,10 @@ def graph_search(indptr: np.ndarray, target: np.ndarray, weight: np.ndarray, edg
     items = np.empty(64, dtype=np.int64)
     gx, gy = xy[goal, 0], xy[goal, 1]
     dist[source] = 0.0
-    push(keys, items, 0, 0.0, source)
-    size = 1
+    # int64 sizes, not literals: numba would compile the heap's kernels for each literal too
+    size = np.int64(0)
+    push(keys, items, size, 0.0, source)
+    size += 1
     settled = 0
     while size > 0:
         v = pop(keys, items, size)

@@ -86,7 +86,8 @@ def wavefront(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
     stop_early = left > 0
     keys = np.empty(INITIAL_HEAP, dtype=np.float64)
     items = np.empty(INITIAL_HEAP, dtype=np.int64)
-    size = 0
+    # an int64, not the literal 0: numba would compile the heap's kernels for the literal too
+    size = np.int64(0)
     for k in range(goals.shape[0]):
         gx, gy = goals[k, 0], goals[k, 1]
         if not (x0 <= gx <= x1 and y0 <= gy <= y1 and passable[gy, gx]):

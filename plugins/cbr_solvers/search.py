@@ -46,7 +46,9 @@ from cbr_grid.search_base import (
     cell_moves,
     checked_arguments,
     move_masks,
+    pop,
     pop4,
+    push,
     push4,
     push4_grown,
 )
@@ -174,7 +176,16 @@ def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_
     if targets.shape[0] == 0 or not passable[sy, sx]:
         return False, empty, np.inf, 0
     # The goals as sorted window cells: one comparison for one goal, a bisection for several.
-    ends = np.sort((targets[:, 1] - y0) * ww + (targets[:, 0] - x0))
+    # They are sorted through the binary heap: numba's sort would be compiled for this alone.
+    count = targets.shape[0]
+    order_keys = np.empty(count, dtype=np.float64)
+    order_items = np.empty(count, dtype=np.int64)
+    for k in range(count):
+        end = (targets[k, 1] - y0) * ww + (targets[k, 0] - x0)
+        push(order_keys, order_items, k, float(end), end)
+    ends = np.empty(count, dtype=np.int64)
+    for k in range(count):
+        ends[k] = pop(order_keys, order_items, count - k)
     single = ends.shape[0] == 1
     gx, gy = targets[0, 0], targets[0, 1]
     # A uniform A* breaks ties in f toward the cell nearer the goal (larger g) by adding
@@ -223,8 +234,14 @@ def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_
                 reached = cell
                 break
         else:
-            at = np.searchsorted(ends, cell)
-            if at < ends.shape[0] and ends[at] == cell:
+            lo, hi = 0, ends.shape[0]
+            while lo < hi:
+                middle = (lo + hi) >> 1
+                if ends[middle] < cell:
+                    lo = middle + 1
+                else:
+                    hi = middle
+            if lo < ends.shape[0] and ends[lo] == cell:
                 reached = cell
                 break
 
