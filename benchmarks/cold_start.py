@@ -16,7 +16,6 @@ Writes ``cold_start.json`` and ``cold_start.md`` into the output folder.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import resource
 import statistics
@@ -27,6 +26,8 @@ import threading
 import time
 from pathlib import Path
 from typing import Any
+
+from docfigures.provenance import head, write_results
 
 ROOT = Path(__file__).resolve().parents[1]
 NOTICE = "cbr: compiling the kernels"
@@ -64,11 +65,6 @@ def _run(config: Path, count: int, cache: Path, out: Path) -> dict[str, Any]:
             "notice_seconds": notice[0] if notice else None}
 
 
-def _commit() -> str:
-    return subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                          cwd=ROOT, check=False).stdout.strip()
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--config", type=Path, default=ROOT / "configs" / "hybrid_grid.yaml")
@@ -91,7 +87,7 @@ def main() -> None:
     warm_cpu = statistics.median(r["cpu_seconds"] for r in warm)
     notices = [r["notice_seconds"] for r in cold if r["notice_seconds"] is not None]
     result = {
-        "commit": _commit(),
+        "commit": head(),
         "config": str(args.config.resolve().relative_to(ROOT)),
         "queries": args.count,
         "repeats": args.repeats,
@@ -111,8 +107,8 @@ def main() -> None:
         "warm_runs_with_notice": sum(r["notice_seconds"] is not None for r in warm),
     }
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "cold_start.json").write_text(json.dumps(result, indent=2) + "\n",
-                                              encoding="utf-8")
+    # a first run's start-up is in other processes, which load cbrcore and every plugin
+    write_results(args.out / "cold_start.json", result, unit_names=("cbrcore", "plugins"))
     notice = result["notice_median_seconds"]
     lines = [
         "# Cold start: the first run's kernel compilation",
