@@ -21,7 +21,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from docfigures.provenance import write_results
+from docfigures.provenance import script_command, write_results
 
 from cbr_casegraph.experiments.common import MAX_RATIO, map_info
 from cbr_casegraph.experiments.deviation import DeviationTable
@@ -71,7 +71,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     except CbrError as exc:
         parser.error(str(exc))
     args.out.mkdir(parents=True, exist_ok=True)
-    write_results(args.out / "casegraph_similarity_radius.json", result)
+    write_results(args.out / "casegraph_similarity_radius.json", result,
+                  command=script_command(__file__, argv))
     (args.out / "casegraph_similarity_radius.md").write_text(markdown(result) + "\n",
                                                              encoding="utf-8")
     print(markdown(result))

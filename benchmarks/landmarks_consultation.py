@@ -40,7 +40,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from docfigures.provenance import head, write_results
+from docfigures.provenance import head, script_command, write_results
 
 from cbr_landmarks.case import LandmarkCase
 from cbr_landmarks.experiments.common import drive, robot_config
@@ -272,7 +272,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             "corridor_driven": corridor_driven(corridor, args.corridor_trials, args.seed)}
     result["elapsed_s"] = time.perf_counter() - began
     args.out.mkdir(parents=True, exist_ok=True)
-    write_results(args.out / "landmarks_consultation.json", result)
+    write_results(args.out / "landmarks_consultation.json", result,
+                  command=script_command(__file__, argv))
     text = report(result)
     (args.out / "landmarks_consultation.md").write_text(text + "\n")
     print(text)

@@ -52,7 +52,7 @@ from typing import Any
 
 import attrs
 import numpy as np
-from docfigures.provenance import head, write_results
+from docfigures.provenance import head, script_command, write_results
 
 from cbr_landmarks.graph import LandmarkGraph
 from cbr_landmarks.index import SituationIndex
@@ -371,7 +371,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "load_average": {"before": load_before, "after": os.getloadavg()[0],
                          "cpus": os.cpu_count()}}
     args.out.mkdir(parents=True, exist_ok=True)
-    write_results(args.out / "landmarks_retrieval.json", result)
+    write_results(args.out / "landmarks_retrieval.json", result,
+                  command=script_command(__file__, argv))
     text = report(result)
     (args.out / "landmarks_retrieval.md").write_text(text + "\n")
     print(text)

@@ -64,7 +64,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from docfigures.provenance import write_results
+from docfigures.provenance import script_command, write_results
 
 from cbr_behaviors.index import (
     FRACTIONS,
@@ -374,7 +374,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "load_average": {"before": load_before, "after": os.getloadavg()[0],
                          "cpus": os.cpu_count()}}
     args.out.mkdir(parents=True, exist_ok=True)
-    write_results(args.out / "rupart_retrieval.json", summary)
+    write_results(args.out / "rupart_retrieval.json", summary,
+                  command=script_command(__file__, argv))
     text = report(summary)
     (args.out / "rupart_retrieval.md").write_text(text + "\n")
     print(text)

@@ -105,6 +105,8 @@ def stale_results(root: Path = ROOT) -> list[str]:
         if changed is None:
             why = "records no source"
         else:
+            # a plugin says more of what changed than cbrcore's modules do
+            changed.sort(key=lambda unit: (not unit.startswith("plugins/"), unit))
             shown = ", ".join(changed[:SHOWN_UNITS])
             more = len(changed) - SHOWN_UNITS
             why = (f"source changed since commit {str(data.get('commit'))[:10]}: {shown}"

@@ -26,7 +26,7 @@ import os
 import shlex
 import subprocess
 import sys
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -98,11 +98,12 @@ def head(root: Path = ROOT) -> str:
                           cwd=root, check=False).stdout.strip()
 
 
-def script_command() -> str:
-    """The command line this script runs with, from the repository's root."""
-    script = Path(sys.argv[0]).resolve()
-    shown = script.relative_to(ROOT).as_posix() if script.is_relative_to(ROOT) else str(script)
-    return shlex.join(["python", shown, *sys.argv[1:]])
+def script_command(script: str | None = None, argv: Sequence[str] | None = None) -> str:
+    """The command line that runs ``script`` (default: this process's) with ``argv`` (default:
+    this process's arguments), from the repository's root."""
+    path = Path(script or sys.argv[0]).resolve()
+    shown = path.relative_to(ROOT).as_posix() if path.is_relative_to(ROOT) else str(path)
+    return shlex.join(["python", shown, *(sys.argv[1:] if argv is None else argv)])
 
 
 def stamped(data: Mapping[str, Any], command: str | None = None, *,
