@@ -97,6 +97,9 @@ def test_a_result_older_than_its_source_fails_the_check_naming_its_blocks_and_co
                  json.loads(file.read_text(encoding="utf-8"))["source"])}
     assert {line.split(" ")[0] for line in stale} == using
     assert "docs/figures/landmark-learning.json" not in using
+    [share] = [line for line in stale if line.startswith("docs/figures/cbr-share.json")]
+    assert share.endswith("; rerun `cbr experiment cbr-share --size full --seed 0 --out DIR`, "
+                          "then `python benchmarks/figures.py --keep-experiment cbr-share DIR`")
     search.unlink()
     assert "plugins/cbr_solvers" in pages.stale_results(tmp_path)[0]
 

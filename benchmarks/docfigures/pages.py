@@ -112,5 +112,14 @@ def stale_results(root: Path = ROOT) -> list[str]:
             why = (f"source changed since commit {str(data.get('commit'))[:10]}: {shown}"
                    + (f" and {more} more" if more > 0 else ""))
         lines.append(f"{name} ({'blocks ' + ', '.join(blocks) if blocks else 'no block'}): "
-                     f"{why}; rerun `{data.get('command', '(no command recorded)')}`")
+                     f"{why}; rerun {_rerun(str(data.get('command', '(no command recorded)')))}")
     return lines
+
+
+def _rerun(command: str) -> str:
+    """How to rerun ``command``: an experiment's run is kept from its output folder."""
+    words = command.split()
+    if words[:2] != ["cbr", "experiment"] or len(words) < 3:
+        return f"`{command}`"
+    return (f"`{command} --out DIR`, then "
+            f"`python benchmarks/figures.py --keep-experiment {words[2]} DIR`")
