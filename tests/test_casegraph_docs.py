@@ -46,7 +46,7 @@ def test_similarity_radius_zero_is_the_deviation_tables_cbr_column(tmp_path: Pat
     written = json.loads((tmp_path / "casegraph_similarity_radius.json").read_text())
     assert written.pop("command") == ("python benchmarks/casegraph_similarity_radius.py --size ci "
                                       f"--radii 0 1 --out {tmp_path}")
-    assert {"commit", "source"} <= set(written)
+    assert {"plugins/cbr_casegraph", "cbrcore/engine.py"} <= set(written["source"])
     assert {key: written[key] for key in result} == json.loads(json.dumps(result))
     assert main(["experiment", "deviation-table", "--size", "ci", "--seed", "0",
                  "--out", str(tmp_path / "table")]) == 0

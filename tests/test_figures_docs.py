@@ -64,6 +64,17 @@ def test_every_results_file_records_its_command_commit_and_source(figures: Modul
             assert digest is None or re.fullmatch(r"[0-9a-f]{64}", digest), (file, unit)
 
 
+def test_a_unit_is_a_plugin_a_part_of_cbrcore_or_a_benchmark_script(figures: ModuleType) -> None:
+    unit_of = figures.provenance.unit_of
+    assert unit_of(ROOT / "plugins" / "cbr_grid" / "grid.py") == "plugins/cbr_grid"
+    assert unit_of(ROOT / "cbrcore" / "casebase" / "memory.py") == "cbrcore/casebase"
+    assert unit_of(ROOT / "cbrcore" / "engine.py") == "cbrcore/engine.py"
+    assert unit_of(ROOT / "benchmarks" / "solvers.py") == "benchmarks/solvers.py"
+    for outside in (ROOT / "benchmarks" / "docfigures" / "keep.py",
+                    ROOT / "tests" / "toy_domain.py", Path(json.__file__)):
+        assert unit_of(outside) is None, outside
+
+
 def _current(root: Path, provenance: ModuleType) -> None:
     """Record in every results file under ``root`` the source ``root`` holds, as a rerun at
     that source would."""

@@ -7,11 +7,12 @@ Every results file (``benchmarks/results/*.json``, ``docs/figures/*.json``) hold
 - ``commit``: the commit checked out when it was written;
 - ``source``: ``{unit: sha256}`` for each unit of the repository's source its producer imported.
 
-A unit is a plugin package whole (``plugins/cbr_casegraph``) or one top-level module or
-subpackage of cbrcore (``cbrcore/engine.py``, ``cbrcore/casebase``): cbrcore also holds the
-command line and the documents, which most results never touch. The units are those of the
-modules in ``sys.modules`` when the result is written, at the end of its run; a producer that
-measures another process (the command line's start-up) names its units itself. A unit's hash
+A unit is a plugin package whole (``plugins/cbr_casegraph``), one top-level module or
+subpackage of cbrcore (``cbrcore/engine.py``, ``cbrcore/casebase``: cbrcore also holds the
+command line and the documents, which most results never touch) or a benchmark script
+(``benchmarks/solvers.py``). The units are those of the modules in ``sys.modules`` when the
+result is written, at the end of its run; a producer that measures another process (the command
+line's start-up) names the units of that process itself. A unit's hash
 covers its ``.py`` files in sorted path order, each path with its contents; data files (worlds,
 maps) are not covered.
 
@@ -38,13 +39,16 @@ RESULT_FOLDERS = ("benchmarks/results", "docs/figures")
 
 
 def unit_of(file: Path, root: Path = ROOT) -> str | None:
-    """The unit a source file belongs to, None for a file outside cbrcore and the plugins."""
+    """The unit a source file belongs to, None for a file outside cbrcore, the plugins and the
+    benchmark scripts."""
     try:
         parts = file.resolve().relative_to(root).parts
     except ValueError:
         return None
     if len(parts) >= 2 and parts[0] == "cbrcore":
         return "/".join(parts[:2])
+    if len(parts) == 2 and parts[0] == "benchmarks" and parts[1].endswith(".py"):
+        return "/".join(parts)
     if len(parts) >= 3 and parts[0] == "plugins" and parts[1].startswith("cbr_"):
         return "/".join(parts[:2])
     return None
@@ -125,7 +129,9 @@ def write_results(path: Path, data: Mapping[str, Any], *, command: str | None = 
                   dumps: Callable[[dict[str, Any]], str] | None = None) -> dict[str, Any]:
     """Write a benchmark's results, :func:`stamped`, into ``path`` as ``dumps`` writes them
     (default: JSON indented by two); return what was written."""
-    done = stamped(data, command, unit_names=unit_names)
+    scripts = [unit for unit in units() if unit.startswith("benchmarks/")]
+    done = stamped(data, command,
+                   unit_names=None if unit_names is None else [*unit_names, *scripts])
     path.parent.mkdir(parents=True, exist_ok=True)
     text = dumps(done) if dumps else json.dumps(done, indent=2, ensure_ascii=False) + "\n"
     path.write_text(text, encoding="utf-8")
