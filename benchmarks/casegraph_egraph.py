@@ -32,7 +32,6 @@ every query.
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import time
 from collections.abc import Callable
@@ -41,6 +40,7 @@ from typing import Any
 
 import numpy as np
 from casegraph_movingai import DATA, PAIRS
+from docfigures.provenance import write_results
 
 from cbr_casegraph.experience import plan as experience_plan
 from cbr_casegraph.experiments.common import MAX_RATIO, accepted
@@ -221,7 +221,7 @@ def main() -> None:
                            "pairs": [list(pair) for pair in FACTOR_PAIRS]},
               "maps": rows, "pooled": {name: tally.row() for name, tally in pooled.items()}}
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "casegraph_egraph.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_results(args.out / "casegraph_egraph.json", result)
     lines = ["## All maps pooled", "", *_table(result["pooled"])]
     for row in rows:
         lines += ["", f"## {row['map']} ({row['size']}, {row['vertices']} vertices, "

@@ -38,7 +38,6 @@ The protocol's pieces (``PAIRS``, ``DATA``, :func:`load_problems`, :func:`retain
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import time
 from collections.abc import Callable
@@ -47,6 +46,7 @@ from typing import Any
 
 import attrs
 import numpy as np
+from docfigures.provenance import write_results
 
 from cbr_casegraph.experiments.common import MAX_RATIO, accepted
 from cbr_casegraph.graph import CaseGraph
@@ -308,7 +308,7 @@ def main() -> None:
                            "limit": args.limit, "landmarks": LANDMARKS,
                            "payoff": attrs.asdict(payoff), "decided_ideal": "landmarks"},
               "maps": rows}
-    (args.out / "casegraph_movingai.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_results(args.out / "casegraph_movingai.json", result)
     lines = table(rows)
     (args.out / "casegraph_movingai.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))

@@ -20,13 +20,13 @@ from __future__ import annotations
 
 import argparse
 import copy
-import json
 import statistics
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from docfigures.provenance import write_results
 
 from cbr_casegraph.build import connected_cells, grow, random_task
 from cbr_casegraph.experiments.common import make_map, solve, warm_up
@@ -109,8 +109,7 @@ def main() -> None:
     args = parser.parse_args()
     result = run(args.side, sorted(args.counts), args.paths)
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "casegraph_retention.json").write_text(json.dumps(result, indent=2) + "\n",
-                                                       encoding="utf-8")
+    write_results(args.out / "casegraph_retention.json", result)
     (args.out / "casegraph_retention.md").write_text(markdown(result) + "\n", encoding="utf-8")
     print(markdown(result))
 

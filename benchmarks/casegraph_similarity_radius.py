@@ -18,9 +18,10 @@ serially.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 from typing import Any
+
+from docfigures.provenance import script_command, write_results
 
 from cbr_casegraph.experiments.common import MAX_RATIO, map_info
 from cbr_casegraph.experiments.deviation import DeviationTable
@@ -70,8 +71,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     except CbrError as exc:
         parser.error(str(exc))
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "casegraph_similarity_radius.json").write_text(
-        json.dumps(result, indent=2) + "\n", encoding="utf-8")
+    write_results(args.out / "casegraph_similarity_radius.json", result,
+                  command=script_command(__file__, argv))
     (args.out / "casegraph_similarity_radius.md").write_text(markdown(result) + "\n",
                                                              encoding="utf-8")
     print(markdown(result))

@@ -31,7 +31,6 @@ from __future__ import annotations
 import argparse
 import cProfile
 import io
-import json
 import pstats
 import statistics
 import time
@@ -40,6 +39,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from docfigures.provenance import write_results
 
 from cbr_casegraph.build import connected_cells, grow, random_task
 from cbr_casegraph.experiments.common import cbr_tasks, make_map, region_mask, warm_up
@@ -168,7 +168,7 @@ def main() -> None:
     result = {"vertices": VERTICES, "seed": SEED, "repeats": args.repeats,
               "settings": {"delta": Settings().delta, "selective": False}, "rows": rows,
               "targets": targets}
-    (args.out / "casegraph_speed.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_results(args.out / "casegraph_speed.json", result)
     lines = ["| map | vertices | edges | paths retained | queries | median octile distance "
              "| CBR ms | A* ms | CBR / A* (median of per-query ratios) "
              "| A* ms, random tasks |", "|---" * 10 + "|"]

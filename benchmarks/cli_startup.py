@@ -16,7 +16,6 @@ Writes ``cli_startup.json`` and ``cli_startup.md`` into the output folder.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
 import subprocess
@@ -24,6 +23,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+from docfigures.provenance import head, write_results
 
 ROOT = Path(__file__).resolve().parents[1]
 COMPLETE_LINE = "cbr run x.yaml --set retrieve="
@@ -56,8 +57,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=15)
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results")
     args = parser.parse_args()
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                            cwd=ROOT, check=False).stdout.strip()
+    commit = head()
     with tempfile.TemporaryDirectory() as cache:
         base = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
         base["PYTHONPYCACHEPREFIX"] = cache
@@ -84,7 +84,8 @@ def main() -> None:
                   for name, median in medians.items()],
     }
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "cli_startup.json").write_text(json.dumps(result, indent=2) + "\n")
+    # the command line's start-up is in other processes, which load cbrcore and every plugin
+    write_results(args.out / "cli_startup.json", result, unit_names=("cbrcore", "plugins"))
     rows = [f"| {c['case']} | {c['median_s']:.3f} | {c['ratio_to_python']:.1f} |"
             for c in result["cases"]]
     table = "\n".join([

@@ -16,7 +16,6 @@ Writes ``engine_overhead.json`` and ``engine_overhead.md`` into the output folde
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import sys
 import tempfile
@@ -34,6 +33,8 @@ from cbrcore.model import CASEBASE, Proposal
 from cbrcore.plugins import load_plugins
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from docfigures.provenance import write_results
+
 import toy_domain  # the test domain lives with the tests
 
 PLUGINS = [("core", cbrcore.builtins), ("observers", cbr_observers), ("toy", toy_domain)]
@@ -128,7 +129,7 @@ def main() -> None:
         "sqlite_learn_over_memory_learn": median["learn_sqlite"] / median["learn_memory"],
     }
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "engine_overhead.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_results(args.out / "engine_overhead.json", result)
     table = "\n".join([
         "| what is timed | median µs per query | ratio |",
         "|---|---|---|",

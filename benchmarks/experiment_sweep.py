@@ -33,6 +33,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from docfigures.provenance import write_results
+
 from cbrcore.experiment import run_experiment
 from cbrcore.plugins import current
 from cbrcore.tasks import TaskRunner, open_tasks
@@ -128,7 +130,7 @@ def main() -> None:
         "differences": found[:20], "timed_fields_ignored": sorted(TIMED),
     }
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "experiment_sweep.json").write_text(json.dumps(report, indent=2) + "\n")
+    write_results(args.out / "experiment_sweep.json", report)
     lines = [
         f"`{name}` at size {size}, seed {seed}, on {os.cpu_count()} cores: serially, and on a "
         f"Dask LocalCluster of {args.workers} worker processes (one thread each; its start and "

@@ -42,6 +42,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from docfigures.provenance import script_command, write_results
 
 from cbr_grid.directions import STEPS
 from cbr_grid.movingai import Scenario, load_map, load_scen
@@ -348,7 +349,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
               "elapsed_s": elapsed, "mismatches": mismatches, "rows": rows, "pooled": pooled,
               "maps": per_map}
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "kinematics_speed.json").write_text(dumps(result))
+    write_results(args.out / "kinematics_speed.json", result, dumps=dumps,
+                  command=script_command(__file__, argv))
     text = "\n\n".join([
         table(rows), "Pooled over the maps:", table(pooled), NOTES,
         "Mismatch totals: " + ", ".join(f"{k} {v}" for k, v in mismatches.items()) + ".",

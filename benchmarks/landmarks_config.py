@@ -19,12 +19,12 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import subprocess
 import tempfile
 from pathlib import Path
 
 import yaml
+from docfigures.provenance import head, write_results
 
 from cbr_world2d.generate import SCENES
 
@@ -40,8 +40,7 @@ def main() -> None:
     args = parser.parse_args()
     seeds = [int(s) for s in args.seeds.split(",")]
     looked_at = {int(s) for s in args.looked_at.split(",") if s}
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                            cwd=Path(__file__).parent, check=False).stdout.strip()
+    commit = head()
     shipped = yaml.safe_load(CONFIG.read_text(encoding="utf-8"))
     worlds = []
     with tempfile.TemporaryDirectory() as scratch:
@@ -71,8 +70,7 @@ def main() -> None:
               f"--looked-at {args.looked_at} --repeat {args.repeat}", "commit": commit,
               "worlds": worlds}
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "landmarks_config.json").write_text(json.dumps(record, indent=1) + "\n",
-                                                    encoding="utf-8")
+    write_results(args.out / "landmarks_config.json", record)
     lines = ["`configs/landmarks.yaml` on generated scenario worlds, unchanged but for the "
              f"world: {reached} of {trials} trials reached the target.", "",
              "| world seed | shape | held out | reached | time of each trial (s) |",

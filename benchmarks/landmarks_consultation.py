@@ -33,15 +33,14 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import math
-import subprocess
 import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from docfigures.provenance import head, script_command, write_results
 
 from cbr_landmarks.case import LandmarkCase
 from cbr_landmarks.experiments.common import drive, robot_config
@@ -265,9 +264,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         corridor = Path(folder) / "corridor.yaml"
         corridor.write_text(CORRIDOR, encoding="utf-8")
         result: dict[str, Any] = {
-            "commit": subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True,
-                                     text=True, cwd=Path(__file__).parent,
-                                     check=False).stdout.strip(),
+            "commit": head(),
             "seed": args.seed,
             "corridor": region_edge(corridor, args.draws, args.seed),
             "flicker": flicker(args.flicker_trials, args.seed),
@@ -275,7 +272,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             "corridor_driven": corridor_driven(corridor, args.corridor_trials, args.seed)}
     result["elapsed_s"] = time.perf_counter() - began
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "landmarks_consultation.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_results(args.out / "landmarks_consultation.json", result,
+                  command=script_command(__file__, argv))
     text = report(result)
     (args.out / "landmarks_consultation.md").write_text(text + "\n")
     print(text)

@@ -43,17 +43,16 @@ Writes ``landmarks_retrieval.json`` and ``landmarks_retrieval.md``.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import statistics
-import subprocess
 import time
 from pathlib import Path
 from typing import Any
 
 import attrs
 import numpy as np
+from docfigures.provenance import head, script_command, write_results
 
 from cbr_landmarks.graph import LandmarkGraph
 from cbr_landmarks.index import SituationIndex
@@ -241,8 +240,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results")
     args = parser.parse_args(argv)
     # the commit that runs, read before the runs: one made meanwhile did not
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                            cwd=Path(__file__).parent).stdout.strip()
+    commit = head()
     load_before = os.getloadavg()[0]
     began = time.perf_counter()
     stored = store(args.stored, args.seed)
@@ -373,7 +371,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "load_average": {"before": load_before, "after": os.getloadavg()[0],
                          "cpus": os.cpu_count()}}
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "landmarks_retrieval.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_results(args.out / "landmarks_retrieval.json", result,
+                  command=script_command(__file__, argv))
     text = report(result)
     (args.out / "landmarks_retrieval.md").write_text(text + "\n")
     print(text)

@@ -42,6 +42,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from docfigures.provenance import units, write_results
 
 KINDS = ("grid", "astar", "dijkstra", "engine", "engine_octile")
 DENSITY = 0.15
@@ -179,6 +180,7 @@ def child(kind: str, side: int, trips: int) -> dict[str, Any]:
         "parent": int(workspace.parent.nbytes),
         "move_masks": sum(int(entry[1].nbytes) for entry in search._MASKS.values())}
     result["peak_rss"], result["final_rss"] = _peak_rss(), _rss()
+    result["units"] = units()  # the source this measurement ran, for the results' provenance
     return result
 
 
@@ -238,13 +240,15 @@ def main() -> None:
         print(json.dumps(child(args.child, args.side, args.trips)))
         return
     rows = []
+    ran: set[str] = set()
     for kind in args.kinds:
         rows.append(measure(kind, args.side, args.trips))
+        ran.update(rows[-1].pop("units", ()))
         print(json.dumps({k: v for k, v in rows[-1].items() if k != "case_graph"}), flush=True)
     result = {"side": args.side, "trips": args.trips, "density": DENSITY, "seed": SEED,
               "limit_bytes": LIMIT, "measurements": rows}
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "memory.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_results(args.out / "memory.json", result, unit_names=ran)
     text = "\n\n".join([
         table(rows),
         f"A {args.side}x{args.side} map with {DENSITY:.0%} random obstacles, one fresh process "

@@ -71,7 +71,6 @@ from __future__ import annotations
 
 import argparse
 import gc
-import json
 import math
 import statistics
 import time
@@ -80,6 +79,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from docfigures.provenance import write_results
 from scipy.spatial import cKDTree
 from scipy.spatial.distance import cdist, directed_hausdorff
 
@@ -540,7 +540,7 @@ def main() -> None:
             "measured_ms": largest["retain_without_ideal_ms"],
             "met": largest["retain_without_ideal_ms"] <= TARGET_MS}}
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "pathcases_speed.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_results(args.out / "pathcases_speed.json", result)
     (args.out / "pathcases_speed.md").write_text(table + "\n")
     print(table)
 

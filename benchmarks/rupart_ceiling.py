@@ -17,12 +17,11 @@ Writes ``rupart_ceiling.json`` and ``rupart_ceiling.md``.
 from __future__ import annotations
 
 import argparse
-import json
-import subprocess
 import tempfile
 from pathlib import Path
 
 import numpy as np
+from docfigures.provenance import head, write_results
 
 from cbr_behaviors.experiments.delivery import arm_config, run_job
 from cbrcore.tasks import LocalTasks
@@ -47,8 +46,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results")
     args = parser.parse_args()
     floors = [int(s) for s in args.floors.split(",")]
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                            cwd=Path(__file__).parent, check=False).stdout.strip()
+    commit = head()
     kinds = tuple(KINDS)
     with tempfile.TemporaryDirectory() as scratch:
         jobs = []
@@ -79,8 +77,7 @@ def main() -> None:
               "delivered": {kind: [[row["delivered"] for row in rows]
                                    for rows in per_floor[kind]] for kind in kinds}}
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "rupart_ceiling.json").write_text(json.dumps(record, indent=1) + "\n",
-                                                  encoding="utf-8")
+    write_results(args.out / "rupart_ceiling.json", record)
     lines = [f"`{ARM}` on floors {args.floors}, {args.days} day(s) of {args.length:.0f} s: "
              f"{messages:.2f} messages a day arrive.", "",
              "| floor | delivered | missed | unfinished | busy m/s |", "|---|---|---|---|---|"]

@@ -13,10 +13,10 @@ the last day against the first with its paired 95% interval).
 from __future__ import annotations
 
 import argparse
-import json
-import subprocess
 import tempfile
 from pathlib import Path
+
+from docfigures.provenance import head, write_results
 
 from cbr_behaviors.experiments.delivery import arm_config, interval, run_job
 from cbrcore.tasks import LocalTasks
@@ -33,8 +33,7 @@ def main() -> None:
     args = parser.parse_args()
     floors = [int(s) for s in args.floors.split(",")]
     # the commit that runs, read before the runs: one made meanwhile did not
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                            cwd=Path(__file__).parent, check=False).stdout.strip()
+    commit = head()
     with tempfile.TemporaryDirectory() as scratch:
         jobs = []
         for seed in floors:
@@ -48,8 +47,7 @@ def main() -> None:
               f"--days {args.days} --length {args.length:g}", "commit": commit, "arm": ARM,
               "floors": floors, "delivered": per_day, "gain": gain}
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "rupart_replay.json").write_text(json.dumps(record, indent=1) + "\n",
-                                                 encoding="utf-8")
+    write_results(args.out / "rupart_replay.json", record)
     lines = [f"`{ARM}` living one day {args.days} times on each floor (`replay`), "
              f"{args.length:.0f} s a day: messages delivered on time.", "",
              "| floor | " + " | ".join(f"day {d + 1}" for d in range(args.days)) + " |",

@@ -54,7 +54,6 @@ from __future__ import annotations
 
 import argparse
 import importlib.metadata
-import json
 import math
 import os
 import statistics
@@ -65,6 +64,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from docfigures.provenance import script_command, write_results
 
 from cbr_behaviors.index import (
     FRACTIONS,
@@ -374,7 +374,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "load_average": {"before": load_before, "after": os.getloadavg()[0],
                          "cpus": os.cpu_count()}}
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "rupart_retrieval.json").write_text(json.dumps(summary, indent=2) + "\n")
+    write_results(args.out / "rupart_retrieval.json", summary,
+                  command=script_command(__file__, argv))
     text = report(summary)
     (args.out / "rupart_retrieval.md").write_text(text + "\n")
     print(text)

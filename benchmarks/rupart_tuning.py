@@ -20,13 +20,12 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import json
-import subprocess
 import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from docfigures.provenance import head, write_results
 
 from cbr_behaviors.experiments.delivery import TUNING_SEEDS, arm_config, run_job
 from cbrcore.tasks import LocalTasks
@@ -57,8 +56,7 @@ def main() -> None:
     args = parser.parse_args()
     seeds = list(TUNING_SEEDS)[:args.floors]
     # the commit that runs, read before the runs: one made meanwhile did not
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                            cwd=Path(__file__).parent, check=False).stdout.strip()
+    commit = head()
     candidates = [behavior_set(*c) for c in itertools.product(SPEEDS, OBSTACLE, COLLISION)]
     with tempfile.TemporaryDirectory() as scratch:
         jobs = []
@@ -81,8 +79,7 @@ def main() -> None:
     record = {"command": "python benchmarks/rupart_tuning.py "
               f"--floors {args.floors} --length {args.length:g}", "commit": commit,
               "floors": seeds, "results": results}
-    (args.out / "rupart_tuning.json").write_text(json.dumps(record, indent=1) + "\n",
-                                                 encoding="utf-8")
+    write_results(args.out / "rupart_tuning.json", record)
     lines = [f"Fixed sets on tuning floors {seeds[0]} to {seeds[-1]}, one day of "
              f"{args.length:.0f} s each; per day, mean over the floors, best first: the sets "
              f"with at most {SAFE_COLLISIONS:g} collision a day, then the others.", "",

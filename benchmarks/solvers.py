@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import json
 import math
 import statistics
 import time
@@ -46,6 +45,7 @@ from types import ModuleType
 from typing import Any
 
 import numpy as np
+from docfigures.provenance import write_results
 
 from cbr_grid.movingai import load_map, load_scen
 from cbr_solvers.genetic import genetic
@@ -484,7 +484,7 @@ def main_genetic(sizes: list[int], queries: int, out: Path) -> None:
         print(f"random {size}: {rows[-1]['reached']}/{queries} reached", flush=True)
     result = {"sizes": sizes, "queries": queries, "first_call_s": first_call, "maps": rows}
     out.mkdir(parents=True, exist_ok=True)
-    (out / "genetic.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_results(out / "genetic.json", result)
     text = "\n\n".join([
         genetic_table(rows),
         "Default options (50000 generations, population 50, mutation 1, Euclidean distance), "
@@ -567,7 +567,7 @@ def main() -> None:
               "first_call_s": first_call, "maps": rows, "targets": summary,
               "jps_target": jps_target, "jps_limit": args.jps_limit, "jps_scenarios": every}
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "solvers.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_results(args.out / "solvers.json", result)
 
     # the largest Moving AI map by graph build, and the random maps, whose sizes are chosen
     shown = [max((r for r in rows if not r["map"].startswith("random ")),

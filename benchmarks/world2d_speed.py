@@ -44,7 +44,6 @@ import importlib.metadata
 import importlib.util
 import io
 import itertools
-import json
 import math
 import statistics
 import tempfile
@@ -56,6 +55,7 @@ from typing import Any
 import attrs
 import numpy as np
 import yaml
+from docfigures.provenance import script_command, write_results
 
 from cbr_world2d import robot
 from cbr_world2d.navigator import Navigator, NavigatorOptions
@@ -632,7 +632,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "irsim": {str(beams): measured for beams, measured in irsim_rows.items()},
         "targets": targets}
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "world2d_speed.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_results(args.out / "world2d_speed.json", result,
+                  command=script_command(__file__, argv))
     text = report(result, skipped="left out (--no-irsim)" if args.no_irsim
                   else "not installed (pip install -e '.[bench]')")
     (args.out / "world2d_speed.md").write_text(text + "\n")

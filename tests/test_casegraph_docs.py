@@ -32,7 +32,9 @@ def _load(name: str) -> ModuleType:
     spec = importlib.util.spec_from_file_location(name, path)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.syspath_prepend(str(path.parent))  # as a script, its folder is on the path
+        spec.loader.exec_module(module)
     return module
 
 
@@ -42,7 +44,10 @@ def test_similarity_radius_zero_is_the_deviation_tables_cbr_column(tmp_path: Pat
     radius = _load("casegraph_similarity_radius")
     result = radius.main(["--size", "ci", "--radii", "0", "1", "--out", str(tmp_path)])
     written = json.loads((tmp_path / "casegraph_similarity_radius.json").read_text())
-    assert written == json.loads(json.dumps(result))
+    assert written.pop("command") == ("python benchmarks/casegraph_similarity_radius.py --size ci "
+                                      f"--radii 0 1 --out {tmp_path}")
+    assert {"plugins/cbr_casegraph", "cbrcore/engine.py"} <= set(written["source"])
+    assert {key: written[key] for key in result} == json.loads(json.dumps(result))
     assert main(["experiment", "deviation-table", "--size", "ci", "--seed", "0",
                  "--out", str(tmp_path / "table")]) == 0
     table = json.loads((tmp_path / "table" / "results.json").read_text())["rows"]

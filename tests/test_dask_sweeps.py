@@ -31,7 +31,9 @@ _SWEEP = importlib.util.spec_from_file_location(
     "experiment_sweep", Path(__file__).resolve().parents[1] / "benchmarks" / "experiment_sweep.py")
 assert _SWEEP is not None and _SWEEP.loader is not None
 sweep = importlib.util.module_from_spec(_SWEEP)
-_SWEEP.loader.exec_module(sweep)
+with pytest.MonkeyPatch.context() as _patch:
+    _patch.syspath_prepend(str(Path(_SWEEP.origin).parent))  # a script has its folder on the path
+    _SWEEP.loader.exec_module(sweep)
 untimed = sweep.untimed
 """A results.json without its measured times, as the sweep benchmark compares them."""
 

@@ -27,7 +27,7 @@ SCRIPT = ROOT / "benchmarks" / "figures.py"
 
 
 #: the modules of the docfigures package the tests reach
-MODULES = ("results", "wording", "catalogue", "pages", "keep", "case_benchmarks",
+MODULES = ("results", "wording", "catalogue", "pages", "keep", "provenance", "case_benchmarks",
            "ros2005_baseline", "pathcases_experiments", "rupart_experiments")
 
 
@@ -42,10 +42,87 @@ def figures() -> Iterator[ModuleType]:
         yield package
 
 
-def test_the_pages_hold_what_the_results_say() -> None:
-    done = subprocess.run([sys.executable, str(SCRIPT), "--check"], capture_output=True,
-                          text=True, timeout=120, check=False)
-    assert done.returncode == 0, done.stderr
+def test_the_pages_hold_what_the_results_say(figures: ModuleType) -> None:
+    """The blocks against the results; whether the results are older than their source is
+    ``figures.py --check``'s to say: a change to the code makes them so until they are rerun."""
+    assert figures.pages.check() == []
+
+
+def test_every_results_file_records_its_command_commit_and_source(figures: ModuleType) -> None:
+    provenance = figures.provenance
+    files = provenance.result_files()
+    assert {file.parent.relative_to(ROOT).as_posix() for file in files} == set(
+        provenance.RESULT_FOLDERS)
+    for file in files:
+        data = json.loads(file.read_text(encoding="utf-8"))
+        assert data["command"].startswith(("python benchmarks/", "cbr experiment ")), file
+        assert re.fullmatch(r"[0-9a-f]{40}", data["commit"]), file
+        assert data["source"], file
+        for unit, digest in data["source"].items():
+            assert (ROOT / unit).exists(), (file, unit)
+            # None: a unit that did not exist at the commit that made the results
+            assert digest is None or re.fullmatch(r"[0-9a-f]{64}", digest), (file, unit)
+
+
+def test_a_unit_is_a_plugin_a_part_of_cbrcore_or_a_benchmark_script(figures: ModuleType) -> None:
+    unit_of = figures.provenance.unit_of
+    assert unit_of(ROOT / "plugins" / "cbr_grid" / "grid.py") == "plugins/cbr_grid"
+    assert unit_of(ROOT / "cbrcore" / "casebase" / "memory.py") == "cbrcore/casebase"
+    assert unit_of(ROOT / "cbrcore" / "engine.py") == "cbrcore/engine.py"
+    assert unit_of(ROOT / "benchmarks" / "solvers.py") == "benchmarks/solvers.py"
+    for outside in (ROOT / "benchmarks" / "docfigures" / "keep.py",
+                    ROOT / "tests" / "toy_domain.py", Path(json.__file__)):
+        assert unit_of(outside) is None, outside
+
+
+def _current(root: Path, provenance: ModuleType) -> None:
+    """Record in every results file under ``root`` the source ``root`` holds, as a rerun at
+    that source would."""
+    for file in provenance.result_files(root):
+        data = json.loads(file.read_text(encoding="utf-8"))
+        data["source"] = {unit: provenance.unit_sha256(unit, root) for unit in data["source"]}
+        file.write_text(json.dumps(data), encoding="utf-8")
+
+
+def test_a_result_older_than_its_source_fails_the_check_naming_its_blocks_and_command(
+        figures: ModuleType, tmp_path: Path) -> None:
+    """On a copy of the repository's results and source: current, then a solver changed."""
+    provenance, pages = figures.provenance, figures.pages
+    for folder in (*provenance.RESULT_FOLDERS, "cbrcore", "plugins"):
+        shutil.copytree(ROOT / folder, tmp_path / folder,
+                        ignore=shutil.ignore_patterns("__pycache__", "*.png", "*.grid"))
+    _current(tmp_path, provenance)
+    assert pages.stale_results(tmp_path) == []
+    search = tmp_path / "plugins" / "cbr_solvers" / "search.py"
+    search.write_text(search.read_text(encoding="utf-8") + "\nCHANGED = True\n",
+                      encoding="utf-8")
+    stale = pages.stale_results(tmp_path)
+    [genetic] = [line for line in stale if line.startswith("benchmarks/results/genetic.json")]
+    assert genetic.startswith("benchmarks/results/genetic.json (blocks genetic, genetic-reading): "
+                              "source changed since commit ")
+    assert genetic.endswith(": plugins/cbr_solvers; rerun `python benchmarks/solvers.py "
+                            "--genetic`")
+    # results whose producers never imported the solvers stay current ("plugins" is every one)
+    using = {file.relative_to(tmp_path).as_posix() for file in provenance.result_files(tmp_path)
+             if {"plugins/cbr_solvers", "plugins"} & set(
+                 json.loads(file.read_text(encoding="utf-8"))["source"])}
+    assert {line.split(" ")[0] for line in stale} == using
+    assert "docs/figures/landmark-learning.json" not in using
+    [share] = [line for line in stale if line.startswith("docs/figures/cbr-share.json")]
+    assert share.endswith("; rerun `cbr experiment cbr-share --size full --seed 0 --out DIR`, "
+                          "then `python benchmarks/figures.py --keep-experiment cbr-share DIR`")
+    search.unlink()
+    assert "plugins/cbr_solvers" in pages.stale_results(tmp_path)[0]
+
+
+def test_a_result_without_source_fails_the_check(figures: ModuleType, tmp_path: Path) -> None:
+    results = tmp_path / "benchmarks" / "results"
+    results.mkdir(parents=True)
+    (results / "solvers.json").write_text(json.dumps({"command": "python benchmarks/solvers.py"}),
+                                          encoding="utf-8")
+    assert figures.pages.stale_results(tmp_path) == [
+        "benchmarks/results/solvers.json (blocks solvers-maps, solvers-pooled, solvers-targets): "
+        "records no source; rerun `python benchmarks/solvers.py`"]
 
 
 def test_every_block_is_on_a_page_and_every_page_block_is_known(figures: ModuleType) -> None:
@@ -134,7 +211,13 @@ def test_an_experiment_run_is_kept_with_its_command_table_and_trimmed_results(
     # the pages quote the curves of two robots only, to four decimals
     head = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
                           cwd=Path(__file__).parent, check=False).stdout.strip()
-    assert json.loads(target.read_text(encoding="utf-8")) == {
+    data = json.loads(target.read_text(encoding="utf-8"))
+    # the source of what the plugin's experiments import: the path cases, the grid, cbrcore
+    source = data.pop("source")
+    assert {"plugins/cbr_pathcases", "plugins/cbr_grid", "cbrcore/engine.py"} <= set(source)
+    assert "plugins/cbr_world2d" not in source
+    assert source["plugins/cbr_grid"] == figures.provenance.unit_sha256("plugins/cbr_grid")
+    assert data == {
         "command": "cbr experiment path-cases-learning --size full --seed 0",
         "commit": head,
         "table": "| a |\n|---|\n| 1 |\n",

@@ -20,5 +20,7 @@ command line.
   ``rupart_experiments``, ``ros2005_baseline``: the experiments' pages; ``route_graph``: the
   route graph learned on the depot, for the grid page.
 - ``catalogue``: every block, its source and renderer; ``pages``: finding, checking and
-  rewriting the blocks of the pages; ``keep``: committing new results; ``cli``: the commands.
+  rewriting the blocks of the pages, and listing the results older than their source;
+  ``provenance``: the command, commit and source hash every results file records; ``keep``:
+  committing new results; ``cli``: the commands.
 """

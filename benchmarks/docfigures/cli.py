@@ -12,7 +12,7 @@ from pathlib import Path
 
 from .catalogue import BLOCKS
 from .keep import keep_baseline, keep_experiment
-from .pages import check, used, write
+from .pages import check, stale_results, used, write
 from .results import ROOT, FiguresError
 from .route_graph import keep_route_graph
 
@@ -20,7 +20,9 @@ from .route_graph import keep_route_graph
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     mode = parser.add_mutually_exclusive_group(required=True)
-    mode.add_argument("--check", action="store_true", help="fail when a block is stale")
+    mode.add_argument("--check", action="store_true",
+                      help="fail when a block differs from its results, or a results file "
+                           "from its source")
     mode.add_argument("--write", action="store_true", help="rewrite the stale blocks")
     mode.add_argument("--list", action="store_true", help="list the blocks and their sources")
     mode.add_argument("--keep-experiment", nargs=2, metavar=("NAME", "DIR"),
@@ -50,13 +52,18 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{name}: {block.source.relative_to(ROOT)} -> {where}")
             return 0
         lines = write() if args.write else check()
+        stale = stale_results() if args.check else []
     except FiguresError as exc:
         print(f"figures: {exc}", file=sys.stderr)
         return 1
     for line in lines:
         print(line, file=sys.stderr if args.check else sys.stdout)
-    if args.check and lines:
+    if lines and args.check:
         print("figures: run `python benchmarks/figures.py --write` after committing new results",
               file=sys.stderr)
-        return 1
-    return 0
+    for line in stale:
+        print(line, file=sys.stderr)
+    if stale:
+        print(f"figures: {len(stale)} results files are older than their source: rerun each "
+              "command, then `python benchmarks/figures.py --write`", file=sys.stderr)
+    return 1 if args.check and (lines or stale) else 0

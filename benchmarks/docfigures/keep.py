@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import json
-import subprocess
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from .provenance import imported_units, stamped
 from .results import KEPT, ROOT, FiguresError, load_json, read
 from .ros2005_baseline import BASELINE, BASELINE_TIMEOUT, BASELINE_TRIALS
 
@@ -31,9 +31,9 @@ def keep_baseline() -> Path:
         scenarios[name] = {
             "landmarks": {mark.id: [mark.x, mark.y] for mark in world.landmarks},
             "trials": [result.summary() for result in results]}
-    data = {"command": "python benchmarks/figures.py --keep-baseline",
-            "trials": BASELINE_TRIALS, "timeout": BASELINE_TIMEOUT, "scenarios": scenarios}
-    return commit_kept(f"{BASELINE}.json", data)
+    data = {"trials": BASELINE_TRIALS, "timeout": BASELINE_TIMEOUT, "scenarios": scenarios}
+    return commit_kept(f"{BASELINE}.json",
+                       stamped(data, "python benchmarks/figures.py --keep-baseline"))
 
 
 def _curves_of(robots: Sequence[str]) -> Callable[[dict[str, Any]], dict[str, Any]]:
@@ -53,7 +53,10 @@ TRIMS: dict[str, Callable[[dict[str, Any]], dict[str, Any]]] = {
 
 
 def keep_experiment(name: str, run: Path) -> Path:
-    """Commit the results of ``cbr experiment NAME`` written into ``run`` for the pages."""
+    """Commit the results of ``cbr experiment NAME`` written into ``run`` for the pages.
+
+    They are stamped with the source of what the experiment's plugin package and its
+    ``experiments`` modules import: ``cbr experiment`` loads every plugin, but runs one."""
     manifest = load_json(run / "manifest.json")
     results = load_json(run / "results.json")
     size = manifest.get("size")
@@ -61,18 +64,25 @@ def keep_experiment(name: str, run: Path) -> Path:
         raise FiguresError(f"{run}: manifest.json is of experiment "
                            f"{manifest.get('experiment')!r}, not {name!r}")
     seed = manifest.get("seed")
-    data = {"command": f"cbr experiment {name} --size {size} --seed {seed}",
-            "commit": head(),
-            "table": read(run / "results.md"),
+    data = {"table": read(run / "results.md"),
             "results": TRIMS.get(name, lambda kept: kept)(results)}
+    package = experiment_package(name)
+    data = stamped(data, f"cbr experiment {name} --size {size} --seed {seed}",
+                   unit_names=imported_units([package, f"{package}.experiments"]))
     # a run with another seed is kept beside seed 0's, for pages that quote both
     return commit_kept(f"{name}.json" if not seed else f"{name}-seed-{seed}.json", data)
 
 
-def head() -> str:
-    """The commit checked out, which the results are kept from right after their run."""
-    return subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                          cwd=Path(__file__).parent, check=False).stdout.strip()
+def experiment_package(name: str) -> str:
+    """The top-level package of the plugin that registers experiment ``name``."""
+    from cbrcore.errors import CbrError
+    from cbrcore.plugins import load_plugins
+
+    try:
+        component = load_plugins().registry.get("experiment", name)
+    except CbrError as exc:
+        raise FiguresError(f"experiment {name!r}: {exc}") from None
+    return component.factory.__module__.partition(".")[0]
 
 
 def commit_kept(file: str, data: dict[str, Any]) -> Path:

@@ -1,4 +1,5 @@
-"""The generated blocks of the docs' pages: finding them, rendering them anew, checking them."""
+"""The generated blocks of the docs' pages: finding them, rendering them anew, checking them;
+and the results files whose source has changed since they were written."""
 
 from __future__ import annotations
 
@@ -7,7 +8,11 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from .catalogue import BLOCKS
-from .results import DOCS, ROOT, FiguresError
+from .provenance import changed_units, result_files
+from .results import DOCS, ROOT, FiguresError, load_json
+
+#: how many changed units a line of the check names before it counts the rest
+SHOWN_UNITS = 3
 
 BLOCK = re.compile(r"(<!-- figures: (?P<name>[\w.-]+) -->\n)(?P<body>.*?)(<!-- /figures -->)",
                    re.S)
@@ -77,3 +82,44 @@ def used(docs: Path = DOCS) -> dict[str, list[str]]:
         for match in BLOCK.finditer(page.read_text(encoding="utf-8")):
             found.setdefault(match["name"], []).append(_name(page, docs))
     return found
+
+
+def _blocks_of(result: str) -> list[str]:
+    """The blocks rendered from results file ``result`` or from its markdown twin."""
+    return [name for name, block in BLOCKS.items()
+            if block.source.with_suffix(".json").relative_to(ROOT).as_posix() == result]
+
+
+def stale_results(root: Path = ROOT) -> list[str]:
+    """One line per results file under ``root`` whose recorded source differs from the source
+    there (or that records none): the file, its blocks, the units changed and the command that
+    writes it anew."""
+    lines = []
+    for file in result_files(root):
+        data = load_json(file)
+        changed = changed_units(data, root)
+        if changed == []:
+            continue
+        name = file.relative_to(root).as_posix()
+        blocks = _blocks_of(name)
+        if changed is None:
+            why = "records no source"
+        else:
+            # a plugin says more of what changed than cbrcore's modules do
+            changed.sort(key=lambda unit: (not unit.startswith("plugins/"), unit))
+            shown = ", ".join(changed[:SHOWN_UNITS])
+            more = len(changed) - SHOWN_UNITS
+            why = (f"source changed since commit {str(data.get('commit'))[:10]}: {shown}"
+                   + (f" and {more} more" if more > 0 else ""))
+        lines.append(f"{name} ({'blocks ' + ', '.join(blocks) if blocks else 'no block'}): "
+                     f"{why}; rerun {_rerun(str(data.get('command', '(no command recorded)')))}")
+    return lines
+
+
+def _rerun(command: str) -> str:
+    """How to rerun ``command``: an experiment's run is kept from its output folder."""
+    words = command.split()
+    if words[:2] != ["cbr", "experiment"] or len(words) < 3:
+        return f"`{command}`"
+    return (f"`{command} --out DIR`, then "
+            f"`python benchmarks/figures.py --keep-experiment {words[2]} DIR`")

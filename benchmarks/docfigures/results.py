@@ -9,7 +9,8 @@ from typing import Any
 
 from cbrcore.errors import CbrError
 
-ROOT = Path(__file__).resolve().parents[2]
+from .provenance import ROOT
+
 DOCS = ROOT / "docs"
 RESULTS = ROOT / "benchmarks" / "results"
 KEPT = DOCS / "figures"

@@ -17,7 +17,8 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from .keep import commit_kept, head
+from .keep import commit_kept
+from .provenance import imported_units, stamped
 from .results import DOCS, KEPT, ROOT, FiguresError, load_json
 
 ROUTE_GRAPH = "depot-route-graph"
@@ -42,9 +43,11 @@ def keep_route_graph() -> Path:
              "depot.geojson", cwd=work)
         summary = json.loads((work / "runs" / CONFIG.stem / "summary.json").read_text())
         graph = json.loads((work / "depot.geojson").read_text())
-    data = {"command": "python benchmarks/figures.py --keep-route-graph", "commit": head(),
-            "config": CONFIG.relative_to(ROOT).as_posix(),
-            "summary": {key: summary[key] for key in _SUMMARY}, "route_graph": graph}
+    data = stamped({"config": CONFIG.relative_to(ROOT).as_posix(),
+                    "summary": {key: summary[key] for key in _SUMMARY}, "route_graph": graph},
+                   "python benchmarks/figures.py --keep-route-graph",
+                   # what `cbr run` and `cbr casebase export` import for the case graph
+                   unit_names=imported_units(["cbrcore.run", "cbrcore.cli", "cbr_casegraph"]))
     target = commit_kept(f"{ROUTE_GRAPH}.json", data)
     draw(data)
     return target
