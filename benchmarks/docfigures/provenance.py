@@ -13,14 +13,16 @@ command line and the documents, which most results never touch) or a benchmark s
 (``benchmarks/solvers.py``). The units are those of the modules in ``sys.modules`` when the
 result is written, at the end of its run; a producer that measures another process (the command
 line's start-up) names the units of that process itself. A unit's hash
-covers its ``.py`` files in sorted path order, each path with its contents; data files (worlds,
-maps) are not covered.
+covers its ``.py`` files in sorted path order, each path with its code: the syntax tree without
+docstrings, so that a change of comments, docstrings or layout leaves results current and any
+other change makes them stale. Data files (worlds, maps) are not covered.
 
 The standard library only, so that a benchmark importing this adds no unit of its own.
 """
 
 from __future__ import annotations
 
+import ast
 import hashlib
 import json
 import os
@@ -92,8 +94,25 @@ def unit_sha256(unit: str, root: Path = ROOT) -> str | None:
     digest = hashlib.sha256()
     for file in files:
         digest.update(file.relative_to(root).as_posix().encode() + b"\0")
-        digest.update(file.read_bytes() + b"\0")
+        digest.update(code_of(file.read_bytes()).encode() + b"\0")
     return digest.hexdigest()
+
+
+def code_of(source: bytes) -> str:
+    """What a module does, as text: its syntax tree without docstrings (comments and layout are
+    not in the tree); the source itself when it does not parse."""
+    try:
+        tree = ast.parse(source)
+    except SyntaxError:
+        return source.decode("utf-8", "replace")
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if (isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef)
+                and body and isinstance(body[0], ast.Expr)
+                and isinstance(body[0].value, ast.Constant)
+                and isinstance(body[0].value.value, str)):
+            node.body = body[1:] or [ast.Pass()]
+    return ast.dump(tree)
 
 
 def head(root: Path = ROOT) -> str:
