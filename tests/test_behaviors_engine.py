@@ -47,8 +47,8 @@ from cbr_behaviors.quality import (
     with_rivals,
 )
 from cbr_behaviors.weights import KEY, store_weights
+from cbr_stores.sqlite import SQLiteStore
 from cbr_world2d.pilots.behaviors import TOP_TURN_RATE
-from cbrcore.casebase import SQLiteStore
 from cbrcore.casebase.exchange import Document, write_document
 from cbrcore.casebase.store import CaseStore
 from cbrcore.config import parse_config

@@ -17,8 +17,9 @@ import pytest
 
 import cbrcore.builtins
 import cbrcore.files
-from cbrcore.casebase import SQLiteStore, UnusableCaseBase
-from cbrcore.casebase.sqlite_file import MAX_ID, SCHEMA_VERSION
+from cbr_stores.sqlite import SQLiteStore
+from cbr_stores.sqlite_file import MAX_ID, SCHEMA_VERSION
+from cbrcore.casebase import UnusableCaseBase
 from cbrcore.errors import CaseBaseError
 from cbrcore.model import Case
 from cbrcore.plugins import Plugins

@@ -14,7 +14,9 @@ from pathlib import Path
 import pytest
 
 import cbrcore
-from cbrcore.casebase import APPLICATION_ID, SCHEMA_VERSION, SQLiteStore, UnusableCaseBase
+from cbr_stores.sqlite import SQLiteStore
+from cbr_stores.sqlite_file import APPLICATION_ID, SCHEMA_VERSION
+from cbrcore.casebase import UnusableCaseBase
 from cbrcore.errors import CaseBaseError
 from cbrcore.model import Case
 from test_casebase_damage import damage
@@ -23,7 +25,7 @@ REPO = Path(cbrcore.__file__).resolve().parent.parent
 
 WRITER = """
 import sys
-from cbrcore.casebase import SQLiteStore
+from cbr_stores.sqlite import SQLiteStore
 from cbrcore.model import Case
 
 store = SQLiteStore(sys.argv[1], busy_timeout=30)

@@ -642,7 +642,7 @@ def test_run_refuses_an_unusable_case_base_and_leaves_it_as_it_was(
     if content is None:
         import sqlite3
 
-        from cbrcore.casebase import SQLiteStore
+        from cbr_stores.sqlite import SQLiteStore
 
         SQLiteStore(path).close()
         with sqlite3.connect(path) as raw:

@@ -14,8 +14,10 @@ import yaml
 from typer.testing import CliRunner, Result
 
 import cbrcore.builtins
+from cbr_stores.sqlite import SQLiteStore
+from cbr_stores.sqlite_file import SCHEMA_VERSION
 from cbrcore import hookimpl
-from cbrcore.casebase import SCHEMA_VERSION, CaseStore, MemoryStore, SQLiteStore, UnusableCaseBase
+from cbrcore.casebase import CaseStore, MemoryStore, UnusableCaseBase
 from cbrcore.cli.casebase import app as casebase_app
 from cbrcore.context import Context
 from cbrcore.errors import CaseBaseError

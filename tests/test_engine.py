@@ -22,8 +22,9 @@ from hypothesis import strategies as st
 import cbr_observers
 import cbrcore.builtins
 import toy_domain
+from cbr_stores.sqlite import SQLiteStore
 from cbrcore import Case, Engine, Outcome, Proposal, Retrieval, Revision, Solution, hookimpl
-from cbrcore.casebase import MemoryStore, SQLiteStore
+from cbrcore.casebase import MemoryStore
 from cbrcore.casebase.store import CaseStore
 from cbrcore.config import parse_config
 from cbrcore.context import Context

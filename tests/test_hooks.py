@@ -23,8 +23,9 @@ import yaml
 import cbr_observers
 import cbrcore.builtins
 import toy_domain
+from cbr_stores.sqlite import SQLiteStore
 from cbrcore import Case, Engine, Match, Outcome, Retrieval, Revision, Solution, hookimpl, hookspecs
-from cbrcore.casebase import Document, MemoryStore, SQLiteStore
+from cbrcore.casebase import Document, MemoryStore
 from cbrcore.casebase.formats import DocumentFormat
 from cbrcore.casebase.store import CaseStore
 from cbrcore.casebase.worlds import WORLDS_KEY, OtherWorld
