@@ -38,7 +38,8 @@ def load_toy(cbr_plugins: Callable[..., Plugins]) -> Callable[..., Plugins]:
 
     It loads the toy domain with the built-in plugins (``core``, ``stores`` and ``observers``,
     registered in code rather than through their entry points) and any test-only ``extra``
-    plugins, given as ``cbr_plugins`` takes them; each call makes a fresh set current until the test ends.
+    plugins, given as ``cbr_plugins`` takes them; each call makes a fresh set current until the
+    test ends.
     """
     import cbr_stores
     import cbrcore.builtins

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+import cbr_stores
 import cbrcore.builtins
 import cbrcore.files
 from cbr_stores.sqlite import SQLiteStore
@@ -33,7 +34,7 @@ DOCUMENT = "format: cbrcore-casebase\nschema: 1\ncases:\n- {problem: 1, solution
 @pytest.fixture(autouse=True)
 def core(cbr_plugins: Callable[..., Plugins]) -> Plugins:
     """cbrcore's own stores, and no other plugin."""
-    return cbr_plugins(("core", cbrcore.builtins))
+    return cbr_plugins(("core", cbrcore.builtins), ("stores", cbr_stores))
 
 
 @pytest.fixture

@@ -18,6 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import cbr_observers
+import cbr_stores
 import cbrcore.builtins
 import toy_domain
 from cbrcore.config import (
@@ -62,6 +63,7 @@ class ProbePlugin:
 @pytest.fixture(scope="module")
 def registry() -> Registry:
     plugins = load_plugins(extra=[("toy", toy_domain), ("core", cbrcore.builtins),
+                                  ("stores", cbr_stores),
                                   ("observers", cbr_observers), ("probe", ProbePlugin())],
                            entry_points=False, environ={})
     return plugins.registry

@@ -24,6 +24,7 @@ import yaml
 from matplotlib.figure import Figure
 
 import cbr_observers
+import cbr_stores
 import cbrcore.builtins
 import toy_domain
 from cbrcore import Engine, Outcome, Proposal, hookimpl
@@ -108,6 +109,7 @@ class RunComponents:
 @pytest.fixture
 def plugins() -> Plugins:
     return load_plugins(extra=[("toy", toy_domain), ("core", cbrcore.builtins),
+                               ("stores", cbr_stores),
                                ("observers", cbr_observers), ("runs", RunComponents())],
                         entry_points=False, environ={})
 

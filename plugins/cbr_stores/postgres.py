@@ -49,6 +49,7 @@ class PostgresStore(SQLStore):
     (see :mod:`cbr_stores.postgres_schema`).
     """
 
+    DATABASE = "PostgreSQL"
     DRIVER_ERROR = psycopg.Error
     JSON_NAMES = True
     # a snapshot: every read of the block sees the case base as it was at its start

@@ -56,6 +56,15 @@ def dumps(value: JSON) -> str:
     return json.dumps(value, allow_nan=False, separators=(",", ":"))
 
 
+def _chunks(ids: list[int]) -> Iterator[tuple[str, list[int]]]:
+    """The ids a database can hold (one beyond its integers is stored nowhere), :data:`CHUNK` at
+    a time, each chunk with its placeholders."""
+    held = [i for i in ids if -MAX_ID - 1 <= i <= MAX_ID]
+    for start in range(0, len(held), CHUNK):
+        chunk = held[start:start + CHUNK]
+        yield ", ".join("?" * len(chunk)), chunk
+
+
 class _Missing(Exception):
     """A write found fewer of its cases than it was given."""
 
@@ -73,8 +82,10 @@ class SQLStore:
     the revision clock on by one as it commits.
     """
 
+    DATABASE: ClassVar[str]
+    """The database's name, as messages give it."""
     DRIVER_ERROR: ClassVar[type[Exception]]
-    """The base class of the driver's errors (the dialect's)."""
+    """The base class of the driver's errors."""
     JSON_NAMES: ClassVar[bool] = False
     """Whether kinds and meta keys are stored as JSON strings, rather than as the text itself."""
     CLOCK_IN_META: ClassVar[bool] = False
@@ -173,7 +184,7 @@ class SQLStore:
 
     def _refuse_if_aborted(self) -> None:
         if self._aborted is not None:
-            raise CaseBaseError(f"{self}: the transaction was rolled back by the database "
+            raise CaseBaseError(f"{self}: the transaction was rolled back by {self.DATABASE} "
                                 f"({self._aborted}); nothing of it was kept")
 
     def _run(self, sql: str, params: Iterable[Any] = ()) -> int:
@@ -387,17 +398,12 @@ class SQLStore:
         """Run each statement on the cases ``ids`` (its ``{}`` takes their placeholders), a
         statement per :data:`CHUNK` of ids, in one transaction; unless the last one changed a row
         for every id, undo them all and raise KeyError for the first missing id."""
-        # an id beyond the integers a database holds is stored nowhere
-        held = [i for i in ids if -MAX_ID - 1 <= i <= MAX_ID]
         try:
             with self.transaction():
                 changed = 0
                 for sql, params in statements:
-                    changed = 0
-                    for start in range(0, len(held), CHUNK):
-                        chunk = held[start:start + CHUNK]
-                        changed += self._run(sql.format(", ".join("?" * len(chunk))),
-                                             (*params, *chunk))
+                    changed = sum(self._run(sql.format(marks), (*params, *chunk))
+                                  for marks, chunk in _chunks(ids))
                 if changed != len(ids):
                     raise _Missing
                 self._wrote = True
@@ -406,13 +412,8 @@ class SQLStore:
 
     def _require(self, ids: list[int]) -> None:
         """Raise KeyError for the first of ``ids`` that is not stored."""
-        held = [i for i in ids if -MAX_ID - 1 <= i <= MAX_ID]
-        found: set[int] = set()
-        for start in range(0, len(held), CHUNK):
-            chunk = held[start:start + CHUNK]
-            marks = ", ".join("?" * len(chunk))
-            found.update(row[0] for row in self._rows(
-                f"SELECT id FROM {self._ns}cases WHERE id IN ({marks})", chunk))
+        found = {row[0] for marks, chunk in _chunks(ids) for row in self._rows(
+            f"SELECT id FROM {self._ns}cases WHERE id IN ({marks})", chunk)}
         for case_id in ids:
             if case_id not in found:
                 raise KeyError(case_id)

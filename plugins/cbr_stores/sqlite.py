@@ -67,6 +67,7 @@ class SQLiteStore(SQLStore):
     that takes no lock.
     """
 
+    DATABASE = "SQLite"
     DRIVER_ERROR = sqlite3.Error
     CLOCK_IN_META = True
 
