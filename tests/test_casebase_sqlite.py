@@ -327,3 +327,13 @@ def test_a_case_base_file_of_earlier_code_opens_unchanged(
     with SQLiteStore(path) as store:
         assert store.add(Case("later", None)).id == 5
         assert store.revision == 7
+
+
+def test_a_sqlite_library_too_old_for_the_store_is_named(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(sqlite3, "sqlite_version_info", (3, 22, 0))
+    monkeypatch.setattr(sqlite3, "sqlite_version", "3.22.0")
+    with pytest.raises(CaseBaseError, match=r"Python uses SQLite 3\.22\.0, and the sqlite store "
+                                            r"needs 3\.24 or later"):
+        SQLiteStore(tmp_path / "cb.sqlite")
+    assert not (tmp_path / "cb.sqlite").exists()

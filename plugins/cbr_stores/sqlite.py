@@ -24,6 +24,9 @@ from cbrcore.casebase.data import REVISION_KEY
 from cbrcore.errors import CaseBaseError, CaseBaseLocked, UnusableCaseBase
 from cbrcore.model import JSON, Case
 
+OLDEST_SQLITE = (3, 24)
+"""The oldest SQLite library the store works with: the first to read the upsert statements."""
+
 LOCK_RETRY = (0.0001, 0.0005)
 """The first and the longest pause, in seconds, between two tries for the write lock."""
 
@@ -73,6 +76,10 @@ class SQLiteStore(SQLStore):
 
     def __init__(self, path: str | os.PathLike[str], *, busy_timeout: float = 5.0,
                  create: bool = True, read_only: bool = False) -> None:
+        if sqlite3.sqlite_version_info < OLDEST_SQLITE:
+            raise CaseBaseError(f"cannot open {path}: Python uses SQLite "
+                                f"{sqlite3.sqlite_version}, and the sqlite store needs "
+                                f"{'.'.join(map(str, OLDEST_SQLITE))} or later")
         super().__init__(busy_timeout=busy_timeout, read_only=read_only)
         self.path = Path(path)
         self._immutable = False
