@@ -231,7 +231,7 @@ def test_run_writes_results_summary_and_manifest(cbr_cli: Cli, toy_config: Path,
     assert manifest["cbrcore"] == metadata.version("cbrcore")
     assert manifest["packages"]["pluggy"] == metadata.version("pluggy")
     assert [p["name"] for p in manifest["plugins"]] == [
-        "toy", "core", "observers", "faulty", "lab", "greeter"]
+        "toy", "core", "stores", "observers", "faulty", "lab", "greeter"]
 
 
 @pytest.mark.usefixtures("toy")

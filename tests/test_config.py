@@ -122,8 +122,8 @@ def write(folder: Path, text: str, name: str = "run.yaml") -> Path:
      "retrieve.use (line 2, column 8): unknown retriever 'nearst'; registered: nearest "
      "(plugin toy)"),
     ("casebase: mongo\n", "casebase (line 1, column 11): unknown store 'mongo'; "
-                          "registered: memory (plugin core), postgres (plugin core), sqlite "
-                          "(plugin core)"),
+                          "registered: memory (plugin core), postgres (plugin stores), sqlite "
+                          "(plugin stores)"),
     ("retain: [keep, {use: nope}]\n", "retain.1.use (line 1, column 22): unknown retainer "
                                       "'nope'; registered: keep (plugin toy)"),
     ("retrieve: 3\n", "retrieve (line 1, column 11): expected a retriever name or a mapping "

@@ -187,12 +187,16 @@ class SQLStore:
             raise CaseBaseError(f"{self}: the transaction was rolled back by {self.DATABASE} "
                                 f"({self._aborted}); nothing of it was kept")
 
-    def _run(self, sql: str, params: Iterable[Any] = ()) -> int:
-        """Run a statement; the number of rows it changed."""
+    def _cursor(self, sql: str, params: Iterable[Any] = ()) -> Any:
+        """Run a statement of the transaction under way, if any; the driver's cursor."""
         if self._depth:
             self._refuse_if_aborted()
         with self._errors():
-            return int(self._execute(sql, tuple(params)).rowcount)
+            return self._execute(sql, tuple(params))
+
+    def _run(self, sql: str, params: Iterable[Any] = ()) -> int:
+        """Run a statement; the number of rows it changed."""
+        return int(self._cursor(sql, params).rowcount)
 
     def _rows(self, sql: str, params: Iterable[Any] = ()) -> list[Any]:
         with self._errors():
@@ -321,9 +325,8 @@ class SQLStore:
 
     def _insert_row(self, case_id: int | None, case: Case) -> Any:
         """Insert ``case`` under ``case_id`` (None: the database's next id); the cursor."""
-        with self._errors():
-            return self._execute(f"INSERT INTO {self._ns}cases ({_WRITTEN}) "
-                                 f"VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", (case_id, *self._row(case)))
+        return self._cursor(f"INSERT INTO {self._ns}cases ({_WRITTEN}) "
+                            f"VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", (case_id, *self._row(case)))
 
     def _case(self, row: tuple[Any, ...]) -> Case:
         case_id, kind, problem, solution, meta, uses, created, last_used = row
