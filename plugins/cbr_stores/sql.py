@@ -125,6 +125,7 @@ class SQLStore:
         raise NotImplementedError
 
     def _in_transaction(self) -> bool:
+        """Whether a transaction is under way on the connection."""
         raise NotImplementedError
 
     def _begin(self) -> None:
