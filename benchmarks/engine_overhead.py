@@ -26,6 +26,7 @@ from typing import Any
 import yaml
 
 import cbr_observers
+import cbr_stores
 import cbrcore.builtins
 from cbrcore.config import parse_config
 from cbrcore.engine import Engine
@@ -37,7 +38,8 @@ from docfigures.provenance import write_results
 
 import toy_domain  # the test domain lives with the tests
 
-PLUGINS = [("core", cbrcore.builtins), ("observers", cbr_observers), ("toy", toy_domain)]
+PLUGINS = [("core", cbrcore.builtins), ("stores", cbr_stores), ("observers", cbr_observers),
+           ("toy", toy_domain)]
 
 
 def _engine(queries: int, store: dict[str, Any], out_dir: Path | None) -> Engine:

@@ -1,5 +1,6 @@
-"""The components cbrcore itself supplies: the case base stores (memory, SQLite, PostgreSQL),
-defined in :mod:`cbrcore.casebase.components`."""
+"""The components cbrcore itself supplies: the memory case base store, defined in
+:mod:`cbrcore.casebase.components` (the SQL stores are the ``stores`` plugin's,
+:mod:`cbr_stores`)."""
 
 from __future__ import annotations
 
@@ -15,8 +16,5 @@ _STORES = "cbrcore.casebase.components"
 
 @hookimpl
 def cbr_register(registry: Registry) -> None:
-    # named, not imported: the stores load when a configuration names one
+    # named, not imported: the store loads when a configuration names it
     registry.add("store", "memory", f"{_STORES}:memory_store", options=f"{_STORES}:MemoryOptions")
-    registry.add("store", "sqlite", f"{_STORES}:sqlite_store", options=f"{_STORES}:SQLiteOptions")
-    registry.add("store", "postgres", f"{_STORES}:postgres_store",
-                 options=f"{_STORES}:PostgresOptions")

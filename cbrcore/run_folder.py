@@ -5,7 +5,7 @@ A run into a folder that already holds results continues them: its case base kee
 ``results.csv`` grows by the new run's rows, their query numbers following on. The folder's
 ``manifest.json`` records a fingerprint of the configuration that wrote it (:func:`config_sha256`);
 a run of another configuration is refused (its rows would not belong with the others) unless it
-starts afresh, which removes the folder's results and its SQLite case base first
+starts afresh, which removes the folder's results and its case base file first
 (:func:`fresh_files`).
 """
 
@@ -29,8 +29,6 @@ RESULTS = "results.csv"
 SUMMARY = "summary.json"
 MANIFEST = "manifest.json"
 
-_SQLITE_COMPANIONS = ("-wal", "-shm", "-journal")
-"""The files SQLite keeps beside a database while it is open or after a crash."""
 
 
 def config_sha256(config: Config) -> str:
@@ -134,23 +132,21 @@ def _reason(exc: Exception) -> str:
 
 def fresh_files(out_dir: Path, config: Config) -> list[Path]:
     """The files starting afresh in ``out_dir`` removes, those that exist: the run's results,
-    summary and manifest, and the configuration's SQLite case base with its companion files
-    when it is kept inside the folder and not opened read-only. A case base elsewhere (another
-    folder, a database server) is not the folder's and is left alone."""
+    summary and manifest, and the configuration's case base file with its companion files (of
+    a store that keeps one, such as SQLite: :class:`~cbrcore.casebase.store.StoreFile`) when it
+    is kept inside the folder and not opened read-only. A case base elsewhere (another folder,
+    a database server) is not the folder's and is left alone."""
+    from cbrcore.casebase.store import capabilities
+
     found = [out_dir / name for name in (RESULTS, SUMMARY, MANIFEST)]
     casebase = config.casebase
-    if casebase is not None and casebase.name == "sqlite" and not casebase.options.read_only:
-        database = in_run_folder(casebase.options.path or Path("casebase.sqlite"), out_dir,
+    file = None if casebase is None else capabilities(casebase.options).file
+    if file is not None and not casebase.options.read_only:
+        database = in_run_folder(casebase.options.path or Path(file.default_name), out_dir,
                                  config.base_dir)
         if database.resolve().is_relative_to(out_dir.resolve()):
-            found += sqlite_files(database)
+            found += file.files(database)
     return [path for path in found if path.is_file()]
-
-
-def sqlite_files(database: Path) -> list[Path]:
-    """A SQLite database and the files SQLite keeps beside it."""
-    return [database, *(database.with_name(database.name + suffix)
-                        for suffix in _SQLITE_COMPANIONS)]
 
 
 def remove(paths: list[Path]) -> None:

@@ -22,7 +22,7 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cbrcore.casebase import SQLiteStore
+from cbr_stores.sqlite import SQLiteStore
 from cbrcore.casebase.worlds import record_world
 from cbrcore.fingerprint import fingerprint
 from cbrcore.model import Case as StoredCase

@@ -47,9 +47,9 @@ from cbr_behaviors.casetypes import (
     Strategy,
 )
 from cbr_behaviors.index import Index
+from cbr_stores.sqlite import SQLiteStore
 from cbr_world2d.generate import office
 from cbrcore.casebase.exchange import document_to_data, read_document
-from cbrcore.casebase.sqlite import SQLiteStore
 from cbrcore.model import Case
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult

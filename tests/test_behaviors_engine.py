@@ -30,6 +30,7 @@ import pytest
 import yaml
 
 import cbr_behaviors
+import cbr_stores
 import cbr_world2d
 import cbrcore.builtins
 from cbr_behaviors.casedata import case_of
@@ -48,8 +49,8 @@ from cbr_behaviors.quality import (
     with_rivals,
 )
 from cbr_behaviors.weights import KEY, store_weights
+from cbr_stores.sqlite import SQLiteStore
 from cbr_world2d.pilots.behaviors import TOP_TURN_RATE
-from cbrcore.casebase import SQLiteStore
 from cbrcore.casebase.exchange import Document, write_document
 from cbrcore.casebase.store import CaseStore
 from cbrcore.config import parse_config
@@ -114,7 +115,8 @@ BAD = spell(3.0, collisions=1)
 
 @pytest.fixture(scope="module")
 def plugins() -> Plugins:
-    return load_plugins(extra=[("core", cbrcore.builtins), ("world2d", cbr_world2d),
+    return load_plugins(extra=[("core", cbrcore.builtins),
+                               ("stores", cbr_stores), ("world2d", cbr_world2d),
                                ("behaviors", cbr_behaviors)], entry_points=False, environ={})
 
 
@@ -787,6 +789,7 @@ import sys
 
 import cbr_behaviors
 import cbr_world2d
+import cbr_stores
 import cbrcore.builtins
 from cbr_behaviors.index import Index
 from cbr_behaviors.moment import Moment, SpellReport
@@ -796,7 +799,8 @@ from cbrcore.model import Outcome
 from cbrcore.plugins import load_plugins
 
 config, query, active = json.loads(sys.argv[1]), sys.argv[2], float(sys.argv[3])
-plugins = load_plugins(extra=[("core", cbrcore.builtins), ("world2d", cbr_world2d),
+plugins = load_plugins(extra=[("core", cbrcore.builtins),
+                              ("stores", cbr_stores), ("world2d", cbr_world2d),
                               ("behaviors", cbr_behaviors)], entry_points=False, environ={})
 problem = Moment(0.0, ("period",), Index.from_data(json.loads(query), "query"), None, None, ())
 outcome = Outcome(True, report=SpellReport(active, 1.0, 0, 0, 0))

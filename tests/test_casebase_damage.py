@@ -15,10 +15,12 @@ from pathlib import Path
 
 import pytest
 
+import cbr_stores
 import cbrcore.builtins
 import cbrcore.files
-from cbrcore.casebase import SQLiteStore, UnusableCaseBase
-from cbrcore.casebase.sqlite_file import MAX_ID, SCHEMA_VERSION
+from cbr_stores.sqlite import SQLiteStore
+from cbr_stores.sqlite_file import MAX_ID, SCHEMA_VERSION
+from cbrcore.casebase import UnusableCaseBase
 from cbrcore.errors import CaseBaseError
 from cbrcore.model import Case
 from cbrcore.plugins import Plugins
@@ -32,7 +34,7 @@ DOCUMENT = "format: cbrcore-casebase\nschema: 1\ncases:\n- {problem: 1, solution
 @pytest.fixture(autouse=True)
 def core(cbr_plugins: Callable[..., Plugins]) -> Plugins:
     """cbrcore's own stores, and no other plugin."""
-    return cbr_plugins(("core", cbrcore.builtins))
+    return cbr_plugins(("core", cbrcore.builtins), ("stores", cbr_stores))
 
 
 @pytest.fixture

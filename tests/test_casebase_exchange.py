@@ -13,9 +13,9 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from cbr_stores.sqlite import SQLiteStore
 from cbrcore.casebase import (
     MemoryStore,
-    SQLiteStore,
     document_of,
     dump_document,
     export_casebase,

@@ -6,8 +6,9 @@ from pathlib import Path
 
 import pytest
 
+from cbr_stores.components import SQLiteOptions, sqlite_store
 from cbrcore.casebase import MemoryStore, export_casebase
-from cbrcore.casebase.components import MemoryOptions, SQLiteOptions, memory_store, sqlite_store
+from cbrcore.casebase.components import MemoryOptions, memory_store
 from cbrcore.context import Context
 from cbrcore.errors import CaseBaseError
 from cbrcore.model import Case

@@ -15,11 +15,13 @@ import psycopg
 import pytest
 import yaml
 
+import cbr_stores
 import cbrcore.builtins
 import toy_domain
-from cbrcore.casebase import CaseStore, Changes, document_of, dump_document, postgres_schema
-from cbrcore.casebase import postgres as postgres_module
-from cbrcore.casebase.postgres import PostgresStore
+from cbr_stores import postgres as postgres_module
+from cbr_stores import postgres_schema
+from cbr_stores.postgres import PostgresStore
+from cbrcore.casebase import CaseStore, Changes, document_of, dump_document
 from cbrcore.config import parse_config
 from cbrcore.context import Context
 from cbrcore.engine import Engine
@@ -60,7 +62,7 @@ def _sql(dsn: str, *statements: str) -> list[tuple[object, ...]]:
 
 def _context(out_dir: Path | None = None) -> Context:
     registry = Registry()
-    cbrcore.builtins.cbr_register(registry)
+    cbr_stores.cbr_register(registry)
     return Context(registry=registry, seed=0, out_dir=out_dir)
 
 
@@ -136,7 +138,7 @@ def test_describe_tells_where_the_case_base_is(store: PostgresStore,
 def test_the_casebase_commands_work_on_a_postgres_store(
         postgres_database: str, tmp_path: Path, cbr_plugins: Callable[..., Plugins],
         cbr_cli: Callable[..., CliResult]) -> None:
-    cbr_plugins(("core", cbrcore.builtins))
+    cbr_plugins(("core", cbrcore.builtins), ("stores", cbr_stores))
     with PostgresStore(postgres_database, schema="fleet") as store:
         with store.transaction():
             store.add(Case({"start": [0, 0]}, [[0, 0], [0, 1]]))

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-from cbrcore.casebase import SQLiteStore
+from cbr_stores.sqlite import SQLiteStore
 from cbrcore.model import Case
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult

@@ -13,17 +13,22 @@ from pathlib import Path
 
 import pytest
 
+import cbr_stores
 import cbrcore
-from cbrcore.casebase import APPLICATION_ID, SCHEMA_VERSION, SQLiteStore, UnusableCaseBase
+import cbrcore.builtins
+from cbr_stores.sqlite import SQLiteStore
+from cbr_stores.sqlite_file import APPLICATION_ID, SCHEMA_VERSION
+from cbrcore.casebase import Changes, UnusableCaseBase
 from cbrcore.errors import CaseBaseError
 from cbrcore.model import Case
+from cbrcore.testing import CliResult
 from test_casebase_damage import damage
 
 REPO = Path(cbrcore.__file__).resolve().parent.parent
 
 WRITER = """
 import sys
-from cbrcore.casebase import SQLiteStore
+from cbr_stores.sqlite import SQLiteStore
 from cbrcore.model import Case
 
 store = SQLiteStore(sys.argv[1], busy_timeout=30)
@@ -286,3 +291,49 @@ def test_check_reports_damaged_cases(casebase: Path) -> None:
         problems[-1],
     ]
     assert problems[-1].startswith("meta key 'grid': not valid JSON")
+
+
+# -- files written by earlier code ----------------------------------------------------------
+
+SCHEMA_2_FILE = REPO / "tests" / "data" / "casebases" / "sqlite-schema2.sqlite"
+"""A case base written by the stores of schema version 2 before they became a plugin: two cases
+of kind ``route`` (the second removed), two of kind ``behavior``, and two meta values, in six
+revisions."""
+
+
+def test_a_case_base_file_of_earlier_code_opens_unchanged(
+        tmp_path: Path, cbr_plugins: Callable[..., object],
+        cbr_cli: Callable[..., CliResult]) -> None:
+    path = tmp_path / "cb.sqlite"
+    path.write_bytes(SCHEMA_2_FILE.read_bytes())
+
+    with SQLiteStore(path, create=False) as store:
+        assert (store.revision, store.schema_version) == (6, 2)
+        assert [(c.id, c.kind, c.problem, c.solution, c.meta, c.uses, c.created, c.last_used)
+                for c in store.cases()] == [
+            (1, "route", {"start": [0, 0], "goal": [3, 4]}, {"path": [[0, 0], [1, 1], [3, 4]]},
+             {}, 1, 1, 3),
+            (3, "behavior", {"situation": "corridor"}, {"behavior": "follow_wall"}, {}, 1, 2, 3),
+            (4, "behavior", {"situation": "open"}, {"behavior": "go_to_goal"}, {}, 2, 5, None)]
+        assert store.meta_items() == {"note": "written by schema version 2",
+                                      "world": {"name": "depot", "sha256": "0" * 64}}
+        assert store.changes(3) == Changes(3, 6, (store.get(4),), (2,))
+        assert store.check() == []
+
+    cbr_plugins(("core", cbrcore.builtins), ("stores", cbr_stores))
+    result = cbr_cli("casebase", "check", str(path))
+    assert (result.exit_code, result.stdout) == (0, "ok\n")
+    # it stays a case base this code writes to: ids go on after the largest ever given
+    with SQLiteStore(path) as store:
+        assert store.add(Case("later", None)).id == 5
+        assert store.revision == 7
+
+
+def test_a_sqlite_library_too_old_for_the_store_is_named(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(sqlite3, "sqlite_version_info", (3, 22, 0))
+    monkeypatch.setattr(sqlite3, "sqlite_version", "3.22.0")
+    with pytest.raises(CaseBaseError, match=r"Python uses SQLite 3\.22\.0, and the sqlite store "
+                                            r"needs 3\.24 or later"):
+        SQLiteStore(tmp_path / "cb.sqlite")
+    assert not (tmp_path / "cb.sqlite").exists()

@@ -7,8 +7,10 @@ from pathlib import Path
 
 import pytest
 
+import cbr_stores
 import cbrcore.builtins
-from cbrcore.casebase import CaseStore, MemoryStore, SQLiteStore, open_store
+from cbr_stores.sqlite import SQLiteStore
+from cbrcore.casebase import CaseStore, MemoryStore
 from cbrcore.context import Context
 from cbrcore.errors import CaseBaseError, ConfigError
 from cbrcore.registry import Registry
@@ -29,15 +31,10 @@ class TestSQLiteStore(StoreContract):
         return lambda name: SQLiteStore(tmp_path / f"{name}.sqlite")
 
 
-def test_open_store_picks_the_store(tmp_path: Path) -> None:
-    assert isinstance(open_store(), MemoryStore)
-    with open_store(tmp_path / "cb.sqlite") as store:
-        assert isinstance(store, SQLiteStore)
-
-
 def _context(out_dir: Path | None) -> Context:
     registry = Registry()
     cbrcore.builtins.cbr_register(registry)
+    cbr_stores.cbr_register(registry)
     return Context(registry=registry, seed=0, out_dir=out_dir)
 
 

@@ -23,8 +23,9 @@ import cbr_world2d
 from cbr_grid import MapFrame
 from cbr_grid.generate import generate
 from cbr_grid.grid import Grid, grid_fingerprint
+from cbr_stores.sqlite import SQLiteStore
 from cbr_world2d.worldfile import load_world
-from cbrcore.casebase import CaseStore, MemoryStore, SQLiteStore, document_of, load_document
+from cbrcore.casebase import CaseStore, MemoryStore, document_of, load_document
 from cbrcore.casebase.exchange import Document, parse_document
 from cbrcore.casebase.worlds import (
     ANY,

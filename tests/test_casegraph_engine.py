@@ -27,7 +27,7 @@ from cbr_casegraph.graph import SEGMENT, CaseGraph
 from cbr_casegraph.state import graph_of
 from cbr_grid.grid import Grid
 from cbr_pathquality.reviser import QualityTest
-from cbrcore.casebase.sqlite import SQLiteStore
+from cbr_stores.sqlite import SQLiteStore
 from cbrcore.engine import Engine
 from cbrcore.run import run_workload
 from test_casegraph import check_consistent, edge_set

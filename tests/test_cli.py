@@ -231,7 +231,7 @@ def test_run_writes_results_summary_and_manifest(cbr_cli: Cli, toy_config: Path,
     assert manifest["cbrcore"] == metadata.version("cbrcore")
     assert manifest["packages"]["pluggy"] == metadata.version("pluggy")
     assert [p["name"] for p in manifest["plugins"]] == [
-        "toy", "core", "observers", "faulty", "lab", "greeter"]
+        "toy", "core", "stores", "observers", "faulty", "lab", "greeter"]
 
 
 @pytest.mark.usefixtures("toy")
@@ -642,7 +642,7 @@ def test_run_refuses_an_unusable_case_base_and_leaves_it_as_it_was(
     if content is None:
         import sqlite3
 
-        from cbrcore.casebase import SQLiteStore
+        from cbr_stores.sqlite import SQLiteStore
 
         SQLiteStore(path).close()
         with sqlite3.connect(path) as raw:

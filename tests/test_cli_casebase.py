@@ -7,15 +7,20 @@ import json
 import sqlite3
 from collections.abc import Callable
 from pathlib import Path
+from typing import ClassVar
 
 import attrs
 import pytest
 import yaml
 from typer.testing import CliRunner, Result
 
+import cbr_stores
 import cbrcore.builtins
+from cbr_stores.sqlite import SQLiteStore
+from cbr_stores.sqlite_file import SCHEMA_VERSION
 from cbrcore import hookimpl
-from cbrcore.casebase import SCHEMA_VERSION, CaseStore, MemoryStore, SQLiteStore, UnusableCaseBase
+from cbrcore.casebase import CaseStore, MemoryStore, UnusableCaseBase
+from cbrcore.casebase.store import StoreCapabilities, StoreFile
 from cbrcore.cli.casebase import app as casebase_app
 from cbrcore.context import Context
 from cbrcore.errors import CaseBaseError
@@ -69,14 +74,14 @@ class ShelfPlugin:
 @pytest.fixture(autouse=True)
 def core(cbr_plugins: Callable[..., Plugins]) -> Plugins:
     """cbrcore's own stores, and no other plugin."""
-    return cbr_plugins(("core", cbrcore.builtins))
+    return cbr_plugins(("core", cbrcore.builtins), ("stores", cbr_stores))
 
 
 @pytest.fixture
 def shelf(cbr_plugins: Callable[..., Plugins]) -> ShelfPlugin:
     """The shelf plugin, loaded with cbrcore's own stores."""
     plugin = ShelfPlugin()
-    cbr_plugins(("core", cbrcore.builtins), ("shelf", plugin))
+    cbr_plugins(("core", cbrcore.builtins), ("stores", cbr_stores), ("shelf", plugin))
     return plugin
 
 
@@ -482,3 +487,50 @@ def test_a_file_or_a_configurations_relative_path_names_the_file_runs_keep(
 
     assert (Path(above["path"]), above["cases"]) == (tmp_path / "above.sqlite", 1)
     assert (Path(run["path"]), run["cases"]) == (kept, 2)
+
+
+@attrs.frozen
+class FileShelfOptions:
+    """A shelf store that says it keeps its case base in a file and can open it read-only."""
+
+    CAPABILITIES: ClassVar[StoreCapabilities] = StoreCapabilities(
+        file=StoreFile("shelf.yaml"), read_only=True)
+
+    path: Path | None = option(None, "The case base file.")
+    create: bool = option(True, "Create a missing case base.")
+    read_only: bool = option(False, "Open for reading alone.")
+
+
+class FileShelfPlugin:
+    """Registers ``file_shelf``, recording the options each case base is opened with."""
+
+    def __init__(self) -> None:
+        self.opened: list[FileShelfOptions] = []
+
+    def open(self, options: FileShelfOptions, ctx: Context) -> Shelf:
+        self.opened.append(options)
+        shelf = Shelf(str(options.path))
+        fill(shelf)
+        return shelf
+
+    @hookimpl
+    def cbr_register(self, registry: Registry) -> None:
+        registry.add("store", "file_shelf", self.open, options=FileShelfOptions)
+
+
+def test_the_commands_ask_a_store_what_it_can_do_not_its_name(
+        tmp_path: Path, cbr_plugins: Callable[..., Plugins], cbr_cli: Cli) -> None:
+    plugin = FileShelfPlugin()
+    cbr_plugins(("core", cbrcore.builtins), ("file_shelf", plugin))
+    kept = tmp_path / "kept.yaml"
+    kept.write_text("a case base file\n", encoding="utf-8")
+    store = f"{{use: file_shelf, path: '{kept}'}}"
+
+    assert cbr_cli("casebase", "info", "--store", store).exit_code == 0
+    refused = cbr_cli("casebase", "export", "--store", store, "--output", str(kept))
+
+    # reading opens it read-only; an export over the file the store keeps is refused
+    assert [options.read_only for options in plugin.opened] == [True, True]
+    assert refused.exit_code == 2
+    assert "it is the case base being exported" in refused.stderr
+    assert kept.read_text(encoding="utf-8") == "a case base file\n"

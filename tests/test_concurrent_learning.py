@@ -41,7 +41,8 @@ from cbr_grid.generate import generate
 from cbr_grid.query import without_loops
 from cbr_grid.risk import LEARNED_RISK, risk_changes
 from cbr_pathcases.hausdorff import hausdorff
-from cbrcore.casebase import MemoryStore, SQLiteStore
+from cbr_stores.sqlite import SQLiteStore
+from cbrcore.casebase import MemoryStore
 from cbrcore.casebase.store import CaseStore
 from cbrcore.cli.casebase import family_problems
 from cbrcore.engine import Engine

@@ -18,6 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import cbr_observers
+import cbr_stores
 import cbrcore.builtins
 import toy_domain
 from cbrcore.config import (
@@ -62,6 +63,7 @@ class ProbePlugin:
 @pytest.fixture(scope="module")
 def registry() -> Registry:
     plugins = load_plugins(extra=[("toy", toy_domain), ("core", cbrcore.builtins),
+                                  ("stores", cbr_stores),
                                   ("observers", cbr_observers), ("probe", ProbePlugin())],
                            entry_points=False, environ={})
     return plugins.registry
@@ -120,8 +122,8 @@ def write(folder: Path, text: str, name: str = "run.yaml") -> Path:
      "retrieve.use (line 2, column 8): unknown retriever 'nearst'; registered: nearest "
      "(plugin toy)"),
     ("casebase: mongo\n", "casebase (line 1, column 11): unknown store 'mongo'; "
-                          "registered: memory (plugin core), postgres (plugin core), sqlite "
-                          "(plugin core)"),
+                          "registered: memory (plugin core), postgres (plugin stores), sqlite "
+                          "(plugin stores)"),
     ("retain: [keep, {use: nope}]\n", "retain.1.use (line 1, column 22): unknown retainer "
                                       "'nope'; registered: keep (plugin toy)"),
     ("retrieve: 3\n", "retrieve (line 1, column 11): expected a retriever name or a mapping "

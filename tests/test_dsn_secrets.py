@@ -21,8 +21,8 @@ from cbrcore.testing import CliResult
 
 pytest.importorskip("psycopg")
 
-from cbrcore.casebase.conninfo import MASK, masked_dsn
-from cbrcore.casebase.postgres import PostgresStore
+from cbr_stores.conninfo import MASK, masked_dsn
+from cbr_stores.postgres import PostgresStore
 from cbrcore.errors import CaseBaseError
 
 Cli = Callable[..., CliResult]

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import cbr_grid
+import cbr_stores
 import cbrcore.builtins
 import toy_domain
 from cbr_grid.grid import Grid
@@ -31,7 +32,8 @@ def grid_plugins(*extra: tuple[str, object]) -> Plugins:
     import cbr_kinematics
     import cbr_solvers
 
-    return load_plugins(extra=[("core", cbrcore.builtins), ("grid", cbr_grid),
+    return load_plugins(extra=[("core", cbrcore.builtins),
+                               ("stores", cbr_stores), ("grid", cbr_grid),
                                ("kinematics", cbr_kinematics), ("solvers", cbr_solvers),
                                ("casegraph", cbr_casegraph), *extra],
                         entry_points=False, environ={})
@@ -123,7 +125,8 @@ class Rooms:
 
 def test_without_the_grid_plugin_the_refusal_names_only_the_loaded_ones() -> None:
     """The engine does not know grids: it names the plugins that implement the hook."""
-    plugins = load_plugins(extra=[("core", cbrcore.builtins), ("rooms", Rooms())],
+    plugins = load_plugins(extra=[("core", cbrcore.builtins),
+                                  ("stores", cbr_stores), ("rooms", Rooms())],
                            entry_points=False, environ={})
     with pytest.raises(CbrError) as caught:
         Engine.from_dict({}, world=np.zeros((2, 2)), plugins=plugins)
@@ -169,7 +172,8 @@ def test_a_plugin_failing_to_convert_is_named() -> None:
 
 
 def toy_plugins() -> Plugins:
-    return load_plugins(extra=[("toy", toy_domain), ("core", cbrcore.builtins)],
+    return load_plugins(extra=[("toy", toy_domain), ("core", cbrcore.builtins),
+                               ("stores", cbr_stores)],
                         entry_points=False, environ={})
 
 

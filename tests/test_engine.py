@@ -20,10 +20,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import cbr_observers
+import cbr_stores
 import cbrcore.builtins
 import toy_domain
+from cbr_stores.sqlite import SQLiteStore
 from cbrcore import Case, Engine, Outcome, Proposal, Retrieval, Revision, Solution, hookimpl
-from cbrcore.casebase import MemoryStore, SQLiteStore
+from cbrcore.casebase import MemoryStore
 from cbrcore.casebase.store import CaseStore
 from cbrcore.config import parse_config
 from cbrcore.context import Context
@@ -192,6 +194,7 @@ class FaultyPlugin:
 def load() -> Plugins:
     """The toy domain, the built-in plugins and the test-only components."""
     return load_plugins(extra=[("toy", toy_domain), ("core", cbrcore.builtins),
+                               ("stores", cbr_stores),
                                ("observers", cbr_observers), ("faulty", FaultyPlugin())],
                         entry_points=False, environ={})
 
@@ -739,7 +742,8 @@ class _OnlyForget:
 def test_retainers_and_forgetters_run_in_the_configured_order() -> None:
     """Collect-all phases run in the order the configuration lists them, retainers first."""
     order = _OrderPlugin()
-    plugins = load_plugins(extra=[("core", cbrcore.builtins), ("toy", toy_domain),
+    plugins = load_plugins(extra=[("core", cbrcore.builtins),
+                                  ("stores", cbr_stores), ("toy", toy_domain),
                                   ("order", order)], entry_points=False, environ={})
     with engine_for(plugins, "solver: compute\nretain: [r2, r1, r3]\nforget: [f3, f1]\n") as e:
         proposal = e.solve(3)

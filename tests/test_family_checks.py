@@ -19,7 +19,7 @@ from cbr_casegraph.invariants import graph_problems
 from cbr_grid.grid import Grid
 from cbr_grid.risk import LEARNED_RISK, MAP, record_map, risk_problems
 from cbr_pathcases.base import PATH, PathBase, path_problems
-from cbrcore.casebase import SQLiteStore
+from cbr_stores.sqlite import SQLiteStore
 from cbrcore.model import Case
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult

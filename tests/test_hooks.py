@@ -21,10 +21,12 @@ import typer
 import yaml
 
 import cbr_observers
+import cbr_stores
 import cbrcore.builtins
 import toy_domain
+from cbr_stores.sqlite import SQLiteStore
 from cbrcore import Case, Engine, Match, Outcome, Retrieval, Revision, Solution, hookimpl, hookspecs
-from cbrcore.casebase import Document, MemoryStore, SQLiteStore
+from cbrcore.casebase import Document, MemoryStore
 from cbrcore.casebase.formats import DocumentFormat
 from cbrcore.casebase.store import CaseStore
 from cbrcore.casebase.worlds import WORLDS_KEY, OtherWorld
@@ -65,6 +67,7 @@ class _Component:
 def load(*extra: tuple[str, Any]) -> Plugins:
     """The toy domain, the built-in plugins, this module's components and ``extra``."""
     return load_plugins(extra=[("toy", toy_domain), ("core", cbrcore.builtins),
+                               ("stores", cbr_stores),
                                ("observers", cbr_observers), ("hooks", HookComponents()),
                                *extra], entry_points=False, environ={})
 

@@ -25,6 +25,7 @@ import yaml
 from PIL import Image
 
 import cbr_landmarks
+import cbr_stores
 import cbr_world2d
 import cbrcore.builtins
 from cbr_landmarks.experiments.figure7 import point_b, point_c
@@ -35,8 +36,9 @@ from cbrcore.plugins import Plugins, load_plugins, use_plugins
 
 @pytest.fixture(scope="module")
 def plugins() -> Iterator[Plugins]:
-    loaded = load_plugins(extra=[("core", cbrcore.builtins), ("world2d", cbr_world2d),
-                                 ("landmarks", cbr_landmarks)], entry_points=False, environ={})
+    loaded = load_plugins(extra=[("core", cbrcore.builtins), ("stores", cbr_stores),
+                                 ("world2d", cbr_world2d), ("landmarks", cbr_landmarks)],
+                          entry_points=False, environ={})
     # the experiment builds its engines with the current plugins
     with use_plugins(loaded):
         yield loaded

@@ -15,6 +15,7 @@ import attrs
 import pytest
 
 import cbr_observers
+import cbr_stores
 import cbrcore.builtins
 import toy_domain
 from cbrcore import Solution, hookimpl
@@ -301,7 +302,7 @@ def test_a_component_implementing_a_hook_under_a_specname_runs(
         def cbr_register(self, registry: Registry) -> None:
             registry.add("solver", "specnamed", lambda options, ctx: Specnamed())
 
-    cbr_plugins(("specnamed", Plugin()), ("core", cbrcore.builtins))
+    cbr_plugins(("specnamed", Plugin()), ("core", cbrcore.builtins), ("stores", cbr_stores))
     assert cbr_engine("solver: specnamed\n").solve(4).solution == Solution(4)
 
 
@@ -345,7 +346,10 @@ def test_builtin_plugins_load_from_the_installed_entry_points() -> None:
     core = plugins.info("core")
     assert (core.module, core.distribution, core.version) == (
         "cbrcore.builtins", "cbrcore", CBRCORE_VERSION)
-    assert {"store:memory", "store:sqlite"} <= set(core.components)
+    assert "store:memory" in core.components
+    stores = plugins.info("stores")
+    assert (stores.module, stores.distribution) == ("cbr_stores", "cbrcore")
+    assert {"store:sqlite", "store:postgres"} <= set(stores.components)
     observers = plugins.info("observers")
     assert (observers.module, observers.distribution) == ("cbr_observers", "cbrcore")
     assert "observer:trace" in observers.components

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from cbr_casegraph.route_graph import OWN
-from cbrcore.casebase import SQLiteStore
+from cbr_stores.sqlite import SQLiteStore
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult
 

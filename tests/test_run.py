@@ -24,6 +24,7 @@ import yaml
 from matplotlib.figure import Figure
 
 import cbr_observers
+import cbr_stores
 import cbrcore.builtins
 import toy_domain
 from cbrcore import Engine, Outcome, Proposal, hookimpl
@@ -108,6 +109,7 @@ class RunComponents:
 @pytest.fixture
 def plugins() -> Plugins:
     return load_plugins(extra=[("toy", toy_domain), ("core", cbrcore.builtins),
+                               ("stores", cbr_stores),
                                ("observers", cbr_observers), ("runs", RunComponents())],
                         entry_points=False, environ={})
 
@@ -237,7 +239,8 @@ def test_the_manifest_records_what_repeats_the_run(
     assert manifest["packages"]["pluggy"] == metadata.version("pluggy")
     assert manifest["plugins"] == [{"name": p.name, "distribution": p.distribution,
                                     "version": p.version} for p in plugins.loaded]
-    assert [p["name"] for p in manifest["plugins"]] == ["toy", "core", "observers", "runs"]
+    assert [p["name"] for p in manifest["plugins"]] == [
+        "toy", "core", "stores", "observers", "runs"]
     assert manifest["overrides"] == ["observers=[{use: trace, file: trace.jsonl}]"]
 
 
@@ -330,7 +333,8 @@ def test_an_experiment_writes_results_table_figures_and_manifest(plugins: Plugin
     assert (manifest["experiment"], manifest["size"], manifest["seed"]) == ("reproduces", "ci", 5)
     assert manifest["config"] is None
     assert manifest["cbrcore"] == metadata.version("cbrcore")
-    assert [p["name"] for p in manifest["plugins"]] == ["toy", "core", "observers", "runs"]
+    assert [p["name"] for p in manifest["plugins"]] == [
+        "toy", "core", "stores", "observers", "runs"]
     assert progress == [(1, 2), (2, 2)]
 
 

@@ -21,8 +21,8 @@ import pytest
 import yaml
 
 import toy_domain
+from cbr_stores.sqlite import SQLiteStore
 from cbrcore import Outcome, Proposal, hookimpl
-from cbrcore.casebase.sqlite import SQLiteStore
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.experiment import ExperimentResult, Size

@@ -19,8 +19,8 @@ from typing import Any
 import pytest
 
 import toy_domain
+from cbr_stores.sqlite import SQLiteStore
 from cbrcore import Engine, Outcome, Proposal, hookimpl
-from cbrcore.casebase import SQLiteStore
 from cbrcore.context import Context
 from cbrcore.plugins import Plugins
 from cbrcore.registry import Registry

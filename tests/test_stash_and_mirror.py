@@ -9,9 +9,9 @@ from typing import Any
 
 import pytest
 
+from cbr_stores.sqlite import SQLiteStore
 from cbrcore.casebase.memory import MemoryStore
 from cbrcore.casebase.mirror import FollowsChanges, StoreMirror
-from cbrcore.casebase.sqlite import SQLiteStore
 from cbrcore.casebase.store import CaseStore, Changes
 from cbrcore.context import Context
 from cbrcore.errors import CbrError

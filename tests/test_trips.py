@@ -48,7 +48,7 @@ OFFICE = {"use": "generated", "kind": "office", "width": 28, "height": 20}
 @pytest.fixture(autouse=True)
 def grid_plugins(cbr_plugins: Callable[..., Plugins]) -> Plugins:
     return cbr_plugins(entry_points=True,
-                       environ={"CBR_PLUGINS": "core,grid,solvers,pathquality"})
+                       environ={"CBR_PLUGINS": "core,stores,grid,solvers,pathquality"})
 
 
 def config(workload: dict[str, Any], **slots: Any) -> dict[str, Any]:
@@ -761,7 +761,7 @@ def test_a_learn_step_that_rolls_back_leaves_the_learned_map_as_it_was(
         cbr_plugins: Callable[..., Plugins]) -> None:
     failing = FailingForget()
     cbr_plugins(("failing", failing), entry_points=True,
-                environ={"CBR_PLUGINS": "core,grid,solvers,failing"})
+                environ={"CBR_PLUGINS": "core,stores,grid,solvers,failing"})
     engine = cbr_engine({"world": {"use": "map_file", "path": str(corridor)}, "solver": "astar",
                          "workload": {"use": "trips"},
                          "casebase": {"use": "sqlite", "path": str(tmp_path / "cases.sqlite")},

@@ -27,7 +27,7 @@ _ABSENT = object()
 class MemoryStore:
     """A case base held in memory: fast, and gone when the process ends.
 
-    It behaves like :class:`~cbrcore.casebase.SQLiteStore` in everything but persistence:
+    It behaves like :class:`~cbr_stores.sqlite.SQLiteStore` in everything but persistence:
     contents must be plain JSON data, a transaction commits or rolls back as a whole, ids are
     never reused, and ``revision`` counts committed write transactions.
 

@@ -6,13 +6,17 @@ by name, as plain JSON data; ``cbr casebase info`` shows them after the facts ev
 (:data:`SUMMARY_KEYS`), which they may not repeat. A store that finds its case base unusable when
 it is opened (damaged, another program's, of another schema version) raises
 :class:`~cbrcore.errors.UnusableCaseBase`, which ``cbr casebase check`` reports as a problem.
+
+What ``cbr casebase`` and ``cbr run`` may do with a store's case base beyond the protocol, they
+ask the options class of its component (:func:`capabilities`), never its name.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator, Mapping
 from contextlib import AbstractContextManager
-from typing import Protocol, runtime_checkable
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
 
 import attrs
 
@@ -153,6 +157,46 @@ class CaseStore(Protocol):
     def __iter__(self) -> Iterator[Case]: ...
 
     def __len__(self) -> int: ...
+
+
+@attrs.frozen
+class StoreFile:
+    """A store keeps its case base in one file, named by its options' ``path``.
+
+    Its options then have ``path`` (the file; None for :attr:`default_name` in the run's output
+    folder, and a relative path names a file inside it), ``create`` (whether a missing file is
+    created) and ``read_only``. Knowing it, ``cbr casebase import`` builds a new case base beside
+    the file and moves it into place once complete, ``cbr casebase export`` refuses to overwrite
+    the file, and starting a run afresh removes the file when it is in the run's folder.
+    """
+
+    default_name: str
+    """The file's name in the run's output folder when ``path`` names none."""
+    companions: tuple[str, ...] = ()
+    """The suffixes of the files the store keeps beside the case base file (appended to its
+    name) while it is open or after a crash."""
+
+    def files(self, path: Path) -> list[Path]:
+        """The case base file ``path`` and its companion files."""
+        return [path, *(path.with_name(path.name + suffix) for suffix in self.companions)]
+
+
+@attrs.frozen
+class StoreCapabilities:
+    """What a store can do beyond the protocol: the class attribute ``CAPABILITIES`` of its
+    component's options class; a class without one has none of them."""
+
+    file: StoreFile | None = None
+    """How it keeps its case base in one file; None for a store that does not."""
+    read_only: bool = False
+    """Whether its options have ``read_only``, which opens the case base for reading alone, never
+    creating it nor writing to it (``cbr casebase`` reading commands set it)."""
+
+
+def capabilities(options: Any) -> StoreCapabilities:
+    """What the store that ``options`` configure can do beyond the protocol."""
+    found = getattr(type(options), "CAPABILITIES", None)
+    return found if isinstance(found, StoreCapabilities) else StoreCapabilities()
 
 
 def describe(store: CaseStore) -> dict[str, JSON]:

@@ -24,6 +24,7 @@ from cbrcore.plugins import current
 if TYPE_CHECKING:
     from cbrcore.casebase import CaseStore
     from cbrcore.casebase.formats import DocumentFormat
+    from cbrcore.casebase.store import StoreFile
     from cbrcore.config import Config
 
 app = typer.Typer(
@@ -65,10 +66,11 @@ def _casebase_slot(file: Path | None, store: str | None, config: Path | None, *,
                    reading: bool) -> Config:
     """A configuration holding only the case base that ``FILE``, --store or --config names.
 
-    For a command that only reads (``reading``), a SQLite or PostgreSQL case base is opened
-    read-only: that never creates a file or a schema, works in a folder the user may not write,
-    and for a database role that may only read.
+    For a command that only reads (``reading``), a store that can open its case base read-only
+    (SQLite, PostgreSQL) does: that never creates a file or a schema, works in a folder the user
+    may not write, and for a database role that may only read.
     """
+    from cbrcore.casebase.store import capabilities
     from cbrcore.config import Config, load_config, parse_config, parse_yaml
 
     given = [name for name, value in (("FILE", file), ("--store", store), ("--config", config))
@@ -81,11 +83,12 @@ def _casebase_slot(file: Path | None, store: str | None, config: Path | None, *,
     if config is not None:
         loaded = load_config(config, registry)
         casebase = loaded.casebase
-        if casebase is not None and casebase.name == "sqlite" and not (
-                casebase.options.path and casebase.options.path.is_absolute()):
+        file = None if casebase is None else capabilities(casebase.options).file
+        if file is not None and not (casebase.options.path
+                                     and casebase.options.path.is_absolute()):
             # the file a run of the configuration keeps in its default output folder, as
             # cbr run does: a relative path names a file inside that folder
-            inside = casebase.options.path or Path("casebase.sqlite")
+            inside = casebase.options.path or Path(file.default_name)
             path = (Path("runs") / config.stem / inside).resolve()
             casebase = attrs.evolve(casebase, options=attrs.evolve(casebase.options, path=path))
         label, selected = str(loaded.source), Config(seed=loaded.seed, casebase=casebase,
@@ -102,7 +105,7 @@ def _casebase_slot(file: Path | None, store: str | None, config: Path | None, *,
             raise ConfigError(label, exc.problems) from None
     if selected.casebase is None:
         raise CbrError(f"{label}: names no case base (its casebase slot is empty)")
-    if reading and selected.casebase.name in ("sqlite", "postgres"):
+    if reading and capabilities(selected.casebase.options).read_only:
         selected = _with_store_options(selected, read_only=True)
     return selected
 
@@ -331,8 +334,8 @@ def import_(
     selected = _casebase_slot(file, store, config, reading=False)
     assert selected.casebase is not None
     worlds = store_policy(selected.casebase.options)
-    target = _new_sqlite_file(selected)
-    if target is None:
+    new_file = _new_case_base_file(selected)
+    if new_file is None:
         with _opened(selected) as (_, casebase):
             added = load_document(casebase, loaded, append=append, worlds=worlds)
             revision = casebase.revision
@@ -340,6 +343,7 @@ def import_(
     else:
         # a new case base is made beside its place and moved there once it is complete: a
         # failed import leaves no file, and no other process sees the case base half imported
+        target, file = new_file
         partial = target.with_name(f".{target.name}.{secrets.token_hex(8)}.partial")
         try:
             with _opened(_with_store_options(selected, path=partial, create=True)) as (
@@ -351,18 +355,21 @@ def import_(
             # the user knows the case base by the name it is to have
             raise type(exc)(str(exc).replace(str(partial), str(target))) from exc
         finally:
-            for leftover in (partial, *(partial.with_name(partial.name + suffix)
-                                        for suffix in ("-wal", "-shm"))):
+            for leftover in file.files(partial):
                 with contextlib.suppress(FileNotFoundError):
                     leftover.unlink()
         label = str(target)
     typer.echo(f"imported {added} cases into {label} (revision {revision})")
 
 
-def _new_sqlite_file(selected: Config) -> Path | None:
-    """The file of a SQLite case base that an import would create; None for any other."""
+def _new_case_base_file(selected: Config) -> tuple[Path, StoreFile] | None:
+    """The case base file that an import would create, and how its store keeps it; None for a
+    store that keeps no file, or a file that exists."""
+    from cbrcore.casebase.store import capabilities
+
     casebase = selected.casebase
-    if (casebase is None or casebase.name != "sqlite" or casebase.options.path is None
+    file = None if casebase is None else capabilities(casebase.options).file
+    if (file is None or casebase is None or casebase.options.path is None
             or not casebase.options.create):  # the store refuses to create it, and says so
         return None
     # the file a link names is the case base; the link stays
@@ -370,18 +377,21 @@ def _new_sqlite_file(selected: Config) -> Path | None:
     try:
         found = path.stat()
     except OSError:
-        return path
+        return path, file
     if not stat.S_ISREG(found.st_mode):
         raise CaseBaseError(f"{path} is not a regular file, so it cannot hold a case base")
     # an empty file is what a process killed while creating a case base leaves behind
-    return None if found.st_size else path
+    return None if found.st_size else (path, file)
 
 
 def _refuse_the_case_base_itself(selected: Config, output: Path) -> None:
-    """Refuse an export over the SQLite file it reads (or a link to it), which the document
+    """Refuse an export over the case base file it reads (or a link to it), which the document
     would replace: the case base would be lost."""
+    from cbrcore.casebase.store import capabilities
+
     casebase = selected.casebase
-    if casebase is None or casebase.name != "sqlite" or casebase.options.path is None:
+    if (casebase is None or capabilities(casebase.options).file is None
+            or casebase.options.path is None):
         return
     with contextlib.suppress(OSError):  # an output that does not exist yet is another file
         if os.path.samefile(output, casebase.options.path):

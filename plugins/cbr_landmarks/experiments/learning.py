@@ -35,10 +35,11 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from cbr_landmarks.experiments.common import TIMEOUT, Progress, drive, robot_config
+from cbr_stores.components import SQLITE_FILE
 from cbr_world2d.generate import SCENES
 from cbrcore.context import Context
 from cbrcore.experiment import ExperimentResult, Size, spread
-from cbrcore.run_folder import remove, sqlite_files
+from cbrcore.run_folder import remove
 from cbrcore.tasks import task_runner
 
 if TYPE_CHECKING:
@@ -84,7 +85,7 @@ def drive_worlds(job: tuple[str, int, int, int, Path]) -> dict[str, Any]:
     casebase = out_dir / f"seed{seed}" / f"{robot}.sqlite"
     casebase.parent.mkdir(parents=True, exist_ok=True)
     # kept across this robot's worlds, not across runs of the experiment
-    remove(sqlite_files(casebase))
+    remove(SQLITE_FILE.files(casebase))
     keys = ("world", "shape", "repetition", "success", "time", "distance", "cases")
     record: dict[str, Any] = {"seed": seed, **{key: [] for key in keys}}
     for w in range(count):
