@@ -7,10 +7,10 @@ selects.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from cbrcore.hookspecs import hookimpl
+from cbrcore.lazy import lazy_exports
 
 if TYPE_CHECKING:
     from cbrcore.engine import Engine, EngineStats
@@ -36,10 +36,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'cbrcore' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_exports("cbrcore", _LAZY, globals())

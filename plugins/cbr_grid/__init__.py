@@ -4,10 +4,10 @@ learning of the ``risk_map`` retainer."""
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from cbrcore.hookspecs import hookimpl
+from cbrcore.lazy import lazy_exports
 
 if TYPE_CHECKING:
     from cbr_grid.formats import load_grid
@@ -35,13 +35,7 @@ _EXPORTS = {"Cell": "cbr_grid.query", "Grid": "cbr_grid.grid", "GridQuery": "cbr
 loading the plugin (every start of ``cbr``) does not import NumPy and the map formats."""
 
 
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'cbr_grid' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_exports("cbr_grid", _EXPORTS, globals())
 
 
 EXTENSIONS = (".map", ".yaml", ".yml", ".png", ".npy", ".grid")

@@ -21,10 +21,10 @@ with the world's rules, so that its compiled kernels are ready before the first 
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from cbrcore.hookspecs import hookimpl
+from cbrcore.lazy import lazy_exports
 
 if TYPE_CHECKING:
     import typer
@@ -57,12 +57,7 @@ NumPy."""
 _SOLVERS = "cbr_solvers.grid_solvers"
 
 
-def __getattr__(name: str) -> Any:
-    if name not in __all__:
-        raise AttributeError(f"module 'cbr_solvers' has no attribute {name!r}")
-    value = getattr(importlib.import_module(_SOLVERS), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_exports("cbr_solvers", dict.fromkeys(__all__, _SOLVERS), globals())
 
 
 @hookimpl
