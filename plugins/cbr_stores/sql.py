@@ -18,6 +18,7 @@ import contextlib
 import json
 import operator
 import sys
+from abc import ABC, abstractmethod
 from collections.abc import Iterable, Iterator, Mapping
 from typing import Any, ClassVar, Self
 
@@ -69,7 +70,7 @@ class _Missing(Exception):
     """A write found fewer of its cases than it was given."""
 
 
-class SQLStore:
+class SQLStore(ABC):
     """A case base in the tables ``cases``, ``meta`` and ``removed`` of a SQL database.
 
     A dialect subclass opens the connection (``_conn``) and supplies the members marked as its
@@ -116,60 +117,61 @@ class SQLStore:
 
     # -- the dialect's ----------------------------------------------------------------------
 
+    @abstractmethod
     def _translate(self, exc: Exception) -> CaseBaseError | None:
         """The CaseBaseError for a problem with the case base; None for anything else (a bug)."""
-        raise NotImplementedError
 
+    @abstractmethod
     def _execute(self, sql: str, params: tuple[Any, ...]) -> Any:
         """Run one statement with ``?`` placeholders; its driver cursor."""
-        raise NotImplementedError
 
+    @abstractmethod
     def _in_transaction(self) -> bool:
         """Whether a transaction is under way on the connection."""
-        raise NotImplementedError
 
+    @abstractmethod
     def _begin(self) -> None:
         """Begin the outermost transaction: a snapshot when read-only, else holding the write
         lock (or taking it with :meth:`_read_clock`)."""
-        raise NotImplementedError
 
+    @abstractmethod
     def _read_clock(self) -> int:
         """The revision, read at the start of the outermost transaction."""
-        raise NotImplementedError
 
+    @abstractmethod
     def _write_clock(self) -> None:
         """Record ``_pending`` as the revision, as a writing transaction commits."""
-        raise NotImplementedError
 
     def _savepoint_state(self) -> tuple[Any, ...]:
         """What a savepoint undone must restore of the dialect's own transaction state."""
         return ()
 
-    def _restore_savepoint_state(self, state: tuple[Any, ...]) -> None:
-        """Restore what :meth:`_savepoint_state` returned."""
+    def _restore_savepoint_state(self, state: tuple[Any, ...]) -> None:  # noqa: B027
+        """Restore what :meth:`_savepoint_state` returned; nothing, for a dialect that keeps no
+        transaction state of its own."""
 
+    @abstractmethod
     def _insert(self, case_id: int | None, case: Case) -> int:
         """Insert ``case`` with ``case_id``, or a new id when it is None; the id."""
-        raise NotImplementedError
 
     def _restore_order(self, cases: list[Case]) -> list[Case]:
         """``cases`` in the order a restore inserts them, once their ids are known to be sound."""
         return cases
 
+    @abstractmethod
     def _structure_problems(self, problems: list[str]) -> bool:
         """Add to ``problems`` what is wrong with the database as a whole; False when the
         tables cannot be read."""
-        raise NotImplementedError
 
+    @abstractmethod
     def _clock_problems(self, problems: list[str], largest_id: int) -> int | None:
         """Add to ``problems`` what is wrong with the revision clock; the revision a sound case
         is not after (None when the clock is unusable)."""
-        raise NotImplementedError
 
     @property
+    @abstractmethod
     def revision(self) -> int:
         """The number of write transactions committed so far, by any process."""
-        raise NotImplementedError
 
     # -- talking to the database ------------------------------------------------------------
 
