@@ -412,8 +412,8 @@ def test_the_protocols_tell_the_two_loops_apart(plugins: Plugins, tmp_path: Path
 
 
 def test_the_guide_example_drives_the_same_laps(tmp_path: Path) -> None:
-    """The closed-loop workload of docs/plugins-closed-loop.md, run with this domain's components, gives
-    the rows of the hand-worked table."""
+    """The closed-loop workload of docs/plugins-closed-loop.md, run with this domain's
+    components, gives the rows of the hand-worked table."""
     (source,) = GUIDE_EXAMPLE.findall(GUIDE.read_text(encoding="utf-8"))
     lane = types.ModuleType("lane")
     exec(compile(source, str(GUIDE), "exec"), lane.__dict__)
