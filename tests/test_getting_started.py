@@ -141,6 +141,9 @@ def test_the_main_job_prints_and_writes_what_the_page_says(
         assert key in summary and f"`{key}`" in _words(), key
     assert f"the paths cost on average {summary['metric_means']['deviation'] * 100:.2f} % " in (
         _words())
+    shares = [round(tenth["cbr_share"] * 100) for tenth in summary["evolution"]]
+    assert (f"answers {shares[0]} % of the first hundred trips and between {min(shares[1:])} % "
+            f"and {max(shares[1:])} % of each hundred after") in _words()
     info = cbr("cbr casebase info runs/hybrid_grid/casebase.sqlite")
     segments = re.search(r"segment +(\d+)", info.stdout)
     assert segments and f"{segments[1]} segments after this run" in _words()
