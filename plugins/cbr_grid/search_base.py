@@ -5,7 +5,7 @@ The solvers' Dijkstra, A*, Ai*, genetic algorithm and edge-based searches and th
 kernels all step between 8-neighbours under one rule and order their frontier in one heap, so
 these pieces live once, here, at the bottom of the grid family where every package that
 searches can reach them. Nothing here is a search itself: each search writes its own loop over
-its own graph, because one loop specialised per graph measured 1.6-2.8x slower
+its own graph, because one loop specialised per graph measures well slower
 (``benchmarks/search_loop.py``, docs/benchmarks.md, "One search loop or one per graph").
 
 **The heap** is a binary min-heap of (float64 key, int64 item) pairs kept in two arrays, the
