@@ -17,7 +17,8 @@ from typing import TYPE_CHECKING, Literal
 import attrs
 import numpy as np
 
-from cbr_casegraph.graph import SEGMENT
+from cbr_casegraph import forgetting
+from cbr_casegraph.cases import SEGMENT
 from cbr_casegraph.payoff import PassableCells, Payoff
 from cbr_casegraph.state import graph_of
 from cbr_grid.distances import DistanceName
@@ -313,12 +314,7 @@ class RiskySegments:
 
     @hookimpl
     def cbr_forget(self, ctx: Context) -> None:
-        graph = graph_of(ctx)
-        edges = graph.edge_ids()
-        worst = edges[(graph.risks(edges) >= self.options.max_risk)
-                      | ~np.isfinite(graph.costs(edges))]
-        if len(worst):
-            graph.remove(worst)
+        forgetting.risky(graph_of(ctx), self.options.max_risk)
 
 
 @attrs.frozen
@@ -340,12 +336,4 @@ class VertexLimit:
     @hookimpl
     def cbr_forget(self, ctx: Context) -> None:
         graph = graph_of(ctx)
-        limit = int(self.options.max_coverage * graph.vertex_at.size)
-        if graph.vertex_count <= limit:
-            return
-        edges = graph.edge_ids()
-        order = np.lexsort((graph.created(edges), graph.uses(edges), -graph.risks(edges)))
-        for start in range(0, len(order), 16):
-            graph.remove(edges[order[start:start + 16]])
-            if graph.vertex_count <= limit:
-                break
+        forgetting.down_to(graph, int(self.options.max_coverage * graph.vertex_at.size))
