@@ -41,7 +41,7 @@ def reprice(index: SegmentIndex, grid: Grid, edges: np.ndarray) -> np.ndarray:
     return edges[index.price(edges, cost, risk)]
 
 
-def edges_through(index: SegmentIndex, cells: ArrayLike) -> list[int]:
+def edges_through(index: SegmentIndex, cells: ArrayLike) -> np.ndarray:
     """The edges whose price a change of ``cells`` can change, ascending."""
     touched: set[int] = set()
     h, w = index.owner.shape
@@ -51,12 +51,4 @@ def edges_through(index: SegmentIndex, cells: ArrayLike) -> list[int]:
         for cx, cy in ((x, y), (x + 1, y), (x - 1, y), (x, y + 1), (x, y - 1)):
             if 0 <= cx < w and 0 <= cy < h:
                 touched.update(index.edges_at((cx, cy)))
-    return sorted(touched)
-
-
-def heuristic_scale(grid: Grid) -> float:
-    """The least cost factor of a passable cell: no step costs less per unit of length."""
-    from cbr_solvers.search import least_factor  # compiled: loaded with the first query
-
-    least = least_factor(grid.factor, grid.passable)
-    return least if np.isfinite(least) else 1.0
+    return np.asarray(sorted(touched), dtype=np.int64)

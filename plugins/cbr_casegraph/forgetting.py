@@ -1,9 +1,7 @@
 """Forgetting in the case graph: edges removed, and vertices in the middle of a straight edge
-merged away.
+merged away, in the index and the case base together.
 
-The strategies (:mod:`cbr_casegraph.components`) choose what to forget: the most risky segments,
-the worst ones beyond a vertex limit, the redundant vertices; this module forgets it, in the
-index and the case base together.
+The strategies (:mod:`cbr_casegraph.components`) choose what to forget.
 """
 
 from __future__ import annotations
@@ -20,10 +18,6 @@ from cbr_casegraph.writes import remove as remove_edges
 if TYPE_CHECKING:
     from cbr_casegraph.graph import CaseGraph
 
-_BATCH = 16
-"""How many of the worst edges a vertex limit forgets before it counts the vertices again."""
-
-
 def remove(graph: CaseGraph, edges: Iterable[int]) -> None:
     """Forget these edges; vertices left without edges disappear. KeyError for an edge that
     is not in the graph, with nothing forgotten."""
@@ -32,30 +26,6 @@ def remove(graph: CaseGraph, edges: Iterable[int]) -> None:
         if not graph.index.has(edge):
             raise KeyError(edge)
     remove_edges(graph, ids)
-
-
-def risky(graph: CaseGraph, max_risk: float) -> None:
-    """Forget the edges whose mean cell risk reaches ``max_risk`` and those crossing an
-    obstacle of the current map (infinite cost)."""
-    index = graph.index
-    edges = index.edge_ids()
-    worst = edges[(index.risk[edges] >= max_risk) | ~np.isfinite(index.cost[edges])]
-    if len(worst):
-        remove(graph, worst)
-
-
-def down_to(graph: CaseGraph, limit: int) -> None:
-    """Forget the worst edges until at most ``limit`` vertices are left: the highest mean
-    risk first, then the fewest uses, then the oldest."""
-    index = graph.index
-    if index.vertex_count <= limit:
-        return
-    edges = index.edge_ids()
-    order = np.lexsort((index.created[edges], index.uses[edges], -index.risk[edges]))
-    for start in range(0, len(order), _BATCH):
-        remove(graph, edges[order[start:start + _BATCH]])
-        if index.vertex_count <= limit:
-            break
 
 
 def merge_redundant(graph: CaseGraph) -> int:

@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike
 from cbr_casegraph import costs, following, forgetting, retention, writes
 from cbr_casegraph.cases import SEGMENT, store_name
 from cbr_casegraph.costs import segment_costs
-from cbr_casegraph.index import ID, ID_LIMIT, Adjacency, Cell, SegmentIndex
+from cbr_casegraph.index import ID, ID_LIMIT, Adjacency, Cell, EdgeTables, SegmentIndex
 from cbr_grid.grid import Grid
 from cbrcore.casebase.store import CaseStore, Changes
 from cbrcore.errors import CbrError
@@ -131,14 +131,18 @@ class CaseGraph:
         """The graph in CSR form, cached until the graph changes."""
         return self.index.adjacency()
 
-    def vertex_index(self, cell: Cell) -> int:
-        """The index of the vertex on ``cell`` in :meth:`adjacency`, or -1."""
-        return int(self.index.vertex_at[cell[1], cell[0]])
+    def tables(self) -> EdgeTables:
+        """The graph as the compiled query reads it, cached until the graph changes."""
+        return self.index.tables()
 
     def heuristic_scale(self) -> float:
-        """The least cost factor of a passable cell of the map, kept until the map changes."""
+        """The least cost factor of a passable cell: no step costs less per unit of length.
+        Kept until the map changes."""
         if self._scale is None:
-            self._scale = costs.heuristic_scale(self.grid)
+            from cbr_solvers.search import least_factor  # compiled: loaded with the first query
+
+            least = least_factor(self.grid.factor, self.grid.passable)
+            self._scale = least if np.isfinite(least) else 1.0
         return self._scale
 
     def similar(self, a: Cell, b: Cell, delta: int, distance: str = "chebyshev") -> bool:
@@ -157,9 +161,8 @@ class CaseGraph:
         if cells is None:
             self.refresh()
             return
-        touched = costs.edges_through(self.index, cells)
-        if touched:
-            self.refresh(touched)
+        writes.write_costs(self, costs.reprice(self.index, grid, costs.edges_through(
+            self.index, cells)))
 
     def refresh(self, edges: Sequence[int] | None = None) -> None:
         """Recompute cost and risk of ``edges`` (all when None) from the current map; the

@@ -24,7 +24,7 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from cbr_casegraph.geometry import segment_cells
+from cbr_casegraph.geometry import segment_cells, square
 from cbrcore.errors import CbrError
 
 Cell = tuple[int, int]
@@ -67,6 +67,23 @@ class Adjacency:
     xy: np.ndarray
 
 
+@attrs.frozen
+class EdgeTables:
+    """The index as the compiled query reads it: the CSR adjacency and, by edge id, the
+    vertices at the edge's ends a and b and its cost (infinite for an id not in use)."""
+
+    adjacency: Adjacency
+    a: np.ndarray
+    b: np.ndarray
+    cost: np.ndarray
+
+    def ends(self, edges: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """The (n, 2) end cells a and b of the given edges."""
+        edges = np.asarray(edges, dtype=np.int64)
+        xy = self.adjacency.xy
+        return xy[self.a[edges]], xy[self.b[edges]]
+
+
 class SegmentIndex:
     """The vertices and edges of a case graph on a map of ``shape`` (rows, columns).
 
@@ -97,6 +114,7 @@ class SegmentIndex:
         self.alive = np.zeros(0, dtype=bool)
         self.next_id = 0
         self._adjacency: Adjacency | None = None
+        self._tables: EdgeTables | None = None
 
     # -- reading ---------------------------------------------------------------------------
 
@@ -166,8 +184,7 @@ class SegmentIndex:
     def square(self, cell: Cell, radius: int) -> tuple[int, int, int, int]:
         """The square N(cell, radius) clipped to the map: (x0, y0, x1, y1), inclusive."""
         h, w = self.owner.shape
-        return (max(cell[0] - radius, 0), max(cell[1] - radius, 0),
-                min(cell[0] + radius, w - 1), min(cell[1] + radius, h - 1))
+        return square(cell, radius, w, h)
 
     def meeting(self, cell: Cell, delta: int, *, selective: bool = False) -> np.ndarray:
         """The edges that meet the neighbourhood N(cell, delta), eqs. (9)-(11).
@@ -206,6 +223,19 @@ class SegmentIndex:
                 indptr, np.concatenate([b, a])[order], np.tile(self.cost[edges], 2)[order],
                 np.tile(edges, 2)[order], self.cells(np.arange(self.slots)))
         return self._adjacency
+
+    def tables(self) -> EdgeTables:
+        """The tables for the compiled query, made again only when the adjacency changed."""
+        adjacency = self.adjacency()
+        if self._tables is None or self._tables.adjacency is not adjacency:
+            ids = self.edge_ids()
+            size = int(ids[-1]) + 1 if len(ids) else 0
+            ends = [np.full(size, -1, dtype=np.int64) for _ in range(2)]
+            ends[0][ids], ends[1][ids] = self.ea[ids], self.eb[ids]
+            cost = np.full(size, np.inf)
+            cost[ids] = self.cost[ids]
+            self._tables = EdgeTables(adjacency, ends[0], ends[1], cost)
+        return self._tables
 
     # -- changing --------------------------------------------------------------------------
 
