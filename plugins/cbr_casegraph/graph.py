@@ -21,12 +21,13 @@ from numpy.typing import ArrayLike
 from cbr_casegraph import costs, following, forgetting, retention, writes
 from cbr_casegraph.cases import SEGMENT, store_name
 from cbr_casegraph.costs import segment_costs
-from cbr_casegraph.index import ID, ID_LIMIT, Adjacency, Cell, EdgeTables, SegmentIndex
+from cbr_casegraph.index import ID_LIMIT, Adjacency, Cell, EdgeTables, SegmentIndex
 from cbr_grid.grid import Grid
 from cbrcore.casebase.store import CaseStore, Changes
 from cbrcore.errors import CbrError
 
-__all__ = ["ID", "SEGMENT", "Adjacency", "CaseGraph", "Cell", "segment_costs"]
+# the case kind and the pricing of a segment, named here too for code that uses the graph
+__all__ = ["SEGMENT", "CaseGraph", "segment_costs"]
 
 
 class CaseGraph:

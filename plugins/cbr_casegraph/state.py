@@ -2,7 +2,7 @@
 
 The graph is a view of the case base held by the core's store mirror
 (:mod:`cbrcore.casebase.mirror`): loaded from the case base when a component of the family first
-asks for it, written through to the store as it changes (:mod:`cbr_casegraph.graph`), and loaded
+asks for it, written through to the store as it changes (:mod:`cbr_casegraph.writes`), and loaded
 anew after a learn step that rolled back or when another writer moved the store.
 """
 
