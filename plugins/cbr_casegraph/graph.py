@@ -8,7 +8,8 @@
 - :mod:`cbr_casegraph.retention`: a traversed path retained, with eq. (12);
 - :mod:`cbr_casegraph.forgetting`: edges forgotten, redundant vertices merged away;
 - :mod:`cbr_casegraph.following`: the stored segments loaded, other writers followed;
-- :mod:`cbr_casegraph.writes`: every change written through to the case base.
+- :mod:`cbr_casegraph.writes`: every change written through to the case base, each edge a
+  case of the form of :mod:`cbr_casegraph.cases`.
 """
 
 from __future__ import annotations
@@ -175,9 +176,7 @@ class CaseGraph:
 
     def record_use(self, edges: Iterable[int]) -> None:
         """Count one more use of each edge still in the graph (the store counts its own)."""
-        for edge in edges:
-            if self.index.has(edge):
-                self.index.uses[edge] += 1
+        retention.record_use(self.index, edges)
 
     def add_path(self, path: ArrayLike, *, similarity_delta: int = 0,
                  distance: str = "chebyshev") -> list[int]:

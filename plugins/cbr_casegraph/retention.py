@@ -1,4 +1,5 @@
-"""Retaining a traversed path in the case graph, with the similarity test of eq. (12).
+"""Retaining a traversed path in the case graph, with the similarity test of eq. (12), and
+counting the uses of the segments a solution reused.
 
 A segment is never stored twice over the same cells: where a retained path runs along a stored
 edge it reuses that edge, where it crosses or leaves one the edge is split there, and the path's
@@ -11,6 +12,7 @@ path, not to the graph.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -79,6 +81,13 @@ def add_path(graph: CaseGraph, path: ArrayLike, *, similarity_delta: int = 0,
             if edge is not None:
                 added.append(edge)
     return added
+
+
+def record_use(index: SegmentIndex, edges: Iterable[int]) -> None:
+    """Count one more use of each edge still in the graph (the store counts its own)."""
+    for edge in edges:
+        if index.has(edge):
+            index.uses[edge] += 1
 
 
 def similar(index: SegmentIndex, a: Cell, b: Cell, delta: int, distance: str = "chebyshev"
