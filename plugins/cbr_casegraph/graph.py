@@ -141,9 +141,8 @@ class CaseGraph:
         """The least cost factor of a passable cell: no step costs less per unit of length.
         Kept until the map changes."""
         if self._scale is None:
-            from cbr_solvers.search import least_factor  # compiled: loaded with the first query
-
-            least = least_factor(self.grid.factor, self.grid.passable)
+            # a grid's factors are finite and positive by its cost contract: nothing to check
+            least = float(np.min(self.grid.factor, where=self.grid.passable, initial=np.inf))
             self._scale = least if np.isfinite(least) else 1.0
         return self._scale
 
