@@ -11,6 +11,7 @@ determines whether to plan deliberatively").
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import attrs
@@ -69,6 +70,24 @@ class InstallPlan:
     route: tuple[str, ...]
     name: str
     localize: bool = False
+
+
+@attrs.frozen
+class CaseChoice:
+    """How the reuser chose the case it installs: the ``payload`` of its solution, which the
+    retainers learn from and the workload logs.
+
+    ``kind`` is the installed case's kind (``behavior``, ``plan`` or ``meta_plan``),
+    ``distance`` its overall index distance to the situation and ``features`` its distance
+    per feature (the weights learn from these); ``retrieved`` the ids of every case retrieved
+    (None for a case not stored) and ``rivals`` those within the quality band of the installed
+    case, whose records against it the spell adds to."""
+
+    kind: str
+    distance: float
+    features: Mapping[str, float]
+    retrieved: tuple[int | None, ...]
+    rivals: tuple[int, ...]
 
 
 @attrs.frozen
