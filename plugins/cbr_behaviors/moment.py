@@ -6,7 +6,8 @@ simulation) with what the robot is doing. The proposal's ``solution.value`` is o
 actions: :class:`InstallBehaviors` (a behavior case or meta-plan: install its behaviors at
 once) or :class:`InstallPlan` (a plan case: route through its places, planned deliberatively
 on the global map). The kind of case retrieved decides which (004: "the kind of case retrieved
-determines whether to plan deliberatively").
+determines whether to plan deliberatively"). The solution's ``payload`` is a :class:`CaseChoice`:
+how the reuser chose the case, for the learn step and the day's log.
 """
 
 from __future__ import annotations
