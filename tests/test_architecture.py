@@ -63,13 +63,14 @@ def test_no_package_imports_another_packages_private_names() -> None:
 
 # --- hand-offs: typed fields and stash keys, never string keys ----------------------------------
 
-HANDOFF_CONTAINERS = frozenset({"detail", "meta", "features"})
+HANDOFF_CONTAINERS = frozenset({"detail", "meta", "features", "payload", "report"})
 """The free-form mappings of the cycle's objects (``Solution.detail``, ``Case.meta``,
-``Match.features``) and of the families' own results built into them (a planner's ``detail``).
-A string key one package writes into one of them and another package reads is a hand-off by
-name. Other dicts are left out: results rows, summaries, GeoJSON and case exchange files are
-file formats, read back by their columns and fields, not hand-offs between components; and
-``Proposal.timings`` is keyed by the engine's phase names, which are also the ``ms_<phase>``
+``Match.features``), of the families' own results built into them (a planner's ``detail``),
+and the typed channels (``payload``, ``report``) should a dict be put there. A string key one
+package writes into one of them and another package reads is a hand-off by name. Other dicts
+are left out: results rows, summaries, GeoJSON and case exchange files are file formats, read
+back by their columns and fields, not hand-offs between components; and ``Proposal.timings``
+(and a learn step's) is keyed by the engine's phase names, which are also the ``ms_<phase>``
 columns of results.csv."""
 
 _READING_METHODS = frozenset({"get", "pop", "setdefault"})
@@ -261,6 +262,9 @@ READ_BOUND = "def revise(solution):\n    return solution.detail.get('bound')\n"
                  READ_BOUND, id="update"),
     pytest.param("def retain(problem, path):\n    return Case(problem, path, meta={'cost': 2})\n",
                  "def forget(case):\n    return case.meta.pop('cost')\n", id="case meta"),
+    pytest.param("def reuse(v):\n    return Solution(v, payload={'kind': 'plan'})\n",
+                 "def log(solution):\n    return solution.payload['kind']\n",
+                 id="a dict as the payload"),
 ])
 def test_a_string_key_one_package_writes_and_another_reads_is_found(
         tmp_path: Path, producer: str, consumer: str) -> None:
