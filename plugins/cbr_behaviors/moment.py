@@ -78,7 +78,7 @@ class CaseChoice:
     """How the reuser chose the case it installs: the ``payload`` of its solution, which the
     retainers learn from and the workload logs.
 
-    ``kind`` is the installed case's kind (``behavior``, ``plan`` or ``meta_plan``),
+    ``kind`` is the installed case's kind (``behavior_case``, ``plan_case`` or ``meta_plan``),
     ``distance`` its overall index distance to the situation and ``features`` its distance
     per feature (the weights learn from these); ``retrieved`` the ids of every case retrieved
     (None for a case not stored) and ``rivals`` those within the quality band of the installed
