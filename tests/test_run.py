@@ -1,4 +1,5 @@
-"""Runs and experiments: ``cbrcore.run.run_workload`` and ``cbrcore.experiment.run_experiment``.
+"""Runs and experiments: ``cbrcore.run.run_workload`` and
+``cbr_experiments.experiment.run_experiment``.
 
 The toy composition ``TOY_CONFIG`` (seed 3, 30 queries drawn from 0..7, radius 1, tolerance 0,
 capacity 6) is run and its files are checked against each other and against expectations that
@@ -27,11 +28,11 @@ import cbr_observers
 import cbr_stores
 import cbrcore.builtins
 import toy_domain
+from cbr_experiments.experiment import ExperimentResult, Size, run_experiment
 from cbrcore import Engine, Outcome, Proposal, hookimpl
 from cbrcore.config import parse_config
 from cbrcore.context import Context
 from cbrcore.errors import ConfigError, PluginError
-from cbrcore.experiment import ExperimentResult, Size, run_experiment
 from cbrcore.plugins import Plugins, load_plugins
 from cbrcore.registry import Registry
 from cbrcore.run import PHASES, run_workload
@@ -240,7 +241,7 @@ def test_the_manifest_records_what_repeats_the_run(
     assert manifest["plugins"] == [{"name": p.name, "distribution": p.distribution,
                                     "version": p.version} for p in plugins.loaded]
     assert [p["name"] for p in manifest["plugins"]] == [
-        "toy", "core", "stores", "observers", "runs"]
+        "toy", "core", "stores", "experiments", "observers", "runs"]
     assert manifest["overrides"] == ["observers=[{use: trace, file: trace.jsonl}]"]
 
 
@@ -334,7 +335,7 @@ def test_an_experiment_writes_results_table_figures_and_manifest(plugins: Plugin
     assert manifest["config"] is None
     assert manifest["cbrcore"] == metadata.version("cbrcore")
     assert [p["name"] for p in manifest["plugins"]] == [
-        "toy", "core", "stores", "observers", "runs"]
+        "toy", "core", "stores", "experiments", "observers", "runs"]
     assert progress == [(1, 2), (2, 2)]
 
 
