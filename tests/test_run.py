@@ -241,7 +241,7 @@ def test_the_manifest_records_what_repeats_the_run(
     assert manifest["plugins"] == [{"name": p.name, "distribution": p.distribution,
                                     "version": p.version} for p in plugins.loaded]
     assert [p["name"] for p in manifest["plugins"]] == [
-        "toy", "core", "stores", "experiments", "observers", "runs"]
+        "toy", "core", "stores", "observers", "runs"]
     assert manifest["overrides"] == ["observers=[{use: trace, file: trace.jsonl}]"]
 
 
@@ -335,7 +335,7 @@ def test_an_experiment_writes_results_table_figures_and_manifest(plugins: Plugin
     assert manifest["config"] is None
     assert manifest["cbrcore"] == metadata.version("cbrcore")
     assert [p["name"] for p in manifest["plugins"]] == [
-        "toy", "core", "stores", "experiments", "observers", "runs"]
+        "toy", "core", "stores", "observers", "runs"]
     assert progress == [(1, 2), (2, 2)]
 
 
