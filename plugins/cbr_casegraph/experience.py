@@ -53,7 +53,7 @@ from cbr_grid.search_base import (
     pop,
     push_grown,
 )
-from cbrcore.compiled import njit
+from cbr_kernels import njit
 from cbrcore.errors import CbrError
 
 ROUTE_VERTICES = 16

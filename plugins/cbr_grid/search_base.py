@@ -48,7 +48,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from cbr_grid.directions import STEPS
-from cbrcore.compiled import njit
+from cbr_kernels import njit
 
 MOVE_DIRECTIONS = np.array([0, 4, 6, 2, 7, 1, 5, 3], dtype=np.int64)
 """The direction (:mod:`cbr_grid.directions`) of each move 0-7: orthogonal first, then diagonal."""
