@@ -36,8 +36,8 @@ from solvers import edges, random_map, random_queries
 from cbr_casegraph.search import graph_search
 from cbr_grid.costs import SQRT2
 from cbr_grid.search_base import pop, push_grown
+from cbr_kernels import njit
 from cbr_solvers.search import astar, dijkstra
-from cbrcore.compiled import njit
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
