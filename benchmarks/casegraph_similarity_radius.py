@@ -27,8 +27,8 @@ from cbr_casegraph.experiments.common import MAX_RATIO, map_info
 from cbr_casegraph.experiments.deviation import DeviationTable
 from cbr_casegraph.experiments.radius import RadiusTask, radius_rows
 from cbr_casegraph.planner import Settings
+from cbr_experiments.tasks import open_tasks
 from cbrcore.errors import CbrError
-from cbrcore.tasks import open_tasks
 
 RESULTS = Path(__file__).resolve().parent / "results"
 

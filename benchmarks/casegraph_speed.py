@@ -44,7 +44,7 @@ from docfigures.provenance import write_results
 from cbr_casegraph.build import connected_cells, grow, random_task
 from cbr_casegraph.experiments.common import cbr_tasks, make_map, region_mask, warm_up
 from cbr_casegraph.graph import CaseGraph
-from cbr_casegraph.planner import Failure, Settings, adapt, edge_tables, neighbourhoods, plan
+from cbr_casegraph.planner import Failure, Settings, adapt, neighbourhoods, plan
 from cbr_casegraph.query import local_links
 from cbr_grid.distances import octile
 from cbr_solvers.search import astar
@@ -81,7 +81,7 @@ def _pieces(graph: CaseGraph, tasks: list[tuple[tuple[int, int], tuple[int, int]
             settings: Settings) -> dict[str, float]:
     """The median time of each compiled piece of a CBR query alone, in microseconds."""
     times: dict[str, list[float]] = {"cases_near": [], "local_links": [], "adapt": []}
-    grid, tables = graph.grid, edge_tables(graph)
+    grid, tables = graph.grid, graph.tables()
     for start, goal in tasks:
         found = neighbourhoods(graph, start, goal, settings)
         if isinstance(found, Failure):

@@ -35,9 +35,9 @@ from typing import Any
 
 from docfigures.provenance import write_results
 
-from cbrcore.experiment import run_experiment
+from cbr_experiments.experiment import run_experiment
+from cbr_experiments.tasks import TaskRunner, open_tasks
 from cbrcore.plugins import current
-from cbrcore.tasks import TaskRunner, open_tasks
 
 TIMED = frozenset({"median_plan_ms"})
 """Keys of results.json that hold measured wall times."""

@@ -24,7 +24,7 @@ import numpy as np
 from docfigures.provenance import head, write_results
 
 from cbr_behaviors.experiments.delivery import arm_config, run_job
-from cbrcore.tasks import LocalTasks
+from cbr_experiments.tasks import LocalTasks
 
 ARM = "best-fixed"
 KINDS: dict[str, dict[str, object]] = {

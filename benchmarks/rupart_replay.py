@@ -19,7 +19,7 @@ from pathlib import Path
 from docfigures.provenance import head, write_results
 
 from cbr_behaviors.experiments.delivery import arm_config, interval, run_job
-from cbrcore.tasks import LocalTasks
+from cbr_experiments.tasks import LocalTasks
 
 ARM = "cbr-learning"
 

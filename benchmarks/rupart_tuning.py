@@ -28,7 +28,7 @@ import numpy as np
 from docfigures.provenance import head, write_results
 
 from cbr_behaviors.experiments.delivery import TUNING_SEEDS, arm_config, run_job
-from cbrcore.tasks import LocalTasks
+from cbr_experiments.tasks import LocalTasks
 
 SPEEDS = (40, 50, 60, 70)
 """goToPos speeds tried, cm/s."""

@@ -9,7 +9,7 @@ The cache folder is, in order of precedence,
    ``~/.cache/cbrcore/numba`` on Linux).
 
 A kernel that numba compiles (one not in the cache, or not for these argument types) is reported
-to every watcher registered with :func:`watching`: :mod:`cbrcore.compiled` forwards numba's own
+to every watcher registered with :func:`watching`: :mod:`cbr_kernels` forwards numba's own
 compile events, which numba raises only on a cache miss, so a warm cache reports nothing.
 """
 

@@ -80,12 +80,22 @@ class Solution:
     ``value`` is the domain's answer (a path, a diverting target, a behavior assignment). ``cost``
     is the domain's own figure of merit when it has one. ``cases`` names the stored cases the
     solution was built from; the engine counts their use when the outcome is learned.
+
+    ``detail`` is for people: what the producer reports of how it got here (nodes expanded,
+    the way a target was reached), shown and asserted on but never read by another component.
+    What a component hands on travels typed: ``bound``, when the producer proves the cost is
+    at most ``bound`` times the cheapest solution's (a reviser of any family may take that
+    proof for the quality test), and ``payload``, the producer's own typed account for the
+    reviser, retainers, workload and metrics of the same family (as ``Retrieval.payload``
+    does for the reuser), which the engine passes through untouched.
     """
 
     value: Any
     cost: float | None = None
     cases: tuple[int, ...] = ()
     detail: Mapping[str, Any] = attrs.field(factory=dict)
+    bound: float | None = None
+    payload: Any = None
 
     @property
     def no_action(self) -> bool:

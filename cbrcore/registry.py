@@ -40,7 +40,7 @@ KINDS: dict[str, str] = {
                 "own loop consulting the engine through a session (cbrcore.workload.Workload)",
     "metric": "turns one query's problem, proposal and outcome into numbers "
               "(cbrcore.workload.Metric)",
-    "experiment": "a reproduction run by `cbr experiment` (cbrcore.experiment.Experiment)",
+    "experiment": "a reproduction run by `cbr experiment` (cbr_experiments.experiment.Experiment)",
 }
 """The component kinds of cbrcore itself, with what a component of each must provide."""
 

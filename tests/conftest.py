@@ -36,17 +36,19 @@ def _no_plugin_environment(monkeypatch: pytest.MonkeyPatch) -> None:
 def load_toy(cbr_plugins: Callable[..., Plugins]) -> Callable[..., Plugins]:
     """A callable ``load_toy(*extra) -> Plugins`` making the toy domain current.
 
-    It loads the toy domain with the built-in plugins (``core``, ``stores`` and ``observers``,
-    registered in code rather than through their entry points) and any test-only ``extra``
-    plugins, given as ``cbr_plugins`` takes them; each call makes a fresh set current until the
-    test ends.
+    It loads the toy domain with the built-in plugins (``core``, ``stores``, ``experiments`` and
+    ``observers``, registered in code rather than through their entry points) and any test-only
+    ``extra`` plugins, given as ``cbr_plugins`` takes them; each call makes a fresh set current
+    until the test ends.
     """
+    import cbr_experiments
     import cbr_stores
     import cbrcore.builtins
 
     def load(*extra: object) -> Plugins:
         return cbr_plugins(("toy", toy_domain), ("core", cbrcore.builtins),
-                           ("stores", cbr_stores), ("observers", cbr_observers), *extra)
+                           ("stores", cbr_stores), ("experiments", cbr_experiments),
+                           ("observers", cbr_observers), *extra)
 
     return load
 

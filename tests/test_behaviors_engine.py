@@ -37,7 +37,13 @@ from cbr_behaviors.casedata import case_of
 from cbr_behaviors.casetypes import BEHAVIOR, BehaviorCase, Change, PlanCase, Strategy
 from cbr_behaviors.components import retained_index
 from cbr_behaviors.index import FEATURES, Index
-from cbr_behaviors.moment import InstallBehaviors, InstallPlan, Moment, SpellReport
+from cbr_behaviors.moment import (
+    CaseChoice,
+    InstallBehaviors,
+    InstallPlan,
+    Moment,
+    SpellReport,
+)
 from cbr_behaviors.quality import (
     RIVALS,
     Quality,
@@ -407,6 +413,11 @@ def test_a_case_beyond_the_threshold_is_adapted_by_the_stored_strategy(
                                            "behavior": "goToPos", "argument": "speed",
                                            "old": "mod-fast", "new": 27.0}]
     assert solution.cases == (IDS["open"],)
+    # what the learners read: the case adapted from, its distance 0.2 and its kind
+    choice = solution.payload
+    assert isinstance(choice, CaseChoice)
+    assert (choice.kind, choice.retrieved[0]) == ("behavior_case", IDS["open"])
+    assert choice.distance == pytest.approx(0.2)
 
 
 INSTALL_ROUTE = InstallPlan(("hall_west", "hall_east"), "route", localize=True)

@@ -35,7 +35,7 @@ from cbr_behaviors.experiments.delivery import (
     MEASURES,
     interval,
 )
-from cbrcore.experiment import run_experiment, spread
+from cbr_experiments.experiment import run_experiment, spread
 from cbrcore.plugins import Plugins, load_plugins, use_plugins
 
 CONSULTING = ("cbr", "cbr-learning", "learned-weights")

@@ -91,7 +91,7 @@ def test_every_path_is_valid_and_within_the_bound(
     assert tuple(path[0]) == start and tuple(path[-1]) == goal
     assert len({tuple(c) for c in path.tolist()}) == len(path)  # no loops
     assert found.cost == pytest.approx(path_cost(grid, path))
-    assert found.detail["bound"] == epsilon * experience
+    assert found.bound == epsilon * experience
     assert found.cost <= epsilon * experience * best + 1e-9
     assert set(found.edges) <= set(graph.edge_ids().tolist())
     if epsilon == experience == 1.0:
@@ -158,19 +158,24 @@ DETOUR = [(0, 0), (0, 1), (0, 2), (1, 3), (2, 2), (2, 1), (2, 0)]
 
 def test_a_guaranteed_bound_within_max_ratio_is_accepted_without_the_length_test() -> None:
     assert review(Solution(DETOUR)) == (False, "length ratio above 1.5")
-    assert review(Solution(DETOUR, detail={"bound": 1.5})) == (True, "")
-    assert review(Solution(DETOUR, detail={"bound": 1.2}), max_ratio=1.2) == (True, "")
+    assert review(Solution(DETOUR, bound=1.5)) == (True, "")
+    assert review(Solution(DETOUR, bound=1.2), max_ratio=1.2) == (True, "")
 
 
 def test_a_bound_above_max_ratio_is_tested_like_any_path() -> None:
-    assert review(Solution(DETOUR, detail={"bound": 2.0})) == (False, "length ratio above 1.5")
-    assert review(Solution(DETOUR, detail={"bound": "1.5"})) == (False, "length ratio above 1.5")
+    assert review(Solution(DETOUR, bound=2.0)) == (False, "length ratio above 1.5")
+
+
+def test_a_bound_below_one_or_only_in_the_detail_is_no_guarantee() -> None:
+    # below 1 the claim is impossible (cheaper than the cheapest path); the detail is for people
+    assert review(Solution(DETOUR, bound=0.5)) == (False, "length ratio above 1.5")
+    assert review(Solution(DETOUR, detail={"bound": 1.5})) == (False, "length ratio above 1.5")
 
 
 def test_a_guaranteed_path_must_still_be_valid_and_join_start_and_goal() -> None:
-    assert review(Solution([(0, 0), (2, 0)], detail={"bound": 1.0})) == (
+    assert review(Solution([(0, 0), (2, 0)], bound=1.0)) == (
         False, "invalid on the current map")
-    assert review(Solution([(0, 0), (1, 0)], detail={"bound": 1.0})) == (
+    assert review(Solution([(0, 0), (1, 0)], bound=1.0)) == (
         False, "does not connect start and goal")
 
 

@@ -17,10 +17,13 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from cbr_casegraph import retention
 from cbr_casegraph.geometry import segment_cells
 from cbr_casegraph.graph import CaseGraph
+from cbr_casegraph.index import SegmentIndex
 from cbr_casegraph.state import graph_of
-from cbr_grid.distances import DISTANCES
+from cbr_casegraph.writes import Journal
+from cbr_grid.distances import DISTANCES, Distance
 from cbr_grid.grid import Grid
 from cbrcore.casebase.memory import MemoryStore
 from cbrcore.context import Context
@@ -70,20 +73,22 @@ def compared_with_brute_force(graph: CaseGraph, delta: int, name: str,
     """Within the block, every eq. (12) decision ``graph`` takes is checked against a scan of
     the segments it held when the block began (the cases stored before the path)."""
     before = tuple(e.copy() for e in stored_ends(graph))
-    decide = graph._similar
+    decide = retention.similar_before
 
-    def checked(a: Cell, b: Cell, delta_: int, measure: object) -> bool:
-        found = decide(a, b, delta_, measure)  # type: ignore[arg-type]
+    def checked(index: SegmentIndex, journal: Journal, a: Cell, b: Cell, delta_: int,
+                measure: Distance) -> bool:
+        assert index is graph.index
+        found = decide(index, journal, a, b, delta_, measure)
         assert delta_ == delta
         assert found == brute(before, a, b, delta, name), (a, b)  # type: ignore[arg-type]
         calls.append(found)
         return found
 
-    graph._similar = checked  # type: ignore[method-assign]
+    retention.similar_before = checked  # type: ignore[assignment]
     try:
         yield
     finally:
-        del graph._similar
+        retention.similar_before = decide  # type: ignore[assignment]
 
 
 def apply(graph: CaseGraph, op: str, cells: list[Cell], delta: int, name: str,

@@ -25,11 +25,11 @@ import typer
 from matplotlib.figure import Figure
 
 import toy_domain
+from cbr_experiments.experiment import ExperimentResult, Size
 from cbrcore import hookimpl
 from cbrcore.cli.completion import split_option_value
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
-from cbrcore.experiment import ExperimentResult, Size
 from cbrcore.plugins import Plugins
 from cbrcore.reference import config_reference
 from cbrcore.registry import Registry
@@ -231,7 +231,7 @@ def test_run_writes_results_summary_and_manifest(cbr_cli: Cli, toy_config: Path,
     assert manifest["cbrcore"] == metadata.version("cbrcore")
     assert manifest["packages"]["pluggy"] == metadata.version("pluggy")
     assert [p["name"] for p in manifest["plugins"]] == [
-        "toy", "core", "stores", "observers", "faulty", "lab", "greeter"]
+        "toy", "core", "stores", "experiments", "observers", "faulty", "lab", "greeter"]
 
 
 @pytest.mark.usefixtures("toy")

@@ -19,7 +19,7 @@ from cbrcore.testing import CliResult
 
 KERNEL_MODULE = "notice_kernel"
 KERNEL = """\
-from cbrcore.compiled import njit
+from cbr_kernels import njit
 
 
 @njit
@@ -27,7 +27,7 @@ def margin(size):
     return size + 1
 """
 OTHER_KERNEL = """\
-from cbrcore.compiled import njit
+from cbr_kernels import njit
 
 
 @njit

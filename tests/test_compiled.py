@@ -10,11 +10,11 @@ from pathlib import Path
 
 import numba
 
-from cbrcore.compiled import njit
+from cbr_kernels import njit
 from cbrcore.kernel_cache import cache_dir, numba_cache_dir
 
 KERNEL = textwrap.dedent("""\
-    from cbrcore.compiled import njit
+    from cbr_kernels import njit
 
     @njit
     def total(n):

@@ -1,5 +1,5 @@
 """Experiments' tasks on Dask distributed (``cbr experiment NAME --scheduler local|ADDRESS``) and
-the task runners of :mod:`cbrcore.tasks`.
+the task runners of :mod:`cbr_experiments.tasks`.
 
 The results of a run on a cluster must be those of a serial run with the same seed; a run's
 measured times (``median_plan_ms``) are the only fields that differ between any two runs.
@@ -17,11 +17,11 @@ from typing import Any
 
 import pytest
 
-from cbrcore import tasks as tasks_module
+from cbr_experiments import tasks as tasks_module
+from cbr_experiments.experiment import run_experiment
+from cbr_experiments.tasks import DaskTasks, LocalTasks, TaskRunner, open_tasks
 from cbrcore.errors import CbrError
-from cbrcore.experiment import run_experiment
 from cbrcore.plugins import Plugins
-from cbrcore.tasks import DaskTasks, LocalTasks, TaskRunner, open_tasks
 from cbrcore.testing import CliResult
 
 if importlib.util.find_spec("distributed") is None:

@@ -20,7 +20,7 @@ from cbr_casegraph.build import grow
 from cbr_casegraph.experiments.common import make_map
 from cbr_casegraph.experiments.deviation import deviations
 from cbr_casegraph.graph import CaseGraph
-from cbrcore.experiment import run_experiment
+from cbr_experiments.experiment import run_experiment
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult
 

@@ -17,11 +17,11 @@ from typing import Any
 import numpy as np
 import pytest
 
+from cbr_experiments.experiment import spread
 from cbr_grid.formats import load_text
 from cbr_pathcases.experiments import CAPACITY, PLACES, SITES, floor, moving_mean
 from cbr_pathcases.forgetting import CAPACITY_STRATEGIES
 from cbr_solvers.search import astar
-from cbrcore.experiment import spread
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult
 

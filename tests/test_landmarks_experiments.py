@@ -28,9 +28,9 @@ import cbr_landmarks
 import cbr_stores
 import cbr_world2d
 import cbrcore.builtins
+from cbr_experiments.experiment import run_experiment
 from cbr_landmarks.experiments.figure7 import point_b, point_c
 from cbr_world2d import generate
-from cbrcore.experiment import run_experiment
 from cbrcore.plugins import Plugins, load_plugins, use_plugins
 
 

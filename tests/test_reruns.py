@@ -16,9 +16,9 @@ from pathlib import Path
 import pytest
 
 import toy_domain
+from cbr_experiments.experiment import ExperimentResult, Size
 from cbrcore.cli.progress import PlainProgress
 from cbrcore.context import Context
-from cbrcore.experiment import ExperimentResult, Size
 from cbrcore.hookspecs import hookimpl
 from cbrcore.plugins import Plugins
 from cbrcore.registry import Registry
@@ -54,7 +54,7 @@ class Experiments:
 
 @pytest.fixture(autouse=True)
 def toy(load_toy: Callable[..., Plugins]) -> Plugins:
-    return load_toy(("experiments", Experiments()))
+    return load_toy(("counting", Experiments()))
 
 
 @pytest.fixture

@@ -1,4 +1,5 @@
-"""Runs and experiments: ``cbrcore.run.run_workload`` and ``cbrcore.experiment.run_experiment``.
+"""Runs and experiments: ``cbrcore.run.run_workload`` and
+``cbr_experiments.experiment.run_experiment``.
 
 The toy composition ``TOY_CONFIG`` (seed 3, 30 queries drawn from 0..7, radius 1, tolerance 0,
 capacity 6) is run and its files are checked against each other and against expectations that
@@ -27,11 +28,11 @@ import cbr_observers
 import cbr_stores
 import cbrcore.builtins
 import toy_domain
+from cbr_experiments.experiment import ExperimentResult, Size, run_experiment
 from cbrcore import Engine, Outcome, Proposal, hookimpl
 from cbrcore.config import parse_config
 from cbrcore.context import Context
 from cbrcore.errors import ConfigError, PluginError
-from cbrcore.experiment import ExperimentResult, Size, run_experiment
 from cbrcore.plugins import Plugins, load_plugins
 from cbrcore.registry import Registry
 from cbrcore.run import PHASES, run_workload

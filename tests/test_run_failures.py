@@ -21,11 +21,11 @@ import pytest
 import yaml
 
 import toy_domain
+from cbr_experiments.experiment import ExperimentResult, Size
 from cbr_stores.sqlite import SQLiteStore
 from cbrcore import Outcome, Proposal, hookimpl
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
-from cbrcore.experiment import ExperimentResult, Size
 from cbrcore.options import option
 from cbrcore.plugins import Plugins
 from cbrcore.registry import Registry

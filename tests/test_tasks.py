@@ -1,6 +1,6 @@
 """Sharing a value among tasks, task priorities, and the LocalCluster's configuration
-(:mod:`cbrcore.tasks`); running tasks in order and on every runner is tested with the sweeps in
-test_dask_sweeps.py."""
+(:mod:`cbr_experiments.tasks`); running tasks in order and on every runner is tested with the
+sweeps in test_dask_sweeps.py."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 
-from cbrcore.tasks import DaskTasks, LocalTasks, TaskRunner, open_tasks
+from cbr_experiments.tasks import DaskTasks, LocalTasks, TaskRunner, open_tasks
 
 if importlib.util.find_spec("distributed") is None:
     pytest.skip("distributed is not installed", allow_module_level=True)

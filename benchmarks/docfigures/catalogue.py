@@ -62,6 +62,8 @@ def _blocks() -> list[Block]:
         _bench("cli-startup", "cli_startup.md", bench_tables("cli_startup", 0)),
         _bench("solvers-maps", "solvers.md", solvers.solvers_maps),
         _bench("solvers-pooled", "solvers.md", solvers.solvers_pooled),
+        _bench("search-loop", "search_loop.md", bench_tables("search_loop", 0)),
+        _bench("search-loop-reading", "search_loop.json", solvers.search_loop_reading),
         _bench("genetic", "genetic.md", bench_tables("genetic", 0)),
         _bench("memory", "memory.md", bench_tables("memory", 0)),
         _bench("memory-reading", "memory.json", solvers.memory_reading),

@@ -24,7 +24,7 @@ KEPT_NAME = "docs/figures/layers.json"
 IMAGE_NAME = "docs/img/layers.png"
 COMMAND = "python benchmarks/figures.py --write"
 #: what each layer holds, named by one of its packages
-TITLES = {"cbrcore": "engine", "cbr_stores": "SQL stores", "cbr_grid": "worlds",
+TITLES = {"cbrcore": "engine", "cbr_stores": "stores, experiments, kernels", "cbr_grid": "worlds",
           "cbr_kinematics": "kinematic models", "cbr_solvers": "model-based planners",
           "cbr_casegraph": "CBR families, observers"}
 
@@ -172,12 +172,12 @@ def reading() -> str:
     kept = _kept(ROOT)
     if kept is None:
         return f"`{KEPT_NAME}` is missing: run `{COMMAND}`."
+    row = {package: k for k, layer in enumerate(kept["layers"]) for package in layer}
     imports = kept["imports"]
     between = [pair for pair in imports if pair[1] != "cbrcore"]
-    row = {package: k for k, layer in enumerate(kept["layers"]) for package in layer}
     upward = sum(1 for a, b in imports if row[b] <= row[a])
     return (f"Drawn by `{COMMAND}` from the layers contract in `pyproject.toml` and the "
-            f"`import` statements of the {len(kept['plugins'])} packages, read from their "
+            f"`import` statements of the {len(row)} packages, read from their "
             f"code at commit {kept['commit'][:12]}: {len(imports)} package dependencies, "
             f"{len(imports) - len(between)} of them on `cbrcore` and {len(between)} between "
             "plugins, "

@@ -18,6 +18,14 @@ def engine_overhead_reading() -> str:
             "query, never per cell or per case pair.")
 
 
+def search_loop_reading() -> str:
+    data = bench("search_loop")
+    ratios = [row["one_loop_over_kernel"] for row in data["rows"]]
+    return (f"Written once, the loop takes {span(ratios, 2)}x the time of the kernels written "
+            "for their graph, on the same queries and with the same costs. So each search keeps "
+            "its own loop and they share the heap (`cbr_grid.search_base`).")
+
+
 def experiment_sweep() -> str:
     """The sweep benchmark's table and verdict."""
     data = bench("experiment_sweep")

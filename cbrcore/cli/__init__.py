@@ -75,7 +75,7 @@ def build_app() -> typer.Typer:
                       context_settings=CONTEXT_SETTINGS)
     plugins = current()
     core = typer.Typer()
-    commands.install(core, plugins.registry)
+    commands.install(core)
     core.add_typer(casebase.app)
     for unit in cbr_commands(plugins, core):
         if isinstance(unit, CommandInfo):

@@ -1,4 +1,4 @@
-"""The built-in ``cbr`` commands: run, validate, plugins, experiment, reference.
+"""The built-in ``cbr`` commands: run, validate, plugins, reference.
 
 Tables fit the terminal they are shown in; written to a pipe or a file they keep every cell
 whole, however wide (``--json`` gives the same facts for programs).
@@ -23,20 +23,11 @@ if TYPE_CHECKING:
     from rich.console import Console
     from rich.table import Table
 
-    from cbrcore.registry import Registry
-
 UNBOUNDED = 100_000
 """The width of output that is not a terminal: wide enough that no table is wrapped or cut."""
 
 _SET_HELP = ("Override a configuration value (VALUE is read as YAML); repeatable. A problem in "
              "the value is reported against this option.")
-
-
-class Size(enum.StrEnum):
-    """How large an experiment is run."""
-
-    ci = "ci"
-    full = "full"
 
 
 class Reference(enum.StrEnum):
@@ -47,7 +38,8 @@ class Reference(enum.StrEnum):
     cli = "cli"
 
 
-def _out() -> Console:
+def output_console() -> Console:
+    """The console a command prints its tables on: the terminal's width, or unbounded."""
     from rich.console import Console
 
     # cells and lines hold users' and plugins' text (kinds, names, errors): rich would read
@@ -139,7 +131,7 @@ def run(
     rows += [("wall time s", f"{summary['seconds']:.2f}"), ("output", str(out_dir))]
     for key, value in rows:
         table.add_row(key, str(value))
-    console = _out()
+    console = output_console()
     console.print(table)
     console.print(_evolution_table(summary["evolution"]))
 
@@ -176,7 +168,7 @@ def validate(
         typer.echo(json.dumps({"config": str(config), "resolved": checked.resolved()},
                               indent=2, default=str))
         return
-    console = _out()
+    console = output_console()
     console.print(f"{config}: ok")
     for slot, value in checked.resolved().items():
         if slot == "seed":
@@ -218,74 +210,12 @@ def plugins(
                     for kind in (kinds[name] for name in p.kinds)]
         table.add_row(p.name, source, "\n".join(p.hooks), "\n".join(p.components),
                       "\n".join(declared))
-    console = _out()
+    console = output_console()
     console.print(table)
     for failure in loaded.failed:
         console.print(Text.assemble(("failed", "red"), f": {failure.describe()}"))
     if loaded.skipped:
         console.print(f"skipped by CBR_PLUGINS / CBR_DISABLE_PLUGINS: {', '.join(loaded.skipped)}")
-
-
-def experiment(
-    name: str | None = typer.Argument(
-        None, metavar="NAME", help="The experiment to run (see --list).",
-        autocompletion=completion.experiment_names, show_default=False),
-    list_: bool = typer.Option(False, "--list", help="List the registered experiments."),
-    size: Size = typer.Option(
-        Size.ci, "--size",
-        help="ci: small enough for a test run (minutes at most); full: the papers' scale."),
-    out: Path | None = typer.Option(None, "--out", "-o", metavar="DIR",
-                                    help="Output folder (default: experiments/<name>-<size>)."),
-    seed: int = typer.Option(0, "--seed", min=0, metavar="SEED",
-                             help="Seed of every random choice."),
-    as_json: bool = typer.Option(False, "--json",
-                                 help="With --list: print the experiments as one JSON object."),
-    scheduler: str | None = typer.Option(
-        None, "--scheduler", metavar="SCHEDULER",
-        help="Run the experiment's independent tasks on Dask distributed: 'local' starts a "
-             "cluster on this machine, an address (tcp://host:8786) uses a running scheduler. "
-             "The results are the same as without it."),
-    workers: int | None = typer.Option(
-        None, "--workers", metavar="N",
-        help="With --scheduler local: worker processes (default: one per core)."),
-) -> None:
-    """Run an experiment registered by a plugin: results.json, results.md and PNG figures."""
-    from rich.table import Table
-
-    from cbrcore.cli.compiling import announce_cold_cache, announcing_compiles
-    from cbrcore.cli.progress import progress as _progress
-    from cbrcore.experiment import Size as ExperimentSize
-    from cbrcore.experiment import run_experiment
-    from cbrcore.tasks import open_tasks
-
-    registry = current().registry
-    if list_:
-        found = [c for c in registry if c.kind == "experiment"]
-        if as_json:
-            typer.echo(json.dumps({"experiments": [
-                {"name": c.name, "plugin": c.plugin, "summary": c.summary} for c in found]},
-                indent=2))
-            return
-        table = Table("experiment", "plugin", "what it reproduces")
-        for component in found:
-            table.add_row(component.name, component.plugin, component.summary)
-        _out().print(table)
-        return
-    if as_json:
-        raise typer.BadParameter("--json goes with --list", param_hint="--json")
-    if name is None:
-        raise typer.BadParameter("name an experiment, or use --list", param_hint="NAME")
-    out_dir = out if out is not None else Path("experiments") / f"{name}-{size.value}"
-    sized: ExperimentSize = "ci" if size is Size.ci else "full"
-    cold = announce_cold_cache()  # before the experiment's imports, which take seconds
-    with announcing_compiles(announced=cold), open_tasks(scheduler, workers=workers) as tasks, \
-            _progress(f"cbr experiment {name}", "steps") as progress:
-        written = run_experiment(name, current(), size=sized, out_dir=out_dir, seed=seed,
-                                 progress=progress, tasks=tasks)
-    console = _out()
-    console.print((out_dir / "results.md").read_text(encoding="utf-8"))
-    for path in written:
-        console.print(f"wrote {path}")
 
 
 def reference(
@@ -307,14 +237,7 @@ def reference(
         typer.echo(cli_reference(ctx.find_root().command, current()), nl=False)
 
 
-def install(app: typer.Typer, registry: Registry) -> None:
-    """Add the built-in commands to ``app``; ``registry`` holds the experiments that
-    ``cbr experiment --help`` lists."""
-    names = [c.name for c in registry if c.kind == "experiment"]
-    # \b keeps click from rewrapping the list, which would break names at their hyphens
-    listed = ("\b\nExperiments:\n" + "\n".join(f"  {name}" for name in names) if names
-              else "No experiment is registered.")
-    for command in (run, validate, plugins):
+def install(app: typer.Typer) -> None:
+    """Add the built-in commands to ``app``."""
+    for command in (run, validate, plugins, reference):
         app.command()(command)
-    app.command(epilog=listed)(experiment)
-    app.command()(reference)

@@ -1,8 +1,8 @@
-"""Shell completion of the names ``cbr`` takes: experiments, and ``--set`` keys and components.
+"""Shell completion of the names ``cbr`` takes: ``--set`` keys and components.
 
 Each function is a typer ``autocompletion`` callback: it gets the word being completed and
 returns ``(value, help)`` pairs, read from the registry of the loaded plugins, so a plugin's
-experiments and components complete as the built-in ones do. ``cbr --install-completion``
+components complete as the built-in ones do. ``cbr --install-completion``
 installs the shell's side.
 
 Bash breaks a line into words at the characters of its ``COMP_WORDBREAKS``, ``=`` among them, so
@@ -21,12 +21,6 @@ from collections.abc import Mapping
 
 from cbrcore.plugins import current
 from cbrcore.registry import LIST_SLOTS, SINGLE_SLOTS, Registry
-
-
-def experiment_names(incomplete: str) -> list[tuple[str, str]]:
-    """The registered experiments whose name starts with ``incomplete``, with their summaries."""
-    return [(c.name, c.summary) for c in current().registry
-            if c.kind == "experiment" and c.name.startswith(incomplete)]
 
 
 def _slots(registry: Registry) -> dict[str, str]:

@@ -44,7 +44,7 @@ from cbr_behaviors.index import (
     weight_vector,
 )
 from cbr_behaviors.memory import Found, memory_of
-from cbr_behaviors.moment import InstallBehaviors, InstallPlan, Moment, SpellReport
+from cbr_behaviors.moment import CaseChoice, InstallBehaviors, InstallPlan, Moment, SpellReport
 from cbr_behaviors.quality import RIVALS, TIE, Quality, failing, with_rivals
 from cbr_behaviors.weights import store_weights, stored_weights, updated
 from cbrcore.casebase.store import CaseStore
@@ -194,17 +194,16 @@ class RupartReuser:
         stored = best.stored
         ids = (best.case.id,) if best.case.id is not None else ()
         # the learn step sees the solution, not the retrieval: what it needs travels here
-        rivals = [f.case.id for f in found.found if f is not best and f.case.id is not None
-                  and abs(f.distance - best.distance) <= found.band]
-        facts = {"kind": best.case.kind, "distance": best.distance,
-                 "retrieved": [f.case.id for f in found.found], "features": best.features,
-                 "rivals": rivals}
+        rivals = tuple(f.case.id for f in found.found if f is not best and f.case.id is not None
+                       and abs(f.distance - best.distance) <= found.band)
+        choice = CaseChoice(best.case.kind, best.distance, best.features,
+                            tuple(f.case.id for f in found.found), rivals)
         if isinstance(stored, PlanCase):
             return Solution(InstallPlan(stored.route, stored.name, stored.localize), cases=ids,
-                            detail=facts)
+                            payload=choice)
         if not self.options.adapt or best.distance <= self.options.threshold:
             return Solution(InstallBehaviors(tuple(stored.behaviors), stored.name), cases=ids,
-                            detail=facts)
+                            payload=choice)
         from cbr_behaviors.adaptation import adapt_case
 
         adapted, changes, second = adapt_case(stored, best.features, problem.index,
@@ -212,10 +211,10 @@ class RupartReuser:
                                               exclude=ids)
         if adapted is None:
             return Solution(InstallBehaviors(tuple(stored.behaviors), stored.name), cases=ids,
-                            detail=facts)
+                            payload=choice)
         used = ids + ((second.case.id,) if second is not None and second.case.id else ())
         return Solution(InstallBehaviors(tuple(adapted.behaviors), adapted.name, adapted),
-                        cases=used, detail={**facts, "adapted": changes})
+                        cases=used, detail={"adapted": changes}, payload=choice)
 
 
 @attrs.frozen
@@ -233,6 +232,10 @@ def _spell(outcome: Outcome) -> SpellReport | None:
     return outcome.report if isinstance(outcome.report, SpellReport) else None
 
 
+def _choice(solution: Solution) -> CaseChoice | None:
+    return solution.payload if isinstance(solution.payload, CaseChoice) else None
+
+
 class CaseLearner:
     """004: quality counters of the retrieved and used cases; adapted cases of failing cases
     retained."""
@@ -247,7 +250,8 @@ class CaseLearner:
         if report is None:
             return
         memory = memory_of(ctx)
-        matched = tuple(solution.detail.get("retrieved", ()))
+        choice = _choice(solution)
+        matched = choice.retrieved if choice is not None else ()
         used = set(solution.cases)
         installed = solution.cases[0] if solution.cases else None
         parent = None if installed is None else memory.get(installed)
@@ -263,7 +267,7 @@ class CaseLearner:
                 q = attrs.evolve(q, used=q.used + 1, good=q.good + report.good,
                                  active=q.active + report.active)
             meta: dict[str, Any] = q.to_meta()
-            rivals = solution.detail.get("rivals", ())
+            rivals = choice.rivals if choice is not None else ()
             if case_id == installed and rivals:
                 meta[RIVALS] = with_rivals(case.meta, rivals, report.good)
             memory.update_meta(case_id, meta)
@@ -312,12 +316,12 @@ class WeightLearner:
     def cbr_retain(self, problem: Moment, solution: Solution, outcome: Outcome,
                    casebase: CaseStore, ctx: Context) -> None:
         report = _spell(outcome)
-        if report is None or solution.detail.get("kind") != BEHAVIOR:
+        choice = _choice(solution)
+        if report is None or choice is None or choice.kind != BEHAVIOR:
             return
         current = stored_weights(casebase)
         start = current if current is not None else np.ones(len(FEATURES))
-        store_weights(casebase, updated(start, solution.detail.get("features", {}),
-                                        report.good, self.options.rate))
+        store_weights(casebase, updated(start, choice.features, report.good, self.options.rate))
 
 
 @attrs.frozen

@@ -45,7 +45,7 @@ import attrs
 import numpy as np
 
 from cbr_behaviors.casetypes import freeze
-from cbr_behaviors.moment import InstallBehaviors, InstallPlan, Moment, SpellReport
+from cbr_behaviors.moment import CaseChoice, InstallBehaviors, InstallPlan, Moment, SpellReport
 from cbr_behaviors.triggers import TriggerOptions
 from cbr_grid.planning import planner_problem
 from cbr_world2d.pilots import PILOT, BehaviorPilot, parse_behavior_set
@@ -350,7 +350,8 @@ class Delivery:
         counts["consultations"] += 1
         solution = decision.proposal.solution
         value = None if solution is None else solution.value
-        kind = "" if solution is None else str(solution.detail.get("kind", ""))
+        choice = solution.payload if solution is not None else None
+        kind = choice.kind if isinstance(choice, CaseChoice) else ""
         if isinstance(value, InstallBehaviors):
             if freeze(value.behaviors) != freeze([a.data for a in self.pilot.behaviors]):
                 # the same set again keeps running: installing restarts what behaviors latch
@@ -373,8 +374,7 @@ class Delivery:
                               f"is a {type(value).__name__}, expected InstallBehaviors or "
                               "InstallPlan (cbr_behaviors.moment)")
         if state.log is not None:
-            similarity = 1.0 - float(solution.detail.get("distance", math.nan)
-                                     if solution is not None else math.nan)
+            similarity = 1.0 - (choice.distance if isinstance(choice, CaseChoice) else math.nan)
             adapted = isinstance(value, InstallBehaviors) and value.adapted is not None
             state.log.retrieval(t, getattr(value, "name", ""), kind, fired, similarity, adapted)
         heading = state.goal if state.goal is not None else self.home

@@ -26,7 +26,7 @@ from cbr_behaviors.index import (
     TERMS,
     VARIABLE_CODE,
 )
-from cbrcore.compiled import njit
+from cbr_kernels import njit
 
 SONAR_KIND, MOTORS_KIND, SET_KIND, POINT_KIND, TERM_KIND, FRACTION_KIND = range(6)
 """The kinds of feature, each with its own distance."""

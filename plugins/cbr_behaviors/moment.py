@@ -6,11 +6,13 @@ simulation) with what the robot is doing. The proposal's ``solution.value`` is o
 actions: :class:`InstallBehaviors` (a behavior case or meta-plan: install its behaviors at
 once) or :class:`InstallPlan` (a plan case: route through its places, planned deliberatively
 on the global map). The kind of case retrieved decides which (004: "the kind of case retrieved
-determines whether to plan deliberatively").
+determines whether to plan deliberatively"). The solution's ``payload`` is a :class:`CaseChoice`:
+how the reuser chose the case, for the learn step and the day's log.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import attrs
@@ -69,6 +71,24 @@ class InstallPlan:
     route: tuple[str, ...]
     name: str
     localize: bool = False
+
+
+@attrs.frozen
+class CaseChoice:
+    """How the reuser chose the case it installs: the ``payload`` of its solution, which the
+    retainers learn from and the workload logs.
+
+    ``kind`` is the installed case's kind (``behavior_case``, ``plan_case`` or ``meta_plan``),
+    ``distance`` its overall index distance to the situation and ``features`` its distance
+    per feature (the weights learn from these); ``retrieved`` the ids of every case retrieved
+    (None for a case not stored) and ``rivals`` those within the quality band of the installed
+    case, whose records against it the spell adds to."""
+
+    kind: str
+    distance: float
+    features: Mapping[str, float]
+    retrieved: tuple[int | None, ...]
+    rivals: tuple[int, ...]
 
 
 @attrs.frozen

@@ -3,10 +3,13 @@
 A traversed path is cut at its turns and at its crossings with stored paths into straight
 segments, the cases, which form one graph (:mod:`cbr_casegraph.graph`). Retrieval takes the
 segments near start and goal, reuse joins start and goal to them by local searches and finds the
-best path through the graph (:mod:`cbr_casegraph.planner`) or, as reuser ``experience_graph``,
+best path through the graph (:mod:`cbr_casegraph.planner`; for a robot with kinematic
+constraints :mod:`cbr_casegraph.kinematic`) or, as reuser ``experience_graph``,
 an experience-graph search on the map drawn along the segments, whose paths cost at most a stated
-factor above the optimum (:mod:`cbr_casegraph.experience`); retention adds the new segments and
-forgetting keeps the graph small (:mod:`cbr_casegraph.components`). Revision is the
+factor above the optimum (:mod:`cbr_casegraph.experience`); retention adds the new segments
+(:mod:`cbr_casegraph.retention`) and forgetting keeps the graph small
+(:mod:`cbr_casegraph.forgetting`); the components of each phase are in
+:mod:`cbr_casegraph.components`. Revision is the
 ``path_quality`` reviser (:mod:`cbr_pathquality.reviser`), shared with the other grid CBR
 families.
 The reproductions of the papers' experiments are in :mod:`cbr_casegraph.experiments`.

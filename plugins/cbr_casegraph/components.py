@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Literal
 import attrs
 import numpy as np
 
-from cbr_casegraph.graph import SEGMENT
+from cbr_casegraph.cases import SEGMENT
 from cbr_casegraph.payoff import PassableCells, Payoff
 from cbr_casegraph.state import graph_of
 from cbr_grid.distances import DistanceName
@@ -180,10 +180,16 @@ class ReuseOptions:
     @connector.validator
     def _swept(self, attribute: attrs.Attribute, value: str) -> None:
         robot = configured("kinematics")
-        if robot not in (None, HOLONOMIC) and value != "dijkstra":
-            raise ValueError(f"kinematics {robot!r} (the configuration's robot) makes the "
-                             f"temporary edges by edge-based Dijkstra sweeps: connector must be "
-                             f"dijkstra, not {value!r}")
+        check_connector(value, None if robot in (None, HOLONOMIC) else robot)
+
+
+def check_connector(connector: str, robot: str | None) -> None:
+    """The reuser's rule for a robot with kinematic constraints (``robot`` names its model; None
+    for one that allows every turn): its temporary edges come from edge-based Dijkstra sweeps,
+    so the connector must be dijkstra. ValueError otherwise."""
+    if robot is not None and connector != "dijkstra":
+        raise ValueError(f"kinematics {robot!r} makes the temporary edges by edge-based "
+                         f"Dijkstra sweeps: connector must be dijkstra, not {connector!r}")
 
 
 _COMPILED_CONNECTORS = ("astar", "jps", "genetic")
@@ -198,11 +204,12 @@ class CaseGraphReuser:
         self.options = options
         self.search = None
         self.kinematics = robot_kinematics(ctx, "reuse 'casegraph'")
-        if self.kinematics is not None and options.connector != "dijkstra":
-            raise CbrError(f"reuse 'casegraph': the robot's kinematics "
-                           f"{type(self.kinematics).__name__} makes the temporary edges by "
-                           f"edge-based Dijkstra sweeps; connector must be dijkstra, not "
-                           f"{options.connector!r}")
+        if self.kinematics is not None:
+            # the robot of a context built in code: no configuration reading checked it
+            try:
+                check_connector(options.connector, type(self.kinematics).__name__)
+            except ValueError as exc:
+                raise CbrError(f"reuse 'casegraph': {exc}") from None
         if options.connector in _COMPILED_CONNECTORS:
             from cbr_solvers import load_search
 

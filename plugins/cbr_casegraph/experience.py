@@ -53,7 +53,7 @@ from cbr_grid.search_base import (
     pop,
     push_grown,
 )
-from cbrcore.compiled import njit
+from cbr_kernels import njit
 from cbrcore.errors import CbrError
 
 ROUTE_VERTICES = 16
@@ -67,13 +67,14 @@ class ExperiencePath:
     """A path found by the experience-graph search.
 
     ``path`` is the (n, 2) cell path from start to goal, loops cut out; ``cost`` its cost on the
-    map; ``edges`` the ids of the stored segments ridden as shortcuts; ``detail`` the guaranteed
-    ``bound`` (epsilon · eps_E) and the work done.
+    map; ``edges`` the ids of the stored segments ridden as shortcuts; ``bound`` the guaranteed
+    factor (epsilon · eps_E) over the cheapest path's cost; ``detail`` the work done.
     """
 
     path: np.ndarray
     cost: float
     edges: tuple[int, ...]
+    bound: float
     detail: dict[str, Any]
 
 
@@ -362,8 +363,8 @@ def plan(graph: CaseGraph, start: Cell, goal: Cell, epsilon: float, experience_f
         return None
     if len(edges):  # a ride may pass cells the path also reaches otherwise
         path = without_loops(path)
-    detail = {"bound": float(epsilon * experience_factor), "expanded": int(expanded),
-              "vertices_settled": int(settled), "route_vertices": int(route),
-              "shortcuts": len(edges), "search_cost": float(cost)}
+    detail = {"expanded": int(expanded), "vertices_settled": int(settled),
+              "route_vertices": int(route), "shortcuts": len(edges), "search_cost": float(cost)}
     return ExperiencePath(path, float(path_cost(grid.factor, path)),
-                          tuple(dict.fromkeys(edges.tolist())), detail)
+                          tuple(dict.fromkeys(edges.tolist())),
+                          float(epsilon * experience_factor), detail)

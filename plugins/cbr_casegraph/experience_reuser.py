@@ -4,7 +4,7 @@ Beside the 9-step algorithm of the papers (``reuse: casegraph``), this reuser pl
 grid by weighted A* whose heuristic draws it along the stored segments and which rides a
 segment in one step (:mod:`cbr_casegraph.experience`). Every path it returns costs at most
 ``epsilon · experience_factor`` times the cheapest path on the map; it says so in
-``Solution.detail["bound"]``, which the ``path_quality`` reviser takes as a guarantee.
+``Solution.bound``, which the ``path_quality`` reviser takes as a guarantee.
 
 It works with the ``casegraph`` retriever: when no case meets the neighbourhood of start or goal,
 or the two lie within delta of each other, the retrieval is not usable and the fallback solver
@@ -104,4 +104,4 @@ class ExperienceGraphReuser:
         if found is None:
             return None
         return Solution(found.path.tolist(), cost=found.cost, cases=found.edges,
-                        detail=found.detail)
+                        detail=found.detail, bound=found.bound)

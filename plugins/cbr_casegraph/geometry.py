@@ -45,3 +45,12 @@ def segments_cells(starts: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np
     position = np.arange(offsets[-1]) - offsets[owner]
     cells = starts[owner] + position[:, None] * np.sign(ends - starts)[owner]
     return cells, offsets
+
+
+def square(cell: tuple[int, int], radius: int, width: int, height: int
+           ) -> tuple[int, int, int, int]:
+    """The square N(cell, radius) clipped to a map of ``width`` x ``height`` cells: (x0, y0,
+    x1, y1), inclusive."""
+    x, y = cell
+    return (max(x - radius, 0), max(y - radius, 0), min(x + radius, width - 1),
+            min(y + radius, height - 1))

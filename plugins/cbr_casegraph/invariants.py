@@ -12,8 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from cbr_casegraph.cases import SEGMENT
 from cbr_casegraph.geometry import is_straight, segment_cells
-from cbr_casegraph.graph import SEGMENT, CaseGraph
+from cbr_casegraph.graph import CaseGraph
 from cbr_grid.grid import Grid
 from cbr_grid.risk import recorded_map
 from cbrcore.casebase.store import CaseStore

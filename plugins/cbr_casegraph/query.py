@@ -20,8 +20,8 @@ from __future__ import annotations
 import numpy as np
 
 from cbr_casegraph.search import descend, graph_search, path_cost, run_costs
+from cbr_kernels import njit
 from cbr_solvers.aistar import COST_STEPS, wavefront
-from cbrcore.compiled import njit
 
 OK = 0
 NO_START_LINK = 1

@@ -14,7 +14,7 @@ import numpy as np
 
 from cbr_grid.costs import SQRT2
 from cbr_grid.search_base import DX, DY, move, pop, push, push_grown
-from cbrcore.compiled import njit
+from cbr_kernels import njit
 
 
 @njit

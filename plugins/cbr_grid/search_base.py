@@ -4,7 +4,9 @@ their corner rule, the argument checks and the reusable working arrays.
 The solvers' Dijkstra, A*, Ai*, genetic algorithm and edge-based searches and the case graph's
 kernels all step between 8-neighbours under one rule and order their frontier in one heap, so
 these pieces live once, here, at the bottom of the grid family where every package that
-searches can reach them. Nothing here is a search itself: the searches live with the solvers.
+searches can reach them. Nothing here is a search itself: each search writes its own loop over
+its own graph, because one loop specialised per graph measures well slower
+(``benchmarks/search_loop.py``, docs/benchmarks.md, "One search loop or one per graph").
 
 **The heap** is a binary min-heap of (float64 key, int64 item) pairs kept in two arrays, the
 caller holding its size: :func:`push` into arrays with room, :func:`push_grown` doubling them
@@ -46,7 +48,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from cbr_grid.directions import STEPS
-from cbrcore.compiled import njit
+from cbr_kernels import njit
 
 MOVE_DIRECTIONS = np.array([0, 4, 6, 2, 7, 1, 5, 3], dtype=np.int64)
 """The direction (:mod:`cbr_grid.directions`) of each move 0-7: orthogonal first, then diagonal."""

@@ -44,6 +44,7 @@ from collections.abc import Sequence
 import attrs
 import numpy as np
 
+from cbr_kernels import njit
 from cbr_landmarks.graph import MAX_LANDMARKS, LandmarkGraph
 from cbr_landmarks.kernels import coded_normaliser, height, match_rows
 from cbr_landmarks.similarity import (
@@ -57,7 +58,6 @@ from cbr_landmarks.similarity import (
     normaliser,
 )
 from cbr_world2d.fuzzy import TWO_PI
-from cbrcore.compiled import njit
 
 BIN = 0.1
 """Metres of distance peak per bin of stored pairs."""

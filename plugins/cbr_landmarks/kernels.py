@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from cbr_kernels import njit
 from cbr_world2d.fuzzy import TWO_PI
-from cbrcore.compiled import njit
 
 EPSILON = 1e-12
 """Slack of every pruning comparison: a bound summed in another order than the score it bounds

@@ -43,6 +43,8 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from cbr_experiments.experiment import ExperimentResult, Size, spread
+from cbr_experiments.tasks import task_runner
 from cbr_grid.drive import DriveReport
 from cbr_grid.formats import load_text
 from cbr_grid.grid import Grid
@@ -51,9 +53,7 @@ from cbr_pathcases.forgetting import CAPACITY_STRATEGIES
 from cbrcore.config import parse_config
 from cbrcore.context import Context
 from cbrcore.engine import Engine
-from cbrcore.experiment import ExperimentResult, Size, spread
 from cbrcore.plugins import current
-from cbrcore.tasks import task_runner
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

@@ -35,7 +35,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from cbrcore.compiled import njit
+from cbr_kernels import njit
 
 SQRT2 = math.sqrt(2.0)
 

@@ -8,9 +8,10 @@ straight-line distance, or the landmark bound of :mod:`cbr_pathquality.ideal`.
 
 A reuser that guarantees its paths' quality (the case graph's ``experience_graph``: cost at most
 epsilon · eps_E times the cheapest path's, by construction) states the factor in
-``Solution.detail["bound"]``. When that bound is at most ``max_ratio``, a valid path joining start
-and goal is accepted without the comparison with the ideal length, which as a lower bound can
-only be looser than the optimum the guarantee refers to.
+``Solution.bound``: a field of cbrcore's envelope, because the proof comes from a sibling family
+this one may not import. When that bound is at most ``max_ratio``, a valid path joining start and
+goal is accepted without the comparison with the ideal length, which as a lower bound can only
+be looser than the optimum the guarantee refers to.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ from cbrcore.options import option
 class QualityOptions:
     max_ratio: float = option(
         1.5, "Largest accepted ratio of the path's length to the ideal length (step 7). A "
-        "solution whose reuser guarantees a bound on its cost (detail 'bound': its cost is at "
+        "solution whose reuser guarantees a bound on its cost (Solution.bound: its cost is at "
         "most bound times the cheapest path's on the map, e.g. reuse 'experience_graph') is "
         "accepted, when valid and joining start and goal, if that bound is at most max_ratio: "
         "max_ratio is then the largest accepted ratio to the optimal cost (length on a "
@@ -77,9 +78,8 @@ class QualityTest:
 
     def guaranteed(self, solution: Solution) -> bool:
         """Whether the solution's reuser guarantees its cost within max_ratio of the optimum."""
-        bound = solution.detail.get("bound")
-        return (isinstance(bound, int | float) and not isinstance(bound, bool)
-                and 1.0 <= bound <= self.options.max_ratio)
+        return (solution.bound is not None
+                and 1.0 <= solution.bound <= self.options.max_ratio)
 
     @hookimpl
     def cbr_revise(self, problem: GridQuery, solution: Solution, ctx: Context) -> Revision:

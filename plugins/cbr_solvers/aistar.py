@@ -30,8 +30,8 @@ import numpy as np
 
 from cbr_grid.costs import SQRT2
 from cbr_grid.search_base import DX, DY, INITIAL_HEAP, move, pop, push_grown
+from cbr_kernels import njit
 from cbr_solvers.search import SearchResult, _profile, _run
-from cbrcore.compiled import njit
 
 # Integer step lengths of the distance map: orthogonal and diagonal.
 ORTHOGONAL_STEPS = 3

@@ -60,8 +60,8 @@ from cbr_grid.search_base import (
     checked_arguments,
     move,
 )
+from cbr_kernels import njit
 from cbr_solvers.search import SearchResult, _heuristic
-from cbrcore.compiled import njit
 
 DEFAULT_GENERATIONS = 50_000
 DEFAULT_POPULATION = 50

@@ -17,9 +17,9 @@ from numpy.typing import ArrayLike
 from cbr_grid.costs import SQRT2
 from cbr_grid.directions import between, check_heading
 from cbr_grid.search_base import pop, push_grown
+from cbr_kernels import njit
 from cbr_kinematics.models import Kinematics
 from cbr_solvers.manoeuvres import CODES, leave_costs
-from cbrcore.compiled import njit
 
 
 def _int_array(values: ArrayLike) -> np.ndarray:

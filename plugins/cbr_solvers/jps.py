@@ -66,8 +66,8 @@ from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 
 from cbr_grid.costs import SQRT2
 from cbr_grid.search_base import INITIAL_HEAP, Workspace, checked_arguments, pop, push
+from cbr_kernels import njit
 from cbr_solvers.search import SearchResult, _frozen, _heuristic, astar
-from cbrcore.compiled import njit
 
 
 @attrs.frozen

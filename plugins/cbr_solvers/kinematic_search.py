@@ -37,11 +37,11 @@ from cbr_grid.search_base import (
     pop,
     push_grown,
 )
+from cbr_kernels import njit
 from cbr_kinematics.models import Kinematics
 from cbr_solvers.aistar import heuristic_table
 from cbr_solvers.manoeuvres import CODES, leave_costs, manoeuvre_cells
 from cbr_solvers.search import HeuristicTable, guidance, window_min_factor
-from cbrcore.compiled import njit
 
 
 @attrs.frozen

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from cbr_grid.directions import STEPS
-from cbrcore.compiled import njit
+from cbr_kernels import njit
 
 CODES = 73
 """The number of manoeuvre codes: none, 8 single and 64 double ones."""

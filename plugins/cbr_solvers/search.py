@@ -52,7 +52,7 @@ from cbr_grid.search_base import (
     push4,
     push4_grown,
 )
-from cbrcore.compiled import njit
+from cbr_kernels import njit
 
 
 @attrs.frozen

@@ -21,9 +21,9 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
+from cbr_experiments.tasks import WORKERS_PER_CORE
 from cbr_world2d.checks import MAX_DT, MAX_FRAMES, MAX_TRIALS, MIN_DT, too_many_steps
 from cbrcore.errors import CbrError
-from cbrcore.tasks import WORKERS_PER_CORE
 
 if TYPE_CHECKING:
     from cbr_world2d.robot import RobotSpec

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from cbrcore.compiled import njit
+from cbr_kernels import njit
 
 GAP = 1e-6
 """Metres kept between a disc stopped by :func:`sweep` and what stopped it."""

@@ -35,7 +35,7 @@ import math
 
 import numpy as np
 
-from cbrcore.compiled import njit
+from cbr_kernels import njit
 
 LIMIT = 8
 """The largest score a stretch holds either way: the most votes newer evidence needs (plus one)

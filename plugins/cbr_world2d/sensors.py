@@ -22,12 +22,12 @@ from collections.abc import Sequence
 import attrs
 import numpy as np
 
+from cbr_kernels import njit
 from cbr_world2d.checks import fraction, non_negative, positive
 from cbr_world2d.fuzzy import Triangle, unchecked, wrap_angle
 from cbr_world2d.geometry import landmarks_seen, nearest_point, ring_ranges_into
 from cbr_world2d.robot import PIONEER_2DX, Pose, RobotState
 from cbr_world2d.world import World
-from cbrcore.compiled import njit
 
 PIONEER_SONAR_DEGREES: tuple[float, ...] = (
     90.0, 50.0, 30.0, 10.0, -10.0, -30.0, -50.0, -90.0,

@@ -39,15 +39,15 @@ from typing import Any, ClassVar
 import numpy as np
 
 from cbr_behaviors.casefiles import shipped_path
+from cbr_experiments.experiment import ExperimentResult, Size, spread
+from cbr_experiments.tasks import task_runner
 from cbr_world2d.pilots.behaviors import OPEN_AREA
 from cbrcore.config import parse_config
 from cbrcore.context import Context
 from cbrcore.engine import Engine
-from cbrcore.experiment import ExperimentResult, Size, spread
 from cbrcore.plugins import current
 from cbrcore.run import run_workload
 from cbrcore.run_folder import fresh_files, remove
-from cbrcore.tasks import task_runner
 
 ARMS = ("fixed", "best-fixed", "potential-field", "cbr", "cbr-learning", "learned-weights")
 LEARNING = ("cbr-learning", "learned-weights")

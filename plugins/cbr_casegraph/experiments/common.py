@@ -13,12 +13,12 @@ import numpy as np
 from cbr_casegraph.build import SOLVERS, connected_cells, random_task
 from cbr_casegraph.graph import CaseGraph
 from cbr_casegraph.planner import Failure, Plan, Settings, plan
+from cbr_experiments.tasks import task_runner
 from cbr_grid.costs import path_length
 from cbr_grid.distances import octile
 from cbr_grid.generate import generate
 from cbr_grid.grid import Grid
 from cbrcore.context import Context
-from cbrcore.tasks import task_runner
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

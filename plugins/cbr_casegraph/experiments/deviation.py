@@ -27,8 +27,8 @@ from cbr_casegraph.experiments.common import (
 )
 from cbr_casegraph.graph import CaseGraph
 from cbr_casegraph.planner import Plan, Settings, plan
+from cbr_experiments.experiment import ExperimentResult, Size
 from cbr_grid.costs import path_cost, path_length, turns
-from cbrcore.experiment import ExperimentResult, Size
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

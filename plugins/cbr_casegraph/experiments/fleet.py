@@ -61,13 +61,13 @@ import numpy as np
 from cbr_casegraph.experiments.common import Progress, fmt
 from cbr_casegraph.geometry import segments_cells
 from cbr_casegraph.graph import CaseGraph
+from cbr_experiments.experiment import ExperimentResult, Size
 from cbr_grid.query import without_loops
 from cbrcore import files
 from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.engine import Engine
 from cbrcore.errors import CbrError
-from cbrcore.experiment import ExperimentResult, Size
 from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Outcome, Proposal
 from cbrcore.options import option, structure_options

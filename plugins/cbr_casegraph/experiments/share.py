@@ -23,7 +23,7 @@ from cbr_casegraph.experiments.common import (
 )
 from cbr_casegraph.graph import CaseGraph
 from cbr_casegraph.planner import Settings, plan
-from cbrcore.experiment import ExperimentResult, Size
+from cbr_experiments.experiment import ExperimentResult, Size
 
 PAPER_SHARE = {6: 0.50, 10: 0.75, 15: 0.90}
 """Section 6.2: share of tasks planned by CBR at a coverage (percent of cells that are vertices)."""

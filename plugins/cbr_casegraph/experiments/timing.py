@@ -32,8 +32,8 @@ from cbr_casegraph.experiments.common import (
 )
 from cbr_casegraph.graph import CaseGraph
 from cbr_casegraph.planner import Settings, plan
+from cbr_experiments.experiment import ExperimentResult, Size
 from cbr_grid.distances import octile
-from cbrcore.experiment import ExperimentResult, Size
 
 # -- section 6.3: times against map size ------------------------------------------------------
 

@@ -34,13 +34,13 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from cbr_experiments.experiment import ExperimentResult, Size, spread
+from cbr_experiments.tasks import task_runner
 from cbr_landmarks.experiments.common import TIMEOUT, Progress, drive, robot_config
 from cbr_stores.components import SQLITE_FILE
 from cbr_world2d.generate import SCENES
 from cbrcore.context import Context
-from cbrcore.experiment import ExperimentResult, Size, spread
 from cbrcore.run_folder import remove
-from cbrcore.tasks import task_runner
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

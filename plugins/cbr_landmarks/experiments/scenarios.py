@@ -20,6 +20,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, ClassVar
 
+from cbr_experiments.experiment import ExperimentResult, Size, spread
+from cbr_experiments.tasks import task_runner
 from cbr_landmarks.experiments import robustness
 from cbr_landmarks.experiments.common import (
     PILOT,
@@ -32,8 +34,6 @@ from cbr_landmarks.experiments.common import (
 from cbr_landmarks.experiments.figure7 import figure7
 from cbr_world2d.worldfile import load_world
 from cbrcore.context import Context
-from cbrcore.experiment import ExperimentResult, Size, spread
-from cbrcore.tasks import task_runner
 
 SCENARIOS = ("scenario1", "scenario2")
 ROBOTS = ("no-cbr", "cbr-handmade")

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from cbrcore.compiled import njit
+from cbr_kernels import njit
 
 
 @njit

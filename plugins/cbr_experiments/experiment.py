@@ -1,9 +1,9 @@
 """Experiments: reproductions that plugins register and ``cbr experiment`` runs.
 
-An experiment is a component of kind ``experiment`` whose instance has a ``run`` method. cbrcore
-writes what it returns into the output folder: ``results.json``, ``results.md`` (the markdown
-table, usually the paper's numbers beside ours), one PNG per figure, and ``manifest.json``; each
-file appears whole or not at all (:mod:`cbrcore.files`).
+An experiment is a component of kind ``experiment`` whose instance has a ``run`` method.
+:func:`run_experiment` writes what it returns into the output folder: ``results.json``,
+``results.md`` (the markdown table, usually the paper's numbers beside ours), one PNG per
+figure, and ``manifest.json``; each file appears whole or not at all (:mod:`cbrcore.files`).
 """
 
 from __future__ import annotations
@@ -15,13 +15,13 @@ from typing import Any, Literal, Protocol, runtime_checkable
 import attrs
 import numpy as np
 
+from cbr_experiments.tasks import TASKS, LocalTasks, TaskRunner
 from cbrcore import files
 from cbrcore.context import Context
 from cbrcore.engine import output_folder
 from cbrcore.errors import CbrError, PluginError
 from cbrcore.plugins import Plugins
 from cbrcore.run import manifest, write_json, writing
-from cbrcore.tasks import TASKS, LocalTasks, TaskRunner
 
 Size = Literal["ci", "full"]
 
@@ -45,7 +45,7 @@ class Experiment(Protocol):
         scale), calling ``progress(done, total)`` with no work done as soon as the total is
         known (a display shows it from then on), then as work completes.
 
-        Independent work goes through :func:`cbrcore.tasks.task_runner` of the factory's
+        Independent work goes through :func:`cbr_experiments.tasks.task_runner` of the factory's
         context, so that ``cbr experiment --scheduler`` can spread it over processes or
         machines."""
         ...
@@ -68,9 +68,9 @@ def run_experiment(name: str, plugins: Plugins, *, size: Size, out_dir: Path, se
                    tasks: TaskRunner | None = None) -> list[Path]:
     """Run the experiment ``name`` and write its files into ``out_dir``; return their paths.
 
-    ``tasks`` runs the experiment's independent tasks (:mod:`cbrcore.tasks`; default:
-    :class:`~cbrcore.tasks.LocalTasks`); the experiment finds it with
-    :func:`~cbrcore.tasks.task_runner`. The results do not depend on it.
+    ``tasks`` runs the experiment's independent tasks (:mod:`cbr_experiments.tasks`; default:
+    :class:`~cbr_experiments.tasks.LocalTasks`); the experiment finds it with
+    :func:`~cbr_experiments.tasks.task_runner`. The results do not depend on it.
     """
     component = plugins.registry.get("experiment", name)
     ctx = Context(registry=plugins.registry, seed=seed, out_dir=out_dir)

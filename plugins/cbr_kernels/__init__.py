@@ -1,6 +1,6 @@
 """The project's jit decorator: numba kernels compiled once and cached in the user's cache folder.
 
-Every compiled kernel of cbrcore and its plugins is decorated with :func:`njit` (``@njit`` or
+Every compiled kernel of the plugins is decorated with :func:`njit` (``@njit`` or
 ``@njit(inline="always")``), which is ``numba.njit(cache=True, ...)`` with the cache kept out
 of the source tree: an installed package's folder is often not writable, and a checkout should
 not fill with machine code. The cache folder is :func:`cbrcore.kernel_cache.numba_cache_dir`.
@@ -8,8 +8,9 @@ not fill with machine code. The cache folder is :func:`cbrcore.kernel_cache.numb
 numba chooses where a kernel's cache lives when the kernel is decorated (when its module is
 imported), so the folder is read then; a folder that cannot be made falls back to numba's own
 choice. Every compile numba makes (a cache miss) is reported to the watchers of
-:mod:`cbrcore.kernel_cache`. Importing this module imports numba: plugin modules import their
-kernel modules lazily, so that loading plugins (``cbr --help``, ``cbr plugins``) stays fast.
+:mod:`cbrcore.kernel_cache`. Importing this package imports numba, which cbrcore itself never
+does: plugin modules import their kernel modules lazily, so that loading plugins (``cbr --help``,
+``cbr plugins``) stays fast.
 """
 
 from __future__ import annotations
