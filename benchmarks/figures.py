@@ -9,7 +9,8 @@ code has moved away from.
 
     python benchmarks/figures.py --check     # exit 1 naming each stale block, and each results
                                              # file older than its source, with its command
-    python benchmarks/figures.py --write     # rewrite the blocks from the results
+    python benchmarks/figures.py --write     # rewrite the blocks from the results, and the
+                                             # picture of the layers from the code's imports
     python benchmarks/figures.py --list      # the blocks and where their figures come from
     python benchmarks/figures.py --keep-experiment NAME DIR   # commit DIR's results for NAME
     python benchmarks/figures.py --keep-baseline  # rerun the navigation system without CBR

@@ -2,6 +2,8 @@
 
 The docs pages ``docs/reference/configuration.md`` and ``docs/reference/hooks.md`` are this
 module's output (``cbr reference config`` and ``cbr reference hooks``); a test keeps them current.
+In a checkout, the hook reference shows under each hook its example plugin from
+``docs/examples/hooks/<hook>.py``, which a test runs through the engine.
 The command-line reference is :mod:`cbrcore.cli.reference`'s.
 """
 
@@ -11,6 +13,7 @@ import inspect
 import re
 import types
 import typing
+from pathlib import Path
 
 import attrs
 
@@ -39,6 +42,9 @@ component of that kind, and any other name is refused.
 |---|---|---|
 """
 
+
+#: the example plugin of each hook, in a checkout; an installed cbrcore has none to show
+HOOK_EXAMPLES = Path(__file__).resolve().parent.parent / "docs" / "examples" / "hooks"
 
 _ROLE = re.compile(r":(?:\w+:)?\w+:`(?P<tilde>~?)(?P<text>[^`<]+?)(?:\s*<[^>]*>)?`")
 _LITERAL = re.compile(r"``(?P<text>[^`]+)``")
@@ -176,4 +182,8 @@ def hook_reference() -> str:
         kind = "firstresult" if opts.get("firstresult") else "collect-all"
         lines += [f"## `{name}`", "", "```python", f"def {name}{signature}", "```", "",
                   f"*{kind}*", "", _markdown(inspect.cleandoc(function.__doc__ or "")), ""]
+        example = HOOK_EXAMPLES / f"{name}.py"
+        if example.is_file():
+            lines += [f"Example (`docs/examples/hooks/{name}.py`):", "", "```python",
+                      example.read_text(encoding="utf-8").rstrip("\n"), "```", ""]
     return "\n".join(lines).rstrip("\n") + "\n"

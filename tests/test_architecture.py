@@ -61,6 +61,27 @@ def test_no_package_imports_another_packages_private_names() -> None:
     assert found == []
 
 
+def test_the_architecture_page_places_every_package_with_its_plugin() -> None:
+    """The page's table of where things live has a row per package, naming the plugin its entry
+    point registers, and the page counts the packages and layers the contract has."""
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+    plugin_of = {value.split(".")[0]: name
+                 for name, value in config["project"]["entry-points"]["cbr"].items()}
+    page = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    rows = {cells[1].strip(" `/").split("/")[-1]: cells[2].strip(" `")
+            for line in page.splitlines() if line.startswith("| `")
+            for cells in [line.split("|")]}
+    # a package without an entry point (a library the families import) has an empty cell
+    assert {package: rows.get(package) for package in PACKAGES} == {
+        package: plugin_of.get(package, "") for package in PACKAGES}
+    layers = [layer for contract in config["tool"]["importlinter"]["contracts"]
+              if contract["type"] == "layers" for layer in contract["layers"]]
+    numbers = "zero one two three four five six seven eight nine ten eleven twelve thirteen "
+    words = (numbers + "fourteen fifteen sixteen seventeen eighteen nineteen twenty").split()
+    assert (f"{words[len(PACKAGES)]} packages stand in {words[len(layers)]} layers"
+            in page.lower())
+
+
 # --- hand-offs: typed fields and stash keys, never string keys ----------------------------------
 
 HANDOFF_CONTAINERS = frozenset({"detail", "meta", "features", "payload", "report"})

@@ -53,7 +53,7 @@ from cbrcore.run import run_workload
 from cbrcore.workload import ClosedLoopWorkload, Decision, QueryWorkload, Session
 
 ROOT = Path(__file__).resolve().parents[1]
-GUIDE = ROOT / "docs" / "plugins.md"
+GUIDE = ROOT / "docs" / "plugins-closed-loop.md"
 GUIDE_EXAMPLE = re.compile(r"^```python\n(# lane\.py\n.*?)^```$", re.S | re.M)
 
 COLUMNS = ["query", "q_lap", "q_at", "q_size", "source", "fallback_reason", "retrieved",
@@ -412,8 +412,8 @@ def test_the_protocols_tell_the_two_loops_apart(plugins: Plugins, tmp_path: Path
 
 
 def test_the_guide_example_drives_the_same_laps(tmp_path: Path) -> None:
-    """The closed-loop workload of docs/plugins.md, run with this domain's components, gives
-    the rows of the hand-worked table."""
+    """The closed-loop workload of docs/plugins-closed-loop.md, run with this domain's
+    components, gives the rows of the hand-worked table."""
     (source,) = GUIDE_EXAMPLE.findall(GUIDE.read_text(encoding="utf-8"))
     lane = types.ModuleType("lane")
     exec(compile(source, str(GUIDE), "exec"), lane.__dict__)

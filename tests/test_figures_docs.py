@@ -261,7 +261,8 @@ def test_every_experiment_command_on_a_page_names_its_size() -> None:
 
 # --- the 2D world page: its example runs are small enough to run here --------------------------
 
-WORLD2D = ROOT / "docs" / "world2d.md"
+WORLD2D_TRIALS = ROOT / "docs" / "world2d-trials.md"
+WORLD2D_ENGINE = ROOT / "docs" / "world2d-engine.md"
 TEXT_BLOCK = re.compile(r"^```text\n(.*?)^```$", re.S | re.M)
 #: rows of the run summary that depend on the machine or on where the output went
 VOLATILE_ROWS = ("ms", "wall time s", "output")
@@ -271,7 +272,7 @@ def _session_commands() -> list[tuple[str, list[str]]]:
     """Each ``$ cbr sim ...`` command in the 2D world page's text blocks with the lines shown
     after it."""
     found: list[tuple[str, list[str]]] = []
-    for block in TEXT_BLOCK.findall(WORLD2D.read_text(encoding="utf-8")):
+    for block in TEXT_BLOCK.findall(WORLD2D_TRIALS.read_text(encoding="utf-8")):
         for line in block.replace("\\\n    ", "").splitlines():
             if line.startswith("$ "):
                 found.append((line[2:], []))
@@ -314,7 +315,7 @@ def test_the_2d_world_page_figures_of_the_pilot_alone_and_the_pioneer(
     """'With --rescue off the robot times out in both scenarios: in scenario 1 it stays in front
     of the obstacle (2.72 m driven in 300 s). A Pioneer 2 DX passes scenario 1 in 39.4 s and is
     trapped in scenario 2 like 002's robot.'"""
-    text = " ".join(WORLD2D.read_text(encoding="utf-8").split())
+    text = " ".join(WORLD2D_TRIALS.read_text(encoding="utf-8").split())
     worlds = "plugins/cbr_world2d/worlds"
     places = ("--start", "start", "--target", "target")
     alone = [_sim(cbr_cli, f"{worlds}/scenario{k}.yaml", *places, "--robot", "ros2005",
@@ -340,7 +341,7 @@ def test_the_2d_world_page_shows_what_its_trials_config_does(
         cbr_cli: Callable[..., CliResult], tmp_path: Path) -> None:
     """The summary table, the rows of trials.csv and results.csv and the figures of the prose
     about ``cbr run configs/world2d_trials.yaml``."""
-    page = WORLD2D.read_text(encoding="utf-8")
+    page = WORLD2D_ENGINE.read_text(encoding="utf-8")
     blocks = TEXT_BLOCK.findall(page)
     (summary,) = [b for b in blocks if b.startswith("$ cbr run configs/world2d_trials.yaml")]
     done = cbr_cli("run", str(ROOT / "configs" / "world2d_trials.yaml"), "--out",

@@ -43,7 +43,7 @@ class Call:
 CALLS: list[Call] = []
 
 
-GUIDE = Path(__file__).resolve().parents[1] / "docs" / "plugins.md"
+GUIDE = Path(__file__).resolve().parents[1] / "docs" / "plugins-kinds.md"
 EXAMPLE = re.compile(r"^```python\n(# cbr-gridbfs/src/cbr_gridbfs/__init__.py\n.*?)^```$",
                      re.S | re.M)
 

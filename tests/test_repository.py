@@ -112,7 +112,9 @@ def test_config_validates_and_runs(config: Path, tmp_path: Path,
 
 # -- the plugin guide's example package -------------------------------------------------------
 
-GUIDE = ROOT / "docs" / "plugins.md"
+#: the plugin guide's pages that hold the example package's files
+GUIDE = [ROOT / "docs" / page
+         for page in ("plugins.md", "plugins-components.md", "plugins-testing.md")]
 EXAMPLE_FILE = re.compile(r"^```\w+\n(# cbr-openfloor/(\S+)\n.*?)^```$", re.S | re.M)
 
 
@@ -123,10 +125,11 @@ def _environ(**extra: str) -> dict[str, str]:
 
 @pytest.fixture(scope="module")
 def guide_example(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
-    """The guide's package written out from docs/plugins.md and installed into a folder."""
+    """The guide's package written out from its pages and installed into a folder."""
     work = tmp_path_factory.mktemp("guide")
     package = work / "cbr-openfloor"
-    for match in EXAMPLE_FILE.finditer(GUIDE.read_text(encoding="utf-8")):
+    text = "\n".join(page.read_text(encoding="utf-8") for page in GUIDE)
+    for match in EXAMPLE_FILE.finditer(text):
         path = package / match[2]
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(match[1], encoding="utf-8")

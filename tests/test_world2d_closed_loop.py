@@ -35,7 +35,7 @@ from cbrcore.registry import Registry
 from cbrcore.run import run_workload
 
 WORLDS = Path(cbr_world2d.__file__).parent / "worlds"
-PAGE = Path(__file__).resolve().parents[1] / "docs" / "world2d.md"
+PAGE = Path(__file__).resolve().parents[1] / "docs" / "world2d-engine.md"
 """The 2D world page, whose section on a family's components shows this agent's run."""
 KIND = "divert"
 NEAR = 1.0

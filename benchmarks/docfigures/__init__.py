@@ -19,6 +19,8 @@ command line.
 - ``casegraph_experiments``, ``pathcases_experiments``, ``landmark_experiments``,
   ``rupart_experiments``, ``ros2005_baseline``: the experiments' pages; ``route_graph``: the
   route graph learned on the depot, for the grid page.
+- ``layers``: the architecture page's picture of the layers, drawn from the import contract
+  and the packages' imports.
 - ``catalogue``: every block, its source and renderer; ``pages``: finding, checking and
   rewriting the blocks of the pages, and listing the results older than their source;
   ``provenance``: the command, commit and source hash every results file records; ``keep``:

@@ -12,13 +12,13 @@ from . import case_benchmarks as cases
 from . import casegraph_experiments as casegraph
 from . import fleet_experiment as fleet
 from . import landmark_experiments as landmarks
+from . import layers, route_graph
 from . import pathcases_experiments as pathcases
 from . import ros2005_baseline as baseline
-from . import route_graph
 from . import rupart_experiments as delivery
 from . import solver_benchmarks as solvers
 from . import world2d_benchmarks as world2d
-from .results import KEPT, RESULTS, kept, result_md, table
+from .results import KEPT, RESULTS, ROOT, kept, result_md, table
 
 
 @attrs.frozen
@@ -57,6 +57,7 @@ def _experiment(name: str, experiment: str, render: Callable[[], str]) -> Block:
 
 def _blocks() -> list[Block]:
     return [
+        Block("layers-reading", ROOT / layers.KEPT_NAME, layers.reading),
         _bench("engine-overhead", "engine_overhead.md", bench_tables("engine_overhead", 0)),
         _bench("cli-startup", "cli_startup.md", bench_tables("cli_startup", 0)),
         _bench("solvers-maps", "solvers.md", solvers.solvers_maps),

@@ -10,6 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from . import layers
 from .catalogue import BLOCKS
 from .keep import keep_baseline, keep_experiment
 from .pages import check, stale_results, used, write
@@ -23,7 +24,9 @@ def main(argv: list[str] | None = None) -> int:
     mode.add_argument("--check", action="store_true",
                       help="fail when a block differs from its results, or a results file "
                            "from its source")
-    mode.add_argument("--write", action="store_true", help="rewrite the stale blocks")
+    mode.add_argument("--write", action="store_true",
+                      help="rewrite the stale blocks, and the architecture page's picture of "
+                           "the layers when the code's imports changed")
     mode.add_argument("--list", action="store_true", help="list the blocks and their sources")
     mode.add_argument("--keep-experiment", nargs=2, metavar=("NAME", "DIR"),
                       help="commit the results an experiment wrote into DIR")
@@ -51,7 +54,8 @@ def main(argv: list[str] | None = None) -> int:
                 where = ", ".join(found.get(name, ["(no page)"]))
                 print(f"{name}: {block.source.relative_to(ROOT)} -> {where}")
             return 0
-        lines = write() if args.write else check()
+        # the house first: a block reads what it keeps
+        lines = [*layers.write(), *write()] if args.write else [*layers.check(), *check()]
         stale = stale_results() if args.check else []
     except FiguresError as exc:
         print(f"figures: {exc}", file=sys.stderr)

@@ -48,7 +48,7 @@ an error and every command exits with code 2.
 
 The topic pages say more about each command: [Running and experiments](../running.md),
 [Case bases](../casebase.md#cbr-casebase-commands), [Grid worlds and
-solvers](../grid.md#command-line), [The 2D world](../world2d.md#cbr-sim).
+solvers](../grid.md#command-line), [The 2D world](../world2d-trials.md#cbr-sim).
 """
 
 _ENVIRONMENT = (
