@@ -5,7 +5,7 @@ itself: searches live with the solvers, a layer above it. So every option that n
 planner (the ``trips`` workload's ``replanner``, the ``casegraph`` and ``path_cases`` reusers'
 ``connector``, ``cbr plan --solver``) takes a solver component by name from the registry and
 calls it through :class:`GridPlanner`, which the built-in grid solvers implement and a
-plugin's solver may implement too (see "The solver protocol" in docs/plugins.md).
+plugin's solver may implement too (see "The solver protocol" in docs/plugins-kinds.md).
 """
 
 from __future__ import annotations
