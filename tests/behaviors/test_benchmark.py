@@ -27,8 +27,9 @@ from cbr_behaviors.index import (
     feature_distances,
     weight_vector,
 )
+from repo_paths import ROOT
 
-BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+BENCHMARKS = ROOT / "benchmarks"
 SCRIPT = BENCHMARKS / "rupart_retrieval.py"
 CASES, QUERIES, SEED = 120, 8, 3
 SIZES = [24, 50, 100]

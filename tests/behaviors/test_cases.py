@@ -341,10 +341,10 @@ Cli = Callable[..., CliResult]
 
 
 @pytest.fixture
-def cli(cbr_plugins: Callable[..., Plugins], cbr_cli: Cli) -> Cli:
+def cli(cbr_plugins: Callable[..., Plugins], invoke_cbr: Cli) -> Cli:
     """``cbr`` with the installed plugins, ``rupart`` among them."""
     cbr_plugins(entry_points=True)
-    return cbr_cli
+    return invoke_cbr
 
 
 def test_add_stores_every_case_of_good_files(cli: Cli, tmp_path: Path) -> None:

@@ -357,10 +357,10 @@ def test_a_bad_weight_is_refused_naming_the_option(plugins: Plugins, text: str, 
 
 @pytest.fixture
 def cli(cbr_plugins: Callable[..., Plugins],
-        cbr_cli: Callable[..., CliResult]) -> Callable[..., CliResult]:
+        invoke_cbr: Callable[..., CliResult]) -> Callable[..., CliResult]:
     """``cbr`` with the installed plugins, ``rupart`` among them."""
     cbr_plugins(entry_points=True)
-    return cbr_cli
+    return invoke_cbr
 
 
 @pytest.mark.parametrize(("text", "feature", "problem"), BAD_WEIGHTS)

@@ -28,10 +28,11 @@ from cbrcore.errors import CbrError
 from cbrcore.plugins import Plugins, current
 from cbrcore.run import manifest, write_json
 from cbrcore.testing import CliResult
+from repo_paths import ROOT
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 GIF_SIGNATURE = b"GIF89a"
-CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+CONFIGS = ROOT / "configs"
 SEED = 1
 
 Cli = Callable[..., CliResult]
@@ -162,9 +163,9 @@ def test_the_day_s_pictures_and_its_gif(tmp_path: Path) -> None:
 # --- cbr rupart day ---------------------------------------------------------------------------
 
 @pytest.fixture
-def cli(cbr_plugins: Callable[..., Plugins], cbr_cli: Cli) -> Cli:
+def cli(cbr_plugins: Callable[..., Plugins], invoke_cbr: Cli) -> Cli:
     cbr_plugins(entry_points=True)
-    return cbr_cli
+    return invoke_cbr
 
 
 def run_folder(path: Path, config_file: Path, *overrides: str) -> Path:

@@ -118,7 +118,7 @@ SCHEMA = ("a case base has the tables cases, meta and removed, the indexes cases
     ("view", "info", 2, "view 'everything' does not belong in a case base"),
     ("extra-index", "check", 1, "index 'by_uses' does not belong in a case base"),
 ])
-def test_a_bad_case_base_is_one_clear_message(cbr_cli: Cli, casebase: Path, tmp_path: Path,
+def test_a_bad_case_base_is_one_clear_message(invoke_cbr: Cli, casebase: Path, tmp_path: Path,
                                               damaged: str, command: str, code: int,
                                               message: str) -> None:
     DAMAGES[damaged](casebase)
@@ -127,7 +127,7 @@ def test_a_bad_case_base_is_one_clear_message(cbr_cli: Cli, casebase: Path, tmp_
     before = folder_state(casebase.parent)
     args = [str(document), "--append"] if command == "import" else []
 
-    result = cbr_cli("casebase", command, str(casebase), *args)
+    result = invoke_cbr("casebase", command, str(casebase), *args)
 
     assert result.exit_code == code, result
     # check reports on standard output, every error goes to standard error
@@ -138,10 +138,10 @@ def test_a_bad_case_base_is_one_clear_message(cbr_cli: Cli, casebase: Path, tmp_
     assert folder_state(casebase.parent) == before
 
 
-def test_traceback_shows_where_the_error_came_from(cbr_cli: Cli, casebase: Path) -> None:
+def test_traceback_shows_where_the_error_came_from(invoke_cbr: Cli, casebase: Path) -> None:
     DAMAGES["cases-dropped"](casebase)
 
-    result = cbr_cli("--traceback", "casebase", "info", str(casebase))
+    result = invoke_cbr("--traceback", "casebase", "info", str(casebase))
 
     assert result.exit_code == 2
     assert "Traceback" in result.stderr and "UnusableCaseBase" in result.stderr
@@ -198,7 +198,7 @@ def test_statistics_of_the_query_planner_are_no_foreign_schema(casebase: Path) -
 
 
 def test_a_run_on_an_unusable_case_base_names_it_not_a_plugin(
-        load_toy: Callable[..., Plugins], cbr_cli: Cli, casebase: Path, tmp_path: Path) -> None:
+        load_toy: Callable[..., Plugins], invoke_cbr: Cli, casebase: Path, tmp_path: Path) -> None:
     import toy_domain
 
     load_toy()
@@ -208,7 +208,7 @@ def test_a_run_on_an_unusable_case_base_names_it_not_a_plugin(
         "casebase: memory", f"casebase: {{use: sqlite, path: {casebase}}}"), encoding="utf-8")
     before = folder_state(casebase.parent)
 
-    result = cbr_cli("run", str(config), "--out", str(tmp_path / "out"))
+    result = invoke_cbr("run", str(config), "--out", str(tmp_path / "out"))
 
     assert result.exit_code == 2, result
     assert f"{casebase} is not a sound case base: {MISSING}" in result.stderr
@@ -219,10 +219,10 @@ def test_a_run_on_an_unusable_case_base_names_it_not_a_plugin(
 # -- files written whole or not at all --------------------------------------------------------
 
 
-def test_a_full_disk_keeps_the_earlier_export(cbr_cli: Cli, casebase: Path, tmp_path: Path,
+def test_a_full_disk_keeps_the_earlier_export(invoke_cbr: Cli, casebase: Path, tmp_path: Path,
                                               monkeypatch: pytest.MonkeyPatch) -> None:
     exported = tmp_path / "out.yaml"
-    assert cbr_cli("casebase", "export", str(casebase), "-o", str(exported)).exit_code == 0
+    assert invoke_cbr("casebase", "export", str(casebase), "-o", str(exported)).exit_code == 0
     earlier = folder_state(tmp_path / "cb"), exported.read_bytes()
 
     def full(fd: int) -> None:
@@ -231,7 +231,7 @@ def test_a_full_disk_keeps_the_earlier_export(cbr_cli: Cli, casebase: Path, tmp_
     monkeypatch.setattr(cbrcore.files.os, "fsync", full)
     with SQLiteStore(casebase) as store:
         store.add(Case(3, 9))
-    result = cbr_cli("casebase", "export", str(casebase), "-o", str(exported))
+    result = invoke_cbr("casebase", "export", str(casebase), "-o", str(exported))
 
     assert result.exit_code == 2
     assert result.stderr == f"error: cannot write {exported}: No space left on device\n"
@@ -244,13 +244,13 @@ def test_a_full_disk_keeps_the_earlier_export(cbr_cli: Cli, casebase: Path, tmp_
     (f"format: cbrcore-casebase\nschema: 1\ncases:\n- {{id: {MAX_ID}, problem: 1, "
      f"solution: 1}}\n- {{problem: 2, solution: 2}}\n", "has used every case id"),
 ])
-def test_a_failed_import_leaves_no_case_base(cbr_cli: Cli, tmp_path: Path, document: str,
+def test_a_failed_import_leaves_no_case_base(invoke_cbr: Cli, tmp_path: Path, document: str,
                                              message: str) -> None:
     source = tmp_path / "doc.yaml"
     source.write_text(document, encoding="utf-8")
     target = tmp_path / "new.sqlite"
 
-    result = cbr_cli("casebase", "import", str(target), str(source))
+    result = invoke_cbr("casebase", "import", str(target), str(source))
 
     assert result.exit_code == 2, result
     assert result.stderr.startswith(f"error: {target} {message}"), result.stderr
@@ -258,13 +258,13 @@ def test_a_failed_import_leaves_no_case_base(cbr_cli: Cli, tmp_path: Path, docum
     assert [p.name for p in tmp_path.iterdir()] == ["doc.yaml"]
 
 
-def test_an_import_into_an_empty_leftover_file_replaces_it(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_an_import_into_an_empty_leftover_file_replaces_it(invoke_cbr: Cli, tmp_path: Path) -> None:
     source = tmp_path / "doc.yaml"
     source.write_text(DOCUMENT, encoding="utf-8")
     target = tmp_path / "new.sqlite"
     target.touch()  # what a process killed while creating a case base leaves behind
 
-    result = cbr_cli("casebase", "import", str(target), str(source))
+    result = invoke_cbr("casebase", "import", str(target), str(source))
 
     assert (result.exit_code, result.stdout) == (0, f"imported 1 cases into {target} "
                                                     f"(revision 1)\n")
@@ -299,22 +299,22 @@ def unwritable(folder: Path) -> Iterator[None]:
     ("check", "ok"),
     ("export", "revision: 2"),
 ])
-def test_reading_works_in_a_read_only_folder(cbr_cli: Cli, casebase: Path, command: str,
+def test_reading_works_in_a_read_only_folder(invoke_cbr: Cli, casebase: Path, command: str,
                                              expected: str, held_open: bool) -> None:
     with contextlib.ExitStack() as stack:
         if held_open:  # another process has it open: its -wal and -shm files are there
             stack.enter_context(SQLiteStore(casebase)).count()
         before = folder_state(casebase.parent)
         with unwritable(casebase.parent):
-            result = cbr_cli("casebase", command, str(casebase))
+            result = invoke_cbr("casebase", command, str(casebase))
         assert (result.exit_code, result.stderr) == (0, ""), result
         assert expected in result.stdout
         assert folder_state(casebase.parent) == before
 
 
-def test_reading_leaves_no_files_beside_the_case_base(cbr_cli: Cli, casebase: Path) -> None:
+def test_reading_leaves_no_files_beside_the_case_base(invoke_cbr: Cli, casebase: Path) -> None:
     for command in ("info", "check", "export"):
-        assert cbr_cli("casebase", command, str(casebase)).exit_code == 0
+        assert invoke_cbr("casebase", command, str(casebase)).exit_code == 0
         assert [p.name for p in casebase.parent.iterdir()] == ["cb.sqlite"]
 
 
@@ -335,7 +335,7 @@ def test_a_read_only_store_writes_nothing(casebase: Path) -> None:
 
 
 def test_an_export_follows_a_link_keeps_permissions_and_never_replaces_a_pipe(
-        cbr_cli: Cli, casebase: Path, tmp_path: Path) -> None:
+        invoke_cbr: Cli, casebase: Path, tmp_path: Path) -> None:
     private = tmp_path / "private.yaml"
     private.write_text("old\n", encoding="utf-8")
     private.chmod(0o600)
@@ -348,7 +348,7 @@ def test_an_export_follows_a_link_keeps_permissions_and_never_replaces_a_pipe(
     reader.start()
 
     for target in (link, pipe):
-        assert cbr_cli("casebase", "export", str(casebase), "-o", str(target)).exit_code == 0
+        assert invoke_cbr("casebase", "export", str(casebase), "-o", str(target)).exit_code == 0
     reader.join(timeout=30)
 
     assert link.is_symlink() and "format: cbrcore-casebase" in private.read_text()
@@ -356,7 +356,7 @@ def test_an_export_follows_a_link_keeps_permissions_and_never_replaces_a_pipe(
     assert pipe.is_fifo() and "format: cbrcore-casebase" in received[0]
 
 
-def test_an_import_onto_something_else_than_a_file_is_refused(cbr_cli: Cli, tmp_path: Path
+def test_an_import_onto_something_else_than_a_file_is_refused(invoke_cbr: Cli, tmp_path: Path
                                                                ) -> None:
     document = tmp_path / "one.json"
     document.write_text('{"format": "cbrcore-casebase", "schema": 1, "cases": '
@@ -367,8 +367,8 @@ def test_an_import_onto_something_else_than_a_file_is_refused(cbr_cli: Cli, tmp_
     empty.touch()
     empty.chmod(0o600)
 
-    refused = cbr_cli("casebase", "import", str(pipe), str(document))
-    imported = cbr_cli("casebase", "import", str(empty), str(document))
+    refused = invoke_cbr("casebase", "import", str(pipe), str(document))
+    imported = invoke_cbr("casebase", "import", str(empty), str(document))
 
     assert refused.exit_code == 2 and "is not a regular file" in refused.stderr
     assert pipe.is_fifo()

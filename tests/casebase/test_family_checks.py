@@ -38,8 +38,8 @@ def path(tmp_path: Path) -> Path:
     return tmp_path / "cb.sqlite"
 
 
-def check(cbr_cli: Callable[..., CliResult], path: Path) -> CliResult:
-    return cbr_cli("casebase", "check", str(path))
+def check(invoke_cbr: Callable[..., CliResult], path: Path) -> CliResult:
+    return invoke_cbr("casebase", "check", str(path))
 
 
 def segment(a: tuple[int, int], b: tuple[int, int]) -> Case:
@@ -67,7 +67,7 @@ def sound(path: Path) -> None:
         record_map(store, GRID)
 
 
-def test_a_sound_case_base_of_every_family_is_ok(cbr_cli: Callable[..., CliResult],
+def test_a_sound_case_base_of_every_family_is_ok(invoke_cbr: Callable[..., CliResult],
                                                  path: Path) -> None:
     sound(path)
     with SQLiteStore(path) as store:
@@ -76,7 +76,7 @@ def test_a_sound_case_base_of_every_family_is_ok(cbr_cli: Callable[..., CliResul
                       for c in store.cases(SEGMENT))
         assert ends == [[(0, 4), (5, 4)], [(5, 0), (5, 4)], [(5, 4), (5, 8)], [(5, 4), (8, 4)]]
         assert store.get_meta(MAP) == {"width": 12, "height": 10}
-    result = check(cbr_cli, path)
+    result = check(invoke_cbr, path)
     assert (result.exit_code, result.stdout) == (0, "ok\n")
 
 
@@ -91,13 +91,13 @@ def test_a_sound_case_base_of_every_family_is_ok(cbr_cli: Callable[..., CliResul
     ([((0, 0), (0, 0))], "segment case 1: from (0, 0) to (0, 0) is not a straight run"),
     ([((10, 9), (12, 9))], "segment case 1: end (12, 9) is outside the recorded 12x10 map"),
 ])
-def test_a_broken_case_graph_fails_the_check(cbr_cli: Callable[..., CliResult], path: Path,
+def test_a_broken_case_graph_fails_the_check(invoke_cbr: Callable[..., CliResult], path: Path,
                                              cases: list[Any], problem: str) -> None:
     with SQLiteStore(path) as store:
         record_map(store, GRID)
         for a, b in cases:
             store.add(segment(a, b))
-    result = check(cbr_cli, path)
+    result = check(invoke_cbr, path)
     assert result.exit_code == 1
     assert problem in result.stdout
 
@@ -138,12 +138,12 @@ def test_a_malformed_segment_is_named_not_raised(path: Path) -> None:
           meta={"cost": 1, "length": 1.4, "risk": 0, "ideal": 1.4, "traversals": 1}),
      "path case 1: problem {'start': [0, 0], 'goal': [5, 5]}; expected the path's ends"),
 ])
-def test_a_broken_path_case_fails_the_check(cbr_cli: Callable[..., CliResult], path: Path,
+def test_a_broken_path_case_fails_the_check(invoke_cbr: Callable[..., CliResult], path: Path,
                                             case: Case, problem: str) -> None:
     with SQLiteStore(path) as store:
         record_map(store, GRID)
         store.add(case)
-    result = check(cbr_cli, path)
+    result = check(invoke_cbr, path)
     assert result.exit_code == 1
     assert "  - pathcases: path case 1: " in result.stdout
     assert problem in result.stdout
@@ -172,12 +172,12 @@ def test_sound_path_cases_agree_with_the_family_index(path: Path) -> None:
     ({"three": 0.5}, "entry 'three': expected a cell 'x,y' of two integers"),
     ([0.5], "meta 'grid.learned_risk' is a list; expected a mapping of 'x,y' cells to risks"),
 ])
-def test_broken_learned_risks_fail_the_check(cbr_cli: Callable[..., CliResult], path: Path,
+def test_broken_learned_risks_fail_the_check(invoke_cbr: Callable[..., CliResult], path: Path,
                                              risks: Any, problem: str) -> None:
     with SQLiteStore(path) as store:
         record_map(store, GRID)
         store.set_meta(LEARNED_RISK, risks)
-    result = check(cbr_cli, path)
+    result = check(invoke_cbr, path)
     assert result.exit_code == 1
     assert problem in result.stdout
 
@@ -190,14 +190,14 @@ def test_a_bad_map_record_is_named(path: Path) -> None:
             "with positive integers"]
 
 
-def test_every_broken_family_is_listed_together(cbr_cli: Callable[..., CliResult],
+def test_every_broken_family_is_listed_together(invoke_cbr: Callable[..., CliResult],
                                                 path: Path) -> None:
     sound(path)
     with SQLiteStore(path) as store:
         store.add(segment((0, 3), (0, 5)))   # a T onto the segment (0, 4)-(5, 4)
         store.add(path_case([[0, 0], [3, 3]]))
         store.set_meta(LEARNED_RISK, {"3,2": 2.0})
-    result = check(cbr_cli, path)
+    result = check(invoke_cbr, path)
     assert result.exit_code == 1
     assert f"{path}: 3 problems:" in result.stdout
     for family in ("grid", "casegraph", "pathcases"):

@@ -30,10 +30,10 @@ from cbrcore.testing import CliResult
 Cli = Callable[..., CliResult]
 
 
-def _unprivileged(cbr_cli: Cli, *args: str) -> CliResult:
-    """``cbr_cli(*args)`` run without a superuser's disregard for file permissions."""
+def _unprivileged(invoke_cbr: Cli, *args: str) -> CliResult:
+    """``invoke_cbr(*args)`` run without a superuser's disregard for file permissions."""
     if os.geteuid() != 0:
-        return cbr_cli(*args)
+        return invoke_cbr(*args)
     try:
         nobody = pwd.getpwnam("nobody")
     except KeyError:
@@ -49,7 +49,7 @@ def _unprivileged(cbr_cli: Cli, *args: str) -> CliResult:
             os.setuid(nobody.pw_uid)
             with os.fdopen(writing, "w") as out:
                 try:
-                    json.dump(list(cbr_cli(*args)), out)
+                    json.dump(list(invoke_cbr(*args)), out)
                     code = 0
                 except BaseException:
                     json.dump([-1, "", traceback.format_exc()], out)
@@ -83,18 +83,18 @@ def place() -> Iterator[Path]:
 
 
 @pytest.fixture(autouse=True)
-def installed(cbr_plugins: Callable[..., Plugins], cbr_cli: Cli, tmp_path: Path) -> Plugins:
+def installed(cbr_plugins: Callable[..., Plugins], invoke_cbr: Cli, tmp_path: Path) -> Plugins:
     """The installed plugins, with every module the commands use imported already."""
     plugins = cbr_plugins(entry_points=True)
     _case_base(tmp_path / "warm.sqlite")
     for command in ("info", "check", "export"):
-        assert cbr_cli("casebase", command, str(tmp_path / "warm.sqlite")).exit_code == 0
-    assert cbr_cli("casebase", "info", str(tmp_path / "missing.sqlite")).exit_code == 2
+        assert invoke_cbr("casebase", command, str(tmp_path / "warm.sqlite")).exit_code == 0
+    assert invoke_cbr("casebase", "info", str(tmp_path / "missing.sqlite")).exit_code == 2
     return plugins
 
 
 @pytest.mark.parametrize("locked", ["folder", "file", "both"])
-def test_a_case_base_that_may_not_be_written_is_read(cbr_cli: Cli, place: Path,
+def test_a_case_base_that_may_not_be_written_is_read(invoke_cbr: Cli, place: Path,
                                                       locked: str) -> None:
     folder = place / "library"
     folder.mkdir()
@@ -105,9 +105,9 @@ def test_a_case_base_that_may_not_be_written_is_read(cbr_cli: Cli, place: Path,
         path.chmod(0o444)
     folder.chmod(0o555 if locked in ("folder", "both") else 0o777)
     try:
-        info = _unprivileged(cbr_cli, "casebase", "info", str(path), "--json")
-        check = _unprivileged(cbr_cli, "casebase", "check", str(path))
-        export = _unprivileged(cbr_cli, "casebase", "export", str(path))
+        info = _unprivileged(invoke_cbr, "casebase", "info", str(path), "--json")
+        check = _unprivileged(invoke_cbr, "casebase", "check", str(path))
+        export = _unprivileged(invoke_cbr, "casebase", "export", str(path))
     finally:
         folder.chmod(0o755)
 
@@ -121,7 +121,7 @@ def test_a_case_base_that_may_not_be_written_is_read(cbr_cli: Cli, place: Path,
     assert sorted(os.listdir(folder)) == ["cb.sqlite"]
 
 
-def test_an_export_never_replaces_a_read_only_file(cbr_cli: Cli, place: Path) -> None:
+def test_an_export_never_replaces_a_read_only_file(invoke_cbr: Cli, place: Path) -> None:
     tmp_path = place
     tmp_path.chmod(0o777)
     _case_base(tmp_path / "cb.sqlite")
@@ -129,7 +129,7 @@ def test_an_export_never_replaces_a_read_only_file(cbr_cli: Cli, place: Path) ->
     target.write_text("kept: as it was\n", encoding="utf-8")
     target.chmod(0o444)
 
-    result = _unprivileged(cbr_cli, "casebase", "export", str(tmp_path / "cb.sqlite"),
+    result = _unprivileged(invoke_cbr, "casebase", "export", str(tmp_path / "cb.sqlite"),
                            "-o", str(target))
 
     assert result.exit_code == 2, result

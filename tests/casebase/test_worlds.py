@@ -41,10 +41,10 @@ from cbrcore.fingerprint import WorldFingerprint, fingerprint
 from cbrcore.model import Case
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult
+from repo_paths import ROOT
 
 Cli = Callable[..., CliResult]
 
-ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "plugins" / "cbr_world2d" / "worlds" / "scenario2.yaml"
 CONFIG = """\
 seed: 1
@@ -70,9 +70,9 @@ def _config(tmp_path: Path, casebase: str | None = None) -> Path:
     return path
 
 
-def _run(cbr_cli: Cli, tmp_path: Path, out: str, *sets: str) -> CliResult:
+def _run(invoke_cbr: Cli, tmp_path: Path, out: str, *sets: str) -> CliResult:
     args = [item for setting in sets for item in ("--set", setting)]
-    return cbr_cli("run", str(_config(tmp_path)), "--out", str(tmp_path / out), *args)
+    return invoke_cbr("run", str(_config(tmp_path)), "--out", str(tmp_path / out), *args)
 
 
 def _snapshot(path: Path) -> Document:
@@ -96,14 +96,14 @@ class _Seeded:
 # -- runs ---------------------------------------------------------------------------------------
 
 
-def test_a_run_in_another_world_is_refused_and_stores_nothing(cbr_cli: Cli,
+def test_a_run_in_another_world_is_refused_and_stores_nothing(invoke_cbr: Cli,
                                                               tmp_path: Path) -> None:
-    first = _run(cbr_cli, tmp_path, "a")
+    first = _run(invoke_cbr, tmp_path, "a")
     assert first.exit_code == 0, first.stderr
     before = _snapshot(tmp_path / "cb.sqlite")
     assert before.meta[WORLDS_KEY] == [_world(1).to_data()]
 
-    refused = _run(cbr_cli, tmp_path, "b", "seed=2")
+    refused = _run(invoke_cbr, tmp_path, "b", "seed=2")
 
     assert refused.exit_code == 2
     message = refused.stderr
@@ -115,58 +115,58 @@ def test_a_run_in_another_world_is_refused_and_stores_nothing(cbr_cli: Cli,
     assert not (tmp_path / "b").exists()
 
 
-def test_the_same_world_with_other_trips_learns_on(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_the_same_world_with_other_trips_learns_on(invoke_cbr: Cli, tmp_path: Path) -> None:
     for out, trips in (("a", 11), ("b", 12)):
-        result = _run(cbr_cli, tmp_path, out, f"workload.seed={trips}")
+        result = _run(invoke_cbr, tmp_path, out, f"workload.seed={trips}")
         assert result.exit_code == 0, result.stderr
     after = _snapshot(tmp_path / "cb.sqlite")
     assert after.meta[WORLDS_KEY] == [_world(1).to_data()]
     assert after.revision > 2  # both runs learned
-    assert cbr_cli("casebase", "check", str(tmp_path / "cb.sqlite")).stdout == "ok\n"
+    assert invoke_cbr("casebase", "check", str(tmp_path / "cb.sqlite")).stdout == "ok\n"
 
 
-def test_worlds_any_lets_cases_carry_over_and_check_reports_them(cbr_cli: Cli,
+def test_worlds_any_lets_cases_carry_over_and_check_reports_them(invoke_cbr: Cli,
                                                                  tmp_path: Path) -> None:
-    assert _run(cbr_cli, tmp_path, "a").exit_code == 0
-    carried = _run(cbr_cli, tmp_path, "b", "seed=2", "casebase.worlds=any")
+    assert _run(invoke_cbr, tmp_path, "a").exit_code == 0
+    carried = _run(invoke_cbr, tmp_path, "b", "seed=2", "casebase.worlds=any")
     assert carried.exit_code == 0, carried.stderr
     path = str(tmp_path / "cb.sqlite")
 
-    check = cbr_cli("casebase", "check", path)
+    check = invoke_cbr("casebase", "check", path)
     assert check.exit_code == 1
     assert "worlds: meta 'cbrcore.worlds': the cases belong to 2 worlds" in check.stdout
     assert _world(1).short in check.stdout and _world(2).short in check.stdout
-    info = cbr_cli("casebase", "info", path, "--json")
+    info = invoke_cbr("casebase", "info", path, "--json")
     assert json.loads(info.stdout)["worlds"] == [_world(1).to_data(), _world(2).to_data()]
-    text = cbr_cli("casebase", "info", path).stdout
+    text = invoke_cbr("casebase", "info", path).stdout
     assert f"world         office 24x24, seed 2 ({_world(2).sha256})" in text
     # a case base of several worlds refuses each of them unless the run lets cases carry over
-    assert _run(cbr_cli, tmp_path, "c").exit_code == 2
+    assert _run(invoke_cbr, tmp_path, "c").exit_code == 2
 
 
-def test_initial_cases_of_another_world_are_refused_in_memory(cbr_cli: Cli,
+def test_initial_cases_of_another_world_are_refused_in_memory(invoke_cbr: Cli,
                                                               tmp_path: Path) -> None:
     """A memory case base starting from a document keeps the document's world."""
-    assert _run(cbr_cli, tmp_path, "a").exit_code == 0
+    assert _run(invoke_cbr, tmp_path, "a").exit_code == 0
     exported = tmp_path / "cases.yaml"
-    assert cbr_cli("casebase", "export", str(tmp_path / "cb.sqlite"), "-o",
+    assert invoke_cbr("casebase", "export", str(tmp_path / "cb.sqlite"), "-o",
                    str(exported)).exit_code == 0
     assert yaml.safe_load(exported.read_text())["meta"][WORLDS_KEY] == [_world(1).to_data()]
     config = _config(tmp_path, "x")
     config.write_text(config.read_text().replace(
         "{use: sqlite, path: x}", f"{{use: memory, initial: {exported}}}"))
-    same = cbr_cli("run", str(config), "--out", str(tmp_path / "m1"))
-    other = cbr_cli("run", str(config), "--out", str(tmp_path / "m2"), "--set", "seed=2")
+    same = invoke_cbr("run", str(config), "--out", str(tmp_path / "m1"))
+    other = invoke_cbr("run", str(config), "--out", str(tmp_path / "m2"), "--set", "seed=2")
     assert same.exit_code == 0, same.stderr
     assert other.exit_code == 2 and _world(1).short in other.stderr
 
 
-def test_a_world_independent_family_records_no_world(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_a_world_independent_family_records_no_world(invoke_cbr: Cli, tmp_path: Path) -> None:
     """Landmark situations hold in any world: runs in two worlds share one case base."""
     config = ROOT / "configs" / "landmarks.yaml"
     casebase = tmp_path / "situations.sqlite"
     for out, world in (("a", "scenario2"), ("b", "scenario1")):
-        result = cbr_cli("run", str(config), "--out", str(tmp_path / out),
+        result = invoke_cbr("run", str(config), "--out", str(tmp_path / out),
                          "--set", f"casebase.path={casebase}", "--set", "workload.repeat=1",
                          "--set", f"world.path={ROOT / 'plugins/cbr_world2d/worlds'}/{world}.yaml")
         assert result.exit_code == 0, result.stderr
@@ -228,7 +228,7 @@ def test_importing_another_worlds_cases_is_refused(store: CaseStore) -> None:
     assert (store.count(), recorded_worlds(store)[0]) == (4, [a, b])
 
 
-def test_import_append_of_another_world_is_refused_by_the_command(cbr_cli: Cli,
+def test_import_append_of_another_world_is_refused_by_the_command(invoke_cbr: Cli,
                                                                   tmp_path: Path) -> None:
     a, b = _world(1), _world(2)
     target = tmp_path / "cb.sqlite"
@@ -238,11 +238,11 @@ def test_import_append_of_another_world_is_refused_by_the_command(cbr_cli: Cli,
     document.write_text(yaml.safe_dump({"format": "cbrcore-casebase", "schema": 1,
                                         "revision": 1, "meta": {WORLDS_KEY: [b.to_data()]},
                                         "cases": [{"problem": 2, "solution": 2}]}))
-    refused = cbr_cli("casebase", "import", str(target), str(document), "--append")
+    refused = invoke_cbr("casebase", "import", str(target), str(document), "--append")
     assert refused.exit_code == 2 and "Traceback" not in refused.stderr
     assert a.short in refused.stderr and b.short in refused.stderr
     assert _snapshot(target).cases == (Case(1, 1, id=1, created=1),)
-    carried = cbr_cli("casebase", "import", str(document), "--append", "--store",
+    carried = invoke_cbr("casebase", "import", str(document), "--append", "--store",
                       f"{{use: sqlite, path: {target}, worlds: any}}")
     assert carried.exit_code == 0, carried.stderr
     assert _snapshot(target).meta[WORLDS_KEY] == [a.to_data(), b.to_data()]

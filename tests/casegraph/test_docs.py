@@ -14,8 +14,9 @@ from types import ModuleType
 import pytest
 
 from cbrcore.cli import main
+from repo_paths import ROOT
 
-PAGE = Path(__file__).resolve().parents[1] / "docs" / "casegraph.md"
+PAGE = ROOT / "docs" / "casegraph.md"
 
 
 def test_python_example_runs() -> None:
@@ -28,7 +29,7 @@ def test_python_example_runs() -> None:
 
 
 def _load(name: str) -> ModuleType:
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / f"{name}.py"
+    path = ROOT / "benchmarks" / f"{name}.py"
     spec = importlib.util.spec_from_file_location(name, path)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)

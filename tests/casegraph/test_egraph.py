@@ -29,8 +29,9 @@ from cbrcore.errors import CbrError
 from cbrcore.model import Solution
 from cbrcore.registry import Registry
 from cbrcore.run import run_workload
+from repo_paths import ROOT
 
-CONFIG = Path(__file__).resolve().parents[1] / "configs" / "hybrid_grid_egraph.yaml"
+CONFIG = ROOT / "configs" / "hybrid_grid_egraph.yaml"
 FACTORS = st.sampled_from([1.0, 1.1, 1.25, 1.5, 2.0, 3.0])
 
 

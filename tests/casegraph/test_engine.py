@@ -30,9 +30,11 @@ from cbr_pathquality.reviser import QualityTest
 from cbr_stores.sqlite import SQLiteStore
 from cbrcore.engine import Engine
 from cbrcore.run import run_workload
-from test_casegraph import check_consistent, edge_set
+from repo_paths import ROOT
 
-CONFIG = Path(__file__).resolve().parents[1] / "configs" / "hybrid_grid.yaml"
+from .test_casegraph import check_consistent, edge_set
+
+CONFIG = ROOT / "configs" / "hybrid_grid.yaml"
 # a smaller office keeps each run to a second or two; the trips stay long enough for the case
 # graph (delta 8) to be worth using
 SMALL = ["world.width=60", "world.height=60", "workload.count=60"]

@@ -32,9 +32,9 @@ def _installed(cbr_plugins: Callable[..., Plugins]) -> None:
     cbr_plugins(entry_points=True)
 
 
-def run(cbr_cli: Callable[..., CliResult], out: Path, name: str, figure: str) -> dict[str, Any]:
+def run(invoke_cbr: Callable[..., CliResult], out: Path, name: str, figure: str) -> dict[str, Any]:
     """Run ``name`` at size ci into ``out``; its results, once its files are checked."""
-    result = cbr_cli("experiment", name, "--size", "ci", "--out", str(out))
+    result = invoke_cbr("experiment", name, "--size", "ci", "--out", str(out))
     assert result.exit_code == 0, result.stderr
     for file in ("results.json", "results.md", "manifest.json"):
         assert (out / file).stat().st_size > 0
@@ -43,9 +43,9 @@ def run(cbr_cli: Callable[..., CliResult], out: Path, name: str, figure: str) ->
     return json.loads((out / "results.json").read_text(encoding="utf-8"))
 
 
-def test_share_grows_with_coverage_and_stays_a_share(cbr_cli: Callable[..., CliResult],
+def test_share_grows_with_coverage_and_stays_a_share(invoke_cbr: Callable[..., CliResult],
                                                      tmp_path: Path) -> None:
-    results = run(cbr_cli, tmp_path, "cbr-share", "cbr_share")
+    results = run(invoke_cbr, tmp_path, "cbr-share", "cbr_share")
     rows = results["rows"]
     assert [row["coverage_percent"] for row in rows] == [5, 10, 15]
     for row in rows:
@@ -95,9 +95,9 @@ def test_share_is_the_same_whatever_order_its_chunks_run_in(
     assert runner.priorities == sorted(runner.priorities) and len(set(runner.priorities)) == 3
 
 
-def test_deviation_table_is_relative_to_the_best(cbr_cli: Callable[..., CliResult],
+def test_deviation_table_is_relative_to_the_best(invoke_cbr: Callable[..., CliResult],
                                                  tmp_path: Path) -> None:
-    rows = run(cbr_cli, tmp_path, "deviation-table", "deviation_cost")["rows"]
+    rows = run(invoke_cbr, tmp_path, "deviation-table", "deviation_cost")["rows"]
     assert len(rows) == 2
     for row in rows:
         assert set(row["deviation"]) == {"CBR", "Dijkstra", "A*", "Ai*"}
@@ -108,9 +108,9 @@ def test_deviation_table_is_relative_to_the_best(cbr_cli: Callable[..., CliResul
         assert 0 <= row["cbr_share"] <= 1
 
 
-def test_time_vs_map_size_times_are_positive(cbr_cli: Callable[..., CliResult],
+def test_time_vs_map_size_times_are_positive(invoke_cbr: Callable[..., CliResult],
                                              tmp_path: Path) -> None:
-    rows = run(cbr_cli, tmp_path, "time-vs-map-size", "time_vs_map_size")["rows"]
+    rows = run(invoke_cbr, tmp_path, "time-vs-map-size", "time_vs_map_size")["rows"]
     assert [row["size"] for row in rows] == [50, 100, 200]
     for row in rows:
         for method in ("dijkstra", "astar", "aistar"):
@@ -122,9 +122,9 @@ def test_time_vs_map_size_times_are_positive(cbr_cli: Callable[..., CliResult],
     assert rows[-1]["cbr_ms"]["3000"] > 0
 
 
-def test_time_vs_vertices_plans_every_task_both_ways(cbr_cli: Callable[..., CliResult],
+def test_time_vs_vertices_plans_every_task_both_ways(invoke_cbr: Callable[..., CliResult],
                                                      tmp_path: Path) -> None:
-    rows = run(cbr_cli, tmp_path, "time-vs-vertices", "time_vs_vertices")["rows"]
+    rows = run(invoke_cbr, tmp_path, "time-vs-vertices", "time_vs_vertices")["rows"]
     assert len(rows) == 3
     for row in rows:
         assert row["tasks"] > 0

@@ -45,11 +45,11 @@ def plugins(cbr_plugins: Callable[..., Plugins]) -> Plugins:
 
 
 def test_the_ci_run_reports_every_fleet_and_loses_nothing(
-        cbr_cli: Callable[..., CliResult], plugins: Plugins, tmp_path: Path,
+        invoke_cbr: Callable[..., CliResult], plugins: Plugins, tmp_path: Path,
         monkeypatch: pytest.MonkeyPatch) -> None:
     for name in PG_VARIABLES:  # no PostgreSQL server named: its rows are absent, and why
         monkeypatch.delenv(name, raising=False)
-    result = cbr_cli("experiment", "fleet", "--size", "ci", "--out", str(tmp_path))
+    result = invoke_cbr("experiment", "fleet", "--size", "ci", "--out", str(tmp_path))
     assert result.exit_code == 0, result.stderr
     for file in ("results.json", "results.md", "manifest.json"):
         assert (tmp_path / file).stat().st_size > 0
@@ -63,7 +63,7 @@ def test_the_ci_run_reports_every_fleet_and_loses_nothing(
 
 
 def test_the_ci_run_learns_into_postgres_when_the_environment_names_a_server(
-        cbr_cli: Callable[..., CliResult], plugins: Plugins, postgres_database: str,
+        invoke_cbr: Callable[..., CliResult], plugins: Plugins, postgres_database: str,
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     from psycopg.conninfo import conninfo_to_dict
 
@@ -74,7 +74,7 @@ def test_the_ci_run_learns_into_postgres_when_the_environment_names_a_server(
                       ("user", "PGUSER")):
         if server.get(key):
             monkeypatch.setenv(name, str(server[key]))
-    result = cbr_cli("experiment", "fleet", "--size", "ci", "--out", str(tmp_path))
+    result = invoke_cbr("experiment", "fleet", "--size", "ci", "--out", str(tmp_path))
     assert result.exit_code == 0, result.stderr
     results = json.loads((tmp_path / "results.json").read_text(encoding="utf-8"))
     assert results["stores"] == ["sqlite", "postgres"]

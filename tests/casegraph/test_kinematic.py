@@ -41,10 +41,11 @@ from cbr_solvers.kinematic_search import kinematic_search
 from cbr_solvers.search import astar
 from cbrcore.engine import Engine
 from cbrcore.plugins import Plugins
+from repo_paths import ROOT
 
 Cell = tuple[int, int]
 SQRT2 = math.sqrt(2.0)
-CONFIG = Path(__file__).resolve().parents[1] / "configs" / "nonholonomic.yaml"
+CONFIG = ROOT / "configs" / "nonholonomic.yaml"
 SMALL = ["world.width=60", "world.height=60", "workload.count=60", "casebase=memory"]
 
 # The compass written out again, so the checker does not lean on cbr_grid.directions:
@@ -495,12 +496,12 @@ def test_the_nonholonomic_config_proposes_only_drivable_paths(
 
 @pytest.mark.usefixtures("every_plugin")
 def test_a_constrained_model_with_another_connector_is_a_config_error(
-        cbr_cli: Callable[..., Any], tmp_path: Path) -> None:
+        invoke_cbr: Callable[..., Any], tmp_path: Path) -> None:
     overrides = ("--set", "kinematics=forward", "--set", "reuse.connector=astar")
-    checked = cbr_cli("validate", str(CONFIG), *overrides)
+    checked = invoke_cbr("validate", str(CONFIG), *overrides)
     assert checked.exit_code == 2
     assert "connector" in checked.stderr and "'forward'" in checked.stderr
-    result = cbr_cli("run", str(CONFIG), "--out", str(tmp_path / "out"), *overrides,
+    result = invoke_cbr("run", str(CONFIG), "--out", str(tmp_path / "out"), *overrides,
                      "--set", "workload.count=3")
     assert result.exit_code == 2
     assert "connector" in result.stderr and "'forward'" in result.stderr

@@ -12,7 +12,6 @@ path (the planner cuts loops out of it) and no less than the map's optimum.
 from __future__ import annotations
 
 import itertools
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -33,9 +32,10 @@ from cbr_grid.query import without_loops
 from cbr_solvers.aistar import cost_map
 from cbr_solvers.search import dijkstra
 from cbrcore.engine import Engine
+from repo_paths import ROOT
 
 Cell = tuple[int, int]
-CONFIG = Path(__file__).resolve().parents[1] / "configs" / "hybrid_grid.yaml"
+CONFIG = ROOT / "configs" / "hybrid_grid.yaml"
 
 
 @st.composite

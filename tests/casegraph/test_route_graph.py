@@ -3,7 +3,7 @@
 Nav2's own route graphs (tests/data/ros: the depot's, and the sample with metadata and
 operations) import into a case graph and export back equal; a graph learned on the depot
 exports as a route graph that seeds a fresh run. Bad route graphs are rows of
-tests/test_bad_inputs.py.
+tests/cli/test_bad_inputs.py.
 """
 
 from __future__ import annotations
@@ -21,10 +21,10 @@ from cbr_casegraph.route_graph import OWN
 from cbr_stores.sqlite import SQLiteStore
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult
+from repo_paths import ROOT
 
 Cli = Callable[..., CliResult]
 
-ROOT = Path(__file__).resolve().parents[1]
 ROS = ROOT / "tests" / "data" / "ros"
 CONFIG = ROOT / "configs" / "ros_depot_route.yaml"
 DEPOT_WORLD = f"{{use: map_file, path: {ROS / 'depot.yaml'}}}"
@@ -67,7 +67,7 @@ def _edges(data: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 @pytest.mark.parametrize("name", ["depot_graph", "sample_graph"])
-def test_nav2_route_graphs_import_and_export_back_equal(cbr_cli: Cli, tmp_path: Path,
+def test_nav2_route_graphs_import_and_export_back_equal(invoke_cbr: Cli, tmp_path: Path,
                                                         name: str) -> None:
     """Every node, edge, id, cost, metadata, operation and coordinate comes back; each edge
     gains the case graph's facts, a cost that is the octile length of its line of cells."""
@@ -76,10 +76,10 @@ def test_nav2_route_graphs_import_and_export_back_equal(cbr_cli: Cli, tmp_path: 
     source = ROS / f"{name}.geojson"
     casebase, back = tmp_path / "cb.sqlite", tmp_path / "back.geojson"
 
-    imported = cbr_cli("casebase", "import", str(casebase), str(source), "--world", world)
+    imported = invoke_cbr("casebase", "import", str(casebase), str(source), "--world", world)
     assert imported.exit_code == 0, imported
-    assert cbr_cli("casebase", "check", str(casebase)).stdout == "ok\n"
-    exported = cbr_cli("casebase", "export", str(casebase), "--world", world, "-o", str(back))
+    assert invoke_cbr("casebase", "check", str(casebase)).stdout == "ok\n"
+    exported = invoke_cbr("casebase", "export", str(casebase), "--world", world, "-o", str(back))
     assert exported.exit_code == 0, exported
 
     original = json.loads(source.read_text(encoding="utf-8"))
@@ -98,12 +98,12 @@ def test_nav2_route_graphs_import_and_export_back_equal(cbr_cli: Cli, tmp_path: 
         assert (facts["risk"], facts["uses"]) == (0.0, 0)
 
 
-def test_sample_graph_keeps_what_the_case_graph_has_no_use_for(cbr_cli: Cli,
+def test_sample_graph_keeps_what_the_case_graph_has_no_use_for(invoke_cbr: Cli,
                                                                tmp_path: Path) -> None:
     """Frames, costs, overridable, metadata and operations live in the case base, beside the
     segments, and the segments cover the straight line of every edge."""
     casebase = tmp_path / "cb.sqlite"
-    assert cbr_cli("casebase", "import", str(casebase), str(ROS / "sample_graph.geojson"),
+    assert invoke_cbr("casebase", "import", str(casebase), str(ROS / "sample_graph.geojson"),
                    "--world", _open_world(tmp_path)).exit_code == 0
     with SQLiteStore(casebase) as store:
         record = store.get_meta("casegraph.route")
@@ -126,14 +126,14 @@ def test_sample_graph_keeps_what_the_case_graph_has_no_use_for(cbr_cli: Cli,
     assert len(segments) == 12
 
 
-def test_a_route_graph_seeds_a_run_as_its_initial_case_base(cbr_cli: Cli,
+def test_a_route_graph_seeds_a_run_as_its_initial_case_base(invoke_cbr: Cli,
                                                              tmp_path: Path) -> None:
     """``casebase.initial`` reads a route graph on the run's map: trips between its nodes are
     planned through its segments from the first on."""
     out = tmp_path / "run"
     # beside the depot graph's nodes 1, 3 and 0
     places = "workload.places=[[0.6, 7.8], [7.6, 7.9], [0.6, 12.9]]"
-    result = cbr_cli("run", str(CONFIG), "--out", str(out), "--set", "workload.count=3",
+    result = invoke_cbr("run", str(CONFIG), "--out", str(out), "--set", "workload.count=3",
                      "--set", places,
                      "--set", f"casebase.initial={ROS / 'depot_graph.geojson'}")
     assert result.exit_code == 0, result
@@ -143,14 +143,14 @@ def test_a_route_graph_seeds_a_run_as_its_initial_case_base(cbr_cli: Cli,
 
 
 def test_a_graph_learned_on_the_depot_is_a_route_graph_that_seeds_a_fresh_run(
-        cbr_cli: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+        invoke_cbr: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Run the depot configuration briefly, export its case graph with --config (its world is
     the inflated depot), and start a fresh run from the export: every segment is an edge each
     way between nodes on its end cells, its cost at least its length in metres."""
     monkeypatch.chdir(tmp_path)
-    assert cbr_cli("run", str(CONFIG), "--set", "workload.count=4").exit_code == 0
+    assert invoke_cbr("run", str(CONFIG), "--set", "workload.count=4").exit_code == 0
     learned = tmp_path / "learned.geojson"
-    result = cbr_cli("casebase", "export", "--config", str(CONFIG), "--format", "nav2-route",
+    result = invoke_cbr("casebase", "export", "--config", str(CONFIG), "--format", "nav2-route",
                      "-o", str(learned))
     assert result.exit_code == 0, result
     with SQLiteStore(tmp_path / "runs" / "ros_depot_route" / "casebase.sqlite") as store:
@@ -174,7 +174,7 @@ def test_a_graph_learned_on_the_depot_is_a_route_graph_that_seeds_a_fresh_run(
     assert all(len(ways) == 2 for ways in drawn.values())
 
     fresh = tmp_path / "fresh"
-    result = cbr_cli("run", str(CONFIG), "--out", str(fresh), "--set", "workload.count=2",
+    result = invoke_cbr("run", str(CONFIG), "--out", str(fresh), "--set", "workload.count=2",
                      "--set", f"casebase.initial={learned}")
     assert result.exit_code == 0, result
     summary = json.loads((fresh / "summary.json").read_text(encoding="utf-8"))
@@ -182,8 +182,8 @@ def test_a_graph_learned_on_the_depot_is_a_route_graph_that_seeds_a_fresh_run(
     assert summary["from_casebase"] >= 1
 
 
-def test_formats_lists_the_route_graph_with_its_plugin(cbr_cli: Cli) -> None:
-    result = cbr_cli("casebase", "formats")
+def test_formats_lists_the_route_graph_with_its_plugin(invoke_cbr: Cli) -> None:
+    result = invoke_cbr("casebase", "formats")
     assert result.exit_code == 0
     lines = {line.split()[0]: line for line in result.stdout.splitlines()}
     assert list(lines) == ["yaml", "json", "nav2-route"]
@@ -191,28 +191,28 @@ def test_formats_lists_the_route_graph_with_its_plugin(cbr_cli: Cli) -> None:
     assert "needs a grid map with a metric frame" in lines["nav2-route"]
 
 
-def test_a_route_graph_is_not_appended(cbr_cli: Cli, tmp_path: Path) -> None:
-    result = cbr_cli("casebase", "import", str(tmp_path / "cb.sqlite"),
+def test_a_route_graph_is_not_appended(invoke_cbr: Cli, tmp_path: Path) -> None:
+    result = invoke_cbr("casebase", "import", str(tmp_path / "cb.sqlite"),
                      str(ROS / "depot_graph.geojson"), "--world", DEPOT_WORLD, "--append")
     assert result.exit_code == 2
     assert "a nav2-route document is a whole case base" in result.stderr
     assert not (tmp_path / "cb.sqlite").exists()
 
 
-def test_export_to_standard_output_and_an_unknown_format(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_export_to_standard_output_and_an_unknown_format(invoke_cbr: Cli, tmp_path: Path) -> None:
     """Standard output takes any format; a format nobody offers is named with those offered."""
     casebase = tmp_path / "cb.sqlite"
-    assert cbr_cli("casebase", "import", str(casebase), str(ROS / "depot_graph.geojson"),
+    assert invoke_cbr("casebase", "import", str(casebase), str(ROS / "depot_graph.geojson"),
                    "--world", DEPOT_WORLD).exit_code == 0
-    shown = cbr_cli("casebase", "export", str(casebase), "--format", "nav2-route", "--world",
+    shown = invoke_cbr("casebase", "export", str(casebase), "--format", "nav2-route", "--world",
                     DEPOT_WORLD)
     assert shown.exit_code == 0
     assert len(_points(json.loads(shown.stdout))) == 34
-    unknown = cbr_cli("casebase", "export", str(casebase), "--format", "geojson")
+    unknown = invoke_cbr("casebase", "export", str(casebase), "--format", "geojson")
     assert unknown.exit_code == 2
     assert ("no case base format is called 'geojson'; expected one of: yaml, json, nav2-route "
             "(casegraph)") in unknown.stderr
-    needless = cbr_cli("casebase", "export", str(casebase), "--world", DEPOT_WORLD)
+    needless = invoke_cbr("casebase", "export", str(casebase), "--world", DEPOT_WORLD)
     assert needless.exit_code == 2 and "the yaml format needs no world" in needless.stderr
 
 
@@ -232,17 +232,17 @@ def _components(pairs: list[tuple[Any, Any]]) -> int:
     return len({root(x) for x in parent})
 
 
-def test_what_a_seeded_run_learns_is_reached_from_the_route_graph(cbr_cli: Cli,
+def test_what_a_seeded_run_learns_is_reached_from_the_route_graph(invoke_cbr: Cli,
                                                                   tmp_path: Path) -> None:
     """A run seeded with the depot graph learns paths that meet its edges inside their lines;
     the export joins them there, so its route graph is in as many connected pieces as the case
     graph. The given edges come back in their order, but for those whose line the run forgot
     in part (``risky_segments`` forgets the segments of the staircases close to the shelves)."""
     out = tmp_path / "run"
-    assert cbr_cli("run", str(CONFIG), "--out", str(out), "--set",
+    assert invoke_cbr("run", str(CONFIG), "--out", str(out), "--set",
                    f"casebase.initial={ROS / 'depot_graph.geojson'}").exit_code == 0
     learned = tmp_path / "learned.geojson"
-    assert cbr_cli("casebase", "export", str(out / "casebase.sqlite"), "-o", str(learned),
+    assert invoke_cbr("casebase", "export", str(out / "casebase.sqlite"), "-o", str(learned),
                    "--world", DEPOT_WORLD).exit_code == 0
     with SQLiteStore(out / "casebase.sqlite") as store:
         segments = [(tuple(c.problem["a"]), tuple(c.problem["b"])) for c in store.cases("segment")]

@@ -28,12 +28,13 @@ from cbrcore.fingerprint import fingerprint
 from cbrcore.model import Case as StoredCase
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult
+from repo_paths import DATA, ROOT
 
 Cli = Callable[..., CliResult]
 
-HYBRID = Path(__file__).resolve().parents[1] / "configs" / "hybrid_grid.yaml"
+HYBRID = ROOT / "configs" / "hybrid_grid.yaml"
 # 604x307 cells of 0.05 m from the origin (0, 0): x 0 to 30.2 m, y 0 to 15.35 m
-DEPOT = Path(__file__).resolve().parent / "data" / "ros" / "depot.yaml"
+DEPOT = DATA / "ros" / "depot.yaml"
 DEPOT_SPAN = "did you mean --frame map? (the map's frame spans x 0 to 30.2 m and y 0 to 15.35 m)"
 ROS_WORLD = f"world: {{use: map_file, path: {DEPOT}"
 SECRET = "TOPSECRET password=hunter2\nTOPSECRET: second line\n"
@@ -67,16 +68,16 @@ Case = Callable[[Path, Cli], CliResult]
 
 def _run(extra: str) -> Case:
     """``cbr run`` of the hybrid configuration in tmp/a/b with the line ``extra``."""
-    def case(tmp: Path, cbr_cli: Cli) -> CliResult:
-        return cbr_cli("run", str(_config(tmp / "a" / "b", extra)), "--out", str(tmp / "out"))
+    def case(tmp: Path, invoke_cbr: Cli) -> CliResult:
+        return invoke_cbr("run", str(_config(tmp / "a" / "b", extra)), "--out", str(tmp / "out"))
 
     return case
 
 
 def _plan(*args: str) -> Case:
     """``cbr plan`` with ``args``, file names taken in tmp."""
-    def case(tmp: Path, cbr_cli: Cli) -> CliResult:
-        return cbr_cli("plan", *(str(tmp / a) if a.endswith((".txt", ".map", ".scen")) else a
+    def case(tmp: Path, invoke_cbr: Cli) -> CliResult:
+        return invoke_cbr("plan", *(str(tmp / a) if a.endswith((".txt", ".map", ".scen")) else a
                                  for a in args))
 
     return case
@@ -85,8 +86,8 @@ def _plan(*args: str) -> Case:
 def _plan_depot(*args: str) -> Case:
     """``cbr plan`` on the depot, a ROS map with a metric frame, with ``args``, file names
     ending in .txt taken in tmp."""
-    def case(tmp: Path, cbr_cli: Cli) -> CliResult:
-        return cbr_cli("plan", str(DEPOT), *(str(tmp / a) if a.endswith(".txt") else a
+    def case(tmp: Path, invoke_cbr: Cli) -> CliResult:
+        return invoke_cbr("plan", str(DEPOT), *(str(tmp / a) if a.endswith(".txt") else a
                                              for a in args))
 
     return case
@@ -94,8 +95,8 @@ def _plan_depot(*args: str) -> Case:
 
 def _cbr(*args: str) -> Case:
     """``cbr`` with ``args``, a map named ``small.map`` taken in tmp."""
-    def case(tmp: Path, cbr_cli: Cli) -> CliResult:
-        return cbr_cli(*(str(tmp / a) if a == "small.map" else a for a in args))
+    def case(tmp: Path, invoke_cbr: Cli) -> CliResult:
+        return invoke_cbr(*(str(tmp / a) if a == "small.map" else a for a in args))
 
     return case
 
@@ -112,13 +113,13 @@ def _of_world(tmp: Path, description: str) -> Path:
     return path
 
 
-def _run_in_another_world(tmp: Path, cbr_cli: Cli) -> CliResult:
+def _run_in_another_world(tmp: Path, invoke_cbr: Cli) -> CliResult:
     """The hybrid configuration (office 100x100, seed 7) on a case base of another office."""
     path = _of_world(tmp, "office 100x100, seed 1")
-    return _run(f"casebase: {{use: sqlite, path: {path}}}")(tmp, cbr_cli)
+    return _run(f"casebase: {{use: sqlite, path: {path}}}")(tmp, invoke_cbr)
 
 
-def _import_from_another_world(tmp: Path, cbr_cli: Cli) -> CliResult:
+def _import_from_another_world(tmp: Path, invoke_cbr: Cli) -> CliResult:
     """``import --append`` of a document recording another world than the case base's."""
     path = _of_world(tmp, "office 100x100, seed 1")
     other = fingerprint("test", "maze", "maze 64x64, seed 3")
@@ -126,16 +127,16 @@ def _import_from_another_world(tmp: Path, cbr_cli: Cli) -> CliResult:
     document.write_text(yaml.safe_dump({
         "format": "cbrcore-casebase", "schema": 1, "revision": 1,
         "meta": {"cbrcore.worlds": [other.to_data()]}, "cases": [{"problem": 1, "solution": 1}]}))
-    return cbr_cli("casebase", "import", str(path), str(document), "--append")
+    return invoke_cbr("casebase", "import", str(path), str(document), "--append")
 
 
-def _export_over_the_case_base(tmp: Path, cbr_cli: Cli) -> CliResult:
+def _export_over_the_case_base(tmp: Path, invoke_cbr: Cli) -> CliResult:
     """``export`` to the case base's own file, through a link; the case base keeps its case."""
     path = tmp / "cb.sqlite"
     with SQLiteStore(path) as store:
         store.add(StoredCase({"a": 1}, {"b": 2}))
     (tmp / "cb.json").symlink_to(path)
-    result = cbr_cli("casebase", "export", str(path), "-o", str(tmp / "cb.json"))
+    result = invoke_cbr("casebase", "export", str(path), "-o", str(tmp / "cb.json"))
     with SQLiteStore(path) as store:
         assert store.count() == 1
     path.unlink()  # the common check asserts that no case base is left behind
@@ -166,22 +167,22 @@ def _route(features: list[dict[str, Any]] | str, *args: str, document: str = "gr
     """``cbr casebase import`` into tmp's cb.sqlite of a route graph of ``features`` (or the
     text) written to ``document`` in tmp (a file already there is left as it is), on the depot
     or with ``args`` instead of ``--world``, with ``environ`` set."""
-    def case(tmp: Path, cbr_cli: Cli) -> CliResult:
+    def case(tmp: Path, invoke_cbr: Cli) -> CliResult:
         path = tmp / document
         if not path.exists():
             path.write_text(features if isinstance(features, str) else json.dumps(
                 {"type": "FeatureCollection", "features": features}), encoding="utf-8")
         given = [a.replace("small.map", str(tmp / "small.map")) for a in args]
         with mock.patch.dict(os.environ, environ or {}):
-            return cbr_cli("casebase", "import", str(tmp / "cb.sqlite"), str(path),
+            return invoke_cbr("casebase", "import", str(tmp / "cb.sqlite"), str(path),
                            *(given or ("--world", DEPOT_WORLD)))
 
     return case
 
 
-def _route_export_without_a_map(tmp: Path, cbr_cli: Cli) -> CliResult:
+def _route_export_without_a_map(tmp: Path, invoke_cbr: Cli) -> CliResult:
     """``cbr casebase export --format nav2-route`` of a case base, no map given."""
-    return cbr_cli("casebase", "export", str(tmp / "other.sqlite"), "--format", "nav2-route")
+    return invoke_cbr("casebase", "export", str(tmp / "other.sqlite"), "--format", "nav2-route")
 
 
 CASES = {
@@ -370,7 +371,7 @@ CASES |= {
 
 @pytest.mark.parametrize(("case", "message"), CASES.values(), ids=list(CASES))
 def test_a_bad_input_is_one_error_naming_the_place_without_its_content(
-        cbr_cli: Cli, tmp_path: Path, case: Case, message: str) -> None:
+        invoke_cbr: Cli, tmp_path: Path, case: Case, message: str) -> None:
     (tmp_path / "a" / "b").mkdir(parents=True)
     for name in ("secret.txt", "secret.map", "secret.grid", "secret.pgm", "secret.npy"):
         (tmp_path / name).write_text(SECRET, encoding="utf-8")
@@ -387,7 +388,7 @@ def test_a_bad_input_is_one_error_naming_the_place_without_its_content(
     (tmp_path / "deep.yaml").write_text("image: " + "[" * 20_000 + "]" * 20_000 + "\n",
                                         encoding="ascii")
 
-    result = case(tmp_path, cbr_cli)
+    result = case(tmp_path, invoke_cbr)
 
     assert result.exit_code == 2, result
     assert "Traceback" not in result.stderr
@@ -398,13 +399,13 @@ def test_a_bad_input_is_one_error_naming_the_place_without_its_content(
     assert not (tmp_path / "trace.jsonl").exists() and not (tmp_path / "cb.sqlite").exists()
 
 
-def test_an_absolute_output_path_may_leave_the_run_folder(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_an_absolute_output_path_may_leave_the_run_folder(invoke_cbr: Cli, tmp_path: Path) -> None:
     """Writing elsewhere is allowed when said explicitly, by an absolute path."""
     (tmp_path / "a" / "b").mkdir(parents=True)
     trace = tmp_path / "trace.jsonl"
     config = _config(tmp_path / "a" / "b", f"observers: [{{use: trace, file: {trace}}}]")
 
-    result = cbr_cli("validate", str(config))
+    result = invoke_cbr("validate", str(config))
 
     assert result.exit_code == 0, result
 
@@ -415,12 +416,12 @@ def test_an_absolute_output_path_may_leave_the_run_folder(cbr_cli: Cli, tmp_path
     ("experiment", "cbr-share", "--scheduler", "tcp://robot:hunter2@127.0.0.1:1"),
     ("validate", str(HYBRID), "--set", "seed=host=db user=robot password='hunter2 x'"),
 ], ids=["dsn alias under seed", "scheduler address", "conninfo under seed"])
-def test_no_message_shows_a_password(tmp_path: Path, cbr_cli: Cli, args: tuple[str, ...]
+def test_no_message_shows_a_password(tmp_path: Path, invoke_cbr: Cli, args: tuple[str, ...]
                                      ) -> None:
     (tmp_path / "alias.yaml").write_text(
         "casebase: {use: postgres, dsn: &x 'postgresql://robot:hunter2@db/cases'}\nseed: *x\n",
         encoding="utf-8")
-    result = cbr_cli(*(arg.format(tmp=tmp_path) for arg in args))
+    result = invoke_cbr(*(arg.format(tmp=tmp_path) for arg in args))
     assert result.exit_code == 2
     assert "hunter2" not in result.stdout + result.stderr
     assert "***" in result.stderr
@@ -437,7 +438,7 @@ def test_an_address_keeps_its_user_and_host_and_loses_its_password(user: str,
     assert shown == f"got 'postgresql://{user}:***@db:5432/cases'"
 
 
-def test_a_trace_never_appends_to_a_file_that_is_not_a_trace(cbr_cli: Cli,
+def test_a_trace_never_appends_to_a_file_that_is_not_a_trace(invoke_cbr: Cli,
                                                               tmp_path: Path) -> None:
     """A trace named like the run's own case base is refused before the run starts, and the case
     base is left as it was; an earlier trace is appended to."""
@@ -448,7 +449,7 @@ def test_a_trace_never_appends_to_a_file_that_is_not_a_trace(cbr_cli: Cli,
     before = casebase.read_bytes()
     config = _config(tmp_path / "a" / "b", f"observers: [{{use: trace, file: {casebase}}}]")
 
-    result = cbr_cli("run", str(config), "--out", str(tmp_path / "out"),
+    result = invoke_cbr("run", str(config), "--out", str(tmp_path / "out"),
                      "--set", f"casebase.path={casebase}")
 
     assert result.exit_code == 2, result
@@ -457,4 +458,4 @@ def test_a_trace_never_appends_to_a_file_that_is_not_a_trace(cbr_cli: Cli,
     trace = tmp_path / "earlier.jsonl"
     trace.write_text('{"step": 0}\n', encoding="utf-8")
     config = _config(tmp_path / "a" / "b", f"observers: [{{use: trace, file: {trace}}}]")
-    assert cbr_cli("validate", str(config)).exit_code == 0
+    assert invoke_cbr("validate", str(config)).exit_code == 0

@@ -31,11 +31,11 @@ import yaml
 from cbrcore.errors import CbrError
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult
+from repo_paths import ROOT
 
 Cli = Callable[..., CliResult]
 Case = Callable[[Path, Cli], CliResult]
 
-ROOT = Path(__file__).resolve().parents[1]
 LANDMARKS = ROOT / "configs" / "landmarks.yaml"
 ROS2005 = ROOT / "plugins" / "cbr_landmarks" / "cases" / "ros2005.yaml"
 RUPART = ROOT / "plugins" / "cbr_behaviors" / "cases" / "rupart.sexp"
@@ -401,10 +401,10 @@ CASES = {**{f"named pipe as {k}": v for k, v in FIFOS.items()}, **BOUNDS}
 
 @pytest.mark.parametrize(("case", "message"), CASES.values(), ids=list(CASES))
 def test_an_input_past_the_bounds_is_one_error_naming_the_limit(
-        cbr_cli: Cli, tmp_path: Path, case: Case, message: str | tuple[str, ...]) -> None:
+        invoke_cbr: Cli, tmp_path: Path, case: Case, message: str | tuple[str, ...]) -> None:
     _prepare(tmp_path)
 
-    result = _guarded(case, tmp_path, cbr_cli)
+    result = _guarded(case, tmp_path, invoke_cbr)
 
     assert result.exit_code == 2, result
     assert "Traceback" not in result.stderr
@@ -413,12 +413,12 @@ def test_an_input_past_the_bounds_is_one_error_naming_the_limit(
     assert "\x00" not in result.stdout + result.stderr
 
 
-def test_a_scheduler_address_of_another_service_is_refused(cbr_cli: Cli, tmp_path: Path,
+def test_a_scheduler_address_of_another_service_is_refused(invoke_cbr: Cli, tmp_path: Path,
                                                            not_dask: str) -> None:
     """A service that answers with something other than a Dask handshake (its first bytes
     read as Dask's byte count announce exabytes) is refused before distributed reads it."""
     result = _guarded(lambda tmp, cli: cli("experiment", "cbr-share", "--out", str(tmp / "out"),
-                                           "--scheduler", not_dask), tmp_path, cbr_cli)
+                                           "--scheduler", not_dask), tmp_path, invoke_cbr)
 
     assert result.exit_code == 2, result
     assert "Traceback" not in result.stderr
@@ -426,12 +426,12 @@ def test_a_scheduler_address_of_another_service_is_refused(cbr_cli: Cli, tmp_pat
             "(its first message is not a Dask handshake)") in result.stderr
 
 
-def test_a_device_and_a_folder_are_refused_as_inputs(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_a_device_and_a_folder_are_refused_as_inputs(invoke_cbr: Cli, tmp_path: Path) -> None:
     (tmp_path / "zero.map").symlink_to("/dev/zero")
     (tmp_path / "folder.map").mkdir()
 
-    device = cbr_cli("plan", str(tmp_path / "zero.map"), "--start", "0,0", "--goal", "1,1")
-    folder = cbr_cli("plan", str(tmp_path / "folder.map"), "--start", "0,0", "--goal", "1,1")
+    device = invoke_cbr("plan", str(tmp_path / "zero.map"), "--start", "0,0", "--goal", "1,1")
+    folder = invoke_cbr("plan", str(tmp_path / "folder.map"), "--start", "0,0", "--goal", "1,1")
 
     assert device.exit_code == folder.exit_code == 2
     assert "zero.map: cannot read: a character device, not a regular file" in device.stderr

@@ -183,10 +183,10 @@ def _write_files(tmp: Path) -> None:
 
 @pytest.mark.parametrize(("args", "message"), CASES.values(), ids=list(CASES))
 def test_a_file_of_the_wrong_shape_is_located_and_never_quoted(
-        cbr_cli: Cli, tmp_path: Path, args: tuple[str, ...], message: str) -> None:
+        invoke_cbr: Cli, tmp_path: Path, args: tuple[str, ...], message: str) -> None:
     _write_files(tmp_path)
 
-    result = cbr_cli(*(arg.format(tmp=tmp_path) for arg in args))
+    result = invoke_cbr(*(arg.format(tmp=tmp_path) for arg in args))
 
     assert result.exit_code == 2, result
     assert "Traceback" not in result.stderr
@@ -210,14 +210,14 @@ class Complains:
 
 
 @pytest.mark.parametrize("where", ["a setting", "a file name"])
-def test_quoted_text_keeps_its_colons_and_brackets(cbr_cli: Cli, tmp_path: Path,
+def test_quoted_text_keeps_its_colons_and_brackets(invoke_cbr: Cli, tmp_path: Path,
                                                    where: str) -> None:
     folder = tmp_path / (":x:[bold]d" if where == "a file name" else "plain")
     folder.mkdir()
     config = folder / "run.yaml"
     config.write_text(f"seed: '{VERBATIM}'\n", encoding="utf-8")
 
-    result = cbr_cli("validate", str(config))
+    result = invoke_cbr("validate", str(config))
 
     assert result.exit_code == 2
     assert f"{config}: 1 problem:" in result.stderr
@@ -229,11 +229,11 @@ def test_quoted_text_keeps_its_colons_and_brackets(cbr_cli: Cli, tmp_path: Path,
 
 
 def test_a_plugin_failure_is_listed_as_written(cbr_plugins: Callable[..., Plugins],
-                                               cbr_cli: Cli) -> None:
+                                               invoke_cbr: Cli) -> None:
     with pytest.warns(UserWarning, match="failed to register"):
         cbr_plugins(("complains", Complains()))
 
-    result = cbr_cli("plugins")
+    result = invoke_cbr("plugins")
 
     assert result.exit_code == 0
     assert (f"failed: plugin 'complains' failed to register: RuntimeError: {VERBATIM}"

@@ -268,10 +268,10 @@ def fill(store: CaseStore) -> None:
     store.set_meta("grid", {"size": 8})
 
 
-def test_info_on_a_registered_store(shelf: ShelfPlugin, cbr_cli: Cli) -> None:
+def test_info_on_a_registered_store(shelf: ShelfPlugin, invoke_cbr: Cli) -> None:
     fill(shelf.open(ShelfOptions("a"), None))
 
-    result = cbr_cli("casebase", "info", "--store", "{use: shelf, name: a}")
+    result = invoke_cbr("casebase", "info", "--store", "{use: shelf, name: a}")
 
     assert (result.exit_code, result.stderr) == (0, "")
     assert result.stdout.splitlines() == [
@@ -283,50 +283,50 @@ def test_info_on_a_registered_store(shelf: ShelfPlugin, cbr_cli: Cli) -> None:
         "world         none recorded",
         "shelf         a",
     ]
-    facts = json.loads(cbr_cli("casebase", "info", "--store", "{use: shelf, name: a}",
+    facts = json.loads(invoke_cbr("casebase", "info", "--store", "{use: shelf, name: a}",
                                "--json").stdout)
     assert facts == {"store": "shelf", "revision": 3, "cases": 3,
                      "kinds": {"case": 1, "vertex": 2}, "worlds": [], "shelf": "a"}
 
 
-def test_a_store_named_alone_has_its_default_options(shelf: ShelfPlugin, cbr_cli: Cli) -> None:
+def test_a_store_named_alone_has_its_default_options(shelf: ShelfPlugin, invoke_cbr: Cli) -> None:
     shelf.open(ShelfOptions("main"), None).add(Case(1, 1))
 
-    result = cbr_cli("casebase", "info", "--store", "shelf", "--json")
+    result = invoke_cbr("casebase", "info", "--store", "shelf", "--json")
 
     assert json.loads(result.stdout)["shelf"] == "main"
     assert json.loads(result.stdout)["cases"] == 1
 
 
-def test_export_and_import_through_a_registered_store(shelf: ShelfPlugin, cbr_cli: Cli,
+def test_export_and_import_through_a_registered_store(shelf: ShelfPlugin, invoke_cbr: Cli,
                                                       casebase: Path, tmp_path: Path) -> None:
     exported = tmp_path / "cb.yaml"
-    assert cbr_cli("casebase", "export", str(casebase), "-o", str(exported)).exit_code == 0
+    assert invoke_cbr("casebase", "export", str(casebase), "-o", str(exported)).exit_code == 0
 
-    result = cbr_cli("casebase", "import", "--store", "{use: shelf, name: copy}", str(exported))
+    result = invoke_cbr("casebase", "import", "--store", "{use: shelf, name: copy}", str(exported))
 
     assert (result.exit_code, result.stderr) == (0, "")
     assert result.stdout == "imported 3 cases into shelf 'copy' (revision 3)\n"
     with SQLiteStore(casebase, create=False) as original:
         assert shelf.shelves["copy"].cases() == original.cases()
         assert shelf.shelves["copy"].meta_items() == original.meta_items()
-    again = cbr_cli("casebase", "export", "--store", "{use: shelf, name: copy}")
-    assert again.stdout == cbr_cli("casebase", "export", str(casebase)).stdout
-    refused = cbr_cli("casebase", "import", "--store", "{use: shelf, name: copy}", str(exported))
+    again = invoke_cbr("casebase", "export", "--store", "{use: shelf, name: copy}")
+    assert again.stdout == invoke_cbr("casebase", "export", str(casebase)).stdout
+    refused = invoke_cbr("casebase", "import", "--store", "{use: shelf, name: copy}", str(exported))
     assert refused.exit_code == 2
     assert refused.stderr.startswith("error: shelf 'copy' already holds 3 cases")
 
 
-def test_check_on_a_registered_store(shelf: ShelfPlugin, cbr_cli: Cli) -> None:
+def test_check_on_a_registered_store(shelf: ShelfPlugin, invoke_cbr: Cli) -> None:
     fill(shelf.open(ShelfOptions("a"), None))
-    assert cbr_cli("casebase", "check", "--store", "{use: shelf, name: a}").stdout == "ok\n"
+    assert invoke_cbr("casebase", "check", "--store", "{use: shelf, name: a}").stdout == "ok\n"
 
     class Damaged(Shelf):
         def check(self) -> list[str]:
             return ["case 1: uses: expected a non-negative integer, got -1", "case 2: odd"]
 
     shelf.shelves["b"] = Damaged("b")
-    result = cbr_cli("casebase", "check", "--store", "{use: shelf, name: b}")
+    result = invoke_cbr("casebase", "check", "--store", "{use: shelf, name: b}")
     assert result.exit_code == 1
     assert result.stdout == ("shelf 'b': 2 problems:\n"
                              "  - case 1: uses: expected a non-negative integer, got -1\n"
@@ -334,20 +334,20 @@ def test_check_on_a_registered_store(shelf: ShelfPlugin, cbr_cli: Cli) -> None:
 
 
 def test_check_reports_a_case_base_its_store_finds_unusable(shelf: ShelfPlugin,
-                                                             cbr_cli: Cli) -> None:
+                                                             invoke_cbr: Cli) -> None:
     shelf.refuse["old"] = UnusableCaseBase("shelf 'old' has schema version 0")
 
-    checked = cbr_cli("casebase", "check", "--store", "{use: shelf, name: old}")
-    shown = cbr_cli("casebase", "info", "--store", "{use: shelf, name: old}")
+    checked = invoke_cbr("casebase", "check", "--store", "{use: shelf, name: old}")
+    shown = invoke_cbr("casebase", "info", "--store", "{use: shelf, name: old}")
 
     assert (checked.exit_code, checked.stdout) == (1, "shelf 'old' has schema version 0\n")
     assert (shown.exit_code, shown.stderr) == (2, "error: shelf 'old' has schema version 0\n")
 
 
-def test_a_store_failing_to_open_is_named(shelf: ShelfPlugin, cbr_cli: Cli) -> None:
+def test_a_store_failing_to_open_is_named(shelf: ShelfPlugin, invoke_cbr: Cli) -> None:
     shelf.refuse["jammed"] = RuntimeError("the shelf is jammed")
 
-    result = cbr_cli("casebase", "export", "--store", "{use: shelf, name: jammed}")
+    result = invoke_cbr("casebase", "export", "--store", "{use: shelf, name: jammed}")
 
     assert result.exit_code == 2
     assert result.stderr == ("error: casebase: plugin 'shelf' failed to build store 'shelf': "
@@ -355,20 +355,20 @@ def test_a_store_failing_to_open_is_named(shelf: ShelfPlugin, cbr_cli: Cli) -> N
 
 
 def test_describe_may_not_repeat_the_facts_of_every_store(shelf: ShelfPlugin,
-                                                          cbr_cli: Cli) -> None:
+                                                          invoke_cbr: Cli) -> None:
     class Boastful(Shelf):
         def describe(self) -> dict[str, JSON]:
             return {"revision": 99, "cases": 0}
 
     shelf.shelves["a"] = Boastful("a")
 
-    result = cbr_cli("casebase", "info", "--store", "{use: shelf, name: a}")
+    result = invoke_cbr("casebase", "info", "--store", "{use: shelf, name: a}")
 
     assert result.exit_code == 2
     assert "describe() repeats revision, cases, which cbr casebase info shows" in result.stderr
 
 
-def test_the_casebase_slot_of_a_configuration(shelf: ShelfPlugin, cbr_cli: Cli, casebase: Path,
+def test_the_casebase_slot_of_a_configuration(shelf: ShelfPlugin, invoke_cbr: Cli, casebase: Path,
                                               tmp_path: Path,
                                               monkeypatch: pytest.MonkeyPatch) -> None:
     folder = tmp_path / "configs"
@@ -380,11 +380,11 @@ def test_the_casebase_slot_of_a_configuration(shelf: ShelfPlugin, cbr_cli: Cli, 
     monkeypatch.chdir(tmp_path)
     shelf.open(ShelfOptions("b"), None).add(Case(1, 1))
 
-    from_file = json.loads(cbr_cli("casebase", "info", "--config", "configs/file.yaml",
+    from_file = json.loads(invoke_cbr("casebase", "info", "--config", "configs/file.yaml",
                                    "--json").stdout)
-    from_shelf = json.loads(cbr_cli("casebase", "info", "-c", "configs/shelf.yaml",
+    from_shelf = json.loads(invoke_cbr("casebase", "info", "-c", "configs/shelf.yaml",
                                     "--json").stdout)
-    default = json.loads(cbr_cli("casebase", "info", "-c", "configs/default.yaml",
+    default = json.loads(invoke_cbr("casebase", "info", "-c", "configs/default.yaml",
                                  "--json").stdout)
 
     assert (from_file["store"], from_file["cases"]) == ("sqlite", 3)
@@ -394,12 +394,12 @@ def test_the_casebase_slot_of_a_configuration(shelf: ShelfPlugin, cbr_cli: Cli, 
                        "worlds": []}
 
 
-def test_a_store_path_resolves_against_the_working_folder(cbr_cli: Cli, casebase: Path,
+def test_a_store_path_resolves_against_the_working_folder(invoke_cbr: Cli, casebase: Path,
                                                           monkeypatch: pytest.MonkeyPatch
                                                           ) -> None:
     monkeypatch.chdir(casebase.parent)
 
-    result = cbr_cli("casebase", "info", "--store", f"{{use: sqlite, path: {casebase.name}}}",
+    result = invoke_cbr("casebase", "info", "--store", f"{{use: sqlite, path: {casebase.name}}}",
                      "--json")
 
     assert json.loads(result.stdout)["path"] == str(casebase)
@@ -422,11 +422,11 @@ def test_a_store_path_resolves_against_the_working_folder(cbr_cli: Cli, casebase
     (("--config", "missing.yaml"), "missing.yaml: 1 problem:\n  - file not found"),
 ])
 def test_a_case_base_that_cannot_be_opened_is_one_clear_message(
-        shelf: ShelfPlugin, cbr_cli: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        shelf: ShelfPlugin, invoke_cbr: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
         args: tuple[str, ...], message: str) -> None:
     monkeypatch.chdir(tmp_path)
     for command in ("info", "check", "export"):
-        result = cbr_cli("casebase", command, *args)
+        result = invoke_cbr("casebase", command, *args)
 
         assert result.exit_code == 2, (command, result)
         assert message in result.stderr
@@ -434,41 +434,41 @@ def test_a_case_base_that_cannot_be_opened_is_one_clear_message(
     assert list(tmp_path.iterdir()) == []
 
 
-def test_import_names_a_missing_document(cbr_cli: Cli) -> None:
-    result = cbr_cli("casebase", "import", "--store", "memory")
+def test_import_names_a_missing_document(invoke_cbr: Cli) -> None:
+    result = invoke_cbr("casebase", "import", "--store", "memory")
 
     assert result.exit_code == 2
     assert "name the exported file to import" in result.stderr
 
 
-def test_a_missing_file_is_an_error_and_stays_missing(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_a_missing_file_is_an_error_and_stays_missing(invoke_cbr: Cli, tmp_path: Path) -> None:
     path = tmp_path / "none.sqlite"
     for command in ("info", "check", "export"):
-        result = cbr_cli("casebase", command, str(path))
+        result = invoke_cbr("casebase", command, str(path))
 
         assert (result.exit_code, result.stderr) == (2, f"error: no case base at {path}\n")
     assert list(tmp_path.iterdir()) == []
 
 
 def test_a_configuration_without_a_case_base_path_names_its_run_folders_file(
-        cbr_cli: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+        invoke_cbr: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     (tmp_path / "floor.yaml").write_text("seed: 3\ncasebase: sqlite\n", encoding="utf-8")
     monkeypatch.chdir(tmp_path)
     kept = tmp_path / "runs" / "floor" / "casebase.sqlite"
 
-    missing = cbr_cli("casebase", "info", "--config", "floor.yaml")
+    missing = invoke_cbr("casebase", "info", "--config", "floor.yaml")
 
     assert missing.exit_code == 2 and str(kept) in missing.stderr
     assert not kept.parent.exists()  # reading never creates the run folder or the file
     kept.parent.mkdir(parents=True)
     with SQLiteStore(kept) as store:
         store.add(Case(1, 1))
-    found = json.loads(cbr_cli("casebase", "info", "-c", "floor.yaml", "--json").stdout)
+    found = json.loads(invoke_cbr("casebase", "info", "-c", "floor.yaml", "--json").stdout)
     assert (found["store"], found["cases"], Path(found["path"])) == ("sqlite", 1, kept)
 
 
 def test_a_file_or_a_configurations_relative_path_names_the_file_runs_keep(
-        cbr_cli: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+        invoke_cbr: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     here = tmp_path / "here"
     here.mkdir()
     with SQLiteStore(tmp_path / "above.sqlite") as store:
@@ -482,8 +482,8 @@ def test_a_file_or_a_configurations_relative_path_names_the_file_runs_keep(
         store.add(Case(2, 2))
     monkeypatch.chdir(here)
 
-    above = json.loads(cbr_cli("casebase", "info", "../above.sqlite", "--json").stdout)
-    run = json.loads(cbr_cli("casebase", "info", "-c", "floor.yaml", "--json").stdout)
+    above = json.loads(invoke_cbr("casebase", "info", "../above.sqlite", "--json").stdout)
+    run = json.loads(invoke_cbr("casebase", "info", "-c", "floor.yaml", "--json").stdout)
 
     assert (Path(above["path"]), above["cases"]) == (tmp_path / "above.sqlite", 1)
     assert (Path(run["path"]), run["cases"]) == (kept, 2)
@@ -519,15 +519,15 @@ class FileShelfPlugin:
 
 
 def test_the_commands_ask_a_store_what_it_can_do_not_its_name(
-        tmp_path: Path, cbr_plugins: Callable[..., Plugins], cbr_cli: Cli) -> None:
+        tmp_path: Path, cbr_plugins: Callable[..., Plugins], invoke_cbr: Cli) -> None:
     plugin = FileShelfPlugin()
     cbr_plugins(("core", cbrcore.builtins), ("file_shelf", plugin))
     kept = tmp_path / "kept.yaml"
     kept.write_text("a case base file\n", encoding="utf-8")
     store = f"{{use: file_shelf, path: '{kept}'}}"
 
-    assert cbr_cli("casebase", "info", "--store", store).exit_code == 0
-    refused = cbr_cli("casebase", "export", "--store", store, "--output", str(kept))
+    assert invoke_cbr("casebase", "info", "--store", store).exit_code == 0
+    refused = invoke_cbr("casebase", "export", "--store", store, "--output", str(kept))
 
     # reading opens it read-only; an export over the file the store keeps is refused
     assert [options.read_only for options in plugin.opened] == [True, True]

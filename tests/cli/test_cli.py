@@ -35,6 +35,7 @@ from cbrcore.reference import config_reference
 from cbrcore.registry import Registry
 from cbrcore.testing import CliResult
 from conftest import installed_plugins
+from repo_paths import ROOT
 
 Cli = Callable[..., CliResult]
 REJECTED = "revision rejected: error 1 above 0.0"
@@ -181,10 +182,10 @@ def toy(load_toy: Callable[..., Plugins]) -> Plugins:
 
 
 @pytest.mark.usefixtures("toy")
-def test_run_writes_results_summary_and_manifest(cbr_cli: Cli, toy_config: Path,
+def test_run_writes_results_summary_and_manifest(invoke_cbr: Cli, toy_config: Path,
                                                  tmp_path: Path) -> None:
     out = tmp_path / "out"
-    result = cbr_cli("run", str(toy_config), "--out", str(out))
+    result = invoke_cbr("run", str(toy_config), "--out", str(out))
 
     assert result.exit_code == 0, result.stderr
     assert result.stderr == ""
@@ -235,9 +236,9 @@ def test_run_writes_results_summary_and_manifest(cbr_cli: Cli, toy_config: Path,
 
 
 @pytest.mark.usefixtures("toy")
-def test_run_applies_set_overrides(cbr_cli: Cli, toy_config: Path, tmp_path: Path) -> None:
+def test_run_applies_set_overrides(invoke_cbr: Cli, toy_config: Path, tmp_path: Path) -> None:
     out = tmp_path / "out"
-    result = cbr_cli("run", str(toy_config), "--out", str(out), "--set", "workload.count=12",
+    result = invoke_cbr("run", str(toy_config), "--out", str(out), "--set", "workload.count=12",
                      "-s", "forget.0.limit=2", "--set", "seed=11")
 
     assert result.exit_code == 0, result.stderr
@@ -255,10 +256,10 @@ def test_run_applies_set_overrides(cbr_cli: Cli, toy_config: Path, tmp_path: Pat
 
 
 @pytest.mark.usefixtures("toy")
-def test_trace_observer_writes_a_line_per_phase_call(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_trace_observer_writes_a_line_per_phase_call(invoke_cbr: Cli, tmp_path: Path) -> None:
     config = write(tmp_path / "traced.yaml", toy_domain.TOY_CONFIG + "observers: [trace]\n")
     out = tmp_path / "out"
-    result = cbr_cli("run", str(config), "--out", str(out), "--set", "workload.count=15")
+    result = invoke_cbr("run", str(config), "--out", str(out), "--set", "workload.count=15")
     assert result.exit_code == 0, result.stderr
 
     rows = read_rows(out / "results.csv")
@@ -284,8 +285,8 @@ def test_trace_observer_writes_a_line_per_phase_call(cbr_cli: Cli, tmp_path: Pat
 
 
 @pytest.mark.usefixtures("toy")
-def test_validate_lists_the_selected_components(cbr_cli: Cli, toy_config: Path) -> None:
-    result = cbr_cli("validate", str(toy_config))
+def test_validate_lists_the_selected_components(invoke_cbr: Cli, toy_config: Path) -> None:
+    result = invoke_cbr("validate", str(toy_config))
 
     assert result.exit_code == 0, result.stderr
     assert result.stdout.splitlines() == [
@@ -304,8 +305,8 @@ def test_validate_lists_the_selected_components(cbr_cli: Cli, toy_config: Path) 
 
 
 @pytest.mark.usefixtures("toy")
-def test_validate_applies_overrides(cbr_cli: Cli, toy_config: Path) -> None:
-    result = cbr_cli("validate", str(toy_config), "--set", "solver=exploding")
+def test_validate_applies_overrides(invoke_cbr: Cli, toy_config: Path) -> None:
+    result = invoke_cbr("validate", str(toy_config), "--set", "solver=exploding")
     assert result.exit_code == 0, result.stderr
     assert "  solver: exploding" in result.stdout.splitlines()
 
@@ -343,12 +344,12 @@ BAD_CONFIGS = {
 @pytest.mark.usefixtures("toy")
 @pytest.mark.parametrize("command", ["validate", "run"])
 @pytest.mark.parametrize(("text", "problem"), BAD_CONFIGS.values(), ids=BAD_CONFIGS.keys())
-def test_a_bad_configuration_is_one_clear_message(cbr_cli: Cli, tmp_path: Path, command: str,
+def test_a_bad_configuration_is_one_clear_message(invoke_cbr: Cli, tmp_path: Path, command: str,
                                                   text: str, problem: str) -> None:
     config = write(tmp_path / "bad.yaml", text)
 
     out = ["--out", str(tmp_path / "out")] if command == "run" else []
-    result = cbr_cli(command, str(config), *out)
+    result = invoke_cbr(command, str(config), *out)
 
     assert result.exit_code == 2
     assert result.stdout == ""
@@ -357,11 +358,11 @@ def test_a_bad_configuration_is_one_clear_message(cbr_cli: Cli, tmp_path: Path, 
 
 
 @pytest.mark.usefixtures("toy")
-def test_every_problem_is_reported_at_once(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_every_problem_is_reported_at_once(invoke_cbr: Cli, tmp_path: Path) -> None:
     text = _toy_with("radius: 1", "radius: true").replace("limit: 6", "limit: 2.5")
     config = write(tmp_path / "bad.yaml", text + "seed_: 1\n")
 
-    result = cbr_cli("validate", str(config))
+    result = invoke_cbr("validate", str(config))
 
     assert result.exit_code == 2
     assert result.stderr.splitlines()[0] == f"error: {config}: 3 problems:"
@@ -374,10 +375,10 @@ def test_every_problem_is_reported_at_once(cbr_cli: Cli, tmp_path: Path) -> None
 
 
 @pytest.mark.usefixtures("toy")
-def test_a_missing_file_is_one_clear_message(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_a_missing_file_is_one_clear_message(invoke_cbr: Cli, tmp_path: Path) -> None:
     missing = tmp_path / "nowhere.yaml"
     for args in (("validate", str(missing)), ("run", str(missing), "--out", str(tmp_path))):
-        result = cbr_cli(*args)
+        result = invoke_cbr(*args)
         assert result.exit_code == 2
         assert result.stderr == f"error: {missing}: 1 problem:\n  - file not found\n"
 
@@ -388,9 +389,9 @@ def test_a_missing_file_is_one_clear_message(cbr_cli: Cli, tmp_path: Path) -> No
     ("solver", "solve", "RuntimeError: planner crashed"),
 ])
 def test_a_plugin_raising_in_a_phase_is_named_with_the_phase(
-        cbr_cli: Cli, toy_config: Path, tmp_path: Path, slot: str, phase: str,
+        invoke_cbr: Cli, toy_config: Path, tmp_path: Path, slot: str, phase: str,
         message: str) -> None:
-    result = cbr_cli("run", str(toy_config), "--out", str(tmp_path / "out"),
+    result = invoke_cbr("run", str(toy_config), "--out", str(tmp_path / "out"),
                      "--set", f"{slot}=exploding")
 
     assert result.exit_code == 2
@@ -399,11 +400,11 @@ def test_a_plugin_raising_in_a_phase_is_named_with_the_phase(
 
 
 @pytest.mark.usefixtures("toy")
-def test_traceback_option_shows_where_an_error_came_from(cbr_cli: Cli, toy_config: Path,
+def test_traceback_option_shows_where_an_error_came_from(invoke_cbr: Cli, toy_config: Path,
                                                          tmp_path: Path) -> None:
     bad = write(tmp_path / "bad.yaml", _toy_with("radius: 1", "radius: -1"))
-    plain = cbr_cli("validate", str(bad))
-    traced = cbr_cli("--traceback", "validate", str(bad))
+    plain = invoke_cbr("validate", str(bad))
+    traced = invoke_cbr("--traceback", "validate", str(bad))
 
     assert plain.exit_code == traced.exit_code == 2
     assert "Traceback" not in plain.stderr
@@ -411,7 +412,7 @@ def test_traceback_option_shows_where_an_error_came_from(cbr_cli: Cli, toy_confi
     assert "cbrcore.errors.ConfigError" in traced.stderr
     assert traced.stderr.endswith(plain.stderr)
 
-    phase = cbr_cli("--traceback", "run", str(toy_config), "--out", str(tmp_path / "out"),
+    phase = invoke_cbr("--traceback", "run", str(toy_config), "--out", str(tmp_path / "out"),
                     "--set", "retrieve=exploding")
     assert phase.exit_code == 2
     # the component's own frame is shown, below the PhaseError that names it
@@ -430,9 +431,9 @@ def test_traceback_option_shows_where_an_error_came_from(cbr_cli: Cli, toy_confi
     (("reference", "everything"), "WHAT: 'everything' is not one of config, hooks, cli"),
     (("reference",), "Missing argument 'WHAT'"),
 ])
-def test_usage_errors_exit_with_code_2(cbr_cli: Cli, args: tuple[str, ...],
+def test_usage_errors_exit_with_code_2(invoke_cbr: Cli, args: tuple[str, ...],
                                        message: str) -> None:
-    result = cbr_cli(*args)
+    result = invoke_cbr(*args)
     assert result.exit_code == 2
     assert message in result.stderr
     assert "Traceback" not in result.stderr
@@ -475,8 +476,8 @@ def test_console_script_exits_2_without_traceback(cbr_script: str, tmp_path: Pat
 
 
 @pytest.mark.usefixtures("toy")
-def test_experiment_list_shows_name_plugin_and_summary(cbr_cli: Cli) -> None:
-    result = cbr_cli("experiment", "--list")
+def test_experiment_list_shows_name_plugin_and_summary(invoke_cbr: Cli) -> None:
+    result = invoke_cbr("experiment", "--list")
     assert result.exit_code == 0
     [line] = [line for line in result.stdout.splitlines() if "sum_of_squares" in line]
     assert "lab" in line
@@ -484,10 +485,10 @@ def test_experiment_list_shows_name_plugin_and_summary(cbr_cli: Cli) -> None:
 
 
 @pytest.mark.usefixtures("toy")
-def test_experiment_writes_results_table_figures_and_manifest(cbr_cli: Cli,
+def test_experiment_writes_results_table_figures_and_manifest(invoke_cbr: Cli,
                                                               tmp_path: Path) -> None:
     out = tmp_path / "exp"
-    result = cbr_cli("experiment", "sum_of_squares", "--size", "ci", "--out", str(out),
+    result = invoke_cbr("experiment", "sum_of_squares", "--size", "ci", "--out", str(out),
                      "--seed", "7")
 
     assert result.exit_code == 0, result.stderr
@@ -508,8 +509,8 @@ def test_experiment_writes_results_table_figures_and_manifest(cbr_cli: Cli,
 
 
 @pytest.mark.usefixtures("toy")
-def test_an_unknown_experiment_lists_the_registered_ones(cbr_cli: Cli, tmp_path: Path) -> None:
-    result = cbr_cli("experiment", "nope", "--size", "ci", "--out", str(tmp_path / "exp"))
+def test_an_unknown_experiment_lists_the_registered_ones(invoke_cbr: Cli, tmp_path: Path) -> None:
+    result = invoke_cbr("experiment", "nope", "--size", "ci", "--out", str(tmp_path / "exp"))
     assert result.exit_code == 2
     assert result.stderr == ("error: unknown experiment 'nope'; registered: sum_of_squares "
                              "(plugin lab)\n")
@@ -518,8 +519,8 @@ def test_an_unknown_experiment_lists_the_registered_ones(cbr_cli: Cli, tmp_path:
 # -- cbr reference and plugin commands ------------------------------------------------------
 
 
-def test_reference_config_documents_every_component(toy: Plugins, cbr_cli: Cli) -> None:
-    result = cbr_cli("reference", "config")
+def test_reference_config_documents_every_component(toy: Plugins, invoke_cbr: Cli) -> None:
+    result = invoke_cbr("reference", "config")
 
     assert result.exit_code == 0
     assert result.stdout == config_reference(toy.registry)
@@ -531,8 +532,8 @@ def test_reference_config_documents_every_component(toy: Plugins, cbr_cli: Cli) 
 
 
 @pytest.mark.usefixtures("toy")
-def test_reference_hooks_documents_every_hook(cbr_cli: Cli) -> None:
-    result = cbr_cli("reference", "hooks")
+def test_reference_hooks_documents_every_hook(invoke_cbr: Cli) -> None:
+    result = invoke_cbr("reference", "hooks")
 
     assert result.exit_code == 0
     lines = result.stdout.splitlines()
@@ -548,8 +549,8 @@ def test_reference_hooks_documents_every_hook(cbr_cli: Cli) -> None:
 
 
 @pytest.mark.usefixtures("toy")
-def test_reference_cli_documents_every_command_a_plugin_s_included(cbr_cli: Cli) -> None:
-    result = cbr_cli("reference", "cli")
+def test_reference_cli_documents_every_command_a_plugin_s_included(invoke_cbr: Cli) -> None:
+    result = invoke_cbr("reference", "cli")
 
     assert result.exit_code == 0
     lines = result.stdout.splitlines()
@@ -573,7 +574,7 @@ def test_reference_cli_documents_every_command_a_plugin_s_included(cbr_cli: Cli)
 
 
 def test_the_command_line_reference_is_current(cbr_plugins: Callable[..., Plugins],
-                                               cbr_cli: Cli,
+                                               invoke_cbr: Cli,
                                                monkeypatch: pytest.MonkeyPatch) -> None:
     """docs/reference/cli.md is ``cbr reference cli`` with the built-in plugins alone, whatever
     the width of the terminal (the page was written at the default)."""
@@ -584,35 +585,36 @@ def test_the_command_line_reference_is_current(cbr_plugins: Callable[..., Plugin
                                                       "CBR_STRICT_PLUGINS": "1"})
     assert sorted(p.name for p in plugins.loaded) == builtin
 
-    result = cbr_cli("reference", "cli")
+    result = invoke_cbr("reference", "cli")
 
     assert result.exit_code == 0, result
-    page = Path(__file__).resolve().parents[1] / "docs" / "reference" / "cli.md"
+    page = ROOT / "docs" / "reference" / "cli.md"
     assert page.read_text(encoding="utf-8") == result.stdout
 
 
 @pytest.mark.usefixtures("toy")
-def test_a_plugin_command_appears_and_runs(cbr_cli: Cli) -> None:
-    listing = cbr_cli("--help")
+def test_a_plugin_command_appears_and_runs(invoke_cbr: Cli) -> None:
+    listing = invoke_cbr("--help")
     assert listing.exit_code == 0
     assert "greet" in listing.stdout and "Greet a robot by name." in listing.stdout
 
-    assert cbr_cli("greet", "rover") == CliResult(0, "hello rover\n", "")
-    assert cbr_cli("greet", "rover", "--loud") == CliResult(0, "HELLO ROVER\n", "")
-    assert cbr_cli("refuse") == CliResult(2, "", "error: refused on purpose\n")
+    assert invoke_cbr("greet", "rover") == CliResult(0, "hello rover\n", "")
+    assert invoke_cbr("greet", "rover", "--loud") == CliResult(0, "HELLO ROVER\n", "")
+    assert invoke_cbr("refuse") == CliResult(2, "", "error: refused on purpose\n")
 
 
 @pytest.mark.usefixtures("toy")
-def test_a_command_leaving_through_sys_exit_keeps_its_exit_code(cbr_cli: Cli) -> None:
-    assert cbr_cli("leave", "3") == CliResult(3, "", "")
+def test_a_command_leaving_through_sys_exit_keeps_its_exit_code(invoke_cbr: Cli) -> None:
+    assert invoke_cbr("leave", "3") == CliResult(3, "", "")
     # as the interpreter does, a message makes exit code 1 and goes to stderr
-    assert cbr_cli("leave", "0") == CliResult(1, "", "leaving with a message\n")
+    assert invoke_cbr("leave", "0") == CliResult(1, "", "leaving with a message\n")
 
 
-def test_a_plugin_command_cannot_replace_a_builtin(load_toy: Callable[..., Plugins], cbr_cli: Cli,
-                                                   toy_config: Path, tmp_path: Path) -> None:
+def test_a_plugin_command_cannot_replace_a_builtin(load_toy: Callable[..., Plugins],
+                                                   invoke_cbr: Cli, toy_config: Path,
+                                                   tmp_path: Path) -> None:
     load_toy(("hijacker", Hijacker()))
-    result = cbr_cli("run", str(toy_config), "--out", str(tmp_path / "out"))
+    result = invoke_cbr("run", str(toy_config), "--out", str(tmp_path / "out"))
     assert result.exit_code == 0
     assert "hijacked" not in result.stdout
     assert result.stderr == ("warning: plugin 'hijacker' failed to add command 'run': the name "
@@ -621,9 +623,9 @@ def test_a_plugin_command_cannot_replace_a_builtin(load_toy: Callable[..., Plugi
 
 
 def test_cli_without_registered_plugins_uses_the_installed_ones(
-        cbr_plugins: Callable[..., Plugins], cbr_cli: Cli) -> None:
+        cbr_plugins: Callable[..., Plugins], invoke_cbr: Cli) -> None:
     cbr_plugins(entry_points=True)
-    data = json.loads(cbr_cli("plugins", "--json").stdout)
+    data = json.loads(invoke_cbr("plugins", "--json").stdout)
     assert [p["name"] for p in data["plugins"]] == installed_plugins()
     assert {"core", "observers"} <= set(installed_plugins())
 
@@ -634,7 +636,7 @@ def test_cli_without_registered_plugins_uses_the_installed_ones(
     (None, "schema version 99"),
 ], ids=["not-sqlite", "other-schema"])
 def test_run_refuses_an_unusable_case_base_and_leaves_it_as_it_was(
-        cbr_cli: Cli, toy_config: Path, tmp_path: Path, content: bytes | None,
+        invoke_cbr: Cli, toy_config: Path, tmp_path: Path, content: bytes | None,
         reason: str) -> None:
     """A corrupt file or one of another schema version stops the run with exit code 2, a message
     naming the file, and the file's bytes untouched."""
@@ -652,7 +654,7 @@ def test_run_refuses_an_unusable_case_base_and_leaves_it_as_it_was(
         path.write_bytes(content)
     before = path.read_bytes()
 
-    result = cbr_cli("run", str(toy_config), "--out", str(tmp_path / "out"),
+    result = invoke_cbr("run", str(toy_config), "--out", str(tmp_path / "out"),
                      "--set", f"casebase={{use: sqlite, path: {path}}}")
 
     assert result.exit_code == 2
@@ -663,25 +665,25 @@ def test_run_refuses_an_unusable_case_base_and_leaves_it_as_it_was(
 
 @pytest.mark.usefixtures("toy")
 def test_run_keeps_the_default_sqlite_case_base_in_a_new_output_folder(
-        cbr_cli: Cli, toy_config: Path, tmp_path: Path) -> None:
+        invoke_cbr: Cli, toy_config: Path, tmp_path: Path) -> None:
     """``casebase: sqlite`` without a path puts casebase.sqlite in the (new) output folder, holding
     what the run retained: every distinct x of the run that the limit of 6 kept."""
     out = tmp_path / "new" / "run"
-    result = cbr_cli("run", str(toy_config), "--out", str(out), "--set", "casebase=sqlite")
+    result = invoke_cbr("run", str(toy_config), "--out", str(out), "--set", "casebase=sqlite")
     assert result.exit_code == 0, result.stderr
 
     with (out / "results.csv").open(newline="") as handle:
         xs = [int(row["q_x"]) for row in csv.DictReader(handle)]
-    info = cbr_cli("casebase", "info", str(out / "casebase.sqlite"), "--json")
+    info = invoke_cbr("casebase", "info", str(out / "casebase.sqlite"), "--json")
     assert json.loads(info.stdout)["kinds"] == {toy_domain.KIND: min(6, len(set(xs)))}
 
 
 # -- conventions: version, help, metavars, completion ----------------------------------------
 
 
-def test_version_names_cbrcore_and_every_loaded_plugin(toy: Plugins, cbr_cli: Cli) -> None:
+def test_version_names_cbrcore_and_every_loaded_plugin(toy: Plugins, invoke_cbr: Cli) -> None:
     for option in ("--version", "-V"):
-        result = cbr_cli(option)
+        result = invoke_cbr(option)
         assert result.exit_code == 0, result.stderr
         lines = result.stdout.splitlines()
         python = sys.version.split()[0]
@@ -693,16 +695,16 @@ def test_version_names_cbrcore_and_every_loaded_plugin(toy: Plugins, cbr_cli: Cl
 
 
 def test_version_shows_the_distribution_of_installed_plugins(
-        cbr_plugins: Callable[..., Plugins], cbr_cli: Cli) -> None:
+        cbr_plugins: Callable[..., Plugins], invoke_cbr: Cli) -> None:
     cbr_plugins(entry_points=True)
-    lines = cbr_cli("-V").stdout.splitlines()
+    lines = invoke_cbr("-V").stdout.splitlines()
     assert f"  core{' ' * (len(max(installed_plugins(), key=len)) - 4)}  cbrcore " \
            f"{metadata.version('cbrcore')}" in lines
 
 
 @pytest.mark.usefixtures("toy")
-def test_cbr_alone_prints_help_and_succeeds(cbr_cli: Cli) -> None:
-    alone, helped, short = cbr_cli(), cbr_cli("--help"), cbr_cli("-h")
+def test_cbr_alone_prints_help_and_succeeds(invoke_cbr: Cli) -> None:
+    alone, helped, short = invoke_cbr(), invoke_cbr("--help"), invoke_cbr("-h")
     assert alone.exit_code == helped.exit_code == short.exit_code == 0
     assert alone.stdout.startswith("Usage: cbr [OPTIONS] COMMAND [ARGS]...")
     assert alone.stdout == helped.stdout == short.stdout
@@ -711,9 +713,9 @@ def test_cbr_alone_prints_help_and_succeeds(cbr_cli: Cli) -> None:
 
 @pytest.mark.parametrize("group", ["casebase", "sim", "map", "rupart"])
 def test_a_group_alone_prints_its_help_and_succeeds(group: str, cbr_plugins: Callable[..., Plugins],
-                                                    cbr_cli: Cli) -> None:
+                                                    invoke_cbr: Cli) -> None:
     cbr_plugins(entry_points=True)
-    alone, helped = cbr_cli(group), cbr_cli(group, "--help")
+    alone, helped = invoke_cbr(group), invoke_cbr(group, "--help")
     assert alone.exit_code == helped.exit_code == 0
     assert alone.stdout == helped.stdout
     assert alone.stdout.startswith(f"Usage: cbr {group} [OPTIONS] COMMAND [ARGS]...")
@@ -737,7 +739,7 @@ def _command_paths(command: Any, path: tuple[str, ...] = ()) -> Iterator[tuple[t
                    ("map", "show")}),
 ])
 def test_every_help_names_values_by_readable_metavars(
-        load_toy: Callable[..., Plugins], cbr_plugins: Callable[..., Plugins], cbr_cli: Cli,
+        load_toy: Callable[..., Plugins], cbr_plugins: Callable[..., Plugins], invoke_cbr: Cli,
         plugin_set: str, some_commands: set[tuple[str, ...]]) -> None:
     """Walk the whole command tree, the plugins' commands included: each command's -h is its
     --help, and neither shows a typed placeholder (``<int range>``) or a braced argument."""
@@ -750,9 +752,9 @@ def test_every_help_names_values_by_readable_metavars(
     tree = list(_command_paths(typer.main.get_command(build_app())))
     assert some_commands <= {path for path, _ in tree}
     for path, command in tree:
-        helped = cbr_cli(*path, "--help")
+        helped = invoke_cbr(*path, "--help")
         assert helped.exit_code == 0, (path, helped.stderr)
-        assert cbr_cli(*path, "-h") == helped
+        assert invoke_cbr(*path, "-h") == helped
         assert UNREADABLE.search(helped.stdout) is None, (path, helped.stdout)
         for param in command.params:
             metavar = param.metavar
@@ -773,15 +775,15 @@ def test_unreadable_shapes_are_recognised() -> None:
 
 
 @pytest.mark.usefixtures("toy")
-def test_help_lists_choices_and_the_registered_experiments(cbr_cli: Cli) -> None:
-    experiment = cbr_cli("experiment", "-h").stdout
+def test_help_lists_choices_and_the_registered_experiments(invoke_cbr: Cli) -> None:
+    experiment = invoke_cbr("experiment", "-h").stdout
     assert "Usage: cbr experiment [OPTIONS] [NAME]" in experiment
     assert re.search(r"--size \[ci\|full\] .*\[default: ci\]", " ".join(experiment.split()))
     assert experiment.splitlines()[-2:] == ["  Experiments:", "    sum_of_squares"]
-    reference = cbr_cli("reference", "-h").stdout
+    reference = invoke_cbr("reference", "-h").stdout
     assert "Usage: cbr reference [OPTIONS] WHAT" in reference
     assert "config:" in reference and "hooks:" in reference
-    run = cbr_cli("run", "-h").stdout
+    run = invoke_cbr("run", "-h").stdout
     assert "Usage: cbr run [OPTIONS] CONFIG" in run
     assert "-s, --set KEY.PATH=VALUE" in run
 
@@ -806,7 +808,7 @@ def test_the_bash_words_are_those_bash_hands_over() -> None:
 
 
 @pytest.fixture
-def completing(monkeypatch: pytest.MonkeyPatch, cbr_cli: Cli) -> Callable[..., list[str]]:
+def completing(monkeypatch: pytest.MonkeyPatch, invoke_cbr: Cli) -> Callable[..., list[str]]:
     """``completing("cbr run x.yaml --set ret")``: what bash completion offers for the last
     word of the line, through the ``_CBR_COMPLETE`` protocol the installed script uses: the
     words of :func:`bash_words` joined by newlines, as the script joins them. With
@@ -818,7 +820,7 @@ def completing(monkeypatch: pytest.MonkeyPatch, cbr_cli: Cli) -> Callable[..., l
         monkeypatch.setenv("_CBR_COMPLETE", "complete_bash")
         monkeypatch.setenv("COMP_WORDS", "\n".join(words))
         monkeypatch.setenv("COMP_CWORD", str(cword))
-        result = cbr_cli()
+        result = invoke_cbr()
         assert result.exit_code == 0, result.stderr
         return result.stdout.split()
 
@@ -862,14 +864,14 @@ def test_bash_without_the_split_completes_the_whole_word(
 @pytest.mark.usefixtures("toy")
 @pytest.mark.parametrize("shell", ["zsh", "fish"])
 def test_zsh_and_fish_complete_the_whole_word(shell: str, monkeypatch: pytest.MonkeyPatch,
-                                              cbr_cli: Cli) -> None:
+                                              invoke_cbr: Cli) -> None:
     """Zsh and fish keep ``KEY=VALUE`` one word and pass the line typed so far."""
 
     def complete(line: str) -> list[str]:
         monkeypatch.setenv("_CBR_COMPLETE", f"complete_{shell}")
         monkeypatch.setenv("_TYPER_COMPLETE_ARGS", line)
         monkeypatch.setenv("_TYPER_COMPLETE_FISH_ACTION", "get-args")
-        result = cbr_cli()
+        result = invoke_cbr()
         assert result.exit_code == 0, result.stderr
         if shell == "fish":  # one "value<TAB>help" line each
             return [row.split("\t")[0] for row in result.stdout.splitlines()]
@@ -905,10 +907,10 @@ def test_only_a_bash_request_for_a_split_value_is_recognised() -> None:
 
 @pytest.mark.usefixtures("toy")
 @pytest.mark.parametrize(("size", "n"), [((), 4), (("--size", "full"), 100)])
-def test_experiment_runs_at_ci_size_unless_told(cbr_cli: Cli, tmp_path: Path,
+def test_experiment_runs_at_ci_size_unless_told(invoke_cbr: Cli, tmp_path: Path,
                                                 size: tuple[str, ...], n: int) -> None:
     out = tmp_path / "exp"
-    result = cbr_cli("experiment", "sum_of_squares", *size, "--out", str(out))
+    result = invoke_cbr("experiment", "sum_of_squares", *size, "--out", str(out))
     assert result.exit_code == 0, result.stderr
     # the sum of the squares below n is (n - 1) n (2n - 1) / 6
     assert read_json(out / "results.json") == {"n": n, "sum_of_squares": (n - 1) * n * (2 * n - 1)
@@ -933,22 +935,22 @@ class Archive:
         registry.add("experiment", "long_winded", LongWinded)
 
 
-def test_piped_tables_keep_every_cell_whole(load_toy: Callable[..., Plugins], cbr_cli: Cli,
+def test_piped_tables_keep_every_cell_whole(load_toy: Callable[..., Plugins], invoke_cbr: Cli,
                                             monkeypatch: pytest.MonkeyPatch) -> None:
     load_toy(("archive", Archive()))
     monkeypatch.setenv("COLUMNS", "30")  # ignored: the output is not a terminal
-    listing = cbr_cli("experiment", "--list")
+    listing = invoke_cbr("experiment", "--list")
     assert listing.exit_code == 0
     [row] = [line for line in listing.stdout.splitlines() if "long_winded" in line]
     assert LONG_SUMMARY in row and "archive" in row
 
 
-def test_tables_fit_a_terminal(load_toy: Callable[..., Plugins], cbr_cli: Cli,
+def test_tables_fit_a_terminal(load_toy: Callable[..., Plugins], invoke_cbr: Cli,
                                monkeypatch: pytest.MonkeyPatch) -> None:
     load_toy(("archive", Archive()))
     monkeypatch.setenv("TTY_COMPATIBLE", "1")  # rich's way to say the output is a terminal
     monkeypatch.setenv("COLUMNS", "60")
-    listing = cbr_cli("experiment", "--list")
+    listing = invoke_cbr("experiment", "--list")
     assert listing.exit_code == 0
     lines = re.sub(r"\x1b\[[0-9;]*m", "", listing.stdout).splitlines()
     assert max(len(line) for line in lines) <= 60
@@ -957,9 +959,9 @@ def test_tables_fit_a_terminal(load_toy: Callable[..., Plugins], cbr_cli: Cli,
 
 
 @pytest.mark.usefixtures("toy")
-def test_run_json_prints_the_summary(cbr_cli: Cli, toy_config: Path, tmp_path: Path) -> None:
+def test_run_json_prints_the_summary(invoke_cbr: Cli, toy_config: Path, tmp_path: Path) -> None:
     out = tmp_path / "out"
-    result = cbr_cli("run", str(toy_config), "--out", str(out), "--json")
+    result = invoke_cbr("run", str(toy_config), "--out", str(out), "--json")
     assert result.exit_code == 0, result.stderr
     printed = json.loads(result.stdout)
     assert printed == read_json(out / "summary.json")
@@ -967,8 +969,8 @@ def test_run_json_prints_the_summary(cbr_cli: Cli, toy_config: Path, tmp_path: P
 
 
 @pytest.mark.usefixtures("toy")
-def test_validate_json_prints_the_resolved_components(cbr_cli: Cli, toy_config: Path) -> None:
-    result = cbr_cli("validate", str(toy_config), "--json", "--set", "forget.0.limit=4")
+def test_validate_json_prints_the_resolved_components(invoke_cbr: Cli, toy_config: Path) -> None:
+    result = invoke_cbr("validate", str(toy_config), "--json", "--set", "forget.0.limit=4")
     assert result.exit_code == 0, result.stderr
     printed = json.loads(result.stdout)
     assert printed["config"] == str(toy_config)
@@ -981,8 +983,8 @@ def test_validate_json_prints_the_resolved_components(cbr_cli: Cli, toy_config: 
 
 
 @pytest.mark.usefixtures("toy")
-def test_experiment_list_json(cbr_cli: Cli) -> None:
-    result = cbr_cli("experiment", "--list", "--json")
+def test_experiment_list_json(invoke_cbr: Cli) -> None:
+    result = invoke_cbr("experiment", "--list", "--json")
     assert result.exit_code == 0, result.stderr
     assert json.loads(result.stdout) == {"experiments": [
         {"name": "sum_of_squares", "plugin": "lab",
@@ -994,10 +996,10 @@ def test_experiment_list_json(cbr_cli: Cli) -> None:
 
 @pytest.mark.usefixtures("toy")
 @pytest.mark.parametrize("command", ["validate", "run"])
-def test_a_bad_set_value_names_the_option(cbr_cli: Cli, toy_config: Path, tmp_path: Path,
+def test_a_bad_set_value_names_the_option(invoke_cbr: Cli, toy_config: Path, tmp_path: Path,
                                           command: str) -> None:
     out = ["--out", str(tmp_path / "out")] if command == "run" else []
-    result = cbr_cli(command, str(toy_config), *out, "--set", "retrieve.radius=-1",
+    result = invoke_cbr(command, str(toy_config), *out, "--set", "retrieve.radius=-1",
                      "--set", "workload={use: squares, count: x}")
     assert result.exit_code == 2
     assert result.stderr == (
@@ -1009,14 +1011,14 @@ def test_a_bad_set_value_names_the_option(cbr_cli: Cli, toy_config: Path, tmp_pa
 
 
 def test_a_default_store_from_an_unloaded_plugin_is_named(
-        cbr_plugins: Callable[..., Plugins], cbr_cli: Cli, tmp_path: Path) -> None:
+        cbr_plugins: Callable[..., Plugins], invoke_cbr: Cli, tmp_path: Path) -> None:
     """Without ``core``, a configuration that names no case base is told where its default
     store comes from, not shown an unknown 'memory' at a line the file does not have."""
     cbr_plugins(("toy", toy_domain))
     config = write(tmp_path / "bare.yaml", "# no case base named\n" + _toy_with(
         "casebase: memory\n", ""))
     for args in (("validate",), ("run", "--out", str(tmp_path / "out"))):
-        result = cbr_cli(args[0], str(config), *args[1:])
+        result = invoke_cbr(args[0], str(config), *args[1:])
         assert result.exit_code == 2
         assert result.stderr == (
             f"error: {config}: 1 problem:\n  - casebase: no case base is named, so the default "

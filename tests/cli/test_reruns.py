@@ -79,14 +79,14 @@ def contents(out: Path) -> dict[str, bytes | str]:
             for path in sorted(out.iterdir())}
 
 
-def test_a_rerun_continues_the_folder_and_says_so(cbr_cli: Cli, config: Path,
+def test_a_rerun_continues_the_folder_and_says_so(invoke_cbr: Cli, config: Path,
                                                   tmp_path: Path) -> None:
     out = tmp_path / "out"
-    first = cbr_cli("run", str(config), "--out", str(out))
+    first = invoke_cbr("run", str(config), "--out", str(out))
     assert first.exit_code == 0, first
     assert "continuing" not in first.stderr
 
-    second = cbr_cli("run", str(config), "--out", str(out))
+    second = invoke_cbr("run", str(config), "--out", str(out))
 
     assert second.exit_code == 0, second
     assert second.stderr == f"cbr run: continuing from {KEPT} cases in {out}\n"
@@ -102,14 +102,14 @@ def test_a_rerun_continues_the_folder_and_says_so(cbr_cli: Cli, config: Path,
     assert "continued" in second.stdout
 
 
-def test_fresh_empties_the_folder_after_saying_so(cbr_cli: Cli, config: Path,
+def test_fresh_empties_the_folder_after_saying_so(invoke_cbr: Cli, config: Path,
                                                   tmp_path: Path) -> None:
     out = tmp_path / "out"
     for _ in range(2):
-        assert cbr_cli("run", str(config), "--out", str(out)).exit_code == 0
+        assert invoke_cbr("run", str(config), "--out", str(out)).exit_code == 0
     (out / "notes.txt").write_text("kept", encoding="utf-8")
 
-    result = cbr_cli("run", str(config), "--out", str(out), "--fresh")
+    result = invoke_cbr("run", str(config), "--out", str(out), "--fresh")
 
     assert result.exit_code == 0, result
     assert result.stderr.startswith(
@@ -122,20 +122,20 @@ def test_fresh_empties_the_folder_after_saying_so(cbr_cli: Cli, config: Path,
     assert (out / "notes.txt").read_text(encoding="utf-8") == "kept"
 
 
-def test_fresh_into_an_empty_folder_removes_nothing(cbr_cli: Cli, config: Path,
+def test_fresh_into_an_empty_folder_removes_nothing(invoke_cbr: Cli, config: Path,
                                                     tmp_path: Path) -> None:
-    result = cbr_cli("run", str(config), "--out", str(tmp_path / "new"), "--fresh")
+    result = invoke_cbr("run", str(config), "--out", str(tmp_path / "new"), "--fresh")
     assert result.exit_code == 0, result
     assert result.stderr == ""
 
 
-def test_another_configuration_is_refused_and_nothing_is_lost(cbr_cli: Cli, config: Path,
+def test_another_configuration_is_refused_and_nothing_is_lost(invoke_cbr: Cli, config: Path,
                                                               tmp_path: Path) -> None:
     out = tmp_path / "out"
-    assert cbr_cli("run", str(config), "--out", str(out)).exit_code == 0
+    assert invoke_cbr("run", str(config), "--out", str(out)).exit_code == 0
     before = contents(out)
 
-    refused = cbr_cli("run", str(config), "--out", str(out), "--set", "workload.count=10")
+    refused = invoke_cbr("run", str(config), "--out", str(out), "--set", "workload.count=10")
 
     assert refused.exit_code == 2, refused
     assert "Traceback" not in refused.stderr
@@ -143,27 +143,27 @@ def test_another_configuration_is_refused_and_nothing_is_lost(cbr_cli: Cli, conf
     assert "--fresh" in refused.stderr
     assert contents(out) == before
 
-    fresh = cbr_cli("run", str(config), "--out", str(out), "--set", "workload.count=10",
+    fresh = invoke_cbr("run", str(config), "--out", str(out), "--set", "workload.count=10",
                     "--fresh")
     assert fresh.exit_code == 0, fresh
     assert len(rows(out)) == 10
 
 
 def test_a_manifest_without_its_fingerprint_is_compared_by_its_configuration(
-        cbr_cli: Cli, config: Path, tmp_path: Path) -> None:
+        invoke_cbr: Cli, config: Path, tmp_path: Path) -> None:
     """A folder written before manifests recorded the fingerprint is judged by the
     configuration the manifest holds."""
     out = tmp_path / "out"
-    assert cbr_cli("run", str(config), "--out", str(out)).exit_code == 0
+    assert invoke_cbr("run", str(config), "--out", str(out)).exit_code == 0
     manifest = json.loads((out / "manifest.json").read_text(encoding="utf-8"))
     del manifest["config_sha256"]
     (out / "manifest.json").write_text(json.dumps(manifest), encoding="utf-8")
 
-    assert cbr_cli("run", str(config), "--out", str(out)).exit_code == 0
+    assert invoke_cbr("run", str(config), "--out", str(out)).exit_code == 0
     assert len(rows(out)) == 60
     manifest["config"]["seed"] = 4
     (out / "manifest.json").write_text(json.dumps(manifest), encoding="utf-8")
-    assert cbr_cli("run", str(config), "--out", str(out)).exit_code == 2
+    assert invoke_cbr("run", str(config), "--out", str(out)).exit_code == 2
 
 
 PIPE, FOLDER = "<a named pipe>", "<a folder>"
@@ -197,7 +197,7 @@ BAD_FOLDERS = {
 
 @pytest.mark.parametrize(("files", "message"), BAD_FOLDERS.values(), ids=list(BAD_FOLDERS))
 def test_a_folder_that_cannot_be_continued_is_refused_untouched(
-        cbr_cli: Cli, config: Path, tmp_path: Path, files: dict[str, str],
+        invoke_cbr: Cli, config: Path, tmp_path: Path, files: dict[str, str],
         message: str) -> None:
     out = tmp_path / "out"
     out.mkdir()
@@ -210,7 +210,7 @@ def test_a_folder_that_cannot_be_continued_is_refused_untouched(
             (out / name).write_text(text, encoding="utf-8")
     before = contents(out)
 
-    result = cbr_cli("run", str(config), "--out", str(out))
+    result = invoke_cbr("run", str(config), "--out", str(out))
 
     assert result.exit_code == 2, result
     assert "Traceback" not in result.stderr
@@ -224,10 +224,10 @@ def test_a_folder_that_cannot_be_continued_is_refused_untouched(
 # -- progress on a stderr that is not a terminal -----------------------------------------------
 
 
-def test_a_run_writes_plain_progress_lines(cbr_cli: Cli, config: Path, tmp_path: Path,
+def test_a_run_writes_plain_progress_lines(invoke_cbr: Cli, config: Path, tmp_path: Path,
                                            monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("CBR_PROGRESS_SECONDS", "0")
-    result = cbr_cli("run", str(config), "--out", str(tmp_path / "out"))
+    result = invoke_cbr("run", str(config), "--out", str(tmp_path / "out"))
     assert result.exit_code == 0, result
     lines = result.stderr.splitlines()
     assert [line.split(",")[0] for line in lines] == [
@@ -236,19 +236,19 @@ def test_a_run_writes_plain_progress_lines(cbr_cli: Cli, config: Path, tmp_path:
 
 
 def test_an_experiment_writes_plain_progress_lines_with_its_total(
-        cbr_cli: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+        invoke_cbr: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("CBR_PROGRESS_SECONDS", "0")
-    result = cbr_cli("experiment", "counts", "--out", str(tmp_path / "out"))
+    result = invoke_cbr("experiment", "counts", "--out", str(tmp_path / "out"))
     assert result.exit_code == 0, result
     assert [line.split(",")[0] for line in result.stderr.splitlines()] == [
         f"cbr experiment counts: {done}/3 steps" for done in range(4)]
 
 
 @pytest.mark.parametrize("value", ["soon", "-1", "nan", "inf"])
-def test_a_bad_progress_interval_is_refused(cbr_cli: Cli, config: Path, tmp_path: Path,
+def test_a_bad_progress_interval_is_refused(invoke_cbr: Cli, config: Path, tmp_path: Path,
                                             monkeypatch: pytest.MonkeyPatch, value: str) -> None:
     monkeypatch.setenv("CBR_PROGRESS_SECONDS", value)
-    result = cbr_cli("run", str(config), "--out", str(tmp_path / "out"))
+    result = invoke_cbr("run", str(config), "--out", str(tmp_path / "out"))
     assert result.exit_code == 2, result
     assert "CBR_PROGRESS_SECONDS: expected a number of seconds >= 0" in result.stderr
     assert not (tmp_path / "out" / "results.csv").exists()

@@ -186,9 +186,9 @@ OUT_PROBLEMS = pytest.mark.parametrize("problem", [existing_file, below_a_file, 
 @OUT_PROBLEMS
 @pytest.mark.usefixtures("faults", "as_if_read_only")
 def test_run_refuses_an_unusable_out_folder(
-        problem: Callable[[Path], tuple[Path, str]], cbr_cli: Cli, tmp_path: Path) -> None:
+        problem: Callable[[Path], tuple[Path, str]], invoke_cbr: Cli, tmp_path: Path) -> None:
     out, why = problem(tmp_path)
-    result = cbr_cli("run", str(toy_config(tmp_path)), "--out", str(out))
+    result = invoke_cbr("run", str(toy_config(tmp_path)), "--out", str(out))
     assert_refused(result, f"output folder {out}: {why}", "expected a folder")
     assert not (out / "results.csv").exists()
     taken = tmp_path / "taken"
@@ -198,9 +198,9 @@ def test_run_refuses_an_unusable_out_folder(
 @OUT_PROBLEMS
 @pytest.mark.usefixtures("faults", "as_if_read_only")
 def test_experiment_refuses_an_unusable_out_folder(
-        problem: Callable[[Path], tuple[Path, str]], cbr_cli: Cli, tmp_path: Path) -> None:
+        problem: Callable[[Path], tuple[Path, str]], invoke_cbr: Cli, tmp_path: Path) -> None:
     out, why = problem(tmp_path)
-    result = cbr_cli("experiment", "tiny", "--size", "ci", "--out", str(out))
+    result = invoke_cbr("experiment", "tiny", "--size", "ci", "--out", str(out))
     assert_refused(result, f"output folder {out}: {why}", "expected a folder")
     assert not (out / "results.json").exists()
 
@@ -210,10 +210,10 @@ def test_experiment_refuses_an_unusable_out_folder(
 
 @pytest.mark.parametrize("value", [HUGE, f"-{HUGE}"])
 @pytest.mark.usefixtures("faults")
-def test_an_integer_beyond_int64_is_refused_at_validation(value: str, cbr_cli: Cli,
+def test_an_integer_beyond_int64_is_refused_at_validation(value: str, invoke_cbr: Cli,
                                                           tmp_path: Path) -> None:
     out = tmp_path / "out"
-    result = cbr_cli("run", str(toy_config(tmp_path)), "--out", str(out),
+    result = invoke_cbr("run", str(toy_config(tmp_path)), "--out", str(out),
                      "--set", f"workload.count={value}")
     assert_refused(result, "workload.count", f"expected an integer from {-2**63} to "
                    f"{2**63 - 1}, got {value}")
@@ -243,11 +243,11 @@ FAILURES = {
 @pytest.mark.parametrize("changes, message", FAILURES.values(), ids=FAILURES.keys())
 @pytest.mark.usefixtures("faults")
 def test_a_failing_plugin_leaves_rows_and_learn_steps_in_agreement(
-        changes: dict[str, Any], message: str, cbr_cli: Cli, tmp_path: Path) -> None:
+        changes: dict[str, Any], message: str, invoke_cbr: Cli, tmp_path: Path) -> None:
     """The run stops at the failing query with a message naming the plugin; results.csv has a
     row for each learn step the case base committed, and none for the failing query."""
     out = tmp_path / "out"
-    result = cbr_cli("run", str(toy_config(tmp_path, **changes)), "--out", str(out))
+    result = invoke_cbr("run", str(toy_config(tmp_path, **changes)), "--out", str(out))
     assert_refused(result, message)
     with (out / "results.csv").open(newline="", encoding="utf-8") as handle:
         rows = list(csv.DictReader(handle))
@@ -259,11 +259,11 @@ def test_a_failing_plugin_leaves_rows_and_learn_steps_in_agreement(
 
 
 @pytest.mark.usefixtures("faults")
-def test_metrics_are_measured_before_the_learn_step(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_metrics_are_measured_before_the_learn_step(invoke_cbr: Cli, tmp_path: Path) -> None:
     """A run whose plugins all work writes a row per learn step, its learn timings filled in
     although the metrics measured each query before its step."""
     out = tmp_path / "out"
-    result = cbr_cli("run", str(toy_config(tmp_path, metrics=["abs_error", "gauge"])),
+    result = invoke_cbr("run", str(toy_config(tmp_path, metrics=["abs_error", "gauge"])),
                      "--out", str(out))
     assert result.exit_code == 0, result.stderr
     with (out / "results.csv").open(newline="", encoding="utf-8") as handle:
@@ -278,23 +278,23 @@ def test_metrics_are_measured_before_the_learn_step(cbr_cli: Cli, tmp_path: Path
 
 @pytest.mark.parametrize("override", ["..=1", "a..b=1", ".seed=1", "seed.=1"])
 def test_an_override_with_an_empty_name_is_refused_naming_the_option(
-        override: str, cbr_cli: Callable[..., CliResult], tmp_path: Path) -> None:
+        override: str, invoke_cbr: Callable[..., CliResult], tmp_path: Path) -> None:
     config = tmp_path / "toy.yaml"
     config.write_text("seed: 1\n", encoding="utf-8")
 
-    result = cbr_cli("validate", str(config), "--set", override)
+    result = invoke_cbr("validate", str(config), "--set", override)
 
     assert result.exit_code == 2
     assert f"--set {override!r}: expected KEY.PATH=VALUE" in result.stderr
 
 
 def test_a_run_that_cannot_be_built_leaves_no_output_folder(
-        cbr_cli: Callable[..., CliResult], tmp_path: Path) -> None:
+        invoke_cbr: Callable[..., CliResult], tmp_path: Path) -> None:
     config = tmp_path / "bad.yaml"
     config.write_text("world: {use: map_file, path: missing.map}\n"
                       "workload: {use: trips, count: 1}\n", encoding="utf-8")
 
-    result = cbr_cli("run", str(config), "--out", str(tmp_path / "out"))
+    result = invoke_cbr("run", str(config), "--out", str(tmp_path / "out"))
 
     assert result.exit_code == 2 and "missing.map" in result.stderr
     assert not (tmp_path / "out").exists()

@@ -9,11 +9,11 @@ import json
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
+from repo_paths import ROOT
+
 HEAVY = ("numpy", "numba", "matplotlib", "scipy", "networkx")
 
 PROBE = """

@@ -51,8 +51,8 @@ from cbrcore.plugins import Plugins, load_plugins
 from cbrcore.registry import Registry
 from cbrcore.run import run_workload
 from cbrcore.workload import ClosedLoopWorkload, Decision, QueryWorkload, Session
+from repo_paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 GUIDE = ROOT / "docs" / "plugins.md"
 GUIDE_EXAMPLE = re.compile(r"^```python\n(# lane\.py\n.*?)^```$", re.S | re.M)
 

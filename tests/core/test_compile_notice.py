@@ -60,7 +60,7 @@ class NoticePlugin:
 
 @pytest.fixture
 def lane(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, cbr_plugins: Callable[..., object],
-         cbr_cli: Callable[..., CliResult]) -> Iterator[Callable[[], CliResult]]:
+         invoke_cbr: Callable[..., CliResult]) -> Iterator[Callable[[], CliResult]]:
     """``lane()`` runs the lane with the compiled solver, its kernel cached in tmp_path/cache
     (empty at first), a progress line after every query."""
     source = tmp_path / "src"
@@ -77,7 +77,7 @@ def lane(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, cbr_plugins: Callable[
     runs = iter(range(100))
 
     def run() -> CliResult:
-        return cbr_cli("run", str(config), "--out", str(tmp_path / f"run{next(runs)}"))
+        return invoke_cbr("run", str(config), "--out", str(tmp_path / f"run{next(runs)}"))
 
     yield run
     sys.modules.pop(KERNEL_MODULE, None)
@@ -131,12 +131,13 @@ def test_a_kernel_missing_from_a_filled_cache_is_announced_when_it_compiles(
 
 
 def test_a_configuration_without_kernels_is_announced_once_on_an_empty_cache(
-        lane: Callable[[], CliResult], tmp_path: Path, cbr_cli: Callable[..., CliResult]) -> None:
+        lane: Callable[[], CliResult], tmp_path: Path,
+        invoke_cbr: Callable[..., CliResult]) -> None:
     plain = tmp_path / "plain.yaml"
     plain.write_text(closed_loop_domain.LANE_CONFIG, encoding="utf-8")
 
     def run(name: str) -> CliResult:
-        done = cbr_cli("run", str(plain), "--out", str(tmp_path / name))
+        done = invoke_cbr("run", str(plain), "--out", str(tmp_path / name))
         assert done.exit_code == 0, done.stderr
         return done
 
@@ -150,11 +151,12 @@ def test_a_configuration_without_kernels_is_announced_once_on_an_empty_cache(
 
 
 def test_an_invalid_configuration_on_an_empty_cache_is_announced_before_its_error(
-        lane: Callable[[], CliResult], tmp_path: Path, cbr_cli: Callable[..., CliResult]) -> None:
+        lane: Callable[[], CliResult], tmp_path: Path,
+        invoke_cbr: Callable[..., CliResult]) -> None:
     broken = tmp_path / "broken.yaml"
     broken.write_text(CONFIG.replace("solver: compiled_margin", "solver: no_such_solver"),
                       encoding="utf-8")
-    done = cbr_cli("run", str(broken), "--out", str(tmp_path / "broken"))
+    done = invoke_cbr("run", str(broken), "--out", str(tmp_path / "broken"))
     assert done.exit_code == 2
     lines = done.stderr.splitlines()
     assert lines[0].startswith(NOTICE) and "no_such_solver" in done.stderr

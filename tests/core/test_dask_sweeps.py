@@ -23,12 +23,13 @@ from cbrcore.experiment import run_experiment
 from cbrcore.plugins import Plugins
 from cbrcore.tasks import DaskTasks, LocalTasks, TaskRunner, open_tasks
 from cbrcore.testing import CliResult
+from repo_paths import ROOT
 
 if importlib.util.find_spec("distributed") is None:
     pytest.skip("distributed is not installed", allow_module_level=True)
 
 _SWEEP = importlib.util.spec_from_file_location(
-    "experiment_sweep", Path(__file__).resolve().parents[1] / "benchmarks" / "experiment_sweep.py")
+    "experiment_sweep", ROOT / "benchmarks" / "experiment_sweep.py")
 assert _SWEEP is not None and _SWEEP.loader is not None
 sweep = importlib.util.module_from_spec(_SWEEP)
 with pytest.MonkeyPatch.context() as _patch:
@@ -55,10 +56,10 @@ def results(out: Path) -> dict[str, Any]:
 
 
 def test_ci_share_on_a_local_cluster_equals_the_serial_run(
-        cbr_cli: Callable[..., CliResult], tmp_path: Path) -> None:
-    serial = cbr_cli("experiment", "cbr-share", "--out", str(tmp_path / "serial"))
+        invoke_cbr: Callable[..., CliResult], tmp_path: Path) -> None:
+    serial = invoke_cbr("experiment", "cbr-share", "--out", str(tmp_path / "serial"))
     assert serial.exit_code == 0, serial.stderr
-    dask = cbr_cli("experiment", "cbr-share", "--out", str(tmp_path / "dask"),
+    dask = invoke_cbr("experiment", "cbr-share", "--out", str(tmp_path / "dask"),
                    "--scheduler", "local", "--workers", "2")
     assert dask.exit_code == 0, dask.stderr
     expected, found = results(tmp_path / "serial"), results(tmp_path / "dask")
@@ -69,14 +70,14 @@ def test_ci_share_on_a_local_cluster_equals_the_serial_run(
     assert manifest["tasks"] == "dask LocalCluster of 2 workers"
 
 
-def test_a_running_scheduler_by_its_address(cbr_cli: Callable[..., CliResult], tmp_path: Path,
+def test_a_running_scheduler_by_its_address(invoke_cbr: Callable[..., CliResult], tmp_path: Path,
                                             cluster: TaskRunner) -> None:
     # deviation-table measures no time: its whole results.json must be equal
     assert isinstance(cluster, DaskTasks)
     address = cluster.client.scheduler.address
-    serial = cbr_cli("experiment", "deviation-table", "--out", str(tmp_path / "serial"))
+    serial = invoke_cbr("experiment", "deviation-table", "--out", str(tmp_path / "serial"))
     assert serial.exit_code == 0, serial.stderr
-    remote = cbr_cli("experiment", "deviation-table", "--out", str(tmp_path / "remote"),
+    remote = invoke_cbr("experiment", "deviation-table", "--out", str(tmp_path / "remote"),
                      "--scheduler", address)
     assert remote.exit_code == 0, remote.stderr
     assert results(tmp_path / "remote") == results(tmp_path / "serial")
@@ -85,9 +86,9 @@ def test_a_running_scheduler_by_its_address(cbr_cli: Callable[..., CliResult], t
 
 
 @pytest.mark.parametrize("address", ["not an address", "nonsense://host:8786"])
-def test_a_malformed_address_is_a_usage_error(cbr_cli: Callable[..., CliResult],
+def test_a_malformed_address_is_a_usage_error(invoke_cbr: Callable[..., CliResult],
                                               tmp_path: Path, address: str) -> None:
-    result = cbr_cli("experiment", "cbr-share", "--out", str(tmp_path), "--scheduler", address)
+    result = invoke_cbr("experiment", "cbr-share", "--out", str(tmp_path), "--scheduler", address)
     assert result.exit_code == 2
     assert "--scheduler" in result.stderr and repr(address) in result.stderr
     assert "tcp://host:8786" in result.stderr
@@ -95,14 +96,14 @@ def test_a_malformed_address_is_a_usage_error(cbr_cli: Callable[..., CliResult],
     assert not (tmp_path / "results.json").exists()
 
 
-def test_an_address_where_no_scheduler_answers(cbr_cli: Callable[..., CliResult],
+def test_an_address_where_no_scheduler_answers(invoke_cbr: Callable[..., CliResult],
                                                tmp_path: Path,
                                                monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(tasks_module, "CONNECT_SECONDS", 1)
     with socket.socket() as probe:  # a port nothing listens on: bound, never listening
         probe.bind(("127.0.0.1", 0))
         address = f"tcp://127.0.0.1:{probe.getsockname()[1]}"
-        result = cbr_cli("experiment", "cbr-share", "--out", str(tmp_path),
+        result = invoke_cbr("experiment", "cbr-share", "--out", str(tmp_path),
                          "--scheduler", address)
     assert result.exit_code == 2
     assert f"--scheduler {address!r}: no Dask scheduler answered within 1 s" in result.stderr
@@ -111,9 +112,9 @@ def test_an_address_where_no_scheduler_answers(cbr_cli: Callable[..., CliResult]
 
 @pytest.mark.parametrize("args", [["--workers", "2"], ["--scheduler", "local", "--workers", "0"],
                                   ["--scheduler", "tcp://127.0.0.1:8786", "--workers", "2"]])
-def test_workers_goes_with_a_local_cluster_only(cbr_cli: Callable[..., CliResult],
+def test_workers_goes_with_a_local_cluster_only(invoke_cbr: Callable[..., CliResult],
                                                 tmp_path: Path, args: list[str]) -> None:
-    result = cbr_cli("experiment", "cbr-share", "--out", str(tmp_path), *args)
+    result = invoke_cbr("experiment", "cbr-share", "--out", str(tmp_path), *args)
     assert result.exit_code == 2
     assert "--workers" in result.stderr
 

@@ -21,9 +21,10 @@ from cbrcore.casebase.exchange import parse_document
 from cbrcore.documents import DocumentError, Limits, load_json, load_yaml
 from cbrcore.errors import CaseBaseError
 from cbrcore.testing import CliResult
+from repo_paths import ROOT
 
 Cli = Callable[..., CliResult]
-HYBRID = Path(__file__).parents[1] / "configs" / "hybrid_grid.yaml"
+HYBRID = ROOT / "configs" / "hybrid_grid.yaml"
 SEED_LINE = "seed: 7"
 INT64 = 2**63
 
@@ -85,11 +86,11 @@ def hybrid_with_seed(folder: Path, seed: str) -> Path:
 @pytest.mark.parametrize("command", ["validate", "run"])
 @pytest.mark.parametrize(("seed", "column", "alone", "problem"), BAD_SEEDS.values(),
                          ids=BAD_SEEDS.keys())
-def test_a_bad_configuration_file_is_refused(cbr_cli: Cli, in_tmp: Path, command: str,
+def test_a_bad_configuration_file_is_refused(invoke_cbr: Cli, in_tmp: Path, command: str,
                                              seed: str, column: int, alone: int,
                                              problem: str) -> None:
     path = hybrid_with_seed(in_tmp, seed)
-    expect_refusal(cbr_cli(command, str(path)),
+    expect_refusal(invoke_cbr(command, str(path)),
                    f"error: {path}: 1 problem:\n  - line 8, column {column}: {problem}")
     assert not (in_tmp / "runs").exists()
 
@@ -97,18 +98,18 @@ def test_a_bad_configuration_file_is_refused(cbr_cli: Cli, in_tmp: Path, command
 @pytest.mark.parametrize("command", ["validate", "run"])
 @pytest.mark.parametrize(("seed", "column", "alone", "problem"), BAD_SEEDS.values(),
                          ids=BAD_SEEDS.keys())
-def test_a_bad_set_value_is_refused(cbr_cli: Cli, in_tmp: Path, command: str, seed: str,
+def test_a_bad_set_value_is_refused(invoke_cbr: Cli, in_tmp: Path, command: str, seed: str,
                                     column: int, alone: int, problem: str) -> None:
-    result = cbr_cli(command, str(HYBRID), "--set", f"seed={seed}")
+    result = invoke_cbr(command, str(HYBRID), "--set", f"seed={seed}")
     expect_refusal(result, f"error: {HYBRID}: 1 problem:\n  - --set seed=...: the value is "
                            f"refused: line 1, column {alone}: {problem}")
     assert len(result.stderr) < 300  # a huge value is not echoed back
     assert not (in_tmp / "runs").exists()
 
 
-def test_a_store_given_on_the_command_line_is_read_within_the_limits(cbr_cli: Cli,
+def test_a_store_given_on_the_command_line_is_read_within_the_limits(invoke_cbr: Cli,
                                                                     in_tmp: Path) -> None:
-    result = cbr_cli("casebase", "info", "--store", f"{{use: sqlite, path: {laughs()}}}")
+    result = invoke_cbr("casebase", "info", "--store", f"{{use: sqlite, path: {laughs()}}}")
     expect_refusal(result, "error: --store: 1 problem:\n  - line 1, column ", ALIASES)
 
 
@@ -171,16 +172,16 @@ BAD_DOCUMENTS = {
 
 @pytest.mark.parametrize(("suffix", "text", "problem"), BAD_DOCUMENTS.values(),
                          ids=BAD_DOCUMENTS.keys())
-def test_a_bad_document_is_refused_by_import(cbr_cli: Cli, in_tmp: Path, suffix: str,
+def test_a_bad_document_is_refused_by_import(invoke_cbr: Cli, in_tmp: Path, suffix: str,
                                              text: str, problem: str) -> None:
     path = in_tmp / f"bad.{suffix}"
     path.write_text(text, encoding="utf-8")
-    result = cbr_cli("casebase", "import", "cb.sqlite", str(path))
+    result = invoke_cbr("casebase", "import", "cb.sqlite", str(path))
     expect_refusal(result, f"error: {path}", problem)
     assert list(in_tmp.iterdir()) == [path]  # no case base file is left behind
 
 
-def test_a_case_base_holds_integers_up_to_int64(cbr_cli: Cli, in_tmp: Path) -> None:
+def test_a_case_base_holds_integers_up_to_int64(invoke_cbr: Cli, in_tmp: Path) -> None:
     """The largest integer SQLite holds is accepted: the bound is exact."""
     largest = INT64 - 1
     edge = document(id=largest, uses=largest, revision=largest, created=largest,
@@ -191,8 +192,8 @@ def test_a_case_base_holds_integers_up_to_int64(cbr_cli: Cli, in_tmp: Path) -> N
     del edge["cases"][1]["id"]
     path = in_tmp / "edge.json"
     path.write_text(json.dumps(edge))
-    assert cbr_cli("casebase", "import", "cb.sqlite", str(path)).exit_code == 0
-    exported = json.loads(cbr_cli("casebase", "export", "cb.sqlite", "--format", "json").stdout)
+    assert invoke_cbr("casebase", "import", "cb.sqlite", str(path)).exit_code == 0
+    exported = json.loads(invoke_cbr("casebase", "export", "cb.sqlite", "--format", "json").stdout)
     assert (exported["revision"], exported["cases"][1]["uses"]) == (largest, largest)
 
 
@@ -206,22 +207,23 @@ def test_a_case_base_holds_integers_up_to_int64(cbr_cli: Cli, in_tmp: Path) -> N
     ("CBR_MAX_DOCUMENT_DEPTH", "1", "line 9, column 8: collections nested more than 1 levels "
                                     "deep (the limit, set by CBR_MAX_DOCUMENT_DEPTH)"),
 ])
-def test_the_limits_are_configurable(cbr_cli: Cli, in_tmp: Path,
+def test_the_limits_are_configurable(invoke_cbr: Cli, in_tmp: Path,
                                      monkeypatch: pytest.MonkeyPatch, variable: str, value: str,
                                      problem: str) -> None:
-    assert cbr_cli("validate", str(HYBRID)).exit_code == 0
+    assert invoke_cbr("validate", str(HYBRID)).exit_code == 0
     monkeypatch.setenv(variable, value)
-    expect_refusal(cbr_cli("validate", str(HYBRID)), f"error: {HYBRID}: 1 problem:\n  - {problem}")
+    expect_refusal(invoke_cbr("validate", str(HYBRID)),
+                   f"error: {HYBRID}: 1 problem:\n  - {problem}")
 
 
-def test_a_deeper_limit_admits_deeper_documents(cbr_cli: Cli, in_tmp: Path,
+def test_a_deeper_limit_admits_deeper_documents(invoke_cbr: Cli, in_tmp: Path,
                                                 monkeypatch: pytest.MonkeyPatch) -> None:
     path = in_tmp / "deep.json"
     path.write_text(json.dumps(document(problem=json.loads(nested(190)))))
-    expect_refusal(cbr_cli("casebase", "import", "cb.sqlite", str(path)), DEPTH)
+    expect_refusal(invoke_cbr("casebase", "import", "cb.sqlite", str(path)), DEPTH)
     monkeypatch.setenv("CBR_MAX_DOCUMENT_DEPTH", "200")
-    assert cbr_cli("casebase", "import", "cb.sqlite", str(path)).exit_code == 0
-    assert cbr_cli("casebase", "check", "cb.sqlite").exit_code == 0
+    assert invoke_cbr("casebase", "import", "cb.sqlite", str(path)).exit_code == 0
+    assert invoke_cbr("casebase", "check", "cb.sqlite").exit_code == 0
 
 
 @pytest.mark.parametrize(("variable", "value", "expected"), [
@@ -230,10 +232,10 @@ def test_a_deeper_limit_admits_deeper_documents(cbr_cli: Cli, in_tmp: Path,
     ("CBR_MAX_DOCUMENT_BYTES", "1e6", "expected a whole number of 1 or more, got '1e6'"),
     ("CBR_MAX_DOCUMENT_ALIAS_NODES", "-5", "expected a whole number of 1 or more, got '-5'"),
 ])
-def test_a_bad_limit_is_explained(cbr_cli: Cli, in_tmp: Path, monkeypatch: pytest.MonkeyPatch,
+def test_a_bad_limit_is_explained(invoke_cbr: Cli, in_tmp: Path, monkeypatch: pytest.MonkeyPatch,
                                   variable: str, value: str, expected: str) -> None:
     monkeypatch.setenv(variable, value)
-    expect_refusal(cbr_cli("validate", str(HYBRID)),
+    expect_refusal(invoke_cbr("validate", str(HYBRID)),
                    f"error: environment variable {variable}: {expected}")
 
 
@@ -295,12 +297,12 @@ def test_a_refused_document_is_a_case_base_error() -> None:
         parse_document(nested(101), "json", "doc")
 
 
-def test_import_reads_no_more_than_the_byte_limit(cbr_cli: Cli, in_tmp: Path,
+def test_import_reads_no_more_than_the_byte_limit(invoke_cbr: Cli, in_tmp: Path,
                                                   monkeypatch: pytest.MonkeyPatch) -> None:
     path = in_tmp / "big.json"
     path.write_text(json.dumps(document()))
     monkeypatch.setenv("CBR_MAX_DOCUMENT_BYTES", "100")
-    expect_refusal(cbr_cli("casebase", "import", "cb.sqlite", str(path)),
+    expect_refusal(invoke_cbr("casebase", "import", "cb.sqlite", str(path)),
                    f"error: {path}: the file is larger than 100 bytes (the limit, set by "
                    "CBR_MAX_DOCUMENT_BYTES)")
     assert list(in_tmp.iterdir()) == [path]

@@ -21,8 +21,8 @@ from cbr_grid.query import GridQuery
 from cbrcore import Engine, Outcome, hookimpl
 from cbrcore.errors import CbrError, ConfigError
 from cbrcore.plugins import Plugins, load_plugins
+from repo_paths import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = sorted((ROOT / "examples").glob("*.py"))
 
 

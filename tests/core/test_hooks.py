@@ -41,8 +41,8 @@ from cbrcore.plugins import Plugins, load_plugins, new_plugin_manager, use_plugi
 from cbrcore.reference import config_reference, hook_reference
 from cbrcore.registry import Registry
 from cbrcore.stash import StashKey
+from repo_paths import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 HOOKS_MD = ROOT / "docs" / "reference" / "hooks.md"
 CONFIGURATION_MD = ROOT / "docs" / "reference" / "configuration.md"
 SPECS = {name: function for name, function in vars(hookspecs).items()

@@ -347,18 +347,18 @@ def test_a_slot_is_unknown_without_the_plugin_declaring_it() -> None:
 
 
 def test_validate_lists_the_slot(cbr_plugins: Callable[..., Plugins],
-                                 cbr_cli: Callable[..., CliResult], tmp_path: Path) -> None:
+                                 invoke_cbr: Callable[..., CliResult], tmp_path: Path) -> None:
     cbr_plugins(("core", cbrcore.builtins), ("gauges", DeclaresAndRegisters()))
     path = tmp_path / "run.yaml"
     path.write_text("seed: 1\n", encoding="utf-8")
 
-    result = cbr_cli("validate", str(path), "--set", "gauge=precise")
+    result = invoke_cbr("validate", str(path), "--set", "gauge=precise")
 
     assert result.exit_code == 0, result.stderr
     assert result.stdout.splitlines() == [f"{path}: ok", "  seed: 1", "  casebase: memory",
                                           "  gauge: precise"]
     path.write_text("gauge: exact\n", encoding="utf-8")
-    refused = cbr_cli("validate", str(path))
+    refused = invoke_cbr("validate", str(path))
     assert refused.exit_code == 2
     assert refused.stderr == (f"error: {path}: 1 problem:\n  - gauge (line 1, column 8): "
                               "unknown gauge 'exact'; registered: plain (plugin gauges), "
@@ -366,13 +366,13 @@ def test_validate_lists_the_slot(cbr_plugins: Callable[..., Plugins],
 
 
 def test_cbr_plugins_shows_the_declared_kinds(cbr_plugins: Callable[..., Plugins],
-                                              cbr_cli: Callable[..., CliResult]) -> None:
+                                              invoke_cbr: Callable[..., CliResult]) -> None:
     cbr_plugins(("gauges", DeclaresAndRegisters()), ("toy", toy_domain))
 
-    data = json.loads(cbr_cli("plugins", "--json").stdout)
+    data = json.loads(invoke_cbr("plugins", "--json").stdout)
     assert [(p["name"], p["kinds"]) for p in data["plugins"]] == [("gauges", ["gauge"]),
                                                                   ("toy", [])]
-    rows = [line for line in cbr_cli("plugins").stdout.splitlines() if line.startswith("│ ")]
+    rows = [line for line in invoke_cbr("plugins").stdout.splitlines() if line.startswith("│ ")]
     assert rows[0].startswith("│ gauges ") and "│ gauge (slot" in rows[0]
 
 

@@ -116,12 +116,12 @@ def _config(folder: Path) -> Path:
 
 def test_a_named_component_is_imported_when_a_configuration_uses_it(
         named: Path, cbr_plugins: Callable[..., Plugins],
-        cbr_cli: Callable[..., CliResult]) -> None:
+        invoke_cbr: Callable[..., CliResult]) -> None:
     plugins = _load(cbr_plugins, NamedPlugin())
     assert f"{PACKAGE}.solvers" not in sys.modules
     assert "solver:offset" in plugins.info("named").components
 
-    done = cbr_cli("run", str(_config(named)), "--out", str(named / "run"))
+    done = invoke_cbr("run", str(_config(named)), "--out", str(named / "run"))
 
     assert done.exit_code == 0, done.stderr
     assert f"{PACKAGE}.solvers" in sys.modules
@@ -165,11 +165,11 @@ def test_its_hooks_are_listed_once_it_is_imported(
      "option 'gripper' refers to kind 'gripper', which no plugin declares"),
 ])
 def test_a_broken_named_component_fails_when_used_naming_its_plugin(
-        named: Path, cbr_plugins: Callable[..., Plugins], cbr_cli: Callable[..., CliResult],
+        named: Path, cbr_plugins: Callable[..., Plugins], invoke_cbr: Callable[..., CliResult],
         case: str, plugin: NamedPlugin, expected: str) -> None:
     _load(cbr_plugins, plugin)
 
-    done = cbr_cli("validate", str(_config(named)))
+    done = invoke_cbr("validate", str(_config(named)))
 
     assert done.exit_code == 2, case
     assert "plugin 'named': solver 'offset': " in done.stderr, done.stderr

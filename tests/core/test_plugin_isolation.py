@@ -22,9 +22,9 @@ import toy_domain
 from cbrcore.errors import PluginError, PluginWarning
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult
+from repo_paths import ROOT
 
 Cli = Callable[..., CliResult]
-ROOT = Path(__file__).resolve().parents[1]
 SOURCE = "cbr-broken 1.0"
 ALLOWED = "core,observers,solvers,world2d,broken,toy"
 
@@ -134,11 +134,11 @@ def _toy_config(tmp: Path) -> Path:
 @pytest.mark.parametrize("command", list(COMMANDS))
 def test_every_other_command_works_and_one_line_names_the_plugin(
         broken: tuple[Path, str, bool], command: str, cbr_plugins: Callable[..., Plugins],
-        cbr_cli: Cli, tmp_path: Path) -> None:
+        invoke_cbr: Cli, tmp_path: Path) -> None:
     _, message, _ = broken
     _load_warned(cbr_plugins, message)
 
-    result = cbr_cli(*COMMANDS[command](tmp_path))
+    result = invoke_cbr(*COMMANDS[command](tmp_path))
 
     assert result.exit_code == 0, result
     assert "Traceback" not in result.stderr and "hijacked" not in result.stdout
@@ -156,12 +156,12 @@ def test_every_other_command_works_and_one_line_names_the_plugin(
 @pytest.mark.parametrize("broken", list(CASES), indirect=True)
 def test_the_plugins_other_commands_still_join(broken: tuple[Path, str, bool],
                                                cbr_plugins: Callable[..., Plugins],
-                                               cbr_cli: Cli) -> None:
+                                               invoke_cbr: Cli) -> None:
     """A clash leaves out the one command; a failing ``cbr_cli`` adds none of the plugin's."""
     _, message, hello = broken
     _load_warned(cbr_plugins, message)
 
-    result = cbr_cli("hello")
+    result = invoke_cbr("hello")
 
     if hello:
         assert (result.exit_code, result.stdout) == (0, "hello from broken\n")
@@ -173,7 +173,7 @@ def test_the_plugins_other_commands_still_join(broken: tuple[Path, str, bool],
 @pytest.mark.parametrize("broken", list(CASES), indirect=True)
 def test_strict_plugins_make_the_failure_an_error(broken: tuple[Path, str, bool],
                                                   cbr_plugins: Callable[..., Plugins],
-                                                  cbr_cli: Cli) -> None:
+                                                  invoke_cbr: Cli) -> None:
     _, message, _ = broken
     if _at_load(message):  # strict loading refuses it before the command line
         with pytest.raises(PluginError, match=f"^{re.escape(message)}$"):
@@ -181,7 +181,7 @@ def test_strict_plugins_make_the_failure_an_error(broken: tuple[Path, str, bool]
         return
     _load(cbr_plugins, CBR_STRICT_PLUGINS="1")
 
-    result = cbr_cli("--version")
+    result = invoke_cbr("--version")
 
     assert result == CliResult(2, "", f"error: {message}\n")
 

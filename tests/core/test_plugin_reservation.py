@@ -229,11 +229,11 @@ class Warns:
 
 
 def test_the_cli_shows_a_plugin_warning_as_one_line_and_leaves_others_be(
-        cbr_plugins: Callable[..., Plugins], cbr_cli: Callable[..., CliResult]) -> None:
+        cbr_plugins: Callable[..., Plugins], invoke_cbr: Callable[..., CliResult]) -> None:
     cbr_plugins(("warns", Warns()))
 
     with pytest.warns(UserWarning, match="something else") as others:
-        result = cbr_cli("warn")
+        result = invoke_cbr("warn")
 
     assert result.exit_code == 0
     assert result.stderr == "warning: plugin 'x' from dist 1.0 failed to register: no\n"
@@ -267,7 +267,7 @@ def test_cbr_keeps_its_builtins_and_blames_the_rival_in_one_line(
 @pytest.mark.parametrize("order", list(ORDERS))
 def test_a_rivals_command_cannot_replace_a_builtin_plugins_command(
         order: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-        cbr_plugins: Callable[..., Plugins], cbr_cli: Callable[..., CliResult]) -> None:
+        cbr_plugins: Callable[..., Plugins], invoke_cbr: Callable[..., CliResult]) -> None:
     site = tmp_path / "site"
     info = site / "cbr_rival-1.0.dist-info"
     info.mkdir(parents=True)
@@ -288,7 +288,7 @@ def test_a_rivals_command_cannot_replace_a_builtin_plugins_command(
         loaded = cbr_plugins(entry_points=True)
         assert ORDERS[order] in {p.name for p in loaded.loaded}
 
-        shown = cbr_cli("plan", "--help")
+        shown = invoke_cbr("plan", "--help")
     finally:
         sys.modules.pop("cbr_test_rival_cli", None)
 

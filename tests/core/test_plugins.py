@@ -442,11 +442,11 @@ def test_a_code_plugin_cannot_take_a_builtin_component_name() -> None:
 
 
 def test_cli_plugins_json_lists_loaded_and_failed(
-        cbr_plugins: Callable[..., Plugins], cbr_cli: Callable[..., CliResult]) -> None:
+        cbr_plugins: Callable[..., Plugins], invoke_cbr: Callable[..., CliResult]) -> None:
     with pytest.warns(UserWarning):
         cbr_plugins(("good", Registers("one")), ("bad", Raising()))
 
-    result = cbr_cli("plugins", "--json")
+    result = invoke_cbr("plugins", "--json")
 
     assert result.exit_code == 0
     assert json.loads(result.stdout) == {
@@ -461,11 +461,11 @@ def test_cli_plugins_json_lists_loaded_and_failed(
 
 def test_cli_plugins_lists_broken_entry_points(
         broken_site: Path, cbr_plugins: Callable[..., Plugins],
-        cbr_cli: Callable[..., CliResult]) -> None:
+        invoke_cbr: Callable[..., CliResult]) -> None:
     with pytest.warns(UserWarning):
         cbr_plugins(entry_points=True, environ={"CBR_DISABLE_PLUGINS": "observers"})
 
-    data = json.loads(cbr_cli("plugins", "--json").stdout)
+    data = json.loads(invoke_cbr("plugins", "--json").stdout)
     broken = {"observers", "missing", "raising"}
     assert [p["name"] for p in data["plugins"]] == [
         n for n in installed_plugins() if n not in broken]
@@ -473,7 +473,7 @@ def test_cli_plugins_lists_broken_entry_points(
     assert {(f["name"], f["distribution"], f["version"], f["stage"]) for f in data["failed"]} == {
         ("missing", "cbr-missing", "1.0", "import"), ("raising", "cbr-raising", "2.0", "register")}
 
-    table = cbr_cli("plugins")
+    table = invoke_cbr("plugins")
     assert table.exit_code == 0
     assert ("failed: plugin 'raising' from cbr-raising 2.0 failed to register: ValueError: "
             "cannot find the robot") in table.stdout

@@ -160,14 +160,14 @@ def test_option_problems_come_before_reference_checks(registry: Registry) -> Non
 
 
 def test_validate_names_the_unknown_solver(cbr_plugins: Callable[..., Plugins],
-                                           cbr_cli: Callable[..., CliResult],
+                                           invoke_cbr: Callable[..., CliResult],
                                            tmp_path: Path) -> None:
     cbr_plugins(("toy", toy_domain), ("core", cbrcore.builtins), ("chain", ChainPlugin()))
     path = tmp_path / "run.yaml"
     path.write_text("seed: 1\nsolver: compute\nreuse:\n  use: chain\n  connector: astr\n",
                     encoding="utf-8")
 
-    result = cbr_cli("validate", str(path))
+    result = invoke_cbr("validate", str(path))
 
     assert result.exit_code == 2
     assert result.stderr == (f"error: {path}: 1 problem:\n  - reuse.connector (line 5, column "

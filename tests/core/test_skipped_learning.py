@@ -168,14 +168,14 @@ def test_a_run_records_skipped_steps_and_writes_their_rows_once_stored(
 
 
 def test_a_run_that_never_gets_the_lock_ends_and_says_what_it_could_not_learn(
-        cbr_cli: Cli, plugins: Plugins, tmp_path: Path, blocker: sqlite3.Connection) -> None:
+        invoke_cbr: Cli, plugins: Plugins, tmp_path: Path, blocker: sqlite3.Connection) -> None:
     config = tmp_path / "run.yaml"
     config.write_text(json.dumps({**CYCLE, "casebase": _stored(tmp_path / "cb.sqlite")}),
                       encoding="utf-8")
     SQLiteStore(tmp_path / "cb.sqlite").close()
     blocker.execute("BEGIN IMMEDIATE")
 
-    result = cbr_cli("run", str(config), "--out", str(tmp_path / "run"))
+    result = invoke_cbr("run", str(config), "--out", str(tmp_path / "run"))
 
     assert result.exit_code == 0, result
     assert "learn steps skipped (locked)" in result.stdout

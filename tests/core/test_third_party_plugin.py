@@ -24,7 +24,9 @@ from pathlib import Path
 
 import pytest
 
-SAMPLE = Path(__file__).parent / "sample_plugin"
+from repo_paths import ROOT
+
+SAMPLE = ROOT / "tests" / "sample_plugin"
 CONFIG = """\
 seed: 1
 workload: {use: corridor_trips, trips: [[0, 5], [1, 5], [0, 4], [9, 2]]}

@@ -3,6 +3,8 @@ reaches into another's private names."""
 
 from __future__ import annotations
 
+from repo_paths import ROOT
+
 import ast
 import shutil
 import subprocess
@@ -10,7 +12,6 @@ import sys
 import tomllib
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
 SOURCES = [ROOT / "cbrcore", *sorted((ROOT / "plugins").glob("cbr_*"))]
 PACKAGES = {path.name for path in SOURCES}
 

@@ -3,6 +3,8 @@ and a page that differs from its results fails ``benchmarks/figures.py --check``
 
 from __future__ import annotations
 
+from repo_paths import ROOT
+
 import csv
 import importlib
 import json
@@ -22,7 +24,6 @@ import pytest
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult
 
-ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = ROOT / "benchmarks" / "figures.py"
 
 
@@ -289,20 +290,20 @@ def every_plugin(cbr_plugins: Callable[..., Plugins]) -> Plugins:
 @pytest.mark.parametrize(("command", "shown"), _session_commands(),
                          ids=[c for c, _ in _session_commands()])
 def test_the_2d_world_page_shows_what_its_sim_commands_print(
-        cbr_cli: Callable[..., CliResult], tmp_path: Path, command: str,
+        invoke_cbr: Callable[..., CliResult], tmp_path: Path, command: str,
         shown: list[str]) -> None:
     args = shlex.split(command)[1:]
     if "--plot" in args:
         # the picture goes to a scratch folder; the page's picture is not rewritten here
         args[args.index("--plot") + 1] = str(tmp_path / "trial.png")
-    done = cbr_cli(*args)
+    done = invoke_cbr(*args)
     printed = (done.stdout + done.stderr).splitlines()
     assert [line for line in printed if not line.startswith("wrote ")] == [
         line for line in shown if not line.startswith("wrote ")]
 
 
-def _sim(cbr_cli: Callable[..., CliResult], *args: str) -> dict[str, Any]:
-    done = cbr_cli("sim", "run", *args, "--json")
+def _sim(invoke_cbr: Callable[..., CliResult], *args: str) -> dict[str, Any]:
+    done = invoke_cbr("sim", "run", *args, "--json")
     assert done.exit_code == 0, done.stderr
     result: dict[str, Any] = json.loads(done.stdout)
     return result
@@ -310,18 +311,18 @@ def _sim(cbr_cli: Callable[..., CliResult], *args: str) -> dict[str, Any]:
 
 @pytest.mark.usefixtures("every_plugin")
 def test_the_2d_world_page_figures_of_the_pilot_alone_and_the_pioneer(
-        cbr_cli: Callable[..., CliResult]) -> None:
+        invoke_cbr: Callable[..., CliResult]) -> None:
     """'With --rescue off the robot times out in both scenarios: in scenario 1 it stays in front
     of the obstacle (2.72 m driven in 300 s). A Pioneer 2 DX passes scenario 1 in 39.4 s and is
     trapped in scenario 2 like 002's robot.'"""
     text = " ".join(WORLD2D.read_text(encoding="utf-8").split())
     worlds = "plugins/cbr_world2d/worlds"
     places = ("--start", "start", "--target", "target")
-    alone = [_sim(cbr_cli, f"{worlds}/scenario{k}.yaml", *places, "--robot", "ros2005",
+    alone = [_sim(invoke_cbr, f"{worlds}/scenario{k}.yaml", *places, "--robot", "ros2005",
                   "--rescue", "off") for k in (1, 2)]
     assert [r["success"] for r in alone] == [False, False]
     assert f"({alone[0]['distance']:.2f} m driven in {alone[0]['time']:.0f} s)" in text
-    pioneer = [_sim(cbr_cli, f"{worlds}/scenario{k}.yaml", *places) for k in (1, 2)]
+    pioneer = [_sim(invoke_cbr, f"{worlds}/scenario{k}.yaml", *places) for k in (1, 2)]
     assert pioneer[0]["success"] and not pioneer[1]["success"]
     assert f"passes scenario 1 in {pioneer[0]['time']:.1f} s" in text
 
@@ -337,13 +338,13 @@ def _summary_rows(block: str) -> dict[str, str]:
 
 @pytest.mark.usefixtures("every_plugin")
 def test_the_2d_world_page_shows_what_its_trials_config_does(
-        cbr_cli: Callable[..., CliResult], tmp_path: Path) -> None:
+        invoke_cbr: Callable[..., CliResult], tmp_path: Path) -> None:
     """The summary table, the rows of trials.csv and results.csv and the figures of the prose
     about ``cbr run configs/world2d_trials.yaml``."""
     page = WORLD2D.read_text(encoding="utf-8")
     blocks = TEXT_BLOCK.findall(page)
     (summary,) = [b for b in blocks if b.startswith("$ cbr run configs/world2d_trials.yaml")]
-    done = cbr_cli("run", str(ROOT / "configs" / "world2d_trials.yaml"), "--out",
+    done = invoke_cbr("run", str(ROOT / "configs" / "world2d_trials.yaml"), "--out",
                    str(tmp_path))
     assert done.exit_code == 0, done.stderr
     ours, shown = _summary_rows(done.stdout), _summary_rows(summary)
@@ -371,11 +372,11 @@ def _words(page: str) -> str:
     return " ".join((ROOT / "docs" / page).read_text(encoding="utf-8").split())
 
 
-def _run(cbr_cli: Callable[..., CliResult], out: Path, config: str, *sets: str
+def _run(invoke_cbr: Callable[..., CliResult], out: Path, config: str, *sets: str
          ) -> tuple[dict[str, Any], list[dict[str, str]]]:
     """Run ``configs/<config>`` into ``out``; its summary and the rows of its results.csv."""
     overrides = [arg for value in sets for arg in ("--set", value)]
-    done = cbr_cli("run", str(ROOT / "configs" / config), "--out", str(out), *overrides)
+    done = invoke_cbr("run", str(ROOT / "configs" / config), "--out", str(out), *overrides)
     assert done.exit_code == 0, done.stderr
     summary: dict[str, Any] = json.loads((out / "summary.json").read_text(encoding="utf-8"))
     with (out / "results.csv").open(encoding="utf-8") as rows:
@@ -394,10 +395,10 @@ def _initial_map(config: str, out: Path) -> Any:
 
 @pytest.mark.usefixtures("every_plugin")
 def test_the_kinematics_page_figures_of_the_nonholonomic_config(
-        cbr_cli: Callable[..., CliResult], tmp_path: Path) -> None:
+        invoke_cbr: Callable[..., CliResult], tmp_path: Path) -> None:
     from cbr_grid.directions import STEPS
 
-    summary, rows = _run(cbr_cli, tmp_path / "run", "nonholonomic.yaml")
+    summary, rows = _run(invoke_cbr, tmp_path / "run", "nonholonomic.yaml")
     grid = _initial_map("nonholonomic.yaml", tmp_path / "map")
     unsolved = [row for row in rows if row["source"] == "none"]
 
@@ -428,17 +429,17 @@ def _octile(row: dict[str, str]) -> float:
 
 @pytest.mark.usefixtures("every_plugin")
 def test_the_case_graph_page_figures_of_the_ideal_length(
-        cbr_cli: Callable[..., CliResult], tmp_path: Path) -> None:
+        invoke_cbr: Callable[..., CliResult], tmp_path: Path) -> None:
     """The octile test against the landmark bound on the office of configs/hybrid_grid.yaml."""
     from cbr_pathquality.ideal import Landmarks
 
     ratio = 2.5
-    octile, octile_rows = _run(cbr_cli, tmp_path / "octile", "hybrid_grid.yaml",
+    octile, octile_rows = _run(invoke_cbr, tmp_path / "octile", "hybrid_grid.yaml",
                                "revise.ideal=octile", f"revise.max_ratio={ratio}")
     rejected = [row for row in octile_rows if row["fallback_reason"].startswith("revision")]
     assert rejected, "the octile test rejects some trips"
     above = all(float(row["optimal_cost"]) / _octile(row) > ratio for row in rejected)
-    landmarks, rows = _run(cbr_cli, tmp_path / "landmarks", "hybrid_grid.yaml")
+    landmarks, rows = _run(invoke_cbr, tmp_path / "landmarks", "hybrid_grid.yaml")
     bound = Landmarks(_initial_map("hybrid_grid.yaml", tmp_path / "map"), 8)
     tight = statistics.median(bound.bound(_cell(row, "start"), _cell(row, "goal"))
                               / float(row["optimal_cost"]) for row in rows)

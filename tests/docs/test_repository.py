@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from repo_paths import ROOT
+
 import json
 import os
 import re
@@ -16,7 +18,6 @@ import yaml
 
 from cbrcore.cli import main
 
-ROOT = Path(__file__).resolve().parent.parent
 README_COMMANDS = [
     "python3 -m pip install -e . && cbr run configs/hybrid_grid.yaml",
     'python3 -m pip install -e ".[test]" && python3 -m pytest',
@@ -274,6 +275,7 @@ def test_the_readme_test_command_installs_every_package_the_tests_import() -> No
         installed |= _requirement_names(project["optional-dependencies"][extra])
     imported = _third_party_imports([ROOT / "tests", ROOT / "benchmarks"])
     local = ({p.stem for p in (ROOT / "tests").glob("*.py")}
+             | {p.parent.name for p in (ROOT / "tests").glob("*/__init__.py")}
              | {p.stem for p in (ROOT / "benchmarks").glob("*.py")}
              | {p.parent.name for p in (ROOT / "benchmarks").glob("*/__init__.py")})
     needed = {DISTRIBUTION_OF.get(name, name).lower() for name in imported} - local

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import cbr_grid
+import repo_paths
 from cbr_grid.distances import octile
 from cbr_grid.grid import Grid
 from cbr_grid.movingai import Scenario, load_map, load_scen
@@ -17,7 +18,7 @@ from cbrcore.errors import CbrError, ConfigError
 from cbrcore.options import paths_relative_to, structure_options
 from cbrcore.registry import Registry
 
-DATA = Path(__file__).resolve().parent / "data" / "movingai"
+DATA = repo_paths.DATA / "movingai"
 
 # map, scenario file, width, height, scenarios (non-blank lines after the version line)
 PAIRS = [

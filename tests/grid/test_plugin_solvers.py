@@ -27,6 +27,7 @@ from cbrcore.plugins import Plugins
 from cbrcore.registry import Registry
 from cbrcore.run import run_workload
 from cbrcore.testing import CliResult
+from repo_paths import ROOT
 
 MOVES = [(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy]
 
@@ -43,7 +44,7 @@ class Call:
 CALLS: list[Call] = []
 
 
-GUIDE = Path(__file__).resolve().parents[1] / "docs" / "plugins.md"
+GUIDE = ROOT / "docs" / "plugins.md"
 EXAMPLE = re.compile(r"^```python\n(# cbr-gridbfs/src/cbr_gridbfs/__init__.py\n.*?)^```$",
                      re.S | re.M)
 
@@ -143,9 +144,9 @@ def small_map(tmp_path: Path) -> Path:
     return path
 
 
-def test_cbr_plan_plans_with_a_plugins_solver(cbr_cli: Callable[..., CliResult],
+def test_cbr_plan_plans_with_a_plugins_solver(invoke_cbr: Callable[..., CliResult],
                                               small_map: Path) -> None:
-    result = cbr_cli("plan", str(small_map), "--start", "3,2", "--goal", "7,0", "--solver",
+    result = invoke_cbr("plan", str(small_map), "--start", "3,2", "--goal", "7,0", "--solver",
                      "bfs", "--json")
 
     assert result.exit_code == 0, result.stderr
@@ -158,8 +159,8 @@ def test_cbr_plan_plans_with_a_plugins_solver(cbr_cli: Callable[..., CliResult],
 
 
 def test_a_plugins_wrong_path_is_an_error_naming_the_solver(
-        cbr_cli: Callable[..., CliResult], small_map: Path) -> None:
-    result = cbr_cli("plan", str(small_map), "--start", "3,2", "--goal", "7,0", "--solver",
+        invoke_cbr: Callable[..., CliResult], small_map: Path) -> None:
+    result = invoke_cbr("plan", str(small_map), "--start", "3,2", "--goal", "7,0", "--solver",
                      "jumper")
 
     assert result.exit_code == 2

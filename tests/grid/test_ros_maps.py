@@ -16,8 +16,9 @@ from cbr_grid.plot import UNKNOWN_COLOUR, draw_grid
 from cbr_solvers.search import astar
 from cbrcore.engine import Engine
 from cbrcore.errors import ConfigError
+from repo_paths import DATA
 
-ROS = Path(__file__).resolve().parent / "data" / "ros"
+ROS = DATA / "ros"
 DEPOT = ROS / "depot.yaml"
 CIRCULAR = ROS / "map_circular.yaml"
 ROBOT = 0.22  # the radius of Nav2's default robot, metres

@@ -41,6 +41,7 @@ from cbrcore.model import Outcome, Proposal, Solution
 from cbrcore.plugins import Plugins, current
 from cbrcore.registry import NoOptions, Registry
 from cbrcore.run import run_workload
+from repo_paths import DATA
 
 OFFICE = {"use": "generated", "kind": "office", "width": 28, "height": 20}
 
@@ -438,7 +439,7 @@ def test_bad_places_and_sites_are_refused(places: Any, sites: Any, message: str,
         cbr_engine(map_config(walled, places=places, sites=sites))
 
 
-ROS_MAP = Path(__file__).parent / "data" / "ros" / "map_circular.yaml"
+ROS_MAP = DATA / "ros" / "map_circular.yaml"
 
 
 def test_places_and_sites_in_metres_are_the_cells_they_fall_in(
@@ -456,7 +457,7 @@ def test_places_and_sites_in_metres_are_the_cells_they_fall_in(
             == [(q.start, q.goal) for q in by_cells.workload.queries(by_cells.ctx)])
 
 
-DEPOT = Path(__file__).parent / "data" / "ros" / "depot.yaml"
+DEPOT = DATA / "ros" / "depot.yaml"
 
 
 @pytest.mark.parametrize(("map_file", "workload", "message"), [

@@ -8,8 +8,11 @@ from pathlib import Path
 
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "kinematics_speed.py"
-DATA = Path(__file__).resolve().parent / "data" / "movingai"
+import repo_paths
+from repo_paths import ROOT
+
+SCRIPT = ROOT / "benchmarks" / "kinematics_speed.py"
+DATA = repo_paths.DATA / "movingai"
 
 
 def test_quick_run_writes_outputs_without_mismatches(tmp_path: Path) -> None:

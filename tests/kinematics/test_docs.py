@@ -18,10 +18,10 @@ import pytest
 
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult
+from repo_paths import ROOT
 
 Cli = Callable[..., CliResult]
 
-ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "kinematics.md"
 FENCE = re.compile(r"^```(\w*)\n(.*?)^```$", re.S | re.M)
 PLUGIN_HEADER = "# cbr-steering/src/cbr_steering/__init__.py\n"
@@ -150,9 +150,9 @@ def octile_cost(path: list[list[int]]) -> float:
 @pytest.mark.parametrize(("line", "shown"), examples(), ids=[
     f"{options(line).get('--kinematics', 'holonomic')}-{options(line)['--start']}"
     for line, _ in examples()])
-def test_page_commands_print_what_the_page_shows(cbr_cli: Cli, tmp_path: Path, line: str,
+def test_page_commands_print_what_the_page_shows(invoke_cbr: Cli, tmp_path: Path, line: str,
                                                  shown: str | None) -> None:
-    result = run(cbr_cli, line, tmp_path=tmp_path)
+    result = run(invoke_cbr, line, tmp_path=tmp_path)
     assert shown is not None, f"no output shown for {line}"
     if shown.startswith("no path"):
         assert result.exit_code == 1
@@ -183,22 +183,22 @@ def test_page_pictures_exist_where_the_commands_write_them() -> None:
         assert f"]({Path(picture).relative_to('docs')})" in text  # shown on the page
 
 
-def test_the_holonomic_path_is_not_one_a_forward_robot_can_drive(cbr_cli: Cli) -> None:
+def test_the_holonomic_path_is_not_one_a_forward_robot_can_drive(invoke_cbr: Cli) -> None:
     forward = options(command(plot="kinematics_forward.png", kinematics="forward"))
     holonomic_line = command(plot="kinematics_holonomic.png")
     assert options(holonomic_line)["--start"] == forward["--start"]
     assert options(holonomic_line)["--goal"] == forward["--goal"]
     rows = read_map(ROOT / shlex.split(holonomic_line)[2])
-    path = record(cbr_cli, holonomic_line)["path"]
+    path = record(invoke_cbr, holonomic_line)["path"]
     steps = [NAMES[forward["--heading"]], *directions(rows, path)]
     assert max(turn(a, b) for a, b in itertools.pairwise(steps)) > 1
 
 
-def test_the_forward_path_turns_45_degrees_at_most_and_costs_more(cbr_cli: Cli) -> None:
+def test_the_forward_path_turns_45_degrees_at_most_and_costs_more(invoke_cbr: Cli) -> None:
     line = command(plot="kinematics_forward.png", kinematics="forward")
     given = options(line)
     rows = read_map(ROOT / shlex.split(line)[2])
-    found = record(cbr_cli, line)
+    found = record(invoke_cbr, line)
     path = found["path"]
     assert path[0] == [int(v) for v in given["--start"].split(",")]
     assert path[-1] == [int(v) for v in given["--goal"].split(",")]
@@ -206,21 +206,21 @@ def test_the_forward_path_turns_45_degrees_at_most_and_costs_more(cbr_cli: Cli) 
     assert all(turn(a, b) <= 1 for a, b in itertools.pairwise(steps))
     assert not any(found["reversing"])
     assert found["cost"] == pytest.approx(octile_cost(path))
-    holonomic = record(cbr_cli, command(plot="kinematics_holonomic.png"))
+    holonomic = record(invoke_cbr, command(plot="kinematics_holonomic.png"))
     assert holonomic["cost"] == pytest.approx(octile_cost(holonomic["path"]))
     assert found["cost"] > holonomic["cost"] + 10.0
 
 
-def test_only_forward_backward_leaves_the_dead_end(cbr_cli: Cli) -> None:
+def test_only_forward_backward_leaves_the_dead_end(invoke_cbr: Cli) -> None:
     line = command(plot="kinematics_forward_backward.png", kinematics="forward_backward")
     given = options(line)
     stuck = command(start=given["--start"], kinematics="forward")
     assert {k: v for k, v in options(stuck).items() if k != "--kinematics"} == {
         k: v for k, v in given.items() if k not in ("--kinematics", "--plot")}
-    assert run(cbr_cli, stuck, "--json").exit_code == 1
+    assert run(invoke_cbr, stuck, "--json").exit_code == 1
 
     rows = read_map(ROOT / shlex.split(line)[2])
-    found = record(cbr_cli, line)
+    found = record(invoke_cbr, line)
     path = found["path"]
     assert path[0] == [int(v) for v in given["--start"].split(",")]
     assert path[-1] == [int(v) for v in given["--goal"].split(",")]
@@ -235,15 +235,15 @@ def test_only_forward_backward_leaves_the_dead_end(cbr_cli: Cli) -> None:
     assert found["cost"] == pytest.approx(octile_cost(path))
 
 
-def test_the_figures_quoted_in_the_text_are_the_commands(cbr_cli: Cli) -> None:
+def test_the_figures_quoted_in_the_text_are_the_commands(invoke_cbr: Cli) -> None:
     text = " ".join(PAGE.read_text(encoding="utf-8").split())
-    forward = record(cbr_cli, command(plot="kinematics_forward.png", kinematics="forward"))
-    holonomic = record(cbr_cli, command(plot="kinematics_holonomic.png"))
+    forward = record(invoke_cbr, command(plot="kinematics_forward.png", kinematics="forward"))
+    holonomic = record(invoke_cbr, command(plot="kinematics_holonomic.png"))
     quoted = re.search(r"The path costs ([\d.]+) against the holonomic ([\d.]+)", text)
     assert quoted is not None
     assert quoted.groups() == (f"{forward['cost']:.2f}", f"{holonomic['cost']:.2f}")
 
-    back = record(cbr_cli, command(plot="kinematics_forward_backward.png",
+    back = record(invoke_cbr, command(plot="kinematics_forward_backward.png",
                                    kinematics="forward_backward"))
     quoted = re.search(r"on to the goal, ([\d.]+) in all", text)
     assert quoted is not None and quoted.group(1) == f"{back['cost']:.2f}"

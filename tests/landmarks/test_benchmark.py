@@ -17,8 +17,9 @@ from cbr_landmarks.index import SituationIndex
 from cbr_world2d.fuzzy import angle_overlap, overlap, unchecked
 from cbr_world2d.generate import semi_structured
 from cbr_world2d.robot import Pose
+from repo_paths import ROOT
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "landmarks_retrieval.py"
+SCRIPT = ROOT / "benchmarks" / "landmarks_retrieval.py"
 
 
 @pytest.fixture(scope="module")

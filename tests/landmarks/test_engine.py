@@ -9,7 +9,7 @@ stops a run with an error naming the case and the field, storing nothing.
 
 Situations are observed without noise from the start of 002's scenario worlds, as the hand-made
 cases are (:func:`cbr_landmarks.handmade.paper_case`). The shipped configs/landmarks.yaml is
-run by tests/test_repository.py.
+run by tests/docs/test_repository.py.
 """
 
 from __future__ import annotations
@@ -292,7 +292,7 @@ def installed(cbr_plugins: Callable[..., Plugins]) -> Iterator[Plugins]:
 
 
 def test_a_case_base_with_a_one_landmark_case_stops_the_run_naming_the_case(
-        installed: Plugins, cbr_cli: Callable[..., CliResult], tmp_path: Path) -> None:
+        installed: Plugins, invoke_cbr: Callable[..., CliResult], tmp_path: Path) -> None:
     document = yaml.safe_load(shipped_path().read_text(encoding="utf-8"))
     bad = document["cases"][1]
     bad["id"] = 7
@@ -309,7 +309,7 @@ def test_a_case_base_with_a_one_landmark_case_stops_the_run_naming_the_case(
     config["casebase"] = {"use": "memory", "initial": str(casebase)}
     path = tmp_path / "run.yaml"
     path.write_text(yaml.safe_dump(config), encoding="utf-8")
-    result = cbr_cli("run", str(path), "--out", str(tmp_path / "out"))
+    result = invoke_cbr("run", str(path), "--out", str(tmp_path / "out"))
     assert result.exit_code == 2, result
     output = result.stdout + result.stderr
     assert "landmark_situation case 7: landmarks: a case needs at least two landmarks" in output

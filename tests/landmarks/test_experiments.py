@@ -32,6 +32,7 @@ from cbr_landmarks.experiments.figure7 import point_b, point_c
 from cbr_world2d import generate
 from cbrcore.experiment import run_experiment
 from cbrcore.plugins import Plugins, load_plugins, use_plugins
+from repo_paths import ROOT
 
 
 @pytest.fixture(scope="module")
@@ -44,7 +45,6 @@ def plugins() -> Iterator[Plugins]:
         yield loaded
 
 
-ROOT = Path(__file__).resolve().parents[1]
 
 WALLS = {"v": 2, "u": 3, "wall": 1, "corridor": 3, "gap": 2, "room": 5}
 """How many linear obstacles each scenario shape has."""

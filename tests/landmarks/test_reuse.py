@@ -56,6 +56,7 @@ from cbrcore.config import parse_config
 from cbrcore.engine import Engine
 from cbrcore.model import Outcome, Proposal
 from cbrcore.plugins import Plugins, load_plugins
+from repo_paths import ROOT
 
 # --- the geometry, by hand ----------------------------------------------------------------------
 
@@ -509,7 +510,7 @@ def test_positive_cases_are_not_learned_by_default(plugins: Plugins, world_file:
 
 # --- bad options --------------------------------------------------------------------------------
 
-LANDMARKS = Path(__file__).resolve().parents[1] / "configs" / "landmarks.yaml"
+LANDMARKS = ROOT / "configs" / "landmarks.yaml"
 
 BAD_OPTIONS = {
     "detour under 1": ("reuse={use: landmarks, detour: 0.5}", "reuse.detour: must be >= 1.0"),
@@ -530,7 +531,7 @@ def installed(cbr_plugins: Any) -> Plugins:
 
 @pytest.mark.parametrize(("setting", "message"), BAD_OPTIONS.values(), ids=list(BAD_OPTIONS))
 def test_a_bad_reuse_or_retain_option_is_refused_naming_it(
-        installed: Plugins, cbr_cli: Any, setting: str, message: str) -> None:
-    result = cbr_cli("validate", str(LANDMARKS), "--set", setting)
+        installed: Plugins, invoke_cbr: Any, setting: str, message: str) -> None:
+    result = invoke_cbr("validate", str(LANDMARKS), "--set", setting)
     assert result.exit_code == 2, result
     assert message in result.stderr and "Traceback" not in result.stderr

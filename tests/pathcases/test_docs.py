@@ -6,8 +6,9 @@ import re
 from pathlib import Path
 
 from cbr_pathcases.experiments import CAPACITY, LEARNING_RISK, robot_config
+from repo_paths import ROOT
 
-PAGE = Path(__file__).resolve().parents[1] / "docs" / "pathcases.md"
+PAGE = ROOT / "docs" / "pathcases.md"
 
 
 def _bullet(name: str) -> str:

@@ -121,7 +121,7 @@ def test_moving_mean_and_spread_by_hand() -> None:
     assert spread([4.0])["std"] == 0.0
 
 
-def test_the_experiment_is_listed(cbr_cli: Callable[..., CliResult]) -> None:
-    result = cbr_cli("experiment", "--list")
+def test_the_experiment_is_listed(invoke_cbr: Callable[..., CliResult]) -> None:
+    result = invoke_cbr("experiment", "--list")
     assert result.exit_code == 0
     assert "path-cases-learning" in result.stdout

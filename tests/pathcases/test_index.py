@@ -18,7 +18,8 @@ from hypothesis import strategies as st
 
 from cbr_pathcases.base import BUCKET, PATH, PathBase, base_of, path_case
 from cbr_pathcases.hausdorff import hausdorff
-from test_pathcases import DISTANCES, Cell, assert_same_base, context, free, next_query, run
+
+from .test_pathcases import DISTANCES, Cell, assert_same_base, context, free, next_query, run
 
 SIDE = 3 * BUCKET  # several squares of the index on each axis
 META = {"cost": 1.0, "length": 1.0, "risk": 0.0, "ideal": 1.0, "traversals": 1}

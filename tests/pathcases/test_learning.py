@@ -31,7 +31,8 @@ from cbr_pathcases.forgetting import (
 )
 from cbrcore.context import Context
 from cbrcore.model import Outcome, Solution
-from test_pathcases import Cell, context, free, keep, run, stored_ids
+
+from .test_pathcases import Cell, context, free, keep, run, stored_ids
 
 # --- retention --------------------------------------------------------------------------------
 

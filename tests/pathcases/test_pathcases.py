@@ -5,7 +5,7 @@ the store after committed and rolled-back learn steps; the retrieval rule of eq.
 (survey; Šeda & Dvořák) against a brute force written from the equation, under each distance;
 the selection rules against their formulas worked by hand, and the retriever's choices against
 them by a chi-square test over many queries. Grids are drawn with x to the right, y downwards.
-The helpers here are shared by test_pathcases_learning.py and test_pathcases_reuse.py.
+The helpers here are shared by test_learning.py and test_reuse.py.
 """
 
 from __future__ import annotations

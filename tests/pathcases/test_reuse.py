@@ -30,7 +30,8 @@ from cbrcore.engine import Engine
 from cbrcore.errors import CbrError
 from cbrcore.model import Case, Match, Retrieval, Solution
 from cbrcore.plugins import Plugins
-from test_pathcases import SQRT2, Cell, context, free, keep, retrieve, run, stored_ids
+
+from .test_pathcases import SQRT2, Cell, context, free, keep, retrieve, run, stored_ids
 
 CONNECTORS = ("astar", "dijkstra", "randomized", "genetic")
 

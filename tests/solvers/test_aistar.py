@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -26,9 +25,11 @@ from cbr_solvers.aistar import (
 from cbr_solvers.search import dijkstra
 from cbrcore.context import Context
 from cbrcore.registry import NoOptions, Registry
-from test_solvers import check_path, grid_problems
+from repo_paths import DATA
 
-MOVINGAI = Path(__file__).resolve().parent / "data" / "movingai"
+from .test_solvers import check_path, grid_problems
+
+MOVINGAI = DATA / "movingai"
 ARENA_SCENARIOS = 12
 
 

@@ -243,7 +243,7 @@ def test_the_component_through_the_engine(cbr_plugins: Callable[..., Plugins],
     assert engine.world.path_problems(proposal.solution.value) == []
 
 
-def test_cbr_plan_with_the_genetic_solver(cbr_plugins: Callable[..., Plugins], cbr_cli: Cli,
+def test_cbr_plan_with_the_genetic_solver(cbr_plugins: Callable[..., Plugins], invoke_cbr: Cli,
                                           tmp_path: Path) -> None:
     cbr_plugins(entry_points=True)
     map_file = tmp_path / "open.map"
@@ -251,14 +251,14 @@ def test_cbr_plan_with_the_genetic_solver(cbr_plugins: Callable[..., Plugins], c
                         encoding="ascii")
     args = ("plan", str(map_file), "--start", "0,0", "--goal", "5,3", "--solver", "genetic",
             "--json")
-    result = cbr_cli(*args, "--seed", "3")
+    result = invoke_cbr(*args, "--seed", "3")
     assert result.exit_code == 0, result.stderr
     record = json.loads(result.stdout)
     assert record["solver"] == "genetic"
     assert record["path"][0] == [0, 0] and record["path"][-1] == [5, 3]
-    again = json.loads(cbr_cli(*args, "--seed", "3").stdout)
+    again = json.loads(invoke_cbr(*args, "--seed", "3").stdout)
     assert {**again, "time_ms": None} == {**record, "time_ms": None}
-    refused = cbr_cli("plan", str(map_file), "--start", "0,0", "--goal", "5,3", "--seed", "3")
+    refused = invoke_cbr("plan", str(map_file), "--start", "0,0", "--goal", "5,3", "--seed", "3")
     assert refused.exit_code == 2 and "--solver genetic" in refused.stderr
 
 

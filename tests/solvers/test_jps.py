@@ -26,8 +26,9 @@ from cbrcore.errors import CbrError
 from cbrcore.plugins import Plugins
 from cbrcore.registry import NoOptions, Registry
 from cbrcore.testing import CliResult
+from repo_paths import DATA
 
-MOVINGAI = Path(__file__).resolve().parent / "data" / "movingai"
+MOVINGAI = DATA / "movingai"
 ARENA = MOVINGAI / "maps" / "dao" / "arena.map"
 ARENA_SCEN = MOVINGAI / "scenarios" / "dao" / "arena.map.scen"
 # The 512 x 512 maps hold 17 000 scenarios between them: the test takes this many of each, spread
@@ -313,17 +314,17 @@ def test_the_solver_refuses_constrained_kinematics(
 
 
 def test_cbr_plan_with_jps(cbr_plugins: Callable[..., Plugins],
-                           cbr_cli: Callable[..., CliResult]) -> None:
+                           invoke_cbr: Callable[..., CliResult]) -> None:
     cbr_plugins(entry_points=True)
     scenario = max(load_scen(ARENA_SCEN), key=lambda s: s.optimal)
-    result = cbr_cli("plan", str(ARENA), "--start", f"{scenario.start[0]},{scenario.start[1]}",
+    result = invoke_cbr("plan", str(ARENA), "--start", f"{scenario.start[0]},{scenario.start[1]}",
                      "--goal", f"{scenario.goal[0]},{scenario.goal[1]}", "--solver", "jps",
                      "--json")
     assert result.exit_code == 0, result.stderr
     record = json.loads(result.stdout)
     assert record["solver"] == "jps" and record["search"] == "jps"
     assert scenario.agrees(record["length"]) and record["cost"] == pytest.approx(record["length"])
-    result = cbr_cli("plan", str(ARENA), "--scen", str(ARENA_SCEN), "--solver", "jps", "--json")
+    result = invoke_cbr("plan", str(ARENA), "--scen", str(ARENA_SCEN), "--solver", "jps", "--json")
     assert result.exit_code == 0, result.stderr
     summary = json.loads(result.stdout.splitlines()[-1])
     assert summary["matched"] == summary["total"] == 160

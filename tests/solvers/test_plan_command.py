@@ -15,11 +15,12 @@ from cbr_grid.formats import load_grid
 from cbr_grid.movingai import Scenario, load_scen
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult
+from repo_paths import DATA
 
 Cli = Callable[..., CliResult]
 
-MOVINGAI = Path(__file__).resolve().parent / "data" / "movingai"
-DEPOT = Path(__file__).resolve().parent / "data" / "ros" / "depot.yaml"
+MOVINGAI = DATA / "movingai"
+DEPOT = DATA / "ros" / "depot.yaml"
 ARENA = MOVINGAI / "maps" / "dao" / "arena.map"
 ARENA_SCEN = MOVINGAI / "scenarios" / "dao" / "arena.map.scen"
 KEYS = {"solver", "length", "cost", "turns", "time_ms", "expanded", "path"}
@@ -58,9 +59,9 @@ def cell_option(cell: tuple[int, int]) -> str:
 
 
 @pytest.mark.parametrize("solver", ["dijkstra", "astar"])
-def test_plan_prints_an_optimal_path_as_json(cbr_cli: Cli, solver: str) -> None:
+def test_plan_prints_an_optimal_path_as_json(invoke_cbr: Cli, solver: str) -> None:
     scenario = longest_scenario()
-    result = cbr_cli("plan", str(ARENA), "--start", cell_option(scenario.start), "--goal",
+    result = invoke_cbr("plan", str(ARENA), "--start", cell_option(scenario.start), "--goal",
                      cell_option(scenario.goal), "--solver", solver, "--json")
     assert result.exit_code == 0, result.stderr
     record = json.loads(result.stdout)
@@ -79,9 +80,9 @@ def test_plan_prints_an_optimal_path_as_json(cbr_cli: Cli, solver: str) -> None:
     assert record["time_ms"] >= 0
 
 
-def test_plan_prints_the_metrics_as_text(cbr_cli: Cli) -> None:
+def test_plan_prints_the_metrics_as_text(invoke_cbr: Cli) -> None:
     scenario = longest_scenario()
-    result = cbr_cli("plan", str(ARENA), "--start", cell_option(scenario.start), "--goal",
+    result = invoke_cbr("plan", str(ARENA), "--start", cell_option(scenario.start), "--goal",
                      cell_option(scenario.goal))
     assert result.exit_code == 0, result.stderr
     values = dict(line.split(maxsplit=1) for line in result.stdout.splitlines())
@@ -91,8 +92,8 @@ def test_plan_prints_the_metrics_as_text(cbr_cli: Cli) -> None:
     assert values["path"].endswith(f"cells from {scenario.start} to {scenario.goal}")
 
 
-def test_plan_without_a_path_exits_1(cbr_cli: Cli, walled: Path) -> None:
-    result = cbr_cli("plan", str(walled), "--start", "0,0", "--goal", "4,2", "--json")
+def test_plan_without_a_path_exits_1(invoke_cbr: Cli, walled: Path) -> None:
+    result = invoke_cbr("plan", str(walled), "--start", "0,0", "--goal", "4,2", "--json")
     assert result.exit_code == 1
     assert result.stdout == ""
     assert f"no path from (0, 0) to (4, 2) on {walled}" in result.stderr
@@ -104,16 +105,16 @@ def test_plan_without_a_path_exits_1(cbr_cli: Cli, walled: Path) -> None:
     ("2,1", "0,0", "start (2, 1) is on an obstacle"),
     ("0,0", "2,2", "goal (2, 2) is on an obstacle"),
 ])
-def test_plan_names_a_bad_cell(cbr_cli: Cli, walled: Path, start: str, goal: str,
+def test_plan_names_a_bad_cell(invoke_cbr: Cli, walled: Path, start: str, goal: str,
                                message: str) -> None:
-    result = cbr_cli("plan", str(walled), "--start", start, "--goal", goal)
+    result = invoke_cbr("plan", str(walled), "--start", start, "--goal", goal)
     assert result.exit_code == 2
     assert f"error: {message}" in result.stderr
 
 
 @pytest.mark.parametrize("written", ["1,x", "1", "1,2,3", ""])
-def test_plan_refuses_a_malformed_cell(cbr_cli: Cli, walled: Path, written: str) -> None:
-    result = cbr_cli("plan", str(walled), "--start", written, "--goal", "0,0")
+def test_plan_refuses_a_malformed_cell(invoke_cbr: Cli, walled: Path, written: str) -> None:
+    result = invoke_cbr("plan", str(walled), "--start", written, "--goal", "0,0")
     assert result.exit_code == 2
     assert "Invalid value for '--start'" in result.stderr
     assert "X,Y" in result.stderr
@@ -126,15 +127,15 @@ def test_plan_refuses_a_malformed_cell(cbr_cli: Cli, walled: Path, written: str)
     ("--scen", str(ARENA_SCEN), "--start", "0,0"),
     ("--scen", str(ARENA_SCEN), "--plot", "out.png"),
 ])
-def test_plan_refuses_options_that_do_not_go_together(cbr_cli: Cli, args: tuple[str, ...]
+def test_plan_refuses_options_that_do_not_go_together(invoke_cbr: Cli, args: tuple[str, ...]
                                                       ) -> None:
-    result = cbr_cli("plan", str(ARENA), *args)
+    result = invoke_cbr("plan", str(ARENA), *args)
     assert result.exit_code == 2
     assert "Invalid value" in result.stderr
 
 
-def test_plan_scen_prints_a_line_per_scenario_and_a_summary(cbr_cli: Cli) -> None:
-    result = cbr_cli("plan", str(ARENA), "--scen", str(ARENA_SCEN), "--limit", "5", "--json")
+def test_plan_scen_prints_a_line_per_scenario_and_a_summary(invoke_cbr: Cli) -> None:
+    result = invoke_cbr("plan", str(ARENA), "--scen", str(ARENA_SCEN), "--limit", "5", "--json")
     assert result.exit_code == 0, result.stderr
     *records, summary = [json.loads(line) for line in result.stdout.splitlines()]
     assert len(records) == 5
@@ -154,9 +155,9 @@ def test_plan_scen_prints_a_line_per_scenario_and_a_summary(cbr_cli: Cli) -> Non
     assert math.isfinite(summary["median_time_ms"])
 
 
-def test_map_show_draws_the_map(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_map_show_draws_the_map(invoke_cbr: Cli, tmp_path: Path) -> None:
     out = tmp_path / "arena.png"
-    result = cbr_cli("map", "show", str(ARENA), "--plot", str(out))
+    result = invoke_cbr("map", "show", str(ARENA), "--plot", str(out))
     assert result.exit_code == 0, result.stderr
     assert f"{ARENA}: 49x49" in result.stdout
     data = out.read_bytes()
@@ -164,10 +165,10 @@ def test_map_show_draws_the_map(cbr_cli: Cli, tmp_path: Path) -> None:
     assert len(data) > len(PNG_SIGNATURE)
 
 
-def test_plan_plot_draws_the_path(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_plan_plot_draws_the_path(invoke_cbr: Cli, tmp_path: Path) -> None:
     scenario = longest_scenario()
     out = tmp_path / "path.png"
-    result = cbr_cli("plan", str(ARENA), "--start", cell_option(scenario.start), "--goal",
+    result = invoke_cbr("plan", str(ARENA), "--start", cell_option(scenario.start), "--goal",
                      cell_option(scenario.goal), "--plot", str(out), "--json")
     assert result.exit_code == 0, result.stderr
     assert set(json.loads(result.stdout)) == KEYS
@@ -176,15 +177,15 @@ def test_plan_plot_draws_the_path(cbr_cli: Cli, tmp_path: Path) -> None:
     assert len(data) > len(PNG_SIGNATURE)
 
 
-def test_a_plot_that_cannot_be_written_is_a_user_error(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_a_plot_that_cannot_be_written_is_a_user_error(invoke_cbr: Cli, tmp_path: Path) -> None:
     out = tmp_path / "missing" / "arena.png"
-    result = cbr_cli("map", "show", str(ARENA), "--plot", str(out))
+    result = invoke_cbr("map", "show", str(ARENA), "--plot", str(out))
     assert result.exit_code == 2
     assert f"error: {out}: cannot write the picture" in result.stderr
 
 
 # depot (0.05 m cells, origin (0, 0), 307 rows): (2, 2) m is cell (40, 266), (20, 3.5) m cell
-# (400, 236); see test_ros_maps.py
+# (400, 236); see tests/grid/test_ros_maps.py
 DEPOT_START, DEPOT_GOAL = (40, 266), (400, 236)
 
 
@@ -197,11 +198,11 @@ def depot_clearance(path: list[list[int]]) -> float:
     return float(np.hypot(*(cells[:, None, :] - obstacles[None]).transpose(2, 0, 1)).min()) * 0.05
 
 
-def test_plan_a_ros_map_from_metres_to_metres_with_inflation(cbr_cli: Cli, tmp_path: Path
+def test_plan_a_ros_map_from_metres_to_metres_with_inflation(invoke_cbr: Cli, tmp_path: Path
                                                             ) -> None:
     out = tmp_path / "depot.png"
     common = ("plan", str(DEPOT), "--frame", "map", "--start", "2,2", "--goal", "20,3.5")
-    result = cbr_cli(*common, "--robot-radius", "0.22", "--json", "--plot", str(out))
+    result = invoke_cbr(*common, "--robot-radius", "0.22", "--json", "--plot", str(out))
     assert result.exit_code == 0, result.stderr
     record = json.loads(result.stdout)
     assert set(record) == {*KEYS, "length_m", "path_m"}
@@ -214,11 +215,11 @@ def test_plan_a_ros_map_from_metres_to_metres_with_inflation(cbr_cli: Cli, tmp_p
     assert depot_clearance(record["path"]) > 0.22
     assert out.read_bytes().startswith(PNG_SIGNATURE)
     # without inflation the shortest path passes closer than the robot's radius
-    plain = cbr_cli(*common, "--json")
+    plain = invoke_cbr(*common, "--json")
     assert plain.exit_code == 0, plain.stderr
     assert depot_clearance(json.loads(plain.stdout)["path"]) < 0.22
 
-    text = cbr_cli(*common, "--robot-radius", "0.22", "--inflation-radius", "0.55",
+    text = invoke_cbr(*common, "--robot-radius", "0.22", "--inflation-radius", "0.55",
                    "--cost-scaling", "3")
     assert text.exit_code == 0, text.stderr
     values = dict(line.split(maxsplit=1) for line in text.stdout.splitlines())
@@ -231,10 +232,10 @@ def test_plan_a_ros_map_from_metres_to_metres_with_inflation(cbr_cli: Cli, tmp_p
     assert float(values["cost"]) > float(values["length"])
 
 
-def test_plan_takes_cells_off_a_robot_radius_on_an_inflated_map(cbr_cli: Cli) -> None:
+def test_plan_takes_cells_off_a_robot_radius_on_an_inflated_map(invoke_cbr: Cli) -> None:
     # (40, 266) and (400, 236) are the cells of (2, 2) m and (20, 3.5) m, more than 0.22 m from
     # a shelf; the path found keeps off every cell the inflation blocked
-    result = cbr_cli("plan", str(DEPOT), "--start", "40,266", "--goal", "400,236",
+    result = invoke_cbr("plan", str(DEPOT), "--start", "40,266", "--goal", "400,236",
                      "--robot-radius", "0.22", "--json")
     assert result.exit_code == 0, result.stderr
     path = np.array(json.loads(result.stdout)["path"])
@@ -259,9 +260,9 @@ def test_plan_takes_cells_off_a_robot_radius_on_an_inflated_map(cbr_cli: Cli) ->
     (("--start", "40,266", "--goal", "400,236", "--robot-radius", "0.6"),
      "goal (400, 236) is within the robot radius (0.6 m) of an obstacle"),
 ])
-def test_plan_names_a_bad_point_and_its_cell(cbr_cli: Cli, args: tuple[str, ...],
+def test_plan_names_a_bad_point_and_its_cell(invoke_cbr: Cli, args: tuple[str, ...],
                                              message: str) -> None:
-    result = cbr_cli("plan", str(DEPOT), *args)
+    result = invoke_cbr("plan", str(DEPOT), *args)
     assert result.exit_code == 2
     assert f"error: {message}" in result.stderr
     assert "Traceback" not in result.stderr
@@ -282,15 +283,15 @@ UNKNOWN_HINT = ("on an unknown cell (lethal as unknown space is not allowed; --a
      "--start (0, 8) m [cell 200, 23] is"),
     (("--start", "200,23", "--goal", "0,0"), "start (200, 23) is"),
 ])
-def test_plan_says_how_to_cross_an_unknown_cell(cbr_cli: Cli, args: tuple[str, ...],
+def test_plan_says_how_to_cross_an_unknown_cell(invoke_cbr: Cli, args: tuple[str, ...],
                                                 said: str) -> None:
     assert load_grid(CIRCULAR).unknown[23, 200]
-    result = cbr_cli("plan", str(CIRCULAR), *args, "--no-allow-unknown")
+    result = invoke_cbr("plan", str(CIRCULAR), *args, "--no-allow-unknown")
     assert result.exit_code == 2
     assert f"error: {said} {UNKNOWN_HINT}" in result.stderr
     # unknown space allowed, Nav2's default, the same start is a start like any other
     for allowed in ((), ("--allow-unknown",)):
-        crossing = cbr_cli("plan", str(CIRCULAR), *args, *allowed)
+        crossing = invoke_cbr("plan", str(CIRCULAR), *args, *allowed)
         assert crossing.exit_code == 0, crossing.stderr
 
 
@@ -308,8 +309,8 @@ def test_plan_says_how_to_cross_an_unknown_cell(cbr_cli: Cli, args: tuple[str, .
      "--frame: 'metres' is not one of cell, map"),
 ])
 def test_plan_refuses_frames_and_inflation_that_do_not_apply(
-        cbr_cli: Cli, map_file: Path, args: tuple[str, ...], option: str) -> None:
-    result = cbr_cli("plan", str(map_file), *args)
+        invoke_cbr: Cli, map_file: Path, args: tuple[str, ...], option: str) -> None:
+    result = invoke_cbr("plan", str(map_file), *args)
     assert result.exit_code == 2
     assert option in result.stderr
     assert "Traceback" not in result.stderr
@@ -324,8 +325,8 @@ def test_plan_refuses_frames_and_inflation_that_do_not_apply(
      "Invalid value for '--inflation-radius': must be at least --robot-radius (0.5), got 0.2"),
 ])
 def test_plan_names_the_inflation_option_at_fault_as_written(
-        cbr_cli: Cli, args: tuple[str, ...], message: str) -> None:
-    result = cbr_cli("plan", str(DEPOT), "--start", "40,266", "--goal", "400,236", *args)
+        invoke_cbr: Cli, args: tuple[str, ...], message: str) -> None:
+    result = invoke_cbr("plan", str(DEPOT), "--start", "40,266", "--goal", "400,236", *args)
     assert result.exit_code == 2
     assert message in " ".join(result.stderr.split())
     assert "_" not in result.stderr.split("Invalid value")[1]
@@ -336,10 +337,10 @@ def test_plan_names_the_inflation_option_at_fault_as_written(
     (("--robot-radius", "1", "--inflation-radius", "2"), "'--robot-radius' / '--inflation-radius'"),
     (("--cost-scaling", "2"), "'--cost-scaling'"),
 ])
-def test_plan_refuses_inflation_with_scenarios(cbr_cli: Cli, args: tuple[str, ...],
+def test_plan_refuses_inflation_with_scenarios(invoke_cbr: Cli, args: tuple[str, ...],
                                                hint: str) -> None:
     # the file's optimal lengths are those of the map uninflated: no inflated path could agree
-    result = cbr_cli("plan", str(ARENA), "--scen", str(ARENA_SCEN), *args)
+    result = invoke_cbr("plan", str(ARENA), "--scen", str(ARENA_SCEN), *args)
     assert result.exit_code == 2
     assert (f"Invalid value for {hint}: a scenario file's optimal lengths are for the map as it "
             "is: --scen plans without inflation") in " ".join(result.stderr.split())
@@ -357,23 +358,23 @@ def turned_depot(folder: Path, yaw: float) -> Path:
 
 
 @pytest.mark.parametrize("command", [("map", "show"), ("plan",)])
-def test_a_turned_map_warns_once_that_nav2_ignores_the_yaw(cbr_cli: Cli, tmp_path: Path,
+def test_a_turned_map_warns_once_that_nav2_ignores_the_yaw(invoke_cbr: Cli, tmp_path: Path,
                                                            command: tuple[str, ...]) -> None:
     plan = ("--start", "40,266", "--goal", "400,236") if command == ("plan",) else ()
-    turned = cbr_cli(*command, str(turned_depot(tmp_path, 0.5)), *plan)
+    turned = invoke_cbr(*command, str(turned_depot(tmp_path, 0.5)), *plan)
     assert turned.exit_code == 0, turned.stderr
     warnings = [line for line in turned.stderr.splitlines() if line.startswith("warning:")]
     assert warnings == [f"warning: {tmp_path / 'turned_0.5.yaml'}: the origin's yaw is 0.5 rad; "
                         "metre coordinates here are turned by the yaw, unlike Nav2, which "
                         "ignores it"]
-    straight = cbr_cli(*command, str(turned_depot(tmp_path, 0.0)), *plan)
+    straight = invoke_cbr(*command, str(turned_depot(tmp_path, 0.0)), *plan)
     assert straight.exit_code == 0, straight.stderr
     assert "warning" not in straight.stderr
 
 
-def test_map_show_reads_a_ros_map_with_its_frame(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_map_show_reads_a_ros_map_with_its_frame(invoke_cbr: Cli, tmp_path: Path) -> None:
     out = tmp_path / "depot.png"
-    result = cbr_cli("map", "show", str(DEPOT), "--robot-radius", "0.22", "--plot", str(out))
+    result = invoke_cbr("map", "show", str(DEPOT), "--robot-radius", "0.22", "--plot", str(out))
     assert result.exit_code == 0, result.stderr
     lines = result.stdout.splitlines()
     plain = load_grid(DEPOT)
@@ -386,19 +387,19 @@ def test_map_show_reads_a_ros_map_with_its_frame(cbr_cli: Cli, tmp_path: Path) -
     assert out.read_bytes().startswith(PNG_SIGNATURE)
 
 
-def test_map_show_reads_every_format(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_map_show_reads_every_format(invoke_cbr: Cli, tmp_path: Path) -> None:
     (tmp_path / "small.grid").write_text(".#\n..\n", encoding="ascii")
     np.save(tmp_path / "risk.npy", np.array([[0.0, 1.0, 0.5]]))
     for path, size, passable in ((tmp_path / "small.grid", "2x2", 3),
                                  (tmp_path / "risk.npy", "3x1", 2)):
-        result = cbr_cli("map", "show", str(path))
+        result = invoke_cbr("map", "show", str(path))
         assert result.exit_code == 0, result.stderr
         assert result.stdout.strip() == f"{path}: {size}, {passable} passable cells, 0 unknown"
 
 
-def test_map_show_json_gives_the_facts_of_the_text(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_map_show_json_gives_the_facts_of_the_text(invoke_cbr: Cli, tmp_path: Path) -> None:
     out = tmp_path / "depot.png"
-    result = cbr_cli("map", "show", str(DEPOT), "--json", "--plot", str(out))
+    result = invoke_cbr("map", "show", str(DEPOT), "--json", "--plot", str(out))
     assert result.exit_code == 0, result.stderr
     plain = load_grid(DEPOT)
     assert json.loads(result.stdout) == {
@@ -410,7 +411,7 @@ def test_map_show_json_gives_the_facts_of_the_text(cbr_cli: Cli, tmp_path: Path)
 
     grid = tmp_path / "small.grid"
     grid.write_text(".#\n..\n", encoding="ascii")
-    result = cbr_cli("map", "show", str(grid), "--json")
+    result = invoke_cbr("map", "show", str(grid), "--json")
     assert json.loads(result.stdout) == {"map": str(grid), "width": 2, "height": 2,
                                          "passable": 3, "unknown": 0, "frame": None}
 
@@ -426,16 +427,16 @@ def read_csv_path(path: Path) -> tuple[str, np.ndarray]:
 
 @pytest.mark.parametrize("frame", ["cell", "map"])
 @pytest.mark.parametrize("name", ["path.csv", "path.geojson", "path.json"])
-def test_plan_writes_the_path_it_found_to_a_file(cbr_cli: Cli, tmp_path: Path, frame: str,
+def test_plan_writes_the_path_it_found_to_a_file(invoke_cbr: Cli, tmp_path: Path, frame: str,
                                                  name: str) -> None:
     ends = (("--start", "2,2", "--goal", "20,3.5") if frame == "map"
             else ("--start", cell_option(DEPOT_START), "--goal", cell_option(DEPOT_GOAL)))
     common = ("plan", str(DEPOT), "--frame", frame, *ends)
-    cells = np.array(json.loads(cbr_cli(*common, "--json").stdout)["path"])
+    cells = np.array(json.loads(invoke_cbr(*common, "--json").stdout)["path"])
     # the same cells in metres, by the map's own frame rather than by cbr plan
     expected = load_grid(DEPOT).to_map(cells) if frame == "map" else cells
     out = tmp_path / name
-    result = cbr_cli(*common, "--path-out", str(out))
+    result = invoke_cbr(*common, "--path-out", str(out))
     assert result.exit_code == 0, result.stderr
     if name.endswith(".csv"):
         header, points = read_csv_path(out)
@@ -455,18 +456,18 @@ def test_plan_writes_the_path_it_found_to_a_file(cbr_cli: Cli, tmp_path: Path, f
     assert len(result.stdout) < 500
 
 
-def test_plan_with_path_out_keeps_the_json_object(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_plan_with_path_out_keeps_the_json_object(invoke_cbr: Cli, tmp_path: Path) -> None:
     out = tmp_path / "path.csv"
-    result = cbr_cli("plan", str(DEPOT), "--frame", "map", "--start", "2,2", "--goal", "20,3.5",
+    result = invoke_cbr("plan", str(DEPOT), "--frame", "map", "--start", "2,2", "--goal", "20,3.5",
                      "--path-out", str(out), "--json")
     assert result.exit_code == 0, result.stderr
     record = json.loads(result.stdout)
     np.testing.assert_allclose(read_csv_path(out)[1], record["path_m"], rtol=0, atol=1e-9)
 
 
-def test_plan_says_when_it_cannot_write_the_path(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_plan_says_when_it_cannot_write_the_path(invoke_cbr: Cli, tmp_path: Path) -> None:
     out = tmp_path / "missing" / "path.csv"
-    result = cbr_cli("plan", str(DEPOT), "--start", cell_option(DEPOT_START), "--goal",
+    result = invoke_cbr("plan", str(DEPOT), "--start", cell_option(DEPOT_START), "--goal",
                      cell_option(DEPOT_GOAL), "--path-out", str(out))
     assert result.exit_code == 2
     assert f"error: {out}: cannot write the path: " in result.stderr
@@ -474,7 +475,7 @@ def test_plan_says_when_it_cannot_write_the_path(cbr_cli: Cli, tmp_path: Path) -
 
 
 def test_plan_without_a_path_in_metres_names_the_points_and_cells(
-        cbr_cli: Cli, tmp_path: Path) -> None:
+        invoke_cbr: Cli, tmp_path: Path) -> None:
     # the walled map as a ROS map of 0.5 m cells from (0, 0): 3 rows, so the cell (x, y) spans
     # x 0.5 x to 0.5 (x + 1) m and y 0.5 (2 - y) to 0.5 (3 - y) m
     rows = WALLED.splitlines()[4:]
@@ -484,7 +485,7 @@ def test_plan_without_a_path_in_metres_names_the_points_and_cells(
         "image: walled.pgm\nresolution: 0.5\norigin: [0, 0, 0]\nnegate: 0\n"
         "occupied_thresh: 0.65\nfree_thresh: 0.196\n", encoding="utf-8")
     out = tmp_path / "path.csv"
-    result = cbr_cli("plan", str(tmp_path / "walled.yaml"), "--frame", "map", "--start",
+    result = invoke_cbr("plan", str(tmp_path / "walled.yaml"), "--frame", "map", "--start",
                      "0.2,1.3", "--goal", "2.4,0.1", "--path-out", str(out))
     assert result.exit_code == 1
     assert ("no path from (0.2, 1.3) m [cell 0, 0] to (2.4, 0.1) m [cell 4, 2] on "
@@ -499,9 +500,9 @@ def test_plan_without_a_path_in_metres_names_the_points_and_cells(
     # a number that is not one is no metre
     (str(DEPOT), "--start", "2,x", "--goal", "20,3"),
 ])
-def test_plan_hints_at_metres_only_where_they_can_be(cbr_cli: Cli, args: tuple[str, ...]
+def test_plan_hints_at_metres_only_where_they_can_be(invoke_cbr: Cli, args: tuple[str, ...]
                                                      ) -> None:
-    result = cbr_cli("plan", *args)
+    result = invoke_cbr("plan", *args)
     assert result.exit_code == 2
     assert "start" in result.stderr
     assert "--frame map" not in result.stderr

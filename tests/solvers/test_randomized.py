@@ -27,7 +27,8 @@ from cbrcore.engine import Engine
 from cbrcore.errors import ConfigError
 from cbrcore.plugins import Plugins
 from cbrcore.registry import Registry
-from test_solvers import check_path, grid_problems, reference_cost
+
+from .test_solvers import check_path, grid_problems, reference_cost
 
 
 def risky_grid() -> Grid:

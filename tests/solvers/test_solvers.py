@@ -26,8 +26,9 @@ from cbrcore.engine import Engine
 from cbrcore.errors import CbrError
 from cbrcore.plugins import Plugins
 from cbrcore.registry import NoOptions, Registry
+from repo_paths import DATA
 
-MOVINGAI = Path(__file__).resolve().parent / "data" / "movingai"
+MOVINGAI = DATA / "movingai"
 SEARCHES = {"dijkstra": dijkstra, "astar": astar}
 SAMPLES_PER_FILE = 10
 EIGHT = [(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if (dx, dy) != (0, 0)]

@@ -106,13 +106,13 @@ def test_only_whole_values_are_masked(cbr_plugins: Callable[..., Plugins]) -> No
     assert config.masked("casebase.dsn=db") == "casebase.dsn=***"
 
 
-def test_validate_shows_the_dsn_masked(cbr_cli: Cli, cbr_plugins: Callable[..., Plugins],
+def test_validate_shows_the_dsn_masked(invoke_cbr: Cli, cbr_plugins: Callable[..., Plugins],
                                        tmp_path: Path) -> None:
     cbr_plugins(entry_points=True)
     config = tmp_path / "run.yaml"
     config.write_text("casebase: {use: postgres}\n", encoding="utf-8")
 
-    result = cbr_cli("validate", str(config), "--json", "--set",
+    result = invoke_cbr("validate", str(config), "--json", "--set",
                      f"casebase.dsn=host=db password={PASSWORD}")
 
     assert result.exit_code == 0, result
@@ -120,7 +120,7 @@ def test_validate_shows_the_dsn_masked(cbr_cli: Cli, cbr_plugins: Callable[..., 
     assert json.loads(result.stdout)["resolved"]["casebase"]["dsn"] == "password=*** host=db"
 
 
-def test_a_run_folder_holds_no_password(cbr_cli: Cli, cbr_plugins: Callable[..., Plugins],
+def test_a_run_folder_holds_no_password(invoke_cbr: Cli, cbr_plugins: Callable[..., Plugins],
                                         postgres_database: str, tmp_path: Path,
                                         monkeypatch: pytest.MonkeyPatch) -> None:
     cbr_plugins(entry_points=True)
@@ -139,7 +139,7 @@ def test_a_run_folder_holds_no_password(cbr_cli: Cli, cbr_plugins: Callable[...,
     # the manifest records the command line the process was started with
     monkeypatch.setattr(sys, "argv", ["cbr", *args])
 
-    result = cbr_cli(*args)
+    result = invoke_cbr(*args)
 
     assert result.exit_code == 0, result
     assert PASSWORD not in result.stdout + result.stderr

@@ -137,7 +137,7 @@ def test_describe_tells_where_the_case_base_is(store: PostgresStore,
 
 def test_the_casebase_commands_work_on_a_postgres_store(
         postgres_database: str, tmp_path: Path, cbr_plugins: Callable[..., Plugins],
-        cbr_cli: Callable[..., CliResult]) -> None:
+        invoke_cbr: Callable[..., CliResult]) -> None:
     cbr_plugins(("core", cbrcore.builtins), ("stores", cbr_stores))
     with PostgresStore(postgres_database, schema="fleet") as store:
         with store.transaction():
@@ -145,28 +145,28 @@ def test_the_casebase_commands_work_on_a_postgres_store(
             store.add(Case("v", None, kind="vertex"))
         store.touch([1])
     fleet = f"{{use: postgres, dsn: '{postgres_database}', schema: fleet}}"
-    info = cbr_cli("casebase", "info", "--store", fleet, "--json")
+    info = invoke_cbr("casebase", "info", "--store", fleet, "--json")
     assert info.exit_code == 0, info.stderr
     facts = json.loads(info.stdout)
     assert (facts["store"], facts["revision"], facts["cases"], facts["schema"]) == (
         "postgres", 2, 2, "fleet")
     assert facts["kinds"] == {"case": 1, "vertex": 1}
-    assert cbr_cli("casebase", "check", "--store", fleet).stdout == "ok\n"
+    assert invoke_cbr("casebase", "check", "--store", fleet).stdout == "ok\n"
     exported = tmp_path / "fleet.yaml"
-    assert cbr_cli("casebase", "export", "--store", fleet, "-o", str(exported)).exit_code == 0
+    assert invoke_cbr("casebase", "export", "--store", fleet, "-o", str(exported)).exit_code == 0
     copy = f"{{use: postgres, dsn: '{postgres_database}', schema: copy}}"
-    imported = cbr_cli("casebase", "import", str(exported), "--store", copy)
+    imported = invoke_cbr("casebase", "import", str(exported), "--store", copy)
     assert imported.exit_code == 0, imported.stderr
     assert imported.stdout.startswith("imported 2 cases into schema copy of database cbr_test_")
     with PostgresStore(postgres_database, schema="fleet") as fleet_store, \
             PostgresStore(postgres_database, schema="copy") as copied:
         assert document_of(copied) == document_of(fleet_store)
     _sql(postgres_database, "UPDATE fleet.cases SET uses = -1 WHERE id = 1")
-    broken = cbr_cli("casebase", "check", "--store", fleet)
+    broken = invoke_cbr("casebase", "check", "--store", fleet)
     assert broken.exit_code == 1
     assert "case 1: uses: expected a non-negative integer, got -1" in broken.stdout
     _sql(postgres_database, "UPDATE fleet.schema_version SET version = 9")
-    newer = cbr_cli("casebase", "check", "--store", fleet)
+    newer = invoke_cbr("casebase", "check", "--store", fleet)
     assert (newer.exit_code, "schema version 9 (from a newer cbrcore)" in newer.stdout) == (
         1, True)
 
@@ -195,7 +195,7 @@ def test_a_second_run_continues_from_the_postgres_case_base(
 
 def test_a_postgres_case_base_refuses_a_run_of_another_world(
         postgres_database: str, tmp_path: Path, cbr_plugins: Callable[..., Plugins],
-        cbr_cli: Callable[..., CliResult]) -> None:
+        invoke_cbr: Callable[..., CliResult]) -> None:
     """The world record lives in the case base's meta, so it is the same on every store: a run
     of another office is refused and stores nothing, the same office learns on."""
     cbr_plugins(entry_points=True)
@@ -205,14 +205,14 @@ def test_a_postgres_case_base_refuses_a_run_of_another_world(
         f"casebase: {{use: postgres, dsn: '{postgres_database}', schema: office}}\n"
         "workload: {use: trips, count: 4, unknown_static: 60}\nsolver: astar\n"
         "retain: [risk_map]\n", encoding="utf-8")
-    first = cbr_cli("run", str(config), "--out", str(tmp_path / "a"))
+    first = invoke_cbr("run", str(config), "--out", str(tmp_path / "a"))
     assert first.exit_code == 0, first.stderr
     with PostgresStore(postgres_database, schema="office") as store:
         before = document_of(store)
     assert [w["description"] for w in before.meta["cbrcore.worlds"]] == ["office 24x24, seed 1"]
 
-    refused = cbr_cli("run", str(config), "--out", str(tmp_path / "b"), "--set", "seed=2")
-    again = cbr_cli("run", str(config), "--out", str(tmp_path / "c"), "--set", "workload.seed=5")
+    refused = invoke_cbr("run", str(config), "--out", str(tmp_path / "b"), "--set", "seed=2")
+    again = invoke_cbr("run", str(config), "--out", str(tmp_path / "c"), "--set", "workload.seed=5")
 
     assert refused.exit_code == 2 and "Traceback" not in refused.stderr
     assert "office 24x24, seed 1 (world" in refused.stderr

@@ -16,13 +16,13 @@ import pytest
 import cbr_stores
 import cbrcore
 import cbrcore.builtins
+from casebase.test_damage import damage
 from cbr_stores.sqlite import SQLiteStore
 from cbr_stores.sqlite_file import APPLICATION_ID, SCHEMA_VERSION
 from cbrcore.casebase import Changes, UnusableCaseBase
 from cbrcore.errors import CaseBaseError
 from cbrcore.model import Case
 from cbrcore.testing import CliResult
-from test_casebase_damage import damage
 
 REPO = Path(cbrcore.__file__).resolve().parent.parent
 
@@ -303,7 +303,7 @@ revisions."""
 
 def test_a_case_base_file_of_earlier_code_opens_unchanged(
         tmp_path: Path, cbr_plugins: Callable[..., object],
-        cbr_cli: Callable[..., CliResult]) -> None:
+        invoke_cbr: Callable[..., CliResult]) -> None:
     path = tmp_path / "cb.sqlite"
     path.write_bytes(SCHEMA_2_FILE.read_bytes())
 
@@ -321,7 +321,7 @@ def test_a_case_base_file_of_earlier_code_opens_unchanged(
         assert store.check() == []
 
     cbr_plugins(("core", cbrcore.builtins), ("stores", cbr_stores))
-    result = cbr_cli("casebase", "check", str(path))
+    result = invoke_cbr("casebase", "check", str(path))
     assert (result.exit_code, result.stdout) == (0, "ok\n")
     # it stays a case base this code writes to: ids go on after the largest ever given
     with SQLiteStore(path) as store:

@@ -16,8 +16,9 @@ import pytest
 
 from cbr_world2d import robot
 from cbr_world2d.robot import RobotState
+from repo_paths import ROOT
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "world2d_speed.py"
+SCRIPT = ROOT / "benchmarks" / "world2d_speed.py"
 
 
 def _has_irsim() -> bool:

@@ -20,10 +20,11 @@ from cbr_world2d.simulation import Trial, run_trial
 from cbr_world2d.world import Door, Landmark, Mover, Wall, World
 from cbrcore.plugins import Plugins
 from cbrcore.testing import CliResult
+from repo_paths import ROOT
 
 Cli = Callable[..., CliResult]
 
-WORLDS = Path(__file__).resolve().parents[1] / "plugins" / "cbr_world2d" / "worlds"
+WORLDS = ROOT / "plugins" / "cbr_world2d" / "worlds"
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 GIF_SIGNATURE = b"GIF89a"
 
@@ -102,10 +103,10 @@ def test_loading_the_plugin_imports_neither_numba_nor_matplotlib(code: str) -> N
 
 # --- show ----------------------------------------------------------------------------------
 
-def test_show_counts_what_a_world_file_holds_and_draws_it(cbr_cli: Cli, room: Path,
+def test_show_counts_what_a_world_file_holds_and_draws_it(invoke_cbr: Cli, room: Path,
                                                           tmp_path: Path) -> None:
     out = tmp_path / "room.png"
-    result = cbr_cli("sim", "show", str(room), "--plot", str(out))
+    result = invoke_cbr("sim", "show", str(room), "--plot", str(out))
     assert result.exit_code == 0, result.stderr
     shown = lines_of(result.stdout)
     assert shown["world"] == "room"
@@ -120,10 +121,10 @@ def test_show_counts_what_a_world_file_holds_and_draws_it(cbr_cli: Cli, room: Pa
     assert_png(out)
 
 
-def test_show_json_counts_what_a_world_file_holds(cbr_cli: Cli, room: Path,
+def test_show_json_counts_what_a_world_file_holds(invoke_cbr: Cli, room: Path,
                                                   tmp_path: Path) -> None:
     out = tmp_path / "room.png"
-    result = cbr_cli("sim", "show", str(room), "--json", "--plot", str(out))
+    result = invoke_cbr("sim", "show", str(room), "--json", "--plot", str(out))
     assert result.exit_code == 0, result.stderr
     assert json.loads(result.stdout) == {
         "world": "room", "bounds": [0, 0, 8, 6], "walls": 2, "linear_obstacles": 1,
@@ -133,11 +134,11 @@ def test_show_json_counts_what_a_world_file_holds(cbr_cli: Cli, room: Path,
 
 
 @pytest.mark.parametrize("kind", ["semi_structured", "office"])
-def test_show_builds_a_generated_world(cbr_cli: Cli, kind: str) -> None:
+def test_show_builds_a_generated_world(invoke_cbr: Cli, kind: str) -> None:
     from cbr_world2d import generate
 
     world = getattr(generate, kind)(5)
-    result = cbr_cli("sim", "show", f"generated:{kind}:5")
+    result = invoke_cbr("sim", "show", f"generated:{kind}:5")
     assert result.exit_code == 0, result.stderr
     shown = lines_of(result.stdout)
     assert shown["landmarks"] == str(len(world.landmarks))
@@ -146,18 +147,18 @@ def test_show_builds_a_generated_world(cbr_cli: Cli, kind: str) -> None:
 
 
 @pytest.mark.parametrize("name", ["scenario1", "scenario2", "office"])
-def test_show_reads_every_shipped_world(cbr_cli: Cli, name: str) -> None:
-    result = cbr_cli("sim", "show", str(WORLDS / f"{name}.yaml"))
+def test_show_reads_every_shipped_world(invoke_cbr: Cli, name: str) -> None:
+    result = invoke_cbr("sim", "show", str(WORLDS / f"{name}.yaml"))
     assert result.exit_code == 0, result.stderr
     assert lines_of(result.stdout)["bounds"]
 
 
 # --- run -----------------------------------------------------------------------------------
 
-def test_run_reaches_a_place_and_writes_a_plot_and_a_gif(cbr_cli: Cli, room: Path,
+def test_run_reaches_a_place_and_writes_a_plot_and_a_gif(invoke_cbr: Cli, room: Path,
                                                          tmp_path: Path) -> None:
     png, gif = tmp_path / "trial.png", tmp_path / "trial.gif"
-    result = cbr_cli("sim", "run", str(room), "--start", "home", "--target", "3.5,1.5",
+    result = invoke_cbr("sim", "run", str(room), "--start", "home", "--target", "3.5,1.5",
                      "--timeout", "60", "--plot", str(png), "--gif", str(gif), "--frames", "12")
     assert result.exit_code == 0, result.stderr
     shown = lines_of(result.stdout)
@@ -170,12 +171,12 @@ def test_run_reaches_a_place_and_writes_a_plot_and_a_gif(cbr_cli: Cli, room: Pat
     assert 2 <= gif_frames(gif) <= 12
 
 
-def test_run_json_agrees_with_the_trial_run_in_code(cbr_cli: Cli, room: Path) -> None:
+def test_run_json_agrees_with_the_trial_run_in_code(invoke_cbr: Cli, room: Path) -> None:
     from cbr_world2d.robot import ROS_2005
     from cbr_world2d.simulation import PilotRecipe
     from cbr_world2d.worldfile import load_world
 
-    result = cbr_cli("sim", "run", str(room), "--start", "1,3.5", "--target", "desk",
+    result = invoke_cbr("sim", "run", str(room), "--start", "1,3.5", "--target", "desk",
                      "--timeout", "40", "--dt", "0.2", "--seed", "4", "--robot", "ros2005",
                      "--json")
     assert result.exit_code == 0, result.stderr
@@ -190,8 +191,8 @@ def test_run_json_agrees_with_the_trial_run_in_code(cbr_cli: Cli, room: Path) ->
     assert not record["success"]
 
 
-def test_run_times_out_in_scenario_2_and_reports_where_it_got_stuck(cbr_cli: Cli) -> None:
-    result = cbr_cli("sim", "run", str(WORLDS / "scenario2.yaml"), "--start", "start",
+def test_run_times_out_in_scenario_2_and_reports_where_it_got_stuck(invoke_cbr: Cli) -> None:
+    result = invoke_cbr("sim", "run", str(WORLDS / "scenario2.yaml"), "--start", "start",
                      "--target", "target", "--timeout", "80")
     assert result.exit_code == 0, result.stderr
     shown = lines_of(result.stdout)
@@ -202,11 +203,11 @@ def test_run_times_out_in_scenario_2_and_reports_where_it_got_stuck(cbr_cli: Cli
 
 # --- batch ---------------------------------------------------------------------------------
 
-def test_batch_on_two_workers_prints_what_one_worker_prints(cbr_cli: Cli, room: Path) -> None:
+def test_batch_on_two_workers_prints_what_one_worker_prints(invoke_cbr: Cli, room: Path) -> None:
     args = ("sim", "batch", str(room), "--trials", "3", "--seed", "9", "--timeout", "20",
             "--json")
-    two = cbr_cli(*args, "--workers", "2")
-    one = cbr_cli(*args, "--workers", "1")
+    two = invoke_cbr(*args, "--workers", "2")
+    one = invoke_cbr(*args, "--workers", "1")
     assert two.exit_code == 0, two.stderr
     assert one.exit_code == 0, one.stderr
     assert two.stdout == one.stdout
@@ -221,8 +222,8 @@ def test_batch_on_two_workers_prints_what_one_worker_prints(cbr_cli: Cli, room: 
             [r["time"] for r in reached])), abs=1e-3)
 
 
-def test_batch_prints_a_table_and_the_success_rate(cbr_cli: Cli) -> None:
-    result = cbr_cli("sim", "batch", "generated:semi_structured:2", "--trials", "2",
+def test_batch_prints_a_table_and_the_success_rate(invoke_cbr: Cli) -> None:
+    result = invoke_cbr("sim", "batch", "generated:semi_structured:2", "--trials", "2",
                      "--timeout", "10", "--workers", "1")
     assert result.exit_code == 0, result.stderr
     header, *rows, summary = result.stdout.splitlines()
@@ -288,59 +289,59 @@ def assert_refused(result: CliResult, *named: str) -> None:
     ("home", "9,1", "--target 9,1 is outside the bounds [0, 0, 8, 6]"),
     ("home", "3,-0.5", "--target 3,-0.5 is outside the bounds"),
 ])
-def test_run_refuses_a_start_in_the_way_or_a_target_outside(cbr_cli: Cli, room: Path,
+def test_run_refuses_a_start_in_the_way_or_a_target_outside(invoke_cbr: Cli, room: Path,
                                                             start: str, target: str,
                                                             named: str) -> None:
-    assert_refused(cbr_cli("sim", "run", str(room), "--start", start, "--target", target),
+    assert_refused(invoke_cbr("sim", "run", str(room), "--start", start, "--target", target),
                    f"error: {named}")
 
 
-def test_run_names_the_linear_obstacle_a_start_stands_on(cbr_cli: Cli, room: Path) -> None:
-    assert_refused(cbr_cli("sim", "run", str(room), "--start", "5,1.75", "--target", "desk"),
+def test_run_names_the_linear_obstacle_a_start_stands_on(invoke_cbr: Cli, room: Path) -> None:
+    assert_refused(invoke_cbr("sim", "run", str(room), "--start", "5,1.75", "--target", "desk"),
                    "wall 0 (between 'l1' and 'l2')")
 
 
 @pytest.mark.parametrize("written", ["1,x", "1", "1,2,3", "", "nan,1", "kitchen"])
-def test_run_refuses_a_malformed_point_or_an_unknown_place(cbr_cli: Cli, room: Path,
+def test_run_refuses_a_malformed_point_or_an_unknown_place(invoke_cbr: Cli, room: Path,
                                                           written: str) -> None:
-    assert_refused(cbr_cli("sim", "run", str(room), "--start", "home", "--target", written),
+    assert_refused(invoke_cbr("sim", "run", str(room), "--start", "home", "--target", written),
                    "error: --target:")
 
 
-def test_an_unknown_place_lists_the_places(cbr_cli: Cli, room: Path) -> None:
-    assert_refused(cbr_cli("sim", "run", str(room), "--start", "kitchen", "--target", "desk"),
+def test_an_unknown_place_lists_the_places(invoke_cbr: Cli, room: Path) -> None:
+    assert_refused(invoke_cbr("sim", "run", str(room), "--start", "kitchen", "--target", "desk"),
                    "--start", "places: desk, home", "'kitchen'")
 
 
-def test_an_unknown_pilot_is_named_with_the_registered_ones(cbr_cli: Cli, room: Path) -> None:
-    assert_refused(cbr_cli("sim", "run", str(room), "--start", "home", "--target", "desk",
+def test_an_unknown_pilot_is_named_with_the_registered_ones(invoke_cbr: Cli, room: Path) -> None:
+    assert_refused(invoke_cbr("sim", "run", str(room), "--start", "home", "--target", "desk",
                            "--pilot", "wander"),
                    "unknown pilot 'wander'", "potential_field")
-    assert_refused(cbr_cli("sim", "batch", str(room), "--pilot", "wander"),
+    assert_refused(invoke_cbr("sim", "batch", str(room), "--pilot", "wander"),
                    "unknown pilot 'wander'")
 
 
 @pytest.mark.parametrize("text", ["bounds: [0, 0, .nan, 5]\n",
                                   "bounds: [0, 0, 5, 5]\nwalls:\n  - {a: [1, 1], b: [1, 1]}\n",
                                   "bounds: [0, 0, 5, 5\n"])
-def test_a_broken_world_file_is_named_with_its_problem(cbr_cli: Cli, tmp_path: Path,
+def test_a_broken_world_file_is_named_with_its_problem(invoke_cbr: Cli, tmp_path: Path,
                                                        text: str) -> None:
     path = tmp_path / "broken.yaml"
     path.write_text(text, encoding="utf-8")
     for args in (("show",), ("run", "--start", "1,1", "--target", "2,2"), ("batch",)):
         command, *options = args
-        assert_refused(cbr_cli("sim", command, str(path), *options), f"error: {path}")
+        assert_refused(invoke_cbr("sim", command, str(path), *options), f"error: {path}")
 
 
-def test_a_missing_world_file_is_named(cbr_cli: Cli, tmp_path: Path) -> None:
+def test_a_missing_world_file_is_named(invoke_cbr: Cli, tmp_path: Path) -> None:
     missing = tmp_path / "nowhere.yaml"
-    assert_refused(cbr_cli("sim", "show", str(missing)), f"error: {missing}", "file not found")
+    assert_refused(invoke_cbr("sim", "show", str(missing)), f"error: {missing}", "file not found")
 
 
 @pytest.mark.parametrize("world", ["generated:maze:1", "generated:office:x",
                                    "generated:office", "generated:office:-1"])
-def test_a_bad_generated_world_is_named(cbr_cli: Cli, world: str) -> None:
-    assert_refused(cbr_cli("sim", "show", world), "Invalid value for 'WORLD'", repr(world))
+def test_a_bad_generated_world_is_named(invoke_cbr: Cli, world: str) -> None:
+    assert_refused(invoke_cbr("sim", "show", world), "Invalid value for 'WORLD'", repr(world))
 
 
 @pytest.mark.parametrize(("option", "value", "message"), [
@@ -350,25 +351,25 @@ def test_a_bad_generated_world_is_named(cbr_cli: Cli, world: str) -> None:
     ("--tolerance", "inf", "Invalid value for '--tolerance'"),
     ("--robot", "r2d2", "--robot: 'r2d2' is not one of pioneer2dx, ros2005"),
     ("--rescue", "always", "--rescue: 'always' is not one of off, blocked, stuck")])
-def test_run_refuses_a_bad_option(cbr_cli: Cli, room: Path, option: str, value: str,
+def test_run_refuses_a_bad_option(invoke_cbr: Cli, room: Path, option: str, value: str,
                                   message: str) -> None:
-    assert_refused(cbr_cli("sim", "run", str(room), "--start", "home", "--target", "desk",
+    assert_refused(invoke_cbr("sim", "run", str(room), "--start", "home", "--target", "desk",
                            option, value), message)
 
 
 @pytest.mark.parametrize(("option", "value"), [("--trials", "0"), ("--workers", "0"),
                                                ("--seed", "-1"), ("--timeout", "nan")])
-def test_batch_refuses_a_bad_option(cbr_cli: Cli, room: Path, option: str, value: str) -> None:
-    assert_refused(cbr_cli("sim", "batch", str(room), option, value),
+def test_batch_refuses_a_bad_option(invoke_cbr: Cli, room: Path, option: str, value: str) -> None:
+    assert_refused(invoke_cbr("sim", "batch", str(room), option, value),
                    f"Invalid value for '{option}'")
 
 
 @pytest.mark.parametrize("option", ["--plot", "--gif"])
-def test_a_picture_in_a_missing_folder_is_refused_before_the_trial(cbr_cli: Cli, room: Path,
+def test_a_picture_in_a_missing_folder_is_refused_before_the_trial(invoke_cbr: Cli, room: Path,
                                                                    tmp_path: Path,
                                                                    option: str) -> None:
     out = tmp_path / "missing" / "picture"
-    assert_refused(cbr_cli("sim", "run", str(room), "--start", "home", "--target", "desk",
+    assert_refused(invoke_cbr("sim", "run", str(room), "--start", "home", "--target", "desk",
                            option, str(out)),
                    f"error: {option} {out}: cannot write the picture")
     assert not out.parent.exists()

@@ -33,9 +33,10 @@ from cbrcore.errors import CbrError, PluginError
 from cbrcore.plugins import Plugins, load_plugins
 from cbrcore.registry import Registry
 from cbrcore.run import run_workload
+from repo_paths import ROOT
 
 WORLDS = Path(cbr_world2d.__file__).parent / "worlds"
-PAGE = Path(__file__).resolve().parents[1] / "docs" / "world2d.md"
+PAGE = ROOT / "docs" / "world2d.md"
 """The 2D world page, whose section on a family's components shows this agent's run."""
 KIND = "divert"
 NEAR = 1.0

@@ -319,7 +319,7 @@ BAD = {
 
 @pytest.mark.parametrize(("option", "where"), BAD.values(), ids=list(BAD))
 def test_a_bad_perception_option_is_refused_with_its_place(
-        cbr_plugins: Callable[..., Plugins], cbr_cli: Callable[..., CliResult], tmp_path: Path,
+        cbr_plugins: Callable[..., Plugins], invoke_cbr: Callable[..., CliResult], tmp_path: Path,
         option: str, where: str) -> None:
     cbr_plugins(entry_points=True)
     path = tmp_path / "run.yaml"
@@ -330,7 +330,7 @@ def test_a_bad_perception_option_is_refused_with_its_place(
                           "pilot": "potential_field"})
         + f"workload:\n  use: trials\n  perception: {{{option}}}\n", encoding="utf-8")
 
-    result = cbr_cli("run", str(path), "--out", str(tmp_path / "out"))
+    result = invoke_cbr("run", str(path), "--out", str(tmp_path / "out"))
 
     assert result.exit_code == 2, result
     assert "Traceback" not in result.stderr

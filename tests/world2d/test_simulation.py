@@ -7,7 +7,6 @@ from __future__ import annotations
 import math
 import pickle
 import re
-from pathlib import Path
 
 import attrs
 import numpy as np
@@ -35,8 +34,9 @@ from cbr_world2d.world import Door, Landmark, Mover, Point, Wall, World
 from cbr_world2d.worldfile import load_world
 from cbrcore.errors import CbrError
 from cbrcore.registry import Registry, UnknownComponent
+from repo_paths import ROOT
 
-WORLDS = Path(__file__).resolve().parents[1] / "plugins" / "cbr_world2d" / "worlds"
+WORLDS = ROOT / "plugins" / "cbr_world2d" / "worlds"
 RADIUS = PIONEER_2DX.radius
 POTENTIAL_FIELD = PilotRecipe("potential_field", potential_field_pilot, PotentialFieldOptions())
 NOISY = Sensors(sonar=SonarRing(noise=0.03), odometry=Odometry(noise_v=0.05, noise_w=0.05))

@@ -29,10 +29,11 @@ from cbr_world2d.world import Landmark, Mover, Wall, World
 from cbr_world2d.worldfile import load_world, schema_reference, world_from_data
 from cbr_world2d.worldfile_writer import dump_world, save_world, world_yaml
 from cbrcore.errors import ConfigError
+from repo_paths import ROOT
 
 WORLDS = resources.files("cbr_world2d") / "worlds"
 SHIPPED = ["scenario1.yaml", "scenario2.yaml", "office.yaml"]
-DOCS = Path(__file__).resolve().parents[1] / "docs" / "world2d.md"
+DOCS = ROOT / "docs" / "world2d.md"
 
 
 def same_world(a: World, b: World) -> bool:
