@@ -44,13 +44,6 @@ def _installed(cbr_plugins: Callable[..., Plugins]) -> None:
     cbr_plugins(entry_points=True)
 
 
-@pytest.fixture(scope="module")
-def cluster() -> Iterator[TaskRunner]:
-    """A LocalCluster of two worker processes, shared by the tests of this module."""
-    with open_tasks("local", workers=2) as runner:
-        yield runner
-
-
 def results(out: Path) -> dict[str, Any]:
     return json.loads((out / "results.json").read_text(encoding="utf-8"))
 

@@ -8,7 +8,6 @@ import importlib.util
 import math
 import os
 import warnings
-from collections.abc import Iterator
 from typing import Any
 
 import pytest
@@ -19,13 +18,6 @@ if importlib.util.find_spec("distributed") is None:
     pytest.skip("distributed is not installed", allow_module_level=True)
 
 import dask.config
-
-
-@pytest.fixture(scope="module")
-def cluster() -> Iterator[TaskRunner]:
-    """A LocalCluster of two worker processes, shared by the tests of this module."""
-    with open_tasks("local", workers=2) as runner:
-        yield runner
 
 
 def test_in_this_process_a_shared_value_is_the_value_itself() -> None:

@@ -267,12 +267,6 @@ def test_read_only_grids_are_packed_once_and_follow_changes() -> None:
     assert first == again and first.cost == 10.0
 
 
-@pytest.fixture
-def solver_plugins(cbr_plugins: Callable[..., Plugins]) -> Plugins:
-    """The installed grid and solver plugins, loaded through their entry points."""
-    return cbr_plugins(entry_points=True, environ={"CBR_PLUGINS": "core,grid,solvers"})
-
-
 def test_the_jps_solver_answers_through_the_engine(
         solver_plugins: Plugins, cbr_engine: Callable[..., Engine]) -> None:
     scenario = max(load_scen(ARENA_SCEN), key=lambda s: s.optimal)

@@ -270,12 +270,6 @@ def test_bad_input_is_refused() -> None:
         dijkstra(factor, passable, False, (0, 0), [(1, 0)])
 
 
-@pytest.fixture
-def solver_plugins(cbr_plugins: Callable[..., Plugins]) -> Plugins:
-    """The installed grid and solver plugins, loaded through their entry points."""
-    return cbr_plugins(entry_points=True, environ={"CBR_PLUGINS": "core,grid,solvers"})
-
-
 @pytest.mark.parametrize("name", SEARCHES)
 def test_solver_components_answer_through_the_engine(
         name: str, solver_plugins: Plugins, cbr_engine: Callable[..., Engine]) -> None:
