@@ -27,7 +27,9 @@ def bench() -> ModuleType:
     spec = importlib.util.spec_from_file_location("landmarks_retrieval", SCRIPT)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.syspath_prepend(str(SCRIPT.parent))  # as a script, its folder is on the path
+        spec.loader.exec_module(module)
     return module
 
 
