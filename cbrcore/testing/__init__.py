@@ -8,7 +8,7 @@ entry point), so a plugin's own test suite can use them without any import:
 ``cbr_engine``
     Build an :class:`~cbrcore.engine.Engine` from YAML text, a mapping or a file; closed after
     the test.
-``cbr_cli``
+``invoke_cbr``
     Run the ``cbr`` command line in-process and capture its exit code, stdout and stderr.
 
 A typical test::
@@ -57,7 +57,7 @@ if TYPE_CHECKING:
     from cbrcore.plugins import Plugins
     from cbrcore.registry import Registry
 
-__all__ = ["CliResult", "StoreContract", "cbr_cli", "cbr_engine", "cbr_plugins"]
+__all__ = ["CliResult", "StoreContract", "cbr_engine", "cbr_plugins", "invoke_cbr"]
 
 
 class CliResult(NamedTuple):
@@ -105,7 +105,7 @@ def cbr_plugins() -> Iterator[Callable[..., Plugins]]:
     plugins are loaded with :func:`cbrcore.plugins.load_plugins` and made current with
     :func:`cbrcore.plugins.use_plugins` until the test ends, so
     :func:`cbrcore.plugins.current`, :meth:`Engine.from_yaml <cbrcore.engine.Engine.from_yaml>`,
-    the ``cbr_engine`` fixture and the ``cbr_cli`` fixture all see them.
+    the ``cbr_engine`` fixture and the ``invoke_cbr`` fixture all see them.
 
     ``entry_points=True`` loads the installed plugins of the ``cbr`` entry point group as well
     (cbrcore's own ``core`` and ``observers`` are declared there). ``environ`` replaces
@@ -182,8 +182,9 @@ def cbr_engine() -> Iterator[Callable[..., Engine]]:
 
 
 @pytest.fixture
-def cbr_cli() -> Callable[..., CliResult]:
-    """Run the command line in-process: ``cbr_cli(*args) -> CliResult(exit_code, stdout, stderr)``.
+def invoke_cbr() -> Callable[..., CliResult]:
+    """Run the command line in-process: ``invoke_cbr(*args) -> CliResult(exit_code, stdout,
+    stderr)``.
 
     Calls :func:`cbrcore.cli.main` with ``args`` (without the leading ``cbr``) while
     ``sys.stdout`` and ``sys.stderr`` are captured separately, and returns the exit code the

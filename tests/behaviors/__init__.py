@@ -1,0 +1,1 @@
+"""Tests of RUPART's behaviors (``cbr_behaviors``)."""

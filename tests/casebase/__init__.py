@@ -1,0 +1,1 @@
+"""Tests of the case base protocol (``cbrcore.casebase``): stores, exchange, worlds, damage."""

@@ -1,0 +1,1 @@
+"""Tests of the case graph planner (``cbr_casegraph``) and its experiments."""

@@ -1,0 +1,1 @@
+"""Tests of the ``cbr`` command line: commands, bad inputs, start-up, completion."""

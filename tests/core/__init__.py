@@ -1,0 +1,1 @@
+"""Tests of cbrcore's engine, configuration, registry, plugins, hooks, runs and warm-up."""

@@ -1,0 +1,1 @@
+"""Tests of nonholonomic planning (``cbr_kinematics``)."""

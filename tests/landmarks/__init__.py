@@ -1,0 +1,1 @@
+"""Tests of landmark-graph situations (``cbr_landmarks``) and their experiments."""

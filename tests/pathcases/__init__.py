@@ -1,0 +1,1 @@
+"""Tests of whole-path cases (``cbr_pathcases``) and their experiment."""

@@ -1,0 +1,1 @@
+"""Tests of path quality bounds (``cbr_pathquality``)."""

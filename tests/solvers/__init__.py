@@ -1,0 +1,1 @@
+"""Tests of the grid searches and planners of ``cbr_solvers``."""
