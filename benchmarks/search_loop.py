@@ -31,11 +31,10 @@ from typing import Any
 
 import numpy as np
 from docfigures.provenance import script_command, write_results
-from solvers import edges, random_map, random_queries
 
 from cbr_casegraph.search import graph_search
 from cbr_grid.costs import SQRT2
-from cbr_grid.search_base import pop, push_grown
+from cbr_grid.search_base import DX, DY, move_masks, pop, push_grown
 from cbr_kernels import njit
 from cbr_solvers.search import astar, dijkstra
 
@@ -108,19 +107,39 @@ def relax_overlaid(graph, v, goal, dist, came, code, closed, keys, items, size):
 
 
 def csr(passable: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The map's legal steps both ways as the case graph kernel's arrays (no overlay edges)."""
+    """The map's legal moves, as the grid kernels' move masks give them, in the case graph
+    kernel's arrays (no overlay edges)."""
     h, w = passable.shape
-    tails, heads, lengths = edges(passable)
-    tails, heads = np.concatenate((tails, heads)), np.concatenate((heads, tails))
-    lengths = np.concatenate((lengths, lengths))
+    masks = move_masks(passable, False).reshape(-1)
+    tails, heads, lengths = [], [], []
+    for d in range(8):
+        cells = np.flatnonzero(masks & (1 << d))
+        tails.append(cells)
+        heads.append(cells + DY[d] * w + DX[d])
+        lengths.append(np.full(len(cells), SQRT2 if d >= 4 else 1.0))
+    tails, heads = np.concatenate(tails), np.concatenate(heads)
     order = np.argsort(tails, kind="stable")
     indptr = np.zeros(h * w + 1, dtype=np.int64)
     np.add.at(indptr, tails + 1, 1)
     xs, ys = np.meshgrid(np.arange(w), np.arange(h))
     xy = np.stack((xs.ravel(), ys.ravel()), axis=1).astype(np.int64)
-    return (np.cumsum(indptr), heads[order].astype(np.int64), lengths[order],
+    return (np.cumsum(indptr), heads[order].astype(np.int64), np.concatenate(lengths)[order],
             np.arange(len(order), dtype=np.int64), np.zeros(h * w + 1, dtype=np.int64),
             np.zeros(0, dtype=np.int64), np.zeros(0), xy)
+
+
+def queries_on(passable: np.ndarray, count: int, seed: int) -> list[tuple[int, int]]:
+    """``count`` pairs of distinct free cells (as flat indices) that a path joins."""
+    rng = np.random.default_rng(seed)
+    free = np.flatnonzero(passable)
+    factor = np.ones(passable.shape)
+    w = passable.shape[1]
+    found: list[tuple[int, int]] = []
+    while len(found) < count:
+        s, g = (int(cell) for cell in rng.choice(free, size=2, replace=False))
+        if astar(factor, passable, False, (s % w, s // w), [(g % w, g // w)]) is not None:
+            found.append((s, g))
+    return found
 
 
 def timed(call: Callable[[], Any], repeats: int) -> tuple[float, Any]:
@@ -144,11 +163,10 @@ def grid_cost(solver: Callable[..., Any], passable: np.ndarray, s: int, g: int) 
 
 
 def run(side: int, count: int, repeats: int, seed: int) -> dict[str, Any]:
-    passable = random_map(side, seed)
+    passable = np.random.default_rng(seed).random((side, side)) >= 0.2
     arrays = csr(passable)
     n = side * side
-    queries = [(a[1] * side + a[0], b[1] * side + b[0])
-               for a, b in random_queries(passable, count, seed + 1)]
+    queries = queries_on(passable, count, seed + 1)
     rows = []
     for informed, solver in ((False, dijkstra), (True, astar)):
         graph = (*arrays, informed, 1.0)

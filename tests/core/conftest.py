@@ -5,7 +5,8 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 import pytest
-from cbrcore.tasks import TaskRunner, open_tasks
+
+from cbr_experiments.tasks import TaskRunner, open_tasks
 
 
 @pytest.fixture(scope="module")
