@@ -21,7 +21,16 @@ from cbrcore.plugins import Plugins, load_plugins
 from cbrcore.registry import Registry
 from cbrcore.warm_split import _Ends, can_fork, warm_in_turn
 
-forking = pytest.mark.skipif(not can_fork(), reason="forks a helper on Linux, single-threaded")
+
+@pytest.fixture
+def single_threaded() -> None:
+    """Skip unless a helper may be forked now: asked at run time, since a test run earlier in
+    the same process may leave threads behind (a Dask cluster's, for one)."""
+    if not can_fork():
+        pytest.skip("forks a helper on Linux, in a single-threaded process")
+
+
+forking = pytest.mark.usefixtures("single_threaded")
 
 
 def _records(path: Path) -> list[tuple[int, str]]:
