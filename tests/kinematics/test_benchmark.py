@@ -15,9 +15,7 @@ SCRIPT = ROOT / "benchmarks" / "kinematics_speed.py"
 DATA = repo_paths.DATA / "movingai"
 
 
-def test_quick_run_writes_outputs_without_mismatches(tmp_path: Path,
-                                                     monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.syspath_prepend(str(SCRIPT.parent))  # as a script, its folder is on the path
+def test_quick_run_writes_outputs_without_mismatches(tmp_path: Path) -> None:
     spec = importlib.util.spec_from_file_location("kinematics_speed", SCRIPT)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
