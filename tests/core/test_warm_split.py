@@ -4,6 +4,8 @@ the front of the list, the engine from the back, and the engine then warms the h
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -20,6 +22,7 @@ from cbrcore.kernel_cache import holds_no_kernels
 from cbrcore.plugins import Plugins, load_plugins
 from cbrcore.registry import Registry
 from cbrcore.warm_split import _Ends, can_fork, warm_in_turn
+from repo_paths import ROOT
 
 
 @pytest.fixture
@@ -31,6 +34,19 @@ def single_threaded() -> None:
 
 
 forking = pytest.mark.usefixtures("single_threaded")
+
+
+def test_the_forking_tests_run_in_a_fresh_process_where_this_one_has_threads() -> None:
+    """Where an earlier test left threads behind, the forking tests skip here: run this module
+    again in a fresh, single-threaded interpreter, so that they run in every test session."""
+    if can_fork():
+        pytest.skip("the forking tests run in this process")
+    found = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-n0", "-p", "no:cacheprovider", __file__,
+         "-k", "not in_a_fresh_process"],
+        capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert found.returncode == 0, found.stdout[-3000:]
+    assert "skipped" not in found.stdout, found.stdout[-3000:]
 
 
 def _records(path: Path) -> list[tuple[int, str]]:
