@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from cbr_grid import grid as grid_module
 from cbr_grid.costs import (
     PATH_COSTS,
     CostModel,
@@ -23,7 +24,6 @@ from cbr_grid.costs import (
     uniform_factor,
 )
 from cbr_grid.distances import octile
-from cbr_grid import grid as grid_module
 from cbr_grid.grid import Grid
 from cbrcore.errors import CbrError
 
