@@ -15,8 +15,9 @@ to the map's extremes, where the bound is tightest.
 ``t = floor(d~ / u)``, where ``d~`` is the length the float64 wavefront computed. ``u`` is the
 smallest power of two (in cells) for which twice the greatest length from the first passable
 cell fits 65534 units; no length from a landmark exceeds that (both ends lie within that
-length of the first cell), and 65535 marks a cell the landmarks do not reach. On the 512 x 512
-Moving AI maps ``u`` is 1/32 or 1/64 of a cell, on an 8000 x 8000 map of random obstacles 1/2.
+length of the first cell), and 65535 marks a cell the landmarks do not reach. On the Moving AI
+maps ``u`` is 1/64 of a cell (den520d, Berlin_1_256), 1/32 (random512-10-0, 8room_000) or 1/4
+(maze512-1-0, whose paths are longest); on an 8000 x 8000 map of random obstacles 1/2.
 
 *Why the bound stays below the truth.* The wavefront adds step lengths along a real path, and
 rounding is monotone, so ``d~`` lies within a relative ``delta`` of the exact length ``d``,
@@ -40,7 +41,8 @@ of each scenario file): with 8 landmarks the bound is within 3% of the optimal l
 median query on every map (dao, city, maze, room, random), and at least 0.92 of it for nine
 queries in ten on the dao and city maps; the 512x512 maze's worst tenth is the loosest (0.78),
 and 16 and 32 landmarks raise it to 0.91 and 0.97 at about two and four times the building
-time (0.6 and 1.2 s there). The 16-bit tables change these ratios by less than 0.001. Against the
+time (0.6 and 1.2 s there). The 16-bit tables change these ratios by at most 0.0001 (median
+and tenth percentile on den520d, Berlin_1_256, maze512-1-0, random512-10-0, 8room_000). Against the
 octile distance, whose median is 0.11 of the optimum on that maze and 0.5-0.7 on the 128x128
 maze and the larger dao maps, a 1.5 test accepts CBR's path on 92% of that maze's queries
 instead of none, on 97% instead of 26% on the 128x128 maze and on 85% instead of 37% on den520d.
