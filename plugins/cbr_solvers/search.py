@@ -19,7 +19,9 @@ cells. Both stay exact and save work four ways:
 - the eight moves of a cell are one byte of the grid's move masks, built once for read-only
   arrays (those of ``cbr_grid.grid.Grid``) and clipped by the window on its border;
 - when every passable factor in the window is equal, a cell's cost is counted in orthogonal and
-  diagonal steps (integers) and no factor is read, so equal costs are equal floats;
+  diagonal steps (integers) and no factor is read, so equal costs are equal floats; a factor
+  held once for a whole large grid (:func:`cbr_grid.costs.broadcast_factor`) is read as its one
+  value, never copied cell by cell;
 - A* breaks ties in f toward the cell nearer the goal, by a bias too small to reorder different
   costs (see :func:`_search`);
 - a successor that would be the next cell popped skips the heap.
@@ -396,9 +398,11 @@ def _profile(factor: np.ndarray, passable: np.ndarray, window: tuple[int, int, i
     value = uniform_factor(factor)
     if value is not None:
         # one factor for every cell: whether the window has a passable cell is all to find
-        least, most = (value, value) if passable[y0:y1 + 1, x0:x1 + 1].any() else (np.inf,
-                                                                                  -np.inf)
-        if least == value and not (0.0 < value < np.inf):
+        if not passable[y0:y1 + 1, x0:x1 + 1].any():
+            least, most = np.inf, -np.inf
+        elif 0.0 < value < np.inf:
+            least = most = value
+        else:
             raise ValueError("factor must be finite and positive on passable cells")
         if whole:
             _remember(_SCALES, _SCALES_KEPT, key,
