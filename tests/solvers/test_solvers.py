@@ -15,7 +15,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra as reference_dijkstra
 
 from cbr_grid import grid as grid_module
-from cbr_grid.costs import CostModel, path_cost, uniform_factor
+from cbr_grid.costs import CostModel, broadcast_factor, path_cost, uniform_factor
 from cbr_grid.grid import Grid
 from cbr_grid.movingai import Scenario, load_map, load_scen
 from cbr_grid.query import GridQuery
@@ -415,7 +415,9 @@ def test_working_arrays_survive_interleaved_searches_and_wraparound() -> None:
 def test_bad_factors_are_refused_on_large_grids(bad: float) -> None:
     passable = np.ones((80, 80), dtype=bool)  # above the kernel's small-window scan
     factor = np.full((80, 80), bad)
-    for arrays in ((factor, passable), (frozen(factor), frozen(passable))):
-        for search in (dijkstra, astar):
+    held = broadcast_factor(bad, (80, 80))  # the one value of a large grid, read as it is
+    for arrays in ((factor, passable), (frozen(factor), frozen(passable)),
+                   (held, frozen(passable)), (held, passable)):
+        for search in (dijkstra, astar, aistar, jps):
             with pytest.raises(ValueError, match="finite and positive"):
                 search(*arrays, False, (0, 0), [(79, 79)])
