@@ -122,11 +122,21 @@ def _graph_bytes() -> dict[str, Any]:
             "vertex_and_edge_item_bytes": {k: int(v.itemsize) for k, v in arrays.items()}}
 
 
-def _landmark_bytes() -> int:
-    """The bytes of the landmark distance tables alive in this process (the reviser's bound)."""
+def _landmarks() -> dict[str, int]:
+    """The bytes and the count of the landmark distance tables alive in this process (the
+    reviser's bound)."""
     from cbr_pathquality.ideal import Landmarks
 
-    return sum(int(o.tables.nbytes) for o in gc.get_objects() if isinstance(o, Landmarks))
+    found = [o for o in gc.get_objects() if isinstance(o, Landmarks)]
+    return {"landmark_bytes": sum(int(o.tables.nbytes) for o in found),
+            "landmarks": sum(len(o.tables) for o in found)}
+
+
+def held_bytes(array: np.ndarray) -> int:
+    """The bytes ``array``'s elements take: a value broadcast along an axis (stride 0) is held
+    once along it, as a Grid's factor shared by every passable cell is."""
+    return array.itemsize * int(np.prod([n for n, step in zip(array.shape, array.strides,
+                                                                 strict=True) if step]))
 
 
 def child(kind: str, side: int, trips: int) -> dict[str, Any]:
@@ -146,7 +156,7 @@ def child(kind: str, side: int, trips: int) -> dict[str, Any]:
     result: dict[str, Any] = {
         "kind": kind, "side": side, "cells": side * side, "baseline_rss": baseline,
         "build_s": built,
-        "grid_bytes": {name: int(getattr(grid, name).nbytes)
+        "grid_bytes": {name: held_bytes(getattr(grid, name))
                        for name in ("risk", "passable", "factor")},
     }
     began = time.perf_counter()
@@ -172,7 +182,7 @@ def child(kind: str, side: int, trips: int) -> dict[str, Any]:
                 engine.learn(problem, proposal, Outcome(success=True))
             result["sources"] = sources
             result["case_graph"] = _graph_bytes()
-            result["landmark_bytes"] = _landmark_bytes()
+            result.update(_landmarks())
     result["run_s"] = time.perf_counter() - began
     workspace = search._WORKSPACE
     result["search_bytes"] = {
@@ -215,13 +225,14 @@ def table(rows: list[dict[str, Any]]) -> str:
         vertices = case_graph.get("vertices")
         per_vertex = (sum(case_graph["vertex_and_edge_arrays_bytes"].values()) / vertices
                       if vertices else None)
+        count = f" ({row['landmarks']})" if row.get("landmarks") else ""
         lines.append(
             f"| {row['kind']} | {row['side']}² | {_mb(row['peak_rss'])} | "
             f"{_mb(row.get('built_peak_rss'))} | {_mb(row['baseline_rss'])} | "
             f"{(row['peak_rss'] - row['baseline_rss']) / cells:.1f} | "
             f"{sum(row['grid_bytes'].values()) / cells:.1f} | "
             f"{search / cells:.1f} | {graph / cells:.1f} | "
-            f"{row.get('landmark_bytes', 0) / cells:.1f} | {vertices or '-'} | "
+            f"{row.get('landmark_bytes', 0) / cells:.1f}{count} | {vertices or '-'} | "
             f"{'-' if per_vertex is None else f'{per_vertex:.0f}'} | "
             f"{row['build_s'] + row['run_s']:.1f} | "
             f"{'yes' if row['peak_rss'] <= LIMIT else 'no'} |")
@@ -256,11 +267,11 @@ def main() -> None:
         "engine is built and warm (its landmark tables made), before its first trip; after "
         "imports is the same before the map is built (Python, numpy, numba and the loaded "
         "kernels). Grid, search and case graph bytes are those of their arrays: the Grid's "
-        "risk, factor and passable arrays; the search's working arrays (stamp, cost, parent "
-        "move) and remembered move masks; the case graph's cell-indexed arrays; the path "
-        "quality reviser's landmark distance tables. B/vertex is the case graph's vertex and "
-        "edge arrays (with their spare capacity) per vertex; the case base's records come on "
-        "top."])
+        "risk, factor (held once when every passable cell shares it) and passable arrays; "
+        "the search's working arrays (stamp, cost, parent move) and remembered move masks; "
+        "the case graph's cell-indexed arrays; the path quality reviser's landmark distance "
+        "tables (how many in brackets). B/vertex is the case graph's vertex and edge arrays "
+        "(with their spare capacity) per vertex; the case base's records come on top."])
     (args.out / "memory.md").write_text(text + "\n")
     print(text)
 

@@ -246,23 +246,29 @@ def memory_reading() -> str:
     def within(kind: str) -> bool:
         return rows[kind]["peak_rss"] <= limit
 
+    def per_cell(row: dict, value: float) -> str:
+        return f"{value / row['cells']:.0f}"
+
     searches = [kind for kind in ("astar", "dijkstra") if kind in rows]
     side = data["side"]
-    text = (f"On the {side} x {side} map one A* search peaks at {gb(rows['astar']['peak_rss'])} "
+    astar = rows["astar"]
+    text = (f"On the {side} x {side} map one A* search peaks at {gb(astar['peak_rss'])} "
             f"and one Dijkstra search at {gb(rows['dijkstra']['peak_rss'])}: planning within "
             f"{gb(limit)} is {'met' if all(within(k) for k in searches) else 'not met'} for "
-            "both, the grid's 17 bytes per cell and the search's 10 being nearly all of it.")
-    engines = [kind for kind in ("engine_octile", "engine") if kind in rows]
-    if engines:
-        octile = rows.get("engine_octile")
-        text += (" The hybrid engine is **not** within it"
-                 if not all(within(k) for k in engines) else " The hybrid engine is within it")
-        if octile is not None:
-            text += (f": with the octile quality test it peaks at {gb(octile['peak_rss'])}, the "
-                     "case graph's two int32 cell arrays (8 bytes per cell) coming on top of the "
-                     "search")
-        if "engine" in rows:
-            text += (f", and with the landmark bound at {gb(rows['engine']['peak_rss'])}, whose "
-                     "eight float32 tables alone take 32 bytes per cell (2.05 GB at this size)")
+            f"both, the grid's {per_cell(astar, sum(astar['grid_bytes'].values()))} bytes per "
+            f"cell and the search's {per_cell(astar, sum(astar['search_bytes'].values()))} "
+            "being nearly all of it.")
+    for kind, test in (("engine_octile", "octile"), ("engine", "landmark")):
+        row = rows.get(kind)
+        if row is None:
+            continue
+        graph = sum(row.get("case_graph", {}).get("per_cell_bytes", {}).values())
+        text += (f" With the {test} quality test the hybrid engine peaks at "
+                 f"{gb(row['peak_rss'])}, {'within' if within(kind) else '**not** within'} "
+                 f"it: the case graph's cell arrays take {per_cell(row, graph)} bytes per cell")
+        if row.get("landmarks"):
+            text += (f" and the {row['landmarks']} landmark tables "
+                     f"{per_cell(row, row['landmark_bytes'])} "
+                     f"({gb(row['landmark_bytes'])} at this size)")
         text += "."
     return text

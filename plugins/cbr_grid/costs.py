@@ -1,10 +1,12 @@
 """What a path on a grid costs: the step cost factor planners use, and the paper's path costs.
 
 **The step cost contract.** A grid's cost model yields a per-cell float64 array ``factor``
-(``Grid.factor``, shape (height, width), at least 1 everywhere). One step between 8-neighbour
-cells a and b costs ``step_length(a, b) * (factor[a] + factor[b]) / 2``, with step length 1
-orthogonally and sqrt(2) diagonally. Planners search with this cost; ``step_costs`` and
-``path_cost(grid, path)`` evaluate it on a path.
+(``Grid.factor``, shape (height, width), at least 1 everywhere). On a large grid whose passable
+cells all have one factor, ``factor`` holds that one value, broadcast over every cell (zero
+strides, :func:`uniform_factor` reads it): no planner reads an obstacle's factor. One step
+between 8-neighbour cells a and b costs ``step_length(a, b) * (factor[a] + factor[b]) / 2``,
+with step length 1 orthogonally and sqrt(2) diagonally. Planners search with this cost;
+``step_costs`` and ``path_cost(grid, path)`` evaluate it on a path.
 
 **Reading eqs. (4)-(5).** The paper weights a linear segment (c_i, c_j) by F = l·r (4), with r the
 sum of the risks of its cells, the two end cells counted half (5). Taken literally, F is 0 on a
@@ -64,6 +66,22 @@ class CostModel:
     def factor(self, risk: np.ndarray) -> np.ndarray:
         """The per-cell factor of the step cost contract for a risk array."""
         return 1.0 + self.risk_weight * np.asarray(risk, dtype=np.float64)
+
+
+def broadcast_factor(value: float, shape: tuple[int, int]) -> np.ndarray:
+    """A read-only float64 array of ``shape`` holding ``value`` in every cell, in 8 bytes."""
+    one = np.full((1, 1), value, dtype=np.float64)
+    one.setflags(write=False)
+    return np.broadcast_to(one, shape)
+
+
+def uniform_factor(factor: np.ndarray) -> float | None:
+    """The one value of a factor array made by :func:`broadcast_factor` (zero strides), else
+    None: planners that handle it read that value instead of copying the array cell by cell."""
+    if (isinstance(factor, np.ndarray) and factor.ndim == 2 and factor.size
+            and factor.dtype == np.float64 and factor.strides == (0, 0)):
+        return float(factor[0, 0])
+    return None
 
 
 def _cells(path: ArrayLike) -> np.ndarray:

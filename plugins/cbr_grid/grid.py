@@ -18,7 +18,7 @@ import attrs
 import numpy as np
 from numpy.typing import ArrayLike
 
-from cbr_grid.costs import CostModel
+from cbr_grid.costs import CostModel, broadcast_factor
 from cbr_grid.frame import MapFrame, in_metres
 from cbr_grid.occupancy import OCCUPIED, UNKNOWN, occupancy_risk, unknown_risk
 from cbr_grid.query import Cell, path_array
@@ -30,6 +30,10 @@ ALLOW_IN_YAML = "allow_unknown: true"
 """How messages about unknown cells spell the setting that lets a planner cross them."""
 _LISTED = 5
 """How many offending cells or steps a problem message lists before summarising the rest."""
+UNIFORM_FACTOR_CELLS = 1 << 22
+"""Grids of more cells than this (2048 x 2048) whose passable cells all have one cost factor
+hold it once (:func:`cbr_grid.costs.broadcast_factor`) instead of 8 bytes a cell. Smaller grids
+keep a full array, the layout the compiled kernels are warmed up with."""
 
 
 def _risk_array(value: ArrayLike) -> np.ndarray:
@@ -98,7 +102,9 @@ class Grid:
     passable: np.ndarray = attrs.field(init=False)
     """Boolean mask (height, width): True where risk < 1."""
     factor: np.ndarray = attrs.field(init=False)
-    """The cost model's per-cell step cost factor (see :mod:`cbr_grid.costs`)."""
+    """The cost model's per-cell step cost factor (see :mod:`cbr_grid.costs`). On a grid of more
+    than :data:`UNIFORM_FACTOR_CELLS` cells whose passable cells share one factor (a map of free
+    cells and obstacles), that one value broadcast over every cell, obstacles included."""
 
     @passable.default
     def _passable(self) -> np.ndarray:
@@ -108,6 +114,13 @@ class Grid:
 
     @factor.default
     def _factor(self) -> np.ndarray:
+        if self.risk.size > UNIFORM_FACTOR_CELLS:
+            # reductions with a mask, so that no temporary the size of the map is made
+            least = float(np.min(self.risk, where=self.passable, initial=np.inf))
+            if least < np.inf and least == float(np.max(self.risk, where=self.passable,
+                                                        initial=-np.inf)):
+                value = float(self.cost_model.factor(np.full(1, least))[0])
+                return broadcast_factor(value, self.risk.shape)
         values = self.cost_model.factor(self.risk)
         values.setflags(write=False)
         return values

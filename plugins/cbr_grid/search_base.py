@@ -47,6 +47,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from cbr_grid.costs import uniform_factor
 from cbr_grid.directions import STEPS
 from cbr_kernels import njit
 
@@ -233,14 +234,19 @@ def read_only(array: np.ndarray) -> np.ndarray:
 
 
 def checked_arguments(factor: np.ndarray, passable: np.ndarray, start: Sequence[int],
-                      goals: object, window: Sequence[int] | None
+                      goals: object, window: Sequence[int] | None, *, uniform: bool = False
                       ) -> tuple[np.ndarray, np.ndarray, tuple[int, int], np.ndarray,
                                  tuple[int, int, int, int]]:
     """The grid searches' arguments checked and converted: contiguous float64 factor and bool
     passable arrays, read-only, the start, the goals as a (k, 2) int64 array and the window
     clipped to the grid (the whole grid when None). ValueError names what is wrong.
+
+    With ``uniform`` a factor holding one value for every cell
+    (:func:`cbr_grid.costs.broadcast_factor`) is passed on as it is, for a caller that reads
+    the value (:func:`cbr_grid.costs.uniform_factor`) rather than copy it cell by cell.
     """
-    factor = read_only(np.ascontiguousarray(factor, dtype=np.float64))
+    if not (uniform and uniform_factor(factor) is not None):
+        factor = read_only(np.ascontiguousarray(factor, dtype=np.float64))
     passable = read_only(np.ascontiguousarray(passable, dtype=np.bool_))
     if factor.ndim != 2 or factor.shape != passable.shape:
         raise ValueError(f"factor {factor.shape} and passable {passable.shape} must be one (h, w)"

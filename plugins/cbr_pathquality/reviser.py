@@ -48,8 +48,11 @@ class QualityOptions:
         "8-connected grid, Euclidean too; Manhattan is not a lower bound), or 'landmarks', the "
         "much tighter bound from exact distances to a few landmark cells (for maps of rooms "
         "and walls; see cbr_pathquality.ideal).")
-    landmarks: int = option(8, "How many landmarks the 'landmarks' bound uses.",
-                            validator=attrs.validators.ge(1))
+    landmarks: int = option(
+        8, "How many landmarks the 'landmarks' bound uses. Their tables take 2 bytes per cell "
+        "each and at most 512 MiB in all: a map of more than 33.5 million cells gets fewer "
+        "(4 on an 8000 x 8000 map), never below one.",
+        validator=attrs.validators.ge(1))
 
 
 class QualityTest:

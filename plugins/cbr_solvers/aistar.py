@@ -28,7 +28,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from cbr_grid.costs import SQRT2
+from cbr_grid.costs import SQRT2, uniform_factor
 from cbr_grid.search_base import DX, DY, INITIAL_HEAP, move, pop, push_grown
 from cbr_kernels import njit
 from cbr_solvers.search import SearchResult, _profile, _run
@@ -192,7 +192,8 @@ def distance_map(passable: np.ndarray, corner_cutting: bool, goals: object,
 def heuristic_map(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, goals: object,
                   window: Sequence[int] | None = None) -> np.ndarray:
     """The heuristic Ai* gives each cell of the window, in cost units (inf where unreachable)."""
-    factor = np.ascontiguousarray(factor, dtype=np.float64)
+    if uniform_factor(factor) is None:  # else read as one value, not copied cell by cell
+        factor = np.ascontiguousarray(factor, dtype=np.float64)
     passable = np.ascontiguousarray(passable, dtype=np.bool_)
     box = _window(passable, window)
     table = heuristic_table(factor, passable, bool(corner_cutting), _goal_array(goals), box)
@@ -205,15 +206,17 @@ def cost_map(factor: np.ndarray | None, passable: np.ndarray, corner_cutting: bo
     """The exact cheapest cost from each cell of the window to the goals (Dijkstra from them).
 
     A ``factor`` of None stands for every factor 1: the costs are then the shortest path
-    lengths, computed without a map of ones. Besides the float64 result the wavefront holds a
-    byte per cell of the window (two with ``wanted``) and its frontier.
+    lengths, computed without a map of ones; a factor holding one value for every cell
+    (:func:`cbr_grid.costs.broadcast_factor`) gives those lengths times the value. Besides the
+    float64 result the wavefront holds a byte per cell of the window (two with ``wanted``) and
+    its frontier.
 
     With ``wanted`` cells ((k, 2) of (x, y), inside the window) the wavefront stops once they
     are all settled: their costs and those of every cell cheaper than the dearest of them are
     exact, the rest is left infinite.
     """
-    steps = COST_STEPS
-    if factor is None:
+    steps, scale = COST_STEPS, None if factor is None else uniform_factor(factor)
+    if factor is None or scale is not None:
         factor, steps = _NO_FACTOR, LENGTH_STEPS
     factor = np.ascontiguousarray(factor, dtype=np.float64)
     passable = np.ascontiguousarray(passable, dtype=np.bool_)
@@ -224,6 +227,8 @@ def cost_map(factor: np.ndarray | None, passable: np.ndarray, corner_cutting: bo
         cells = np.ascontiguousarray((xy[:, 1] - y0) * (x1 - x0 + 1) + (xy[:, 0] - x0))
     dist = wavefront(factor, passable, bool(corner_cutting), _goal_array(goals),
                       x0, y0, x1, y1, steps, cells)
+    if scale is not None and scale != 1.0:
+        dist *= scale
     return dist.reshape(y1 - y0 + 1, x1 - x0 + 1)
 
 

@@ -422,8 +422,9 @@ def jps(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, start: S
     factor, or ``corner_cutting`` is true, A* answers instead (see the module's docstring) and
     the result's ``search`` is ``"astar"``.
     """
+    # a factor held once is read as it is by the packing, not copied cell by cell
     factor, passable, (sx, sy), targets, box = checked_arguments(
-        factor, passable, start, goals, window)
+        factor, passable, start, goals, window, uniform=True)
     x0, y0, x1, y1 = box
     if not (x0 <= sx <= x1 and y0 <= sy <= y1):
         return None

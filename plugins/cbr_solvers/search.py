@@ -19,7 +19,9 @@ cells. Both stay exact and save work four ways:
 - the eight moves of a cell are one byte of the grid's move masks, built once for read-only
   arrays (those of ``cbr_grid.grid.Grid``) and clipped by the window on its border;
 - when every passable factor in the window is equal, a cell's cost is counted in orthogonal and
-  diagonal steps (integers) and no factor is read, so equal costs are equal floats;
+  diagonal steps (integers) and no factor is read, so equal costs are equal floats; a factor
+  held once for a whole large grid (:func:`cbr_grid.costs.broadcast_factor`) is read as its one
+  value, never copied cell by cell;
 - A* breaks ties in f toward the cell nearer the goal, by a bias too small to reorder different
   costs (see :func:`_search`);
 - a successor that would be the next cell popped skips the heap.
@@ -36,7 +38,7 @@ from collections.abc import Callable, Sequence
 import attrs
 import numpy as np
 
-from cbr_grid.costs import SQRT2
+from cbr_grid.costs import SQRT2, uniform_factor
 from cbr_grid.search_base import (
     DX,
     DY,
@@ -351,6 +353,10 @@ _MASKED_SHARE = 0.25
 _MASKED_MAX = 1 << 24
 
 _NO_MOVES = np.empty(0, dtype=np.uint8)
+_ONE_FACTOR = np.ones(1)
+"""What the kernel receives for a factor holding one value for every cell, which it never reads
+(read-only like a Grid's factor, so that both share one compiled variant)."""
+_ONE_FACTOR.setflags(write=False)
 
 
 def _frozen(array: np.ndarray) -> bool:
@@ -389,6 +395,19 @@ def _profile(factor: np.ndarray, passable: np.ndarray, window: tuple[int, int, i
         if known is not None and known[0]() is factor and known[1]() is passable:
             return known[2], known[3]
     x0, y0, x1, y1 = window
+    value = uniform_factor(factor)
+    if value is not None:
+        # one factor for every cell: whether the window has a passable cell is all to find
+        if not passable[y0:y1 + 1, x0:x1 + 1].any():
+            least, most = np.inf, -np.inf
+        elif 0.0 < value < np.inf:
+            least = most = value
+        else:
+            raise ValueError("factor must be finite and positive on passable cells")
+        if whole:
+            _remember(_SCALES, _SCALES_KEPT, key,
+                      (weakref.ref(factor), weakref.ref(passable), least, most))
+        return least, most
     if not whole and (x1 - x0 + 1) * (y1 - y0 + 1) <= _SMALL_WINDOW:
         return -1.0, -1.0
     # Fast path for arrays that cannot be remembered: numpy's vectorised reductions over all the
@@ -431,7 +450,7 @@ def least_factor(factor: np.ndarray, passable: np.ndarray,
     :class:`cbr_grid.grid.Grid`'s) and found without temporary arrays the size of the map.
     ValueError for a factor that is not finite and positive on a passable cell."""
     factor, passable, _, _, box = checked_arguments(factor, passable, (0, 0), np.empty((0, 2)),
-                                                    window)
+                                                    window, uniform=True)
     h, w = passable.shape
     least = _profile(factor, passable, box, box == (0, 0, w - 1, h - 1))[0]
     return window_min_factor(factor, passable, *box) if least < 0.0 else least
@@ -472,7 +491,7 @@ def _run(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, start: 
     the clipped window (see :func:`_search`).
     """
     factor, passable, (sx, sy), targets, box = checked_arguments(
-        factor, passable, start, goals, window)
+        factor, passable, start, goals, window, uniform=True)
     x0, y0, x1, y1 = box
     if not (x0 <= sx <= x1 and y0 <= sy <= y1):
         return None
@@ -480,6 +499,10 @@ def _run(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, start: 
     least, most = _profile(factor, passable, box, box == (0, 0, w - 1, h - 1))
     if least == np.inf:
         return None
+    cells = factor.reshape(-1)
+    if uniform_factor(factor) is not None:
+        # equal factors: the kernel reads none (least == most), so one stands for them all
+        cells = _ONE_FACTOR
     table = _NO_TABLE
     if heuristic is not None:
         table = np.ascontiguousarray(heuristic(factor, passable, bool(corner_cutting), targets,
@@ -487,7 +510,7 @@ def _run(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, start: 
     moves = _moves(passable, bool(corner_cutting), box)
     stamp, dist, parent, generation = _WORKSPACE.take((x1 - x0 + 1) * (y1 - y0 + 1))
     found, path, cost, expanded = _search(
-        factor.reshape(-1), passable, moves, bool(corner_cutting), sx, sy, targets, x0, y0, x1,
+        cells, passable, moves, bool(corner_cutting), sx, sy, targets, x0, y0, x1,
         y1, informed or heuristic is not None, least, most, table, stamp, dist,
         dist.view(np.int64), parent, generation)
     return SearchResult(path, float(cost), int(expanded)) if found else None

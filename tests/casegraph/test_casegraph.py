@@ -851,7 +851,9 @@ def test_the_landmark_bound_sees_a_wall_that_the_octile_distance_does_not() -> N
     risk = np.zeros((10, 9))
     risk[:9, 4] = 1.0
     shortest = 2 * (9 + 2 * (math.sqrt(2) - 1))
-    assert Landmarks(Grid(risk), 4).bound((2, 0), (6, 0)) == pytest.approx(shortest, abs=1e-4)
+    bound = Landmarks(Grid(risk), 4)
+    # the tables round lengths down to their unit, which the bound may lose twice
+    assert shortest - 2 * bound.unit <= bound.bound((2, 0), (6, 0)) <= shortest
 
 
 def test_the_genetic_algorithm_can_make_the_temporary_edges() -> None:

@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from cbr_grid import grid as grid_module
 from cbr_grid.costs import (
     PATH_COSTS,
     CostModel,
@@ -20,6 +21,7 @@ from cbr_grid.costs import (
     step_costs,
     turning_points,
     turns,
+    uniform_factor,
 )
 from cbr_grid.distances import octile
 from cbr_grid.grid import Grid
@@ -168,3 +170,28 @@ def test_cost_grows_with_risk(steps: list[tuple[int, int]], seed: int) -> None:
     assert path_cost(risky, path) >= path_length(path) - 1e-9
     heavier = Grid(risky.risk, cost_model=CostModel(risk_weight=2.0))
     assert path_cost(heavier, path) >= path_cost(risky, path) - 1e-9
+
+
+def test_a_large_grid_whose_passable_cells_share_a_factor_holds_it_once(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(grid_module, "UNIFORM_FACTOR_CELLS", 10)
+    risk = np.zeros((4, 5))
+    risk[1, 1:4] = 1.0
+    free = Grid(risk, cost_model=CostModel(risk_weight=3.0))
+    assert free.factor.shape == (4, 5) and free.factor.strides == (0, 0)
+    assert not free.factor.flags.writeable
+    assert uniform_factor(free.factor) == 1.0
+    # obstacles hold the passable cells' value; no planner reads it
+    assert np.all(free.factor == 1.0)
+    # one risk on every passable cell: the cost model's factor of it, computed as for an array
+    risk[risk == 0] = 0.3
+    hazy = Grid(risk, cost_model=CostModel(risk_weight=3.0))
+    assert uniform_factor(hazy.factor) == float(1.0 + 3.0 * np.float64(0.3))
+    assert step_costs(hazy, STRAIGHT).tolist() == pytest.approx([1.9, 1.9])
+    # several factors, a grid of few cells or no passable cell: a full array, as before
+    risk[0, 0] = 0.5
+    for kept in (Grid(risk), Grid(np.ones((4, 5)))):
+        assert kept.factor.strides == (40, 8) and uniform_factor(kept.factor) is None
+    monkeypatch.setattr(grid_module, "UNIFORM_FACTOR_CELLS", 20)
+    assert uniform_factor(Grid(np.zeros((4, 5))).factor) is None
+    assert uniform_factor(np.ones((4, 5))) is None

@@ -1,14 +1,16 @@
 """The memory-lean building of the landmark bound and of the length maps it is made of.
 
-``Landmarks`` keeps its tables in one float32 array and builds them from shortest path lengths
-(``cost_map`` without factors); checked here against a plain Dijkstra over the 8 moves and the
-farthest-first choice of landmarks, worked out independently of the compiled kernels.
+``Landmarks`` keeps its tables as 16-bit counts of a unit, rounded down, built from shortest
+path lengths (``cost_map`` without factors); checked here against a plain Dijkstra over the 8
+moves and the farthest-first choice of landmarks, worked out independently of the compiled
+kernels, and its bound against the exact shortest lengths between every pair of cells.
 """
 
 from __future__ import annotations
 
 import heapq
 import math
+from unittest import mock
 
 import numpy as np
 import pytest
@@ -16,7 +18,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from cbr_grid.grid import Grid
-from cbr_pathquality.ideal import Landmarks
+from cbr_pathquality import ideal
+from cbr_pathquality.ideal import TABLE_BYTES, UNREACHED, Landmarks, landmark_count, table_unit
 from cbr_solvers.aistar import cost_map
 
 MOVES = [(1, 0, 1.0), (-1, 0, 1.0), (0, 1, 1.0), (0, -1, 1.0),
@@ -64,43 +67,95 @@ def farthest(nearest: np.ndarray) -> tuple[int, int]:
 
 maps = st.tuples(st.integers(1, 12), st.integers(1, 12), st.floats(0.0, 0.5),
                  st.integers(0, 2**31 - 1), st.booleans())
+units = st.sampled_from([None, 0.25, 1.0, 4.0])
+"""The tables' unit: the map's own (None), or a coarser one forced, to exercise the rounding."""
+
+
+def quantised_farthest(tables: np.ndarray) -> tuple[int, int]:
+    """The reached cell whose least table entry is greatest, the first in row-major order on a
+    tie: the farthest-first rule on the tables as stored."""
+    nearest = tables.min(axis=0).astype(np.int64)
+    nearest[nearest == UNREACHED] = -1
+    y, x = np.unravel_index(int(np.argmax(nearest)), nearest.shape)
+    return int(x), int(y)
+
+
+def build(grid: Grid, count: int, unit: float | None) -> Landmarks:
+    if unit is None:
+        return Landmarks(grid, count)
+    with mock.patch.object(ideal, "table_unit", lambda farthest: unit):
+        return Landmarks(grid, count)
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(maps, st.integers(1, 4))
-def test_the_tables_are_the_lengths_from_landmarks_chosen_farthest_first(
-        spec: tuple[int, int, float, int, bool], count: int) -> None:
+@given(maps, st.integers(1, 4), units)
+def test_the_tables_are_the_lengths_from_landmarks_chosen_farthest_first_rounded_down(
+        spec: tuple[int, int, float, int, bool], count: int, unit: float | None) -> None:
     h, w, density, seed, corner_cutting = spec
     rng = np.random.default_rng(seed)
     passable = rng.random((h, w)) >= density
     grid = Grid((~passable).astype(float), corner_cutting=corner_cutting)
-    bound = Landmarks(grid, count)
+    bound = build(grid, count, unit)
     free = np.argwhere(passable)
     if not len(free):
         assert bound.tables.shape == (0, h, w)
         return
-    assert bound.tables.dtype == np.float32
+    assert bound.tables.dtype == np.uint16
     assert bound.tables.shape == (count, h, w)
-    nearest = as_map(lengths_from(passable, corner_cutting,
-                                  (int(free[0][1]), int(free[0][0]))), (h, w))
+    reach = as_map(lengths_from(passable, corner_cutting, (int(free[0][1]), int(free[0][0]))),
+                   (h, w))
+    landmark = farthest(reach)
+    if unit is None:
+        assert bound.unit == table_unit(float(reach[landmark[1], landmark[0]]))
+        assert 2 * reach[np.isfinite(reach)].max() / bound.unit <= UNREACHED - 1
     for k in range(count):
-        landmark = farthest(nearest)
-        expected = as_map(lengths_from(passable, corner_cutting, landmark), (h, w))
-        np.testing.assert_allclose(bound.tables[k], expected, rtol=1e-6)
-        # the first cell's lengths only pick the first landmark
-        nearest = expected if k == 0 else np.minimum(nearest, expected)
-    for _ in range(10):
-        (y1, x1), (y2, x2) = free[rng.integers(len(free), size=2)]
-        start, goal = (int(x1), int(y1)), (int(x2), int(y2))
-        a, b = bound.tables[:, y1, x1].astype(float), bound.tables[:, y2, x2].astype(float)
-        both = np.isfinite(a) & np.isfinite(b)
-        dx, dy = abs(x1 - x2), abs(y1 - y2)
-        octile = max(dx, dy) + (math.sqrt(2) - 1) * min(dx, dy)
-        gaps = np.abs(a[both] - b[both])
-        expected_bound = max(float(gaps.max(initial=0.0)), octile)
-        # the bound takes the float32 rounding (a relative 1e-7 of the lengths) off the gap
-        assert bound.bound(start, goal) == pytest.approx(expected_bound, rel=1e-6, abs=1e-5)
-        assert bound.bound(start, goal) <= expected_bound + 1e-9
+        if k:
+            landmark = quantised_farthest(bound.tables[:k])
+        assert bound.cells[k] == landmark
+        exact = as_map(lengths_from(passable, corner_cutting, landmark), (h, w))
+        table = bound.tables[k].astype(float)
+        reached = np.isfinite(exact)
+        assert np.array_equal(table == UNREACHED, ~reached)
+        # rounded down in units: u t <= d < u (t + 1), up to the float sums' last bits
+        assert np.all(table[reached] * bound.unit <= exact[reached] * (1 + 1e-12))
+        assert np.all((table[reached] + 1) * bound.unit > exact[reached] * (1 - 1e-12))
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(maps, st.integers(1, 4), units)
+def test_the_bound_never_exceeds_the_shortest_length_and_loses_under_two_units(
+        spec: tuple[int, int, float, int, bool], count: int, unit: float | None) -> None:
+    h, w, density, seed, corner_cutting = spec
+    rng = np.random.default_rng(seed)
+    passable = rng.random((h, w)) >= density
+    grid = Grid((~passable).astype(float), corner_cutting=corner_cutting)
+    bound = build(grid, count, unit)
+    free = [(int(x), int(y)) for y, x in np.argwhere(passable)]
+    from_landmarks = [as_map(lengths_from(passable, corner_cutting, cell), (h, w))
+                      for cell in bound.cells]
+    for start in free[:: max(1, len(free) // 8)]:
+        lengths = lengths_from(passable, corner_cutting, start)
+        for goal in free:
+            dx, dy = abs(start[0] - goal[0]), abs(start[1] - goal[1])
+            octile = max(dx, dy) + (math.sqrt(2) - 1) * min(dx, dy)
+            found = bound.bound(start, goal)
+            if goal in lengths:  # admissible: never above the shortest length
+                assert found <= lengths[goal] + 1e-12
+            # as tight as the exact ALT bound, but for the rounding down
+            gaps = [abs(d[start[1], start[0]] - d[goal[1], goal[0]]) for d in from_landmarks
+                    if np.isfinite(d[start[1], start[0]]) and np.isfinite(d[goal[1], goal[0]])]
+            assert found >= max(max(gaps, default=0.0) - 2 * bound.unit, octile) - 1e-9
+
+
+def test_very_large_maps_get_fewer_landmarks_within_the_tables_budget() -> None:
+    assert landmark_count(8, 4000 * 4000) == 8
+    assert landmark_count(8, 8000 * 8000) == 4
+    assert landmark_count(8, 10**12) == 1
+    assert landmark_count(8, 8000 * 8000) * 2 * 8000 * 8000 <= TABLE_BYTES
+    with mock.patch.object(ideal, "TABLE_BYTES", 2 * 2 * 30):  # two tables of 30 cells
+        bound = Landmarks(Grid(np.zeros((5, 6))), 8)
+    assert bound.tables.shape == (2, 5, 6)
+    assert bound.cells == [(5, 4), (0, 0)]
 
 
 def test_the_tables_of_a_map_without_free_cells_are_empty() -> None:

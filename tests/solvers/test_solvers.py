@@ -14,12 +14,15 @@ from hypothesis import strategies as st
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra as reference_dijkstra
 
-from cbr_grid.costs import CostModel, path_cost
+from cbr_grid import grid as grid_module
+from cbr_grid.costs import CostModel, broadcast_factor, path_cost, uniform_factor
 from cbr_grid.grid import Grid
 from cbr_grid.movingai import Scenario, load_map, load_scen
 from cbr_grid.query import GridQuery
 from cbr_solvers import AStar, Dijkstra, GridSolver
 from cbr_solvers import search as search_module
+from cbr_solvers.aistar import aistar, cost_map
+from cbr_solvers.jps import jps
 from cbr_solvers.search import SearchResult, astar, dijkstra
 from cbrcore.context import Context
 from cbrcore.engine import Engine
@@ -69,6 +72,29 @@ def test_movingai_optimal_lengths(scen: Path) -> None:
             check_path(result, grid.factor, grid.passable, False, scenario.start,
                        [scenario.goal])
             assert grid.path_problems(result.path) == []
+
+
+@pytest.mark.parametrize("scen", SCENARIO_FILES, ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_movingai_optimal_lengths_with_the_factor_held_once(
+        scen: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # Large grids hold a factor shared by every passable cell once; lowered here to every grid,
+    # the searches find what they find on a full array of it: the same optimal paths.
+    monkeypatch.setattr(grid_module, "UNIFORM_FACTOR_CELLS", 0)
+    scenarios = sample_scenarios(scen)[::2]
+    grid = scenario_grid(scen, scenarios)
+    assert uniform_factor(grid.factor) == 1.0
+    full = np.array(grid.factor)
+    for scenario in scenarios:
+        for search in (dijkstra, astar, aistar, jps):
+            held = search(grid.factor, grid.passable, False, scenario.start, [scenario.goal])
+            plain = search(full, grid.passable, False, scenario.start, [scenario.goal])
+            assert held is not None and plain is not None
+            assert scenario.agrees(held.cost), (search.__name__, scenario, held.cost)
+            assert (held.cost, held.expanded) == (plain.cost, plain.expanded)
+            assert np.array_equal(held.path, plain.path)
+    goal = [scenarios[-1].goal]
+    assert np.array_equal(cost_map(grid.factor, grid.passable, False, goal),
+                          cost_map(full, grid.passable, False, goal))
 
 
 def corner_allowed(passable: np.ndarray, corner_cutting: bool, ax: int, ay: int, bx: int,
@@ -389,7 +415,9 @@ def test_working_arrays_survive_interleaved_searches_and_wraparound() -> None:
 def test_bad_factors_are_refused_on_large_grids(bad: float) -> None:
     passable = np.ones((80, 80), dtype=bool)  # above the kernel's small-window scan
     factor = np.full((80, 80), bad)
-    for arrays in ((factor, passable), (frozen(factor), frozen(passable))):
-        for search in (dijkstra, astar):
+    held = broadcast_factor(bad, (80, 80))  # the one value of a large grid, read as it is
+    for arrays in ((factor, passable), (frozen(factor), frozen(passable)),
+                   (held, frozen(passable)), (held, passable)):
+        for search in (dijkstra, astar, aistar, jps):
             with pytest.raises(ValueError, match="finite and positive"):
                 search(*arrays, False, (0, 0), [(79, 79)])
