@@ -85,7 +85,9 @@ from cbr_grid.search_base import (
     CellWorkspace,
     cell_moves,
     pop,
+    pop4,
     push,
+    push4,
 )
 from cbr_kernels import njit
 from cbr_solvers.search import grid_moves, grid_profile
@@ -235,26 +237,32 @@ def _experience_heuristic(indptr: np.ndarray, target: np.ndarray, weight: np.nda
 
 
 @njit
-def _vertex_table(xy: np.ndarray, indptr: np.ndarray, w: int) -> tuple[np.ndarray, np.ndarray]:
-    """An open-addressing table from the flat cell ``y · w + x`` of each vertex that has a
-    segment to its index: (cells, vertices), a power of two of at least four slots per vertex,
-    free slots holding cell -1. :func:`_vertex_of` reads it."""
+def _vertex_table(xy: np.ndarray, indptr: np.ndarray, w: int, h: int
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where the vertices that have a segment are: (marks, cells, vertices). ``marks`` has bit
+    ``c % 64`` of word ``c // 64`` set for each flat cell ``c = y · w + x`` holding one (an
+    eighth of a byte a map cell, so a search tests most cells in its first level of cache);
+    ``cells`` and ``vertices`` are an open-addressing table from such a cell to its vertex, a
+    power of two of at least four slots per vertex, free slots holding cell -1.
+    :func:`_vertex_of` reads them."""
     n = indptr.shape[0] - 1
     size = 4
     while size < 4 * n:
         size <<= 1
+    marks = np.zeros((w * h + 63) >> 6, dtype=np.uint64)
     cells = np.full(size, -1, dtype=np.int64)
     vertices = np.empty(size, dtype=np.int64)
     for v in range(n):
         if indptr[v + 1] == indptr[v]:
             continue
         cell = xy[v, 1] * w + xy[v, 0]
+        marks[cell >> 6] |= np.uint64(1) << np.uint64(cell & 63)
         slot = _slot(cell, size - 1)
         while cells[slot] >= 0:
             slot = (slot + 1) & (size - 1)
         cells[slot] = cell
         vertices[slot] = v
-    return cells, vertices
+    return marks, cells, vertices
 
 
 @njit(inline="always")
@@ -264,8 +272,10 @@ def _slot(cell: int, mask: int) -> int:
 
 
 @njit(inline="always")
-def _vertex_of(cells: np.ndarray, vertices: np.ndarray, cell: int) -> int:
+def _vertex_of(marks: np.ndarray, cells: np.ndarray, vertices: np.ndarray, cell: int) -> int:
     """The vertex on flat cell ``cell``, or -1 (see :func:`_vertex_table`)."""
+    if not (marks[cell >> 6] >> np.uint64(cell & 63)) & np.uint64(1):
+        return -1
     mask = cells.shape[0] - 1
     slot = _slot(cell, mask)
     while True:
@@ -275,65 +285,6 @@ def _vertex_of(cells: np.ndarray, vertices: np.ndarray, cell: int) -> int:
         if there < 0:
             return -1
         slot = (slot + 1) & mask
-
-
-@njit(inline="always")
-def _before(key: float, tie: float, other_key: float, other_tie: float) -> bool:
-    """Whether (key, tie) comes before (other_key, other_tie): the tie rule's order."""
-    return key < other_key or (key == other_key and tie < other_tie)
-
-
-@njit(inline="always")
-def _push(keys: np.ndarray, ties: np.ndarray, items: np.ndarray, size: int, key: float,
-          tie: float, item: int) -> None:
-    """Add an entry to the 4-ary heap of (key, tie) pairs; the arrays have room for it."""
-    i = size
-    while i > 0:
-        parent = (i - 1) >> 2
-        if not _before(key, tie, keys[parent], ties[parent]):
-            break
-        keys[i] = keys[parent]
-        ties[i] = ties[parent]
-        items[i] = items[parent]
-        i = parent
-    keys[i] = key
-    ties[i] = tie
-    items[i] = item
-
-
-@njit(inline="always")
-def _pop(keys: np.ndarray, ties: np.ndarray, items: np.ndarray, size: int) -> None:
-    """Remove the least (key, tie) entry of the 4-ary heap of ``size`` entries (read it at 0
-    first)."""
-    size -= 1
-    key, tie, item = keys[size], ties[size], items[size]
-    i = 0
-    while True:
-        first = 4 * i + 1
-        if first >= size:
-            break
-        child, least, least_tie = first, keys[first], ties[first]
-        for other in range(first + 1, min(first + 4, size)):
-            if _before(keys[other], ties[other], least, least_tie):
-                child, least, least_tie = other, keys[other], ties[other]
-        if not _before(least, least_tie, key, tie):
-            break
-        keys[i] = least
-        ties[i] = least_tie
-        items[i] = items[child]
-        i = child
-    keys[i] = key
-    ties[i] = tie
-    items[i] = item
-
-
-@njit
-def _grown3(keys: np.ndarray, ties: np.ndarray, items: np.ndarray
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The grid search's heap arrays doubled, called only when they are full."""
-    return (np.concatenate((keys, np.empty_like(keys))),
-            np.concatenate((ties, np.empty_like(ties))),
-            np.concatenate((items, np.empty_like(items))))
 
 
 @njit(inline="always")
@@ -351,38 +302,34 @@ def _estimate(x: int, y: int, gx: int, gy: int, kx: np.ndarray, ky: np.ndarray,
 @njit(inline="always")
 def _priority(x: int, y: int, gx: int, gy: int, count: int, g: float, counted: bool,
               exact: bool, epsilon: float, kx: np.ndarray, ky: np.ndarray,
-              constant: np.ndarray, jump: float) -> tuple[float, float]:
-    """(f, epsilon · h^E) of a cell (x, y) reached at cost ``g`` (``count`` steps on a uniform
-    map): the heap's key and the tie rule's second key (see the module's docstring)."""
+              constant: np.ndarray, jump: float) -> float:
+    """f of a cell (x, y) reached at cost ``g`` (``count`` steps on a uniform map)."""
     if counted:
         left = _octile_steps(x, y, gx, gy)
-        tie = epsilon * _length(left)
-        return (_length(count + left) if exact else g + tie), tie
-    tie = epsilon * _estimate(x, y, gx, gy, kx, ky, constant, jump)
-    return g + tie, tie
+        return _length(count + left) if exact else g + epsilon * _length(left)
+    return g + epsilon * _estimate(x, y, gx, gy, kx, ky, constant, jump)
 
 
 @njit(inline="always")
-def _offer(keys: np.ndarray, ties: np.ndarray, items: np.ndarray, size: int, held: int,
-           held_key: float, held_tie: float, current: float, current_tie: float, other: int,
-           key: float, tie: float) -> tuple[int, int, float, float]:
-    """Put a cell on the frontier: held aside when it would be the next cell popped (at most
-    the pair of the cell being expanded and before the one held), the one held before then
-    pushed, else pushed. The heap has room. Returns (size, held, held_key, held_tie)."""
-    if not _before(current, current_tie, key, tie) and (
-            held < 0 or _before(key, tie, held_key, held_tie)):
-        held, held_key, held_tie, other, key, tie = other, key, tie, held, held_key, held_tie
+def _offer(keys: np.ndarray, items: np.ndarray, size: int, held: int, held_key: float,
+           current_key: float, other: int, key: float) -> tuple[int, int, float]:
+    """Put a cell on the frontier: held aside when it would be the next one popped (f at most
+    that of the cell being expanded and below the one held, -1 for none), the one held before
+    then pushed, else pushed. The heap has room. Returns (size, held, held_key)."""
+    if key <= current_key and (held < 0 or key < held_key):
+        held, held_key, other, key = other, key, held, held_key
         if other < 0:
-            return size, held, held_key, held_tie
-    _push(keys, ties, items, size, key, tie, other)
-    return size + 1, held, held_key, held_tie
+            return size, held, held_key
+    push4(keys, items, size, key, other)
+    return size + 1, held, held_key
 
 
 @njit
 def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_cutting: bool,
             uniform: bool, scale: float, sx: int, sy: int, gx: int, gy: int,
-            cells: np.ndarray, vertices: np.ndarray, indptr: np.ndarray, target: np.ndarray,
-            weight: np.ndarray, edge: np.ndarray, xy: np.ndarray, epsilon: float,
+            marks: np.ndarray, cells: np.ndarray, vertices: np.ndarray, indptr: np.ndarray,
+            target: np.ndarray, weight: np.ndarray, edge: np.ndarray, xy: np.ndarray,
+            epsilon: float,
             experience: float, route_max: int, stamp: np.ndarray, dist: np.ndarray,
             steps: np.ndarray, parent: np.ndarray, ride_from: np.ndarray,
             ride_edge: np.ndarray, generation: int
@@ -393,7 +340,7 @@ def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_
     size of K); the path has its loops cut out and its cost is counted on the map. ``factor``
     is the grid's factor array raveled, ``moves`` the grid's move masks or empty (each cell's
     worked out), ``uniform`` whether every passable factor is ``scale`` (see the module's
-    docstring), ``cells`` and ``vertices`` the table of :func:`_vertex_table`.
+    docstring), ``marks``, ``cells`` and ``vertices`` the table of :func:`_vertex_table`.
 
     ``stamp``, ``dist`` (``steps``, the same memory as int64) and ``parent`` are a
     :class:`~cbr_grid.search_base.CellWorkspace`'s: a cell is reached iff ``stamp ==
@@ -428,20 +375,19 @@ def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_
     goal = gy * w + gx
 
     keys = np.empty(INITIAL_HEAP, dtype=np.float64)
-    ties = np.empty(INITIAL_HEAP, dtype=np.float64)
     items = np.empty(INITIAL_HEAP, dtype=np.int64)
     stamp[start] = generation
     steps[start] = 0  # also dist 0.0: both are all-zero bits
     size = 0
     expanded = 0
-    held, held_key, held_tie = start, 0.0, 0.0
+    held, held_key = start, 0.0  # the start, the first cell popped
     while size > 0 or held >= 0:
         if held >= 0:
-            cell, current, current_tie = held, held_key, held_tie
+            cell, current_key = held, held_key
             held = -1
         else:
-            cell, current, current_tie = items[0], keys[0], ties[0]
-            _pop(keys, ties, items, size)
+            cell, current_key = items[0], keys[0]
+            pop4(keys, items, size)
             size -= 1
         if stamp[cell] == settled:
             continue  # no re-expansions: the bound's proof needs none
@@ -455,10 +401,10 @@ def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_
         here_steps = steps[cell]
         here = dist[cell]
         fc = 0.0 if uniform else factor[cell]
-        v = _vertex_of(cells, vertices, cell)
+        v = _vertex_of(marks, cells, vertices, cell)
         rides = indptr[v + 1] - indptr[v] if v >= 0 else 0
-        if size + 8 + rides > keys.shape[0]:  # room for every push of this expansion
-            keys, ties, items = _grown3(keys, ties, items)
+        while size + 8 + rides > keys.shape[0]:  # room for every push of this expansion
+            keys, items = _grown(keys, items)
         count = 0
         for d in range(8):
             if not (mask >> d) & 1:
@@ -480,11 +426,10 @@ def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_
                 dist[other] = g
             stamp[other] = generation
             parent[other] = d
-            key, tie = _priority(cx + DX[d], cy + DY[d], gx, gy, count, g, counted, exact,
+            key = _priority(cx + DX[d], cy + DY[d], gx, gy, count, g, counted, exact,
                                  epsilon, kx, ky, constant, jump)
-            size, held, held_key, held_tie = _offer(keys, ties, items, size, held, held_key,
-                                                    held_tie, current, current_tie, other,
-                                                    key, tie)
+            size, held, held_key = _offer(keys, items, size, held, held_key, current_key,
+                                          other, key)
         for k in range(indptr[v], indptr[v] + rides):
             if not weight[k] < np.inf:
                 continue  # the segment crosses an obstacle of the current map
@@ -509,15 +454,14 @@ def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_
             parent[other] = _RIDE
             ride_from[u] = v
             ride_edge[u] = edge[k]
-            key, tie = _priority(nx, ny, gx, gy, count, g, counted, exact, epsilon, kx, ky,
+            key = _priority(nx, ny, gx, gy, count, g, counted, exact, epsilon, kx, ky,
                                  constant, jump)
-            size, held, held_key, held_tie = _offer(keys, ties, items, size, held, held_key,
-                                                    held_tie, current, current_tie, other,
-                                                    key, tie)
+            size, held, held_key = _offer(keys, items, size, held, held_key, current_key,
+                                          other, key)
     if stamp[goal] != settled:
         return False, nothing[0], nothing[1], np.inf, expanded, settled_vertices, route.shape[0]
-    path, rides_taken = _unwound(parent, ride_from, ride_edge, cells, vertices, xy, start,
-                                 goal, w)
+    path, rides_taken = _unwound(parent, ride_from, ride_edge, marks, cells, vertices, xy,
+                                 start, goal, w)
     path = _without_loops(path, steps, w)
     total = 0.0
     counted_steps = 0
@@ -536,8 +480,8 @@ def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_
 
 @njit
 def _unwound(parent: np.ndarray, ride_from: np.ndarray, ride_edge: np.ndarray,
-             cells: np.ndarray, vertices: np.ndarray, xy: np.ndarray, start: int, goal: int,
-             w: int) -> tuple[np.ndarray, np.ndarray]:
+             marks: np.ndarray, cells: np.ndarray, vertices: np.ndarray, xy: np.ndarray,
+             start: int, goal: int, w: int) -> tuple[np.ndarray, np.ndarray]:
     """The cells from start to goal, each ride laid out as its straight run of cells, and the
     stored edges ridden."""
     n = 1
@@ -545,7 +489,7 @@ def _unwound(parent: np.ndarray, ride_from: np.ndarray, ride_edge: np.ndarray,
     cell = goal
     while cell != start:
         if parent[cell] == _RIDE:
-            u = ride_from[_vertex_of(cells, vertices, cell)]
+            u = ride_from[_vertex_of(marks, cells, vertices, cell)]
             before = xy[u, 1] * w + xy[u, 0]
             rides += 1
         else:
@@ -559,7 +503,7 @@ def _unwound(parent: np.ndarray, ride_from: np.ndarray, ride_edge: np.ndarray,
     path[i, 0], path[i, 1] = cell % w, cell // w
     while cell != start:
         if parent[cell] == _RIDE:
-            v = _vertex_of(cells, vertices, cell)
+            v = _vertex_of(marks, cells, vertices, cell)
             u = ride_from[v]
             before = xy[u, 1] * w + xy[u, 0]
             rides -= 1
@@ -634,7 +578,7 @@ class _GridInputs:
 _GRIDS: weakref.WeakKeyDictionary[Grid, _GridInputs] = weakref.WeakKeyDictionary()
 # id(adjacency) -> (weak reference, table): an adjacency compares by its arrays, so it is no
 # dictionary key itself; the reference tells a live one from a new one at a reused id
-_TABLES: dict[int, tuple[weakref.ref, tuple[np.ndarray, np.ndarray]]] = {}
+_TABLES: dict[int, tuple[weakref.ref, tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
 _TABLES_KEPT = 4
 
 
@@ -650,7 +594,8 @@ def _grid_inputs(grid: Grid) -> _GridInputs:
     return known
 
 
-def _table(adjacency: Adjacency, width: int) -> tuple[np.ndarray, np.ndarray]:
+def _table(adjacency: Adjacency, width: int, height: int
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     known = _TABLES.get(id(adjacency))
     if known is not None and known[0]() is adjacency:
         return known[1]
@@ -658,7 +603,7 @@ def _table(adjacency: Adjacency, width: int) -> tuple[np.ndarray, np.ndarray]:
         del _TABLES[old]
     if len(_TABLES) >= _TABLES_KEPT:
         _TABLES.pop(next(iter(_TABLES)))
-    table = _vertex_table(adjacency.xy, adjacency.indptr, width)
+    table = _vertex_table(adjacency.xy, adjacency.indptr, width, height)
     _TABLES[id(adjacency)] = (weakref.ref(adjacency), table)
     return table
 
@@ -678,13 +623,14 @@ def plan(graph: CaseGraph, start: Cell, goal: Cell, epsilon: float, experience_f
                            f"{grid.width}x{grid.height} grid")
     inputs = _grid_inputs(grid)
     adjacency = graph.adjacency()
-    cells, vertices = _table(adjacency, grid.width)
+    marks, cells, vertices = _table(adjacency, grid.width, grid.height)
     stamp, dist, parent, generation = _WORKSPACE.cells.take(grid.passable.size)
     ride_from, ride_edge = _WORKSPACE.rides(adjacency.indptr.shape[0])
     found, path, edges, cost, expanded, settled, route = _search(
         inputs.factor, grid.passable, inputs.moves, grid.corner_cutting, inputs.uniform,
-        inputs.scale, int(start[0]), int(start[1]), int(goal[0]), int(goal[1]), cells, vertices,
-        adjacency.indptr, adjacency.target, adjacency.weight, adjacency.edge, adjacency.xy,
+        inputs.scale, int(start[0]), int(start[1]), int(goal[0]), int(goal[1]), marks, cells,
+        vertices, adjacency.indptr, adjacency.target, adjacency.weight, adjacency.edge,
+        adjacency.xy,
         float(epsilon), float(experience_factor), int(route_vertices), stamp, dist,
         dist.view(np.int64), parent, ride_from, ride_edge, generation)
     if not found:
