@@ -32,18 +32,20 @@ of the grid path it stands for, so the optimum over the grid with shortcuts is t
 Phillips et al. state the same bound for their planner (the solution cost is no more than
 epsilon · eps_E times the optimal cost), from the eps_E-consistency of their h^E.
 
-**The tie rule, and why it keeps the bound.** The frontier is ordered by the pair
-(f, epsilon · h^E) lexicographically: among cells of equal f the one with the smaller heuristic
-term, so the larger g, the one nearer the goal, is expanded first. The proof above uses one fact
-about the order of expansion (ARA*'s Theorem 1): when a cell s is expanded, f(s) <= f(s') for
-every cell s' on the frontier. A lexicographic least pair has the least first component, so the
-fact holds under the rule; the rule only chooses among cells of equal f, which the proof leaves
-in any order. So the bound holds with the rule, at epsilon = eps_E = 1 the path is optimal, and
-nothing else changes. (A*'s tie rule, a bias tie · h added to f, is proved by a gap between
-different f of a uniform map, a + b·sqrt(2) with integers a and b; f here mixes in epsilon, eps_E
-and H, which leave no such gap, so the rule is a second key, not a bias.) A successor whose pair
-is at most that of the cell being expanded would be the next one popped: it is held aside
-instead of pushed, and the order is the same.
+**The tie rule, and why it keeps the bound.** Among the successors of the cell being expanded,
+the first of least f, if its f is at most the expanded cell's, is expanded next, before anything
+on the heap (it is held aside instead of pushed); everything else is expanded in the order of f.
+The proof above uses one fact about the order of expansion (ARA*'s Theorem 1): when a cell s is
+expanded, f(s) <= f(s') for every cell s' on the frontier. The expanded cell's f was the least
+on the frontier, so the held successor's, no greater, is the least too: the fact holds, and the
+rule only chooses among cells of least f, which the proof leaves in any order. So the bound
+holds with the rule, and at epsilon = eps_E = 1 the path is optimal. On a plateau of equal f the
+held successor has the larger g (by the step's cost) and so the smaller heuristic term: the
+search runs on toward the goal instead of widening the plateau. (A*'s bias tie · h added to f
+is proved by a gap between different f of a uniform map, a + b·sqrt(2) with integers a and b,
+which epsilon, eps_E and H do not leave. A second heap key for ties, which needs no gap, made
+the search about 1.7 times slower on den520d at epsilon = eps_E = 1 and expanded no fewer
+cells there.)
 
 **Uniform costs.** When every passable cell has one factor (the least, ``scale``), g is counted
 in orthogonal and diagonal steps (two integers in one int64, as A* counts them,
@@ -54,10 +56,11 @@ get the same float, so the tie rule sees every tie and an exact search crosses o
 expanding only the cells of its path, where it used to expand whole plateaus of equal f.
 
 **Moves** are read from the grid's move masks (one byte a cell, shared with A*:
-:func:`cbr_solvers.search.grid_moves`). **Vertices** are found by an open-addressing table of
-their cells built once per case graph, so the search reads nothing the size of the map but the
-grid, its masks and its working arrays (10 bytes a cell, a
-:class:`~cbr_grid.search_base.CellWorkspace` reused across calls).
+:func:`cbr_solvers.search.grid_moves`). **Vertices** are found through a bitmap of their cells
+with the count of cells marked before each word (two bits a map cell, so most cells are tested
+in the first level of cache) and the vertices in the order of their cells, the vertex on a
+marked cell being the one at its rank: built once per case graph, no hashing. The working
+arrays are 10 bytes a cell, a :class:`~cbr_grid.search_base.CellWorkspace` reused across calls.
 
 Both passes, the search of H over the case graph and the grid search, the path's unwinding, the
 cutting of its loops and its cost are one compiled kernel on the ground floor of
@@ -236,55 +239,62 @@ def _experience_heuristic(indptr: np.ndarray, target: np.ndarray, weight: np.nda
     return kept[:size], value[kept[:size]], settled
 
 
+_ONE = np.uint64(1)
+_M1 = np.uint64(0x5555555555555555)
+_M2 = np.uint64(0x3333333333333333)
+_M4 = np.uint64(0x0F0F0F0F0F0F0F0F)
+_H01 = np.uint64(0x0101010101010101)
+
+
+@njit(inline="always")
+def _bits(word: np.uint64) -> int:
+    """How many bits of ``word`` are set."""
+    word = word - ((word >> _ONE) & _M1)
+    word = (word & _M2) + ((word >> np.uint64(2)) & _M2)
+    word = (word + (word >> np.uint64(4))) & _M4
+    return np.int64((word * _H01) >> np.uint64(56))
+
+
 @njit
 def _vertex_table(xy: np.ndarray, indptr: np.ndarray, w: int, h: int
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Where the vertices that have a segment are: (marks, cells, vertices). ``marks`` has bit
-    ``c % 64`` of word ``c // 64`` set for each flat cell ``c = y · w + x`` holding one (an
-    eighth of a byte a map cell, so a search tests most cells in its first level of cache);
-    ``cells`` and ``vertices`` are an open-addressing table from such a cell to its vertex, a
-    power of two of at least four slots per vertex, free slots holding cell -1.
+    """Where the vertices that have a segment are: (marks, before, order). ``marks`` has bit
+    ``c % 64`` of word ``c // 64`` set for each flat cell ``c = y · w + x`` holding one,
+    ``before`` the number of bits set in the words before each word, and ``order`` the vertices
+    by their cells: the vertex on a marked cell is ``order`` at its rank among the marked cells.
+    Two bits a map cell, read in the first levels of cache, and 8 bytes a vertex;
     :func:`_vertex_of` reads them."""
     n = indptr.shape[0] - 1
-    size = 4
-    while size < 4 * n:
-        size <<= 1
     marks = np.zeros((w * h + 63) >> 6, dtype=np.uint64)
-    cells = np.full(size, -1, dtype=np.int64)
-    vertices = np.empty(size, dtype=np.int64)
     for v in range(n):
-        if indptr[v + 1] == indptr[v]:
-            continue
-        cell = xy[v, 1] * w + xy[v, 0]
-        marks[cell >> 6] |= np.uint64(1) << np.uint64(cell & 63)
-        slot = _slot(cell, size - 1)
-        while cells[slot] >= 0:
-            slot = (slot + 1) & (size - 1)
-        cells[slot] = cell
-        vertices[slot] = v
-    return marks, cells, vertices
+        if indptr[v + 1] > indptr[v]:
+            cell = xy[v, 1] * w + xy[v, 0]
+            marks[cell >> 6] |= _ONE << np.uint64(cell & 63)
+    before = np.empty(marks.shape[0], dtype=np.int64)
+    count = 0
+    for k in range(marks.shape[0]):
+        before[k] = count
+        count += _bits(marks[k])
+    order = np.empty(count, dtype=np.int64)
+    for v in range(n):
+        if indptr[v + 1] > indptr[v]:
+            order[_rank(marks, before, xy[v, 1] * w + xy[v, 0])] = v
+    return marks, before, order
 
 
 @njit(inline="always")
-def _slot(cell: int, mask: int) -> int:
-    # Fibonacci hashing: the product's middle bits, so that cells a row apart spread out
-    return ((cell * 2654435761) >> 12) & mask
+def _rank(marks: np.ndarray, before: np.ndarray, cell: int) -> int:
+    """How many marked cells come before ``cell``."""
+    low = (_ONE << np.uint64(cell & 63)) - _ONE
+    return before[cell >> 6] + _bits(marks[cell >> 6] & low)
 
 
 @njit(inline="always")
-def _vertex_of(marks: np.ndarray, cells: np.ndarray, vertices: np.ndarray, cell: int) -> int:
+def _vertex_of(marks: np.ndarray, before: np.ndarray, order: np.ndarray, cell: int) -> int:
     """The vertex on flat cell ``cell``, or -1 (see :func:`_vertex_table`)."""
-    if not (marks[cell >> 6] >> np.uint64(cell & 63)) & np.uint64(1):
+    if not (marks[cell >> 6] >> np.uint64(cell & 63)) & _ONE:
         return -1
-    mask = cells.shape[0] - 1
-    slot = _slot(cell, mask)
-    while True:
-        there = cells[slot]
-        if there == cell:
-            return vertices[slot]
-        if there < 0:
-            return -1
-        slot = (slot + 1) & mask
+    return order[_rank(marks, before, cell)]
 
 
 @njit(inline="always")
@@ -327,7 +337,7 @@ def _offer(keys: np.ndarray, items: np.ndarray, size: int, held: int, held_key: 
 @njit
 def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_cutting: bool,
             uniform: bool, scale: float, sx: int, sy: int, gx: int, gy: int,
-            marks: np.ndarray, cells: np.ndarray, vertices: np.ndarray, indptr: np.ndarray,
+            marks: np.ndarray, before: np.ndarray, order: np.ndarray, indptr: np.ndarray,
             target: np.ndarray, weight: np.ndarray, edge: np.ndarray, xy: np.ndarray,
             epsilon: float,
             experience: float, route_max: int, stamp: np.ndarray, dist: np.ndarray,
@@ -340,7 +350,7 @@ def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_
     size of K); the path has its loops cut out and its cost is counted on the map. ``factor``
     is the grid's factor array raveled, ``moves`` the grid's move masks or empty (each cell's
     worked out), ``uniform`` whether every passable factor is ``scale`` (see the module's
-    docstring), ``marks``, ``cells`` and ``vertices`` the table of :func:`_vertex_table`.
+    docstring), ``marks``, ``before`` and ``order`` the table of :func:`_vertex_table`.
 
     ``stamp``, ``dist`` (``steps``, the same memory as int64) and ``parent`` are a
     :class:`~cbr_grid.search_base.CellWorkspace`'s: a cell is reached iff ``stamp ==
@@ -401,7 +411,7 @@ def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_
         here_steps = steps[cell]
         here = dist[cell]
         fc = 0.0 if uniform else factor[cell]
-        v = _vertex_of(marks, cells, vertices, cell)
+        v = _vertex_of(marks, before, order, cell)
         rides = indptr[v + 1] - indptr[v] if v >= 0 else 0
         while size + 8 + rides > keys.shape[0]:  # room for every push of this expansion
             keys, items = _grown(keys, items)
@@ -460,7 +470,7 @@ def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_
                                           other, key)
     if stamp[goal] != settled:
         return False, nothing[0], nothing[1], np.inf, expanded, settled_vertices, route.shape[0]
-    path, rides_taken = _unwound(parent, ride_from, ride_edge, marks, cells, vertices, xy,
+    path, rides_taken = _unwound(parent, ride_from, ride_edge, marks, before, order, xy,
                                  start, goal, w)
     path = _without_loops(path, steps, w)
     total = 0.0
@@ -480,7 +490,7 @@ def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_
 
 @njit
 def _unwound(parent: np.ndarray, ride_from: np.ndarray, ride_edge: np.ndarray,
-             marks: np.ndarray, cells: np.ndarray, vertices: np.ndarray, xy: np.ndarray,
+             marks: np.ndarray, before: np.ndarray, order: np.ndarray, xy: np.ndarray,
              start: int, goal: int, w: int) -> tuple[np.ndarray, np.ndarray]:
     """The cells from start to goal, each ride laid out as its straight run of cells, and the
     stored edges ridden."""
@@ -489,13 +499,13 @@ def _unwound(parent: np.ndarray, ride_from: np.ndarray, ride_edge: np.ndarray,
     cell = goal
     while cell != start:
         if parent[cell] == _RIDE:
-            u = ride_from[_vertex_of(marks, cells, vertices, cell)]
-            before = xy[u, 1] * w + xy[u, 0]
+            u = ride_from[_vertex_of(marks, before, order, cell)]
+            back = xy[u, 1] * w + xy[u, 0]
             rides += 1
         else:
-            before = cell - (DY[parent[cell]] * w + DX[parent[cell]])
-        n += max(abs(cell % w - before % w), abs(cell // w - before // w))
-        cell = before
+            back = cell - (DY[parent[cell]] * w + DX[parent[cell]])
+        n += max(abs(cell % w - back % w), abs(cell // w - back // w))
+        cell = back
     path = np.empty((n, 2), dtype=np.int64)
     edges = np.empty(rides, dtype=np.int64)
     i = n - 1
@@ -503,14 +513,14 @@ def _unwound(parent: np.ndarray, ride_from: np.ndarray, ride_edge: np.ndarray,
     path[i, 0], path[i, 1] = cell % w, cell // w
     while cell != start:
         if parent[cell] == _RIDE:
-            v = _vertex_of(marks, cells, vertices, cell)
+            v = _vertex_of(marks, before, order, cell)
             u = ride_from[v]
-            before = xy[u, 1] * w + xy[u, 0]
+            back = xy[u, 1] * w + xy[u, 0]
             rides -= 1
             edges[rides] = ride_edge[v]
         else:
-            before = cell - (DY[parent[cell]] * w + DX[parent[cell]])
-        bx, by = before % w, before // w
+            back = cell - (DY[parent[cell]] * w + DX[parent[cell]])
+        bx, by = back % w, back // w
         x, y = cell % w, cell // w
         dx, dy = np.sign(bx - x), np.sign(by - y)
         for _ in range(max(abs(bx - x), abs(by - y))):
@@ -518,7 +528,7 @@ def _unwound(parent: np.ndarray, ride_from: np.ndarray, ride_edge: np.ndarray,
             y += dy
             i -= 1
             path[i, 0], path[i, 1] = x, y
-        cell = before
+        cell = back
     return path, edges
 
 
@@ -623,13 +633,13 @@ def plan(graph: CaseGraph, start: Cell, goal: Cell, epsilon: float, experience_f
                            f"{grid.width}x{grid.height} grid")
     inputs = _grid_inputs(grid)
     adjacency = graph.adjacency()
-    marks, cells, vertices = _table(adjacency, grid.width, grid.height)
+    marks, before, order = _table(adjacency, grid.width, grid.height)
     stamp, dist, parent, generation = _WORKSPACE.cells.take(grid.passable.size)
     ride_from, ride_edge = _WORKSPACE.rides(adjacency.indptr.shape[0])
     found, path, edges, cost, expanded, settled, route = _search(
         inputs.factor, grid.passable, inputs.moves, grid.corner_cutting, inputs.uniform,
-        inputs.scale, int(start[0]), int(start[1]), int(goal[0]), int(goal[1]), marks, cells,
-        vertices, adjacency.indptr, adjacency.target, adjacency.weight, adjacency.edge,
+        inputs.scale, int(start[0]), int(start[1]), int(goal[0]), int(goal[1]), marks, before,
+        order, adjacency.indptr, adjacency.target, adjacency.weight, adjacency.edge,
         adjacency.xy,
         float(epsilon), float(experience_factor), int(route_vertices), stamp, dist,
         dist.view(np.int64), parent, ride_from, ride_edge, generation)
