@@ -17,6 +17,9 @@ the best experience route from the start (the vertex v* minimising eps_E · h^G(
 then its ride to the goal). A cell that is a case graph vertex also has the other ends of its stored
 segments as successors, at the segments' real cost (infinite, so left out, for a segment that
 crosses an obstacle of the current map), so a ride along a stored segment is one expansion.
+At eps_E = 1 no term over K undercuts h^G(s, goal) (a ride costs at least h^G of its ends, so
+H(v) >= h^G(v, goal), and the triangle inequality does the rest): K is left empty and H is not
+searched.
 
 **The bound.** Every term of h^E is eps_E-Lipschitz in h^G and h^G(s, s') never exceeds the
 cost of a step (or of a shortcut, a straight run of steps) from s to s', so h^E / eps_E is
@@ -29,37 +32,81 @@ of the grid path it stands for, so the optimum over the grid with shortcuts is t
 Phillips et al. state the same bound for their planner (the solution cost is no more than
 epsilon · eps_E times the optimal cost), from the eps_E-consistency of their h^E.
 
-Both passes, the search of H over the case graph and the grid search, are one compiled kernel on
-the ground floor of :mod:`cbr_grid.search_base`.
+**The tie rule, and why it keeps the bound.** Among the successors of the cell being expanded,
+the first of least f, if its f is at most the expanded cell's, is expanded next, before anything
+on the heap (it is held aside instead of pushed); everything else is expanded in the order of f.
+The proof above uses one fact about the order of expansion (ARA*'s Theorem 1): when a cell s is
+expanded, f(s) <= f(s') for every cell s' on the frontier. The expanded cell's f was the least
+on the frontier, so the held successor's, no greater, is the least too: the fact holds, and the
+rule only chooses among cells of least f, which the proof leaves in any order. So the bound
+holds with the rule, and at epsilon = eps_E = 1 the path is optimal. On a plateau of equal f the
+held successor has the larger g (by the step's cost) and so the smaller heuristic term: the
+search runs on toward the goal instead of widening the plateau. (A*'s bias tie · h added to f
+is proved by a gap between different f of a uniform map, a + b·sqrt(2) with integers a and b,
+which epsilon, eps_E and H do not leave. A second heap key for ties, which needs no gap, made
+the search about 1.7 times slower on den520d at epsilon = eps_E = 1 and expanded no fewer
+cells there.)
+
+**Uniform costs.** When every passable cell has one factor (the least, ``scale``), g is counted
+in orthogonal and diagonal steps (two integers in one int64, as A* counts them,
+:mod:`cbr_solvers.search`) and no factor is read; a ride adds the steps of its straight segment.
+Costs are then in units of ``scale``. With eps_E = 1 the heuristic is counted in steps too and,
+at epsilon = 1, f is the length of the summed steps: two cells whose f is the same real number
+get the same float, so the tie rule sees every tie and an exact search crosses open ground
+expanding only the cells of its path, where it used to expand whole plateaus of equal f.
+
+**Moves** are read from the grid's move masks (one byte a cell, shared with A*:
+:func:`cbr_solvers.search.grid_moves`). **Vertices** are found through a bitmap of their cells
+with the count of cells marked before each word (two bits a map cell, so most cells are tested
+in the first level of cache) and the vertices in the order of their cells, the vertex on a
+marked cell being the one at its rank: built once per case graph, no hashing. The working
+arrays are 10 bytes a cell, a :class:`~cbr_grid.search_base.CellWorkspace` reused across calls.
+
+Both passes, the search of H over the case graph and the grid search, the path's unwinding, the
+cutting of its loops and its cost are one compiled kernel on the ground floor of
+:mod:`cbr_grid.search_base`.
 """
 
 from __future__ import annotations
 
+import threading
+import weakref
 from typing import Any
 
 import attrs
 import numpy as np
 
 from cbr_casegraph.graph import CaseGraph
-from cbr_casegraph.search import path_cost
+from cbr_casegraph.index import Adjacency
 from cbr_grid.costs import SQRT2
-from cbr_grid.query import Cell, without_loops
+from cbr_grid.grid import Grid
+from cbr_grid.query import Cell
 from cbr_grid.search_base import (
     DX,
     DY,
     INITIAL_HEAP,
-    Workspace,
-    move,
+    CellWorkspace,
+    cell_moves,
     pop,
-    push_grown,
+    pop4,
+    push,
+    push4,
 )
 from cbr_kernels import njit
+from cbr_solvers.search import grid_moves, grid_profile
 from cbrcore.errors import CbrError
 
 ROUTE_VERTICES = 16
 """Into how many equal parts of its H the start's experience route is thinned for K, which keeps
 a vertex per part and the route's two ends: every vertex of K costs one octile distance at each
 cell the search reaches, and a route of staircase steps has hundreds."""
+
+_RIDE = 8
+"""The parent code of a cell reached by a ride (0-7 are the moves)."""
+
+_LOW = (1 << 32) - 1
+_ORTHOGONAL_STEP = 1 << 32
+"""A uniform search counts steps in one int64: orthogonal ones above bit 32, diagonal below."""
 
 
 @attrs.frozen
@@ -85,6 +132,28 @@ def _octile(ax: int, ay: int, bx: int, by: int) -> float:
     return max(dx, dy) + (SQRT2 - 1.0) * min(dx, dy)
 
 
+@njit(inline="always")
+def _length(steps: int) -> float:
+    """The length a + b·sqrt(2) of a step count (see ``_ORTHOGONAL_STEP``)."""
+    return (steps >> 32) + (steps & _LOW) * SQRT2
+
+
+@njit(inline="always")
+def _octile_steps(ax: int, ay: int, bx: int, by: int) -> int:
+    """The octile distance from a to b as a step count."""
+    dx = abs(ax - bx)
+    dy = abs(ay - by)
+    return ((max(dx, dy) - min(dx, dy)) << 32) + min(dx, dy)
+
+
+@njit
+def _grown(keys: np.ndarray, items: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The heap's arrays doubled (called only when full, so that the hot loops do not carry
+    arrays reassigned at every push)."""
+    return (np.concatenate((keys, np.empty_like(keys))),
+            np.concatenate((items, np.empty_like(items))))
+
+
 @njit
 def _experience_heuristic(indptr: np.ndarray, target: np.ndarray, weight: np.ndarray,
                           xy: np.ndarray, sx: int, sy: int, gx: int, gy: int, scale: float,
@@ -105,8 +174,8 @@ def _experience_heuristic(indptr: np.ndarray, target: np.ndarray, weight: np.nda
     value = np.full(n, np.inf)
     towards = np.full(n, -1, dtype=np.int64)
     done = np.zeros(n, dtype=np.bool_)
-    keys = np.empty(64, dtype=np.float64)
-    items = np.empty(64, dtype=np.int64)
+    keys = np.empty(max(n, 1), dtype=np.float64)
+    items = np.empty(max(n, 1), dtype=np.int64)
     size = 0
     for v in range(n):
         if indptr[v + 1] == indptr[v]:
@@ -115,7 +184,7 @@ def _experience_heuristic(indptr: np.ndarray, target: np.ndarray, weight: np.nda
         key = seed + scale * _octile(xy[v, 0], xy[v, 1], sx, sy)
         if key < best:  # else no route through v beats the start's own jump
             value[v] = seed
-            keys, items = push_grown(keys, items, size, key, v)
+            push(keys, items, size, key, v)  # n slots: every vertex is seeded once at most
             size += 1
     entry = -1
     settled = 0
@@ -140,8 +209,9 @@ def _experience_heuristic(indptr: np.ndarray, target: np.ndarray, weight: np.nda
                 continue
             value[u] = g
             towards[u] = v
-            key = g + scale * _octile(xy[u, 0], xy[u, 1], sx, sy)
-            keys, items = push_grown(keys, items, size, key, u)
+            if size == keys.shape[0]:
+                keys, items = _grown(keys, items)
+            push(keys, items, size, g + scale * _octile(xy[u, 0], xy[u, 1], sx, sy), u)
             size += 1
     if entry < 0:
         return np.zeros(0, dtype=np.int64), np.zeros(0), settled
@@ -169,105 +239,62 @@ def _experience_heuristic(indptr: np.ndarray, target: np.ndarray, weight: np.nda
     return kept[:size], value[kept[:size]], settled
 
 
-@njit
-def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: int, sy: int,
-            gx: int, gy: int, vertex_at: np.ndarray, indptr: np.ndarray, target: np.ndarray,
-            weight: np.ndarray, edge: np.ndarray, xy: np.ndarray, epsilon: float,
-            experience: float, scale: float, route_max: int, stamp: np.ndarray,
-            dist: np.ndarray, parent: np.ndarray, estimate: np.ndarray, via: np.ndarray,
-            generation: int) -> tuple[bool, np.ndarray, np.ndarray, float, int, int, int]:
-    """The experience-graph search from (sx, sy) to (gx, gy) on the whole grid.
+_ONE = np.uint64(1)
+_M1 = np.uint64(0x5555555555555555)
+_M2 = np.uint64(0x3333333333333333)
+_M4 = np.uint64(0x0F0F0F0F0F0F0F0F)
+_H01 = np.uint64(0x0101010101010101)
 
-    Returns (found, path, shortcut edges, cost, cells expanded, vertices settled by H, size of
-    K). ``stamp``, ``dist`` and ``parent`` are a :class:`~cbr_grid.search_base.Workspace`'s
-    (a cell reached iff ``stamp == generation``, settled iff ``generation + 1``); ``estimate``
-    (h^E of a reached cell, computed once) and ``via`` (the stored edge a cell was reached by,
-    or -1) are read only for reached cells, so they are never cleared either.
-    """
-    h, w = passable.shape
-    jump = experience * scale
-    route, constant, settled_vertices = _experience_heuristic(
-        indptr, target, weight, xy, sx, sy, gx, gy, scale, experience, route_max)
-    kx = np.empty(route.shape[0], dtype=np.int64)
-    ky = np.empty(route.shape[0], dtype=np.int64)
-    for j in range(route.shape[0]):
-        kx[j], ky[j] = xy[route[j], 0], xy[route[j], 1]
-    empty = np.empty((0, 2), dtype=np.int64)
-    none = np.empty(0, dtype=np.int64)
-    if not (passable[sy, sx] and passable[gy, gx]):
-        return False, empty, none, np.inf, 0, settled_vertices, route.shape[0]
-    settled = generation + 1
-    start = sy * w + sx
-    goal = gy * w + gx
-    keys = np.empty(INITIAL_HEAP, dtype=np.float64)
-    items = np.empty(INITIAL_HEAP, dtype=np.int64)
-    stamp[start] = generation
-    dist[start] = 0.0
-    via[start] = -1
-    estimate[start] = _estimate(sx, sy, gx, gy, kx, ky, constant, jump)
-    keys[0] = epsilon * estimate[start]
-    items[0] = start
-    size = 1
-    expanded = 0
-    while size > 0:
-        cell = pop(keys, items, size)
-        size -= 1
-        if stamp[cell] == settled:
-            continue  # no re-expansions: the bound's proof needs none
-        stamp[cell] = settled
-        expanded += 1
-        if cell == goal:
-            break
-        cx = cell % w
-        cy = cell // w
-        here = dist[cell]
-        fc = factor[cy, cx]
-        for d in range(8):
-            if not move(passable, corner_cutting, cx, cy, d, 0, 0, w - 1, h - 1):
-                continue
-            nx, ny = cx + DX[d], cy + DY[d]
-            other = ny * w + nx
-            mark = stamp[other]
-            if mark == settled:
-                continue
-            g = here + (SQRT2 if d >= 4 else 1.0) * (fc + factor[ny, nx]) * 0.5
-            if mark == generation and g >= dist[other]:
-                continue
-            if mark != generation:
-                estimate[other] = _estimate(nx, ny, gx, gy, kx, ky, constant, jump)
-            stamp[other] = generation
-            dist[other] = g
-            parent[other] = cell
-            via[other] = -1
-            keys, items = push_grown(keys, items, size, g + epsilon * estimate[other], other)
-            size += 1
-        v = vertex_at[cy, cx]
-        if v < 0:
-            continue
-        for k in range(indptr[v], indptr[v + 1]):
-            if not weight[k] < np.inf:
-                continue  # the segment crosses an obstacle of the current map
-            u = target[k]
-            nx, ny = xy[u, 0], xy[u, 1]
-            other = ny * w + nx
-            mark = stamp[other]
-            if mark == settled:
-                continue
-            g = here + weight[k]
-            if mark == generation and g >= dist[other]:
-                continue
-            if mark != generation:
-                estimate[other] = _estimate(nx, ny, gx, gy, kx, ky, constant, jump)
-            stamp[other] = generation
-            dist[other] = g
-            parent[other] = cell
-            via[other] = edge[k]
-            keys, items = push_grown(keys, items, size, g + epsilon * estimate[other], other)
-            size += 1
-    if stamp[goal] != settled:
-        return False, empty, none, np.inf, expanded, settled_vertices, route.shape[0]
-    path, edges = _unwound(parent, via, start, goal, w)
-    return True, path, edges, dist[goal], expanded, settled_vertices, route.shape[0]
+
+@njit(inline="always")
+def _bits(word: np.uint64) -> int:
+    """How many bits of ``word`` are set."""
+    word = word - ((word >> _ONE) & _M1)
+    word = (word & _M2) + ((word >> np.uint64(2)) & _M2)
+    word = (word + (word >> np.uint64(4))) & _M4
+    return np.int64((word * _H01) >> np.uint64(56))
+
+
+@njit
+def _vertex_table(xy: np.ndarray, indptr: np.ndarray, w: int, h: int
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where the vertices that have a segment are: (marks, before, order). ``marks`` has bit
+    ``c % 64`` of word ``c // 64`` set for each flat cell ``c = y · w + x`` holding one,
+    ``before`` the number of bits set in the words before each word, and ``order`` the vertices
+    by their cells: the vertex on a marked cell is ``order`` at its rank among the marked cells.
+    Two bits a map cell, read in the first levels of cache, and 8 bytes a vertex;
+    :func:`_vertex_of` reads them."""
+    n = indptr.shape[0] - 1
+    marks = np.zeros((w * h + 63) >> 6, dtype=np.uint64)
+    for v in range(n):
+        if indptr[v + 1] > indptr[v]:
+            cell = xy[v, 1] * w + xy[v, 0]
+            marks[cell >> 6] |= _ONE << np.uint64(cell & 63)
+    before = np.empty(marks.shape[0], dtype=np.int64)
+    count = 0
+    for k in range(marks.shape[0]):
+        before[k] = count
+        count += _bits(marks[k])
+    order = np.empty(count, dtype=np.int64)
+    for v in range(n):
+        if indptr[v + 1] > indptr[v]:
+            order[_rank(marks, before, xy[v, 1] * w + xy[v, 0])] = v
+    return marks, before, order
+
+
+@njit(inline="always")
+def _rank(marks: np.ndarray, before: np.ndarray, cell: int) -> int:
+    """How many marked cells come before ``cell``."""
+    low = (_ONE << np.uint64(cell & 63)) - _ONE
+    return before[cell >> 6] + _bits(marks[cell >> 6] & low)
+
+
+@njit(inline="always")
+def _vertex_of(marks: np.ndarray, before: np.ndarray, order: np.ndarray, cell: int) -> int:
+    """The vertex on flat cell ``cell``, or -1 (see :func:`_vertex_table`)."""
+    if not (marks[cell >> 6] >> np.uint64(cell & 63)) & _ONE:
+        return -1
+    return order[_rank(marks, before, cell)]
 
 
 @njit(inline="always")
@@ -282,28 +309,218 @@ def _estimate(x: int, y: int, gx: int, gy: int, kx: np.ndarray, ky: np.ndarray,
     return best
 
 
+@njit(inline="always")
+def _priority(x: int, y: int, gx: int, gy: int, count: int, g: float, counted: bool,
+              exact: bool, epsilon: float, kx: np.ndarray, ky: np.ndarray,
+              constant: np.ndarray, jump: float) -> float:
+    """f of a cell (x, y) reached at cost ``g`` (``count`` steps on a uniform map)."""
+    if counted:
+        left = _octile_steps(x, y, gx, gy)
+        return _length(count + left) if exact else g + epsilon * _length(left)
+    return g + epsilon * _estimate(x, y, gx, gy, kx, ky, constant, jump)
+
+
+@njit(inline="always")
+def _offer(keys: np.ndarray, items: np.ndarray, size: int, held: int, held_key: float,
+           current_key: float, other: int, key: float) -> tuple[int, int, float]:
+    """Put a cell on the frontier: held aside when it would be the next one popped (f at most
+    that of the cell being expanded and below the one held, -1 for none), the one held before
+    then pushed, else pushed. The heap has room. Returns (size, held, held_key)."""
+    if key <= current_key and (held < 0 or key < held_key):
+        held, held_key, other, key = other, key, held, held_key
+        if other < 0:
+            return size, held, held_key
+    push4(keys, items, size, key, other)
+    return size + 1, held, held_key
+
+
 @njit
-def _unwound(parent: np.ndarray, via: np.ndarray, start: int, goal: int, w: int
-             ) -> tuple[np.ndarray, np.ndarray]:
-    """The cells from start to goal, each shortcut laid out as its straight run of cells, and
-    the stored edges ridden."""
-    cells = 1
+def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_cutting: bool,
+            uniform: bool, scale: float, sx: int, sy: int, gx: int, gy: int,
+            marks: np.ndarray, before: np.ndarray, order: np.ndarray, indptr: np.ndarray,
+            target: np.ndarray, weight: np.ndarray, edge: np.ndarray, xy: np.ndarray,
+            epsilon: float,
+            experience: float, route_max: int, stamp: np.ndarray, dist: np.ndarray,
+            steps: np.ndarray, parent: np.ndarray, ride_from: np.ndarray,
+            ride_edge: np.ndarray, generation: int
+            ) -> tuple[bool, np.ndarray, np.ndarray, float, int, int, int]:
+    """The experience-graph search from (sx, sy) to (gx, gy) on the whole grid.
+
+    Returns (found, path, shortcut edges, path cost, cells expanded, vertices settled by H,
+    size of K); the path has its loops cut out and its cost is counted on the map. ``factor``
+    is the grid's factor array raveled, ``moves`` the grid's move masks or empty (each cell's
+    worked out), ``uniform`` whether every passable factor is ``scale`` (see the module's
+    docstring), ``marks``, ``before`` and ``order`` the table of :func:`_vertex_table`.
+
+    ``stamp``, ``dist`` (``steps``, the same memory as int64) and ``parent`` are a
+    :class:`~cbr_grid.search_base.CellWorkspace`'s: a cell is reached iff ``stamp ==
+    generation``, settled iff ``generation + 1``; ``parent`` is the move that reached it or
+    ``_RIDE``, and then ``ride_from`` and ``ride_edge`` (one slot per vertex) hold the vertex
+    the ride left and the segment ridden. Nothing is cleared between searches.
+    """
+    w = passable.shape[1]
+    nothing = np.empty((0, 2), dtype=np.int64), np.empty(0, dtype=np.int64)
+    if experience > 1.0:
+        route, constant, settled_vertices = _experience_heuristic(
+            indptr, target, weight, xy, sx, sy, gx, gy, scale, experience, route_max)
+    else:  # no term over K undercuts the jump to the goal (module docstring)
+        route, constant, settled_vertices = np.zeros(0, np.int64), np.zeros(0), 0
+    if not (passable[sy, sx] and passable[gy, gx]):
+        return False, nothing[0], nothing[1], np.inf, 0, settled_vertices, route.shape[0]
+    kx = np.empty(route.shape[0], dtype=np.int64)
+    ky = np.empty(route.shape[0], dtype=np.int64)
+    for j in range(route.shape[0]):
+        kx[j], ky[j] = xy[route[j], 0], xy[route[j], 1]
+    # A uniform search counts in units of scale; ``counted`` says whether the heuristic is a
+    # step count too (eps_E = 1), ``exact`` whether f is then the length of g's and h's steps.
+    jump = experience if uniform else experience * scale
+    if uniform:
+        constant = constant / scale
+    counted = uniform and kx.shape[0] == 0 and experience == 1.0
+    exact = counted and epsilon == 1.0
+    masked = moves.shape[0] > 0
+    grid_step = DY * w + DX
+    settled = generation + 1
+    start = sy * w + sx
+    goal = gy * w + gx
+
+    keys = np.empty(INITIAL_HEAP, dtype=np.float64)
+    items = np.empty(INITIAL_HEAP, dtype=np.int64)
+    stamp[start] = generation
+    steps[start] = 0  # also dist 0.0: both are all-zero bits
+    size = 0
+    expanded = 0
+    held, held_key = start, 0.0  # the start, the first cell popped
+    while size > 0 or held >= 0:
+        if held >= 0:
+            cell, current_key = held, held_key
+            held = -1
+        else:
+            cell, current_key = items[0], keys[0]
+            pop4(keys, items, size)
+            size -= 1
+        if stamp[cell] == settled:
+            continue  # no re-expansions: the bound's proof needs none
+        stamp[cell] = settled
+        expanded += 1
+        if cell == goal:
+            break
+        cy = cell // w
+        cx = cell - cy * w
+        mask = np.int64(moves[cell]) if masked else cell_moves(passable, corner_cutting, cx, cy)
+        here_steps = steps[cell]
+        here = dist[cell]
+        fc = 0.0 if uniform else factor[cell]
+        v = _vertex_of(marks, before, order, cell)
+        rides = indptr[v + 1] - indptr[v] if v >= 0 else 0
+        while size + 8 + rides > keys.shape[0]:  # room for every push of this expansion
+            keys, items = _grown(keys, items)
+        count = 0
+        for d in range(8):
+            if not (mask >> d) & 1:
+                continue
+            other = cell + grid_step[d]
+            mark = stamp[other]
+            if mark == settled:
+                continue
+            if uniform:
+                count = here_steps + (1 if d >= 4 else _ORTHOGONAL_STEP)
+                g = _length(count)
+                if mark == generation and g >= _length(steps[other]):
+                    continue
+                steps[other] = count
+            else:
+                g = here + (SQRT2 if d >= 4 else 1.0) * (fc + factor[other]) * 0.5
+                if mark == generation and g >= dist[other]:
+                    continue
+                dist[other] = g
+            stamp[other] = generation
+            parent[other] = d
+            key = _priority(cx + DX[d], cy + DY[d], gx, gy, count, g, counted, exact,
+                                 epsilon, kx, ky, constant, jump)
+            size, held, held_key = _offer(keys, items, size, held, held_key, current_key,
+                                          other, key)
+        for k in range(indptr[v], indptr[v] + rides):
+            if not weight[k] < np.inf:
+                continue  # the segment crosses an obstacle of the current map
+            u = target[k]
+            nx, ny = xy[u, 0], xy[u, 1]
+            other = ny * w + nx
+            mark = stamp[other]
+            if mark == settled:
+                continue
+            if uniform:
+                count = here_steps + _octile_steps(cx, cy, nx, ny)
+                g = _length(count)
+                if mark == generation and g >= _length(steps[other]):
+                    continue
+                steps[other] = count
+            else:
+                g = here + weight[k]
+                if mark == generation and g >= dist[other]:
+                    continue
+                dist[other] = g
+            stamp[other] = generation
+            parent[other] = _RIDE
+            ride_from[u] = v
+            ride_edge[u] = edge[k]
+            key = _priority(nx, ny, gx, gy, count, g, counted, exact, epsilon, kx, ky,
+                                 constant, jump)
+            size, held, held_key = _offer(keys, items, size, held, held_key, current_key,
+                                          other, key)
+    if stamp[goal] != settled:
+        return False, nothing[0], nothing[1], np.inf, expanded, settled_vertices, route.shape[0]
+    path, rides_taken = _unwound(parent, ride_from, ride_edge, marks, before, order, xy,
+                                 start, goal, w)
+    path = _without_loops(path, steps, w)
+    total = 0.0
+    counted_steps = 0
+    for i in range(path.shape[0] - 1):
+        a = path[i, 1] * w + path[i, 0]
+        b = path[i + 1, 1] * w + path[i + 1, 0]
+        diagonal = path[i, 0] != path[i + 1, 0] and path[i, 1] != path[i + 1, 1]
+        if uniform:
+            counted_steps += 1 if diagonal else _ORTHOGONAL_STEP
+        else:
+            total += (SQRT2 if diagonal else 1.0) * (factor[a] + factor[b]) * 0.5
+    if uniform:
+        total = _length(counted_steps) * scale
+    return True, path, rides_taken, total, expanded, settled_vertices, route.shape[0]
+
+
+@njit
+def _unwound(parent: np.ndarray, ride_from: np.ndarray, ride_edge: np.ndarray,
+             marks: np.ndarray, before: np.ndarray, order: np.ndarray, xy: np.ndarray,
+             start: int, goal: int, w: int) -> tuple[np.ndarray, np.ndarray]:
+    """The cells from start to goal, each ride laid out as its straight run of cells, and the
+    stored edges ridden."""
+    n = 1
     rides = 0
     cell = goal
     while cell != start:
-        before = parent[cell]
-        cells += max(abs(cell % w - before % w), abs(cell // w - before // w))
-        if via[cell] >= 0:
+        if parent[cell] == _RIDE:
+            u = ride_from[_vertex_of(marks, before, order, cell)]
+            back = xy[u, 1] * w + xy[u, 0]
             rides += 1
-        cell = before
-    path = np.empty((cells, 2), dtype=np.int64)
+        else:
+            back = cell - (DY[parent[cell]] * w + DX[parent[cell]])
+        n += max(abs(cell % w - back % w), abs(cell // w - back // w))
+        cell = back
+    path = np.empty((n, 2), dtype=np.int64)
     edges = np.empty(rides, dtype=np.int64)
-    i = cells - 1
+    i = n - 1
     cell = goal
     path[i, 0], path[i, 1] = cell % w, cell // w
     while cell != start:
-        before = parent[cell]
-        bx, by = before % w, before // w
+        if parent[cell] == _RIDE:
+            v = _vertex_of(marks, before, order, cell)
+            u = ride_from[v]
+            back = xy[u, 1] * w + xy[u, 0]
+            rides -= 1
+            edges[rides] = ride_edge[v]
+        else:
+            back = cell - (DY[parent[cell]] * w + DX[parent[cell]])
+        bx, by = back % w, back // w
         x, y = cell % w, cell // w
         dx, dy = np.sign(bx - x), np.sign(by - y)
         for _ in range(max(abs(bx - x), abs(by - y))):
@@ -311,36 +528,101 @@ def _unwound(parent: np.ndarray, via: np.ndarray, start: int, goal: int, w: int
             y += dy
             i -= 1
             path[i, 0], path[i, 1] = x, y
-        if via[cell] >= 0:
-            rides -= 1
-            edges[rides] = via[cell]
-        cell = before
+        cell = back
     return path, edges
 
 
-class _Workspace(Workspace):
-    """The search's working arrays, with h^E and the shortcut of each reached cell besides."""
+@njit
+def _without_loops(path: np.ndarray, position: np.ndarray, w: int) -> np.ndarray:
+    """``path`` with every loop cut out (a ride may pass cells the path also reaches
+    otherwise): when a cell comes back, everything since its first visit is dropped, so the
+    result is a connected path of the same steps and never costs more. ``position`` is a
+    working array over the grid's cells (the search's, once it is done)."""
+    for i in range(path.shape[0]):
+        position[path[i, 1] * w + path[i, 0]] = -1
+    kept = np.empty_like(path)
+    size = 0
+    for i in range(path.shape[0]):
+        cell = path[i, 1] * w + path[i, 0]
+        first = position[cell]
+        if first >= 0:
+            for j in range(first + 1, size):
+                position[kept[j, 1] * w + kept[j, 0]] = -1
+            size = first + 1
+            continue
+        position[cell] = size
+        kept[size, 0], kept[size, 1] = path[i, 0], path[i, 1]
+        size += 1
+    return kept[:size]
+
+
+class _Workspace(threading.local):
+    """The search's working arrays, kept per thread: a cell workspace and, per vertex slot,
+    the ride that reached it."""
 
     def __init__(self) -> None:
-        super().__init__()
-        self.estimate = np.empty(0, dtype=np.float64)
-        self.via = np.empty(0, dtype=np.int64)
+        self.cells = CellWorkspace()
+        self.ride_from = np.empty(0, dtype=np.int64)
+        self.ride_edge = np.empty(0, dtype=np.int64)
 
-    def extra(self, n: int) -> tuple[np.ndarray, np.ndarray]:
-        if self.estimate.shape[0] < n:
-            self.estimate = np.empty(n, dtype=np.float64)
-            self.via = np.empty(n, dtype=np.int64)
-        return self.estimate, self.via
+    def rides(self, n: int) -> tuple[np.ndarray, np.ndarray]:
+        if self.ride_from.shape[0] < n:
+            self.ride_from = np.empty(max(n, 64), dtype=np.int64)
+            self.ride_edge = np.empty(max(n, 64), dtype=np.int64)
+        return self.ride_from, self.ride_edge
 
 
 _WORKSPACE = _Workspace()
+
+
+@attrs.frozen
+class _GridInputs:
+    """What the kernel reads of a grid, worked out once per grid."""
+
+    factor: np.ndarray  # raveled
+    moves: np.ndarray
+    uniform: bool
+    scale: float
+
+
+_GRIDS: weakref.WeakKeyDictionary[Grid, _GridInputs] = weakref.WeakKeyDictionary()
+# id(adjacency) -> (weak reference, table): an adjacency compares by its arrays, so it is no
+# dictionary key itself; the reference tells a live one from a new one at a reused id
+_TABLES: dict[int, tuple[weakref.ref, tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
+_TABLES_KEPT = 4
+
+
+def _grid_inputs(grid: Grid) -> _GridInputs:
+    known = _GRIDS.get(grid)
+    if known is None:
+        least, most = grid_profile(grid.factor, grid.passable)
+        scale = least if np.isfinite(least) else 1.0
+        known = _GridInputs(grid.factor.reshape(-1), grid_moves(grid.passable,
+                                                                grid.corner_cutting),
+                            bool(least == most), float(scale))
+        _GRIDS[grid] = known
+    return known
+
+
+def _table(adjacency: Adjacency, width: int, height: int
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    known = _TABLES.get(id(adjacency))
+    if known is not None and known[0]() is adjacency:
+        return known[1]
+    for old in [key for key, (ref, _) in _TABLES.items() if ref() is None]:
+        del _TABLES[old]
+    if len(_TABLES) >= _TABLES_KEPT:
+        _TABLES.pop(next(iter(_TABLES)))
+    table = _vertex_table(adjacency.xy, adjacency.indptr, width, height)
+    _TABLES[id(adjacency)] = (weakref.ref(adjacency), table)
+    return table
 
 
 def plan(graph: CaseGraph, start: Cell, goal: Cell, epsilon: float, experience_factor: float,
          *, route_vertices: int = ROUTE_VERTICES) -> ExperiencePath | None:
     """The experience-graph path from ``start`` to ``goal`` on ``graph``'s map, or None when
     the map does not connect them. Its cost is at most ``epsilon · experience_factor`` times the
-    cheapest path's. CbrError for a factor below 1, ValueError for cells off the grid."""
+    cheapest path's. CbrError for a factor below 1 or cells off the grid."""
     if not (epsilon >= 1.0 and experience_factor >= 1.0):
         raise CbrError(f"the experience-graph search: epsilon {epsilon!r} and "
                        f"experience_factor {experience_factor!r} must both be at least 1")
@@ -349,22 +631,21 @@ def plan(graph: CaseGraph, start: Cell, goal: Cell, epsilon: float, experience_f
         if not (0 <= x < grid.width and 0 <= y < grid.height):
             raise CbrError(f"the experience-graph search: {name} {(x, y)} is outside the "
                            f"{grid.width}x{grid.height} grid")
+    inputs = _grid_inputs(grid)
     adjacency = graph.adjacency()
-    n = grid.passable.size
-    stamp, dist, parent, _, generation = _WORKSPACE.take(n)
-    estimate, via = _WORKSPACE.extra(n)
+    marks, before, order = _table(adjacency, grid.width, grid.height)
+    stamp, dist, parent, generation = _WORKSPACE.cells.take(grid.passable.size)
+    ride_from, ride_edge = _WORKSPACE.rides(adjacency.indptr.shape[0])
     found, path, edges, cost, expanded, settled, route = _search(
-        grid.factor, grid.passable, grid.corner_cutting, int(start[0]), int(start[1]),
-        int(goal[0]), int(goal[1]), graph.vertex_at, adjacency.indptr, adjacency.target,
-        adjacency.weight, adjacency.edge, adjacency.xy, float(epsilon), float(experience_factor),
-        graph.heuristic_scale(), int(route_vertices), stamp, dist, parent, estimate, via,
-        generation)
+        inputs.factor, grid.passable, inputs.moves, grid.corner_cutting, inputs.uniform,
+        inputs.scale, int(start[0]), int(start[1]), int(goal[0]), int(goal[1]), marks, before,
+        order, adjacency.indptr, adjacency.target, adjacency.weight, adjacency.edge,
+        adjacency.xy,
+        float(epsilon), float(experience_factor), int(route_vertices), stamp, dist,
+        dist.view(np.int64), parent, ride_from, ride_edge, generation)
     if not found:
         return None
-    if len(edges):  # a ride may pass cells the path also reaches otherwise
-        path = without_loops(path)
     detail = {"expanded": int(expanded), "vertices_settled": int(settled),
-              "route_vertices": int(route), "shortcuts": len(edges), "search_cost": float(cost)}
-    return ExperiencePath(path, float(path_cost(grid.factor, path)),
-                          tuple(dict.fromkeys(edges.tolist())),
+              "route_vertices": int(route), "shortcuts": len(edges)}
+    return ExperiencePath(path, float(cost), tuple(dict.fromkeys(edges.tolist())),
                           float(epsilon * experience_factor), detail)

@@ -357,6 +357,7 @@ _ONE_FACTOR = np.ones(1)
 """What the kernel receives for a factor holding one value for every cell, which it never reads
 (read-only like a Grid's factor, so that both share one compiled variant)."""
 _ONE_FACTOR.setflags(write=False)
+_NO_GOALS = np.empty((0, 2), dtype=np.int64)
 
 
 def _frozen(array: np.ndarray) -> bool:
@@ -454,6 +455,24 @@ def least_factor(factor: np.ndarray, passable: np.ndarray,
     h, w = passable.shape
     least = _profile(factor, passable, box, box == (0, 0, w - 1, h - 1))[0]
     return window_min_factor(factor, passable, *box) if least < 0.0 else least
+
+
+def grid_profile(factor: np.ndarray, passable: np.ndarray) -> tuple[float, float]:
+    """The least and greatest factor of a passable cell of the whole grid (inf, -inf if none):
+    when they are equal every step costs its length times one factor. Remembered, as for A*,
+    for read-only arrays (a :class:`cbr_grid.grid.Grid`'s). ValueError for a factor that is not
+    finite and positive on a passable cell."""
+    factor, passable, _, _, box = checked_arguments(factor, passable, (0, 0), _NO_GOALS, None,
+                                                    uniform=True)
+    return _profile(factor, passable, box, True)
+
+
+def grid_moves(passable: np.ndarray, corner_cutting: bool) -> np.ndarray:
+    """The move masks (:func:`cbr_grid.search_base.move_masks`) A* uses for a search of the
+    whole grid: built once and shared for a read-only grid of at most 2^24 cells, empty (work
+    each cell's moves out) otherwise."""
+    h, w = passable.shape
+    return _moves(passable, bool(corner_cutting), (0, 0, w - 1, h - 1))
 
 
 # Builds an A* heuristic table for (factor, passable, corner_cutting, goals, (x0, y0, x1, y1)).

@@ -8,6 +8,8 @@ out by hand (drawn: x to the right, y downwards).
 from __future__ import annotations
 
 import csv
+import heapq
+import math
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +21,7 @@ from cbr_casegraph.experience import plan
 from cbr_casegraph.graph import CaseGraph
 from cbr_grid.costs import path_cost
 from cbr_grid.grid import Grid
-from cbr_grid.query import GridQuery
+from cbr_grid.query import GridQuery, without_loops
 from cbr_pathquality.reviser import QualityOptions, QualityTest
 from cbr_solvers.search import dijkstra
 from cbrcore.casebase.memory import MemoryStore
@@ -97,6 +99,112 @@ def test_every_path_is_valid_and_within_the_bound(
     assert set(found.edges) <= set(graph.edge_ids().tolist())
     if epsilon == experience == 1.0:
         assert found.cost == pytest.approx(best)
+
+
+STEPS = [(dx, dy) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if (dx, dy) != (0, 0)]
+
+
+def allowed(grid: Grid, x: int, y: int, dx: int, dy: int) -> bool:
+    """The corner rule, written out: a step onto a passable cell; a diagonal one passes the two
+    cells beside it, both passable (one with corner cutting)."""
+    nx, ny = x + dx, y + dy
+    if not (0 <= nx < grid.width and 0 <= ny < grid.height and grid.passable[ny, nx]):
+        return False
+    if dx == 0 or dy == 0:
+        return True
+    beside = (bool(grid.passable[y, nx]), bool(grid.passable[ny, x]))
+    return any(beside) if grid.corner_cutting else all(beside)
+
+
+def reference_optimum(grid: Grid, start: tuple[int, int], goal: tuple[int, int]
+                      ) -> float | None:
+    """Dijkstra's algorithm in plain Python over the grid's step costs, sharing no code with
+    the compiled searches: the cheapest cost from start to goal, None when unreachable."""
+    best = {start: 0.0}
+    frontier = [(0.0, start)]
+    while frontier:
+        cost, (x, y) = heapq.heappop(frontier)
+        if (x, y) == goal:
+            return cost
+        if cost > best[(x, y)]:
+            continue
+        for dx, dy in STEPS:
+            if not allowed(grid, x, y, dx, dy):
+                continue
+            step = math.hypot(dx, dy) * (grid.factor[y, x] + grid.factor[y + dy, x + dx]) / 2
+            other = (x + dx, y + dy)
+            if cost + step < best.get(other, math.inf):
+                best[other] = cost + step
+                heapq.heappush(frontier, (cost + step, other))
+    return None
+
+
+@st.composite
+def walked_worlds(draw: st.DrawFn) -> tuple[CaseGraph, tuple[int, int], tuple[int, int]]:
+    """A random grid, uniform (every passable cell of one factor, where the search counts
+    steps) or with risk, and a case graph of random walks: experience that is valid but far
+    from optimal, crossing itself and other walks."""
+    width, height = draw(st.integers(5, 16)), draw(st.integers(5, 16))
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    blocked = rng.random((height, width)) < draw(st.sampled_from([0.0, 0.15, 0.3]))
+    spread = draw(st.sampled_from([0.0, 0.0, 0.5, 0.9]))
+    risk = np.where(blocked, 1.0, rng.random((height, width)) * spread)
+    risk[0, 0] = risk[height - 1, width - 1] = 0.0
+    grid = Grid(risk, corner_cutting=draw(st.booleans()))
+    graph = CaseGraph(grid)
+    free = np.argwhere(grid.passable)[:, ::-1]
+    for _ in range(draw(st.integers(0, 5))):
+        x, y = (int(v) for v in free[rng.integers(len(free))])
+        walk = [(x, y)]
+        for _ in range(int(rng.integers(1, 3 * (width + height)))):
+            moves = [(dx, dy) for dx, dy in STEPS if allowed(grid, x, y, dx, dy)]
+            if not moves:
+                break
+            dx, dy = moves[rng.integers(len(moves))]
+            x, y = x + dx, y + dy
+            walk.append((x, y))
+        walk = without_loops(walk)
+        if len(walk) > 1:
+            graph.add_path(walk)
+    s, g = free[rng.choice(len(free), 2)] if len(free) > 1 else (free[0], free[0])
+    return graph, (int(s[0]), int(s[1])), (int(g[0]), int(g[1]))
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(walked_worlds(), st.sampled_from([1.0, 1.0, 1.1, 1.35, 2.0]),
+       st.sampled_from([1.0, 1.0, 1.1, 1.5, 3.0]))
+def test_the_bound_holds_against_an_independent_dijkstra_with_random_experience(
+        world: tuple[CaseGraph, tuple[int, int], tuple[int, int]], epsilon: float,
+        experience: float) -> None:
+    # the tie rule and the uniform step counts only choose among cells of equal f, so the
+    # bound holds, and at epsilon = eps_E = 1 the path is optimal
+    graph, start, goal = world
+    best = reference_optimum(graph.grid, start, goal)
+    found = plan(graph, start, goal, epsilon, experience)
+    if best is None:
+        assert found is None
+        return
+    assert found is not None
+    assert graph.grid.path_problems(found.path) == []
+    assert tuple(found.path[0]) == start and tuple(found.path[-1]) == goal
+    assert found.cost == pytest.approx(path_cost(graph.grid, found.path))
+    assert found.cost <= epsilon * experience * best * (1 + 1e-12) + 1e-9
+    if epsilon == experience == 1.0:
+        assert found.cost == pytest.approx(best, rel=1e-12)
+
+
+@pytest.mark.parametrize(("epsilon", "experience"), [(1.0, 1.0), (1.35, 1.1), (1.0, 1.5)])
+def test_open_ground_is_crossed_without_expanding_a_plateau(epsilon: float,
+                                                            experience: float) -> None:
+    # on a free uniform map every cell of the rectangle between start and goal lies on a
+    # cheapest path, a plateau of equal f at epsilon = eps_E = 1; the tie rule takes the cell
+    # nearest the goal, so only the path's own cells are expanded (no case: no ride)
+    graph = CaseGraph(Grid(np.zeros((40, 60))))
+    found = plan(graph, (2, 3), (57, 36), epsilon, experience)
+    assert found is not None
+    assert found.detail["expanded"] == len(found.path)
+    if epsilon == experience == 1.0:
+        assert found.cost == pytest.approx(22 + 33 * np.sqrt(2))
 
 
 def corridor() -> tuple[CaseGraph, int]:

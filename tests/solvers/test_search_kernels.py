@@ -16,7 +16,7 @@ from cbr_grid.grid import Grid
 from cbr_grid.search_base import DX, DY, LEAVING, CellWorkspace, cell_moves, move_masks
 from cbr_solvers import search as search_module
 from cbr_solvers.aistar import aistar
-from cbr_solvers.search import astar, dijkstra, least_factor
+from cbr_solvers.search import astar, dijkstra, grid_moves, grid_profile, least_factor
 
 SQRT2 = math.sqrt(2.0)
 
@@ -189,3 +189,18 @@ def test_least_factor_of_grids_and_windows() -> None:
     bad[5, 5] = math.nan
     with pytest.raises(ValueError, match="finite and positive"):
         least_factor(bad, grid.passable, (0, 0, 9, 9))
+
+
+def test_the_whole_grid_profile_and_move_masks_are_the_ones_astar_keeps() -> None:
+    risk = np.full((40, 50), 0.5)
+    risk[3, 4], risk[30, 30], risk[0, 0] = 0.2, 0.9, 1.0
+    grid = Grid(risk)
+    assert grid_profile(grid.factor, grid.passable) == (1.2, 1.9)
+    uniform = Grid(np.where(risk == 1.0, 1.0, 0.0))
+    assert grid_profile(uniform.factor, uniform.passable) == (1.0, 1.0)
+    masks = grid_moves(grid.passable, False)
+    assert np.array_equal(masks, move_masks(grid.passable, False))
+    astar(grid.factor, grid.passable, False, (1, 1), [(45, 35)])
+    assert grid_moves(grid.passable, False) is masks  # built once, shared with A*
+    # a grid that can still be written keeps no masks: each cell's moves are worked out
+    assert len(grid_moves(np.ones((5, 5), dtype=bool), False)) == 0
