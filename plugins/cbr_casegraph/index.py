@@ -289,6 +289,49 @@ class SegmentIndex:
         self._adjacency = None
         return edge
 
+    def reserve(self, *, vertices: int, edges: int) -> None:
+        """Make room for ``vertices`` more vertex slots and ``edges`` more edge ids, which a
+        compiled writer fills in place; CbrError when the ids would pass the index's range."""
+        if self.next_id + edges > ID_LIMIT:
+            raise CbrError(f"case base {self.source}: segment case ids would pass the case "
+                           f"graph's ids 0..{ID_LIMIT - 1}")
+        size = self.slots + vertices
+        self.vx = grown(self.vx, size, 0)
+        self.vy = grown(self.vy, size, 0)
+        self.leaving = grown(self.leaving, size, -1)
+        size = self.next_id + edges
+        self.ea = grown(self.ea, size, -1)
+        self.eb = grown(self.eb, size, -1)
+        self.cost = grown(self.cost, size, np.inf)
+        self.risk = grown(self.risk, size, 0.0)
+        self.uses = grown(self.uses, size, 0)
+        self.created = grown(self.created, size, 0)
+        self.alive = grown(self.alive, size, False)
+
+    def touched(self) -> None:
+        """Note that a compiled writer changed the index: the cached adjacency is stale."""
+        self._adjacency = None
+
+    def renumber(self, ids: dict[int, int]) -> None:
+        """Move the live edges among the keys of ``ids`` to the ids they map to (a case
+        base's), which no other edge has; CbrError for an id outside the index's range."""
+        pairs = np.array([(old, new) for old, new in ids.items() if self.alive[old]],
+                         dtype=np.int64).reshape(-1, 2)
+        if len(pairs) and pairs[:, 1].max() >= ID_LIMIT:
+            raise CbrError(f"case base {self.source}: segment case id {pairs[:, 1].max()} is "
+                           f"outside the case graph's ids 0..{ID_LIMIT - 1}")
+        pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+        if len(pairs) == 0:
+            return
+        old, new = pairs[:, 0], pairs[:, 1]
+        va, vb = self.ea[old], self.eb[old]
+        values = [self.cost[old], self.risk[old], self.uses[old], self.created[old]]
+        self.alive[old] = False
+        for edge, a, b, cost, risk, uses, created in zip(
+                new.tolist(), va.tolist(), vb.tolist(), *(v.tolist() for v in values),
+                strict=True):
+            self.insert(edge, a, b, uses=uses, created=created, cost=cost, risk=risk)
+
     def drop(self, edge: int, *, keep_vertices: bool = False) -> tuple[Cell, Cell]:
         """Take ``edge`` out; its ends stop being vertices when it was their last edge, unless
         ``keep_vertices``. Returns the end cells it had."""

@@ -11,16 +11,14 @@ path, not to the graph.
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from cbr_casegraph.index import SegmentIndex, slot
-from cbr_casegraph.writes import Journal, connect
-from cbr_grid.distances import Distance
+from cbr_casegraph import writes
+from cbr_casegraph.index import ID_LIMIT, SegmentIndex, slot
 from cbr_grid.distances import distance as distance_function
 from cbr_grid.query import without_loops
 
@@ -43,44 +41,50 @@ def add_path(graph: CaseGraph, path: ArrayLike, *, similarity_delta: int = 0,
     to the stored segment by a one-step edge. The path must be a valid path on the map.
     Returns the ids of the new edges.
     """
+    if similarity_delta > 0:
+        distance_function(distance)  # an unknown name is refused before anything changes
     cells = without_loops(path)
     if len(cells) < 2:
         return []
     index = graph.index
     new_steps = _new_steps(index, cells)
     crossings = _crossings(index, cells, new_steps)
-    forced = np.zeros(len(cells), dtype=bool)
-    forced[[i for i, _ in crossings]] = True
+    joins = np.array([(*cells[i], *beside) for i, beside in crossings],
+                     dtype=np.int64).reshape(-1, 4)
     # eq. (12) compares with the cases stored before this path: its own segments (the
     # steps of a staircase are within one cell of each other) are one new case, not
     # duplicates, and skipping them would cut the path into unconnected pieces. At
     # similarity_delta 0 no comparison is needed: a stored segment with the same two ends
     # would be the same straight run of cells, whose steps are then not new
-    measure = distance_function(distance) if similarity_delta > 0 else None
-    journal = Journal() if measure is not None else None
-    added: list[int] = []
-    for first, last in _runs(new_steps):
-        # the stretch of cells first..last (inclusive) consists of new steps only
-        stretch = cells[first:last + 1]
-        cuts = _turns(stretch) | forced[first:last + 1]
-        cuts[index.taken(stretch)] = True
-        points = np.flatnonzero(cuts)
-        for i, j in itertools.pairwise(points):
-            a = (int(stretch[i, 0]), int(stretch[i, 1]))
-            b = (int(stretch[j, 0]), int(stretch[j, 1]))
-            if (measure is not None and journal is not None
-                    and similar_before(index, journal, a, b, similarity_delta, measure)):
-                continue
-            edge = connect(graph, a, b, journal=journal)
-            if edge is not None:
-                added.append(edge)
-    for i, beside in crossings:
-        here = (int(cells[i, 0]), int(cells[i, 1]))
-        if index.vertex_at[here[1], here[0]] >= 0:  # not when its segment was skipped
-            edge = connect(graph, here, beside, journal=journal)
-            if edge is not None:
-                added.append(edge)
-    return added
+    return writes.retain(graph, candidates(index, cells, new_steps, crossings), joins,
+                         similarity_delta, distance)
+
+
+def candidates(index: SegmentIndex, cells: np.ndarray, new_steps: np.ndarray | None = None,
+               crossings: list[tuple[int, Cell]] | None = None) -> np.ndarray:
+    """The new segments of the loop-free path ``cells`` before eq. (12) is asked about them:
+    rows (ax, ay, bx, by) in path order.
+
+    Each maximal stretch of new steps is cut at its turns, at the cells the graph already
+    holds and where a new diagonal step crosses a stored one between cells. The graph's
+    cells are read once for the whole path: the path's own segments cover only its own
+    cells, each visited once, so they never change what a later stretch finds.
+    """
+    if new_steps is None:
+        new_steps = _new_steps(index, cells)
+    if crossings is None:
+        crossings = _crossings(index, cells, new_steps)
+    cuts = index.taken(cells)
+    cuts[[i for i, _ in crossings]] = True
+    cuts[0] = cuts[-1] = True
+    steps = np.diff(cells, axis=0)
+    cuts[1:-1] |= np.any(steps[1:] != steps[:-1], axis=1) | (new_steps[1:] != new_steps[:-1])
+    points = np.flatnonzero(cuts)
+    first, last = points[:-1], points[1:]
+    # a stretch of new steps begins and ends at a cut, so the pair of cuts around a new step
+    # is a segment of it and the pair around a stored step is not
+    first, last = first[new_steps[first]], last[new_steps[first]]
+    return np.concatenate([cells[first], cells[last]], axis=1)
 
 
 def record_use(index: SegmentIndex, edges: Iterable[int]) -> None:
@@ -95,44 +99,15 @@ def similar(index: SegmentIndex, a: Cell, b: Cell, delta: int, distance: str = "
     """Eq. (12): whether a stored segment has its ends within ``delta`` of a and b (either
     way round) under the named distance. Costs in proportion to the square N(a, delta),
     not to the graph."""
-    return similar_before(index, Journal(), a, b, delta, distance_function(distance))
+    distance_function(distance)
+    # compiled: imported here so that loading the plugin does not load numba
+    from cbr_casegraph.retention_kernel import MEASURES
+    from cbr_casegraph.retention_kernel import similar as similar_kernel
 
-
-def similar_before(index: SegmentIndex, journal: Journal, a: Cell, b: Cell, delta: int,
-                   measure: Distance) -> bool:
-    """Eq. (12): a segment stored before the path of ``journal`` has its ends within ``delta``
-    of a and b (either way round) under ``measure``.
-
-    Every distance of :mod:`cbr_grid.distances` is at least the Chebyshev distance, so one
-    end of such a segment is a vertex in the square N(a, delta): the vertices there and
-    their edges are every candidate. The edges the path inserted are left out and the
-    earlier edges it split away are compared as they were.
-    """
-    x0, y0, x1, y1 = index.square(a, delta)
-    near = index.vertex_at[y0:y1 + 1, x0:x1 + 1]
-    vertices = near[near >= 0]
-    if len(vertices) and _similar_at(index, journal, vertices, a, b, delta, measure):
-        return True
-    for p, q in journal.replaced:
-        if ((measure(p, a) <= delta and measure(q, b) <= delta)
-                or (measure(q, a) <= delta and measure(p, b) <= delta)):
-            return True
-    return False
-
-
-def _similar_at(index: SegmentIndex, journal: Journal, vertices: np.ndarray, a: Cell, b: Cell,
-                delta: int, measure: Distance) -> bool:
-    """Whether a segment leaving one of ``vertices`` within ``delta`` of a, stored before
-    the path of ``journal``, ends within ``delta`` of b."""
-    vertices = vertices[measure(index.cells(vertices), a) <= delta]
-    leaving = index.leaving[vertices]
-    mine = leaving >= 0
-    edges, here = leaving[mine], np.repeat(vertices, mine.sum(axis=1))
-    if journal.fresh:
-        old = ~np.isin(edges, list(journal.fresh))
-        edges, here = edges[old], here[old]
-    others = np.where(index.ea[edges] == here, index.eb[edges], index.ea[edges])
-    return bool((measure(index.cells(others), b) <= delta).any())
+    return bool(similar_kernel(index.vertex_at, index.vx, index.vy, index.leaving, index.ea,
+                               index.eb, int(a[0]), int(a[1]), int(b[0]), int(b[1]), delta,
+                               MEASURES[distance], ID_LIMIT, np.zeros((0, 4), dtype=np.int64),
+                               0))
 
 
 def _new_steps(index: SegmentIndex, cells: np.ndarray) -> np.ndarray:
@@ -179,19 +154,3 @@ def _crossings(index: SegmentIndex, cells: np.ndarray, new_steps: np.ndarray
         if set(index.edges_at(r)) & set(index.edges_at(t)):  # one stored step r -> t
             found.append((int(found_at[k]), r))
     return found
-
-
-def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
-    """Maximal runs of True steps as (first cell, last cell) index pairs of the path."""
-    padded = np.concatenate([[False], flags, [False]])
-    change = np.flatnonzero(padded[1:] != padded[:-1])
-    return [(int(s), int(e)) for s, e in zip(change[::2], change[1::2], strict=True)]
-
-
-def _turns(stretch: np.ndarray) -> np.ndarray:
-    """Flags over the cells of a stretch: its ends and the cells where the direction changes."""
-    cuts = np.zeros(len(stretch), dtype=bool)
-    cuts[0] = cuts[-1] = True
-    steps = np.diff(stretch, axis=0)
-    cuts[1:-1] = np.any(steps[1:] != steps[:-1], axis=1)
-    return cuts
