@@ -113,7 +113,7 @@ def _graph_bytes() -> dict[str, Any]:
     if not graphs:
         return {}
     graph = graphs[0]
-    per_cell = {name: int(getattr(graph, name).nbytes) for name in ("vertex_at", "owner")}
+    per_cell = {"cell_tiles": graph.index.cells.nbytes}
     arrays = {name: value for name, value in vars(graph).items()
               if isinstance(value, np.ndarray) and name not in per_cell}
     return {"graphs": len(graphs), "vertices": int(graph.vertex_count),

@@ -42,6 +42,8 @@ import numpy as np
 
 from cbr_casegraph.graph import CaseGraph
 from cbr_casegraph.search import path_cost
+from cbr_casegraph.tile_kernels import cell_value
+from cbr_casegraph.tiles import VERTEX
 from cbr_grid.costs import SQRT2
 from cbr_grid.query import Cell, without_loops
 from cbr_grid.search_base import (
@@ -171,8 +173,9 @@ def _experience_heuristic(indptr: np.ndarray, target: np.ndarray, weight: np.nda
 
 @njit
 def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: int, sy: int,
-            gx: int, gy: int, vertex_at: np.ndarray, indptr: np.ndarray, target: np.ndarray,
-            weight: np.ndarray, edge: np.ndarray, xy: np.ndarray, epsilon: float,
+            gx: int, gy: int, directory: np.ndarray, tiles: np.ndarray, indptr: np.ndarray,
+            target: np.ndarray, weight: np.ndarray, edge: np.ndarray, xy: np.ndarray,
+            epsilon: float,
             experience: float, scale: float, route_max: int, stamp: np.ndarray,
             dist: np.ndarray, parent: np.ndarray, estimate: np.ndarray, via: np.ndarray,
             generation: int) -> tuple[bool, np.ndarray, np.ndarray, float, int, int, int]:
@@ -241,7 +244,7 @@ def _search(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, sx: 
             via[other] = -1
             keys, items = push_grown(keys, items, size, g + epsilon * estimate[other], other)
             size += 1
-        v = vertex_at[cy, cx]
+        v = cell_value(directory, tiles, VERTEX, cx, cy)
         if v < 0:
             continue
         for k in range(indptr[v], indptr[v + 1]):
@@ -355,7 +358,7 @@ def plan(graph: CaseGraph, start: Cell, goal: Cell, epsilon: float, experience_f
     estimate, via = _WORKSPACE.extra(n)
     found, path, edges, cost, expanded, settled, route = _search(
         grid.factor, grid.passable, grid.corner_cutting, int(start[0]), int(start[1]),
-        int(goal[0]), int(goal[1]), graph.vertex_at, adjacency.indptr, adjacency.target,
+        int(goal[0]), int(goal[1]), *graph.cell_tiles(), adjacency.indptr, adjacency.target,
         adjacency.weight, adjacency.edge, adjacency.xy, float(epsilon), float(experience_factor),
         graph.heuristic_scale(), int(route_vertices), stamp, dist, parent, estimate, via,
         generation)

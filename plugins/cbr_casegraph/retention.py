@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike
 
 from cbr_casegraph import writes
 from cbr_casegraph.index import ID_LIMIT, SegmentIndex, slot
+from cbr_casegraph.tiles import OWNER, VERTEX
 from cbr_grid.distances import distance as distance_function
 from cbr_grid.query import without_loops
 
@@ -104,17 +105,17 @@ def similar(index: SegmentIndex, a: Cell, b: Cell, delta: int, distance: str = "
     from cbr_casegraph.retention_kernel import MEASURES
     from cbr_casegraph.retention_kernel import similar as similar_kernel
 
-    return bool(similar_kernel(index.vertex_at, index.vx, index.vy, index.leaving, index.ea,
-                               index.eb, int(a[0]), int(a[1]), int(b[0]), int(b[1]), delta,
-                               MEASURES[distance], ID_LIMIT, np.zeros((0, 4), dtype=np.int64),
-                               0))
+    return bool(similar_kernel(index.cells.directory, index.cells.tiles, index.vx, index.vy,
+                               index.leaving, index.ea, index.eb, int(a[0]), int(a[1]),
+                               int(b[0]), int(b[1]), delta, MEASURES[distance], ID_LIMIT,
+                               np.zeros((0, 4), dtype=np.int64), 0))
 
 
 def _new_steps(index: SegmentIndex, cells: np.ndarray) -> np.ndarray:
     """For each step of the path: True unless it runs along a stored edge."""
     x, y = cells[:, 0], cells[:, 1]
-    inside = index.owner[y, x]
-    vertex = index.vertex_at[y, x]
+    inside = index.cells.get(OWNER, x, y)
+    vertex = index.cells.get(VERTEX, x, y)
     new = np.ones(len(cells) - 1, dtype=bool)
     both = (inside[:-1] >= 0) & (inside[1:] >= 0)
     new[both] = inside[:-1][both] != inside[1:][both]

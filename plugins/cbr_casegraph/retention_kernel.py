@@ -10,7 +10,8 @@ every insert and drop in order, so that the caller can write them to a case base
 edges the ids it chooses.
 
 The index's arrays must have room for what the path can add: two vertices and five edge ids per
-segment (the segment and the two parts of each edge split at its ends).
+segment (the segment and the two parts of each edge split at its ends), and every cell of the
+segments a tile (:mod:`cbr_casegraph.tiles`).
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from cbr_casegraph.search import run_cost, run_risk
+from cbr_casegraph.tile_kernels import cell_value, set_cell
+from cbr_casegraph.tiles import OWNER, SIZE, VERTEX
 from cbr_kernels import njit
 
 CHEBYSHEV = 0
@@ -66,9 +69,10 @@ def _slot(dx: int, dy: int) -> int:
 
 
 @njit
-def similar(vertex_at: np.ndarray, vx: np.ndarray, vy: np.ndarray, leaving: np.ndarray,
-            ea: np.ndarray, eb: np.ndarray, ax: int, ay: int, bx: int, by: int, delta: int,
-            measure: int, before: int, replaced: np.ndarray, count: int) -> bool:
+def similar(directory: np.ndarray, tiles: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+            leaving: np.ndarray, ea: np.ndarray, eb: np.ndarray, ax: int, ay: int, bx: int,
+            by: int, delta: int, measure: int, before: int, replaced: np.ndarray, count: int
+            ) -> bool:
     """Eq. (12): whether an edge with an id below ``before``, or one of the first ``count``
     ends (ax, ay, bx, by) of ``replaced``, has its ends within ``delta`` of a and b (either
     way round) under ``measure``.
@@ -76,10 +80,11 @@ def similar(vertex_at: np.ndarray, vx: np.ndarray, vy: np.ndarray, leaving: np.n
     Every distance is at least the Chebyshev distance, so one end of such an edge is a vertex
     in the square N(a, delta): the vertices there and their edges are every candidate.
     """
-    h, w = vertex_at.shape
+    # cells past the map but in its last tiles are in no tile's layers: -1, as if clipped
+    h, w = directory.shape[0] * SIZE, directory.shape[1] * SIZE
     for y in range(max(ay - delta, 0), min(ay + delta, h - 1) + 1):
         for x in range(max(ax - delta, 0), min(ax + delta, w - 1) + 1):
-            v = vertex_at[y, x]
+            v = cell_value(directory, tiles, VERTEX, x, y)
             if v < 0 or not _within(measure, x, y, ax, ay, delta):
                 continue
             for s in range(8):
@@ -99,7 +104,7 @@ def similar(vertex_at: np.ndarray, vx: np.ndarray, vy: np.ndarray, leaving: np.n
 
 
 @njit
-def retain(vertex_at: np.ndarray, owner: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+def retain(directory: np.ndarray, tiles: np.ndarray, vx: np.ndarray, vy: np.ndarray,
            leaving: np.ndarray, ea: np.ndarray, eb: np.ndarray, cost: np.ndarray,
            risk: np.ndarray, uses: np.ndarray, created: np.ndarray, alive: np.ndarray,
            free: np.ndarray, counters: np.ndarray, factor: np.ndarray, passable: np.ndarray,
@@ -122,19 +127,19 @@ def retain(vertex_at: np.ndarray, owner: np.ndarray, vx: np.ndarray, vy: np.ndar
     for k in range(segments.shape[0] + crossings.shape[0]):
         if k < segments.shape[0]:
             ax, ay, bx, by = segments[k, 0], segments[k, 1], segments[k, 2], segments[k, 3]
-            if delta > 0 and similar(vertex_at, vx, vy, leaving, ea, eb, ax, ay, bx, by, delta,
-                                     measure, before, replaced, n[3]):
+            if delta > 0 and similar(directory, tiles, vx, vy, leaving, ea, eb, ax, ay, bx, by,
+                                     delta, measure, before, replaced, n[3]):
                 continue
         else:
             row = k - segments.shape[0]
             ax, ay = crossings[row, 0], crossings[row, 1]
             bx, by = crossings[row, 2], crossings[row, 3]
-            if vertex_at[ay, ax] < 0:  # its segment was skipped
+            if cell_value(directory, tiles, VERTEX, ax, ay) < 0:  # its segment was skipped
                 continue
-        va = _vertex(vertex_at, owner, vx, vy, leaving, ea, eb, cost, risk, uses, created,
+        va = _vertex(directory, tiles, vx, vy, leaving, ea, eb, cost, risk, uses, created,
                      alive, free, counters, factor, passable, corner_cutting, risk_map, ax, ay,
                      before, log, changed, replaced, n)
-        vb = _vertex(vertex_at, owner, vx, vy, leaving, ea, eb, cost, risk, uses, created,
+        vb = _vertex(directory, tiles, vx, vy, leaving, ea, eb, cost, risk, uses, created,
                      alive, free, counters, factor, passable, corner_cutting, risk_map, bx, by,
                      before, log, changed, replaced, n)
         joined = leaving[va, _slot(bx - ax, by - ay)]
@@ -142,7 +147,7 @@ def retain(vertex_at: np.ndarray, owner: np.ndarray, vx: np.ndarray, vy: np.ndar
             continue
         # the stamp is the connection's number, negated: the caller knows the stamps
         counters[CONNECTIONS] += 1
-        edge = _insert(vertex_at, owner, vx, vy, leaving, ea, eb, cost, risk, uses, created,
+        edge = _insert(directory, tiles, vx, vy, leaving, ea, eb, cost, risk, uses, created,
                        alive, counters, factor, passable, corner_cutting, risk_map, va, vb, 0,
                        -counters[CONNECTIONS], log, CONNECTED, changed, n)
         added[n[2]] = edge
@@ -151,7 +156,7 @@ def retain(vertex_at: np.ndarray, owner: np.ndarray, vx: np.ndarray, vy: np.ndar
 
 
 @njit
-def _vertex(vertex_at: np.ndarray, owner: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+def _vertex(directory: np.ndarray, tiles: np.ndarray, vx: np.ndarray, vy: np.ndarray,
             leaving: np.ndarray, ea: np.ndarray, eb: np.ndarray, cost: np.ndarray,
             risk: np.ndarray, uses: np.ndarray, created: np.ndarray, alive: np.ndarray,
             free: np.ndarray, counters: np.ndarray, factor: np.ndarray, passable: np.ndarray,
@@ -159,10 +164,10 @@ def _vertex(vertex_at: np.ndarray, owner: np.ndarray, vx: np.ndarray, vy: np.nda
             log: np.ndarray, changed: np.ndarray, replaced: np.ndarray, n: np.ndarray) -> int:
     """The vertex on (x, y), made if needed (from the last free slot, else a new one), the
     edge whose interior held the cell split there."""
-    v = vertex_at[y, x]
+    v = cell_value(directory, tiles, VERTEX, x, y)
     if v >= 0:
         return v
-    through = owner[y, x]
+    through = cell_value(directory, tiles, OWNER, x, y)
     if counters[FREE] > 0:
         counters[FREE] -= 1
         v = free[counters[FREE]]
@@ -170,28 +175,28 @@ def _vertex(vertex_at: np.ndarray, owner: np.ndarray, vx: np.ndarray, vy: np.nda
         v = counters[SLOTS]
         counters[SLOTS] += 1
     vx[v], vy[v] = x, y
-    vertex_at[y, x] = v
+    set_cell(directory, tiles, VERTEX, x, y, v)
     if through < 0:
         return v
     # the split edge's ends stay vertices: its parts come back now
     va, vb = ea[through], eb[through]
-    _drop(owner, vx, vy, leaving, ea, eb, alive, through, log, changed, n)
+    _drop(directory, tiles, vx, vy, leaving, ea, eb, alive, through, log, changed, n)
     if through < before:
         r = n[3]
         replaced[r, 0], replaced[r, 1] = vx[va], vy[va]
         replaced[r, 2], replaced[r, 3] = vx[vb], vy[vb]
         n[3] += 1
-    _insert(vertex_at, owner, vx, vy, leaving, ea, eb, cost, risk, uses, created, alive,
+    _insert(directory, tiles, vx, vy, leaving, ea, eb, cost, risk, uses, created, alive,
             counters, factor, passable, corner_cutting, risk_map, va, v, uses[through],
             created[through], log, SPLIT_PART, changed, n)
-    _insert(vertex_at, owner, vx, vy, leaving, ea, eb, cost, risk, uses, created, alive,
+    _insert(directory, tiles, vx, vy, leaving, ea, eb, cost, risk, uses, created, alive,
             counters, factor, passable, corner_cutting, risk_map, v, vb, uses[through],
             created[through], log, SPLIT_PART, changed, n)
     return v
 
 
 @njit
-def _insert(vertex_at: np.ndarray, owner: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+def _insert(directory: np.ndarray, tiles: np.ndarray, vx: np.ndarray, vy: np.ndarray,
             leaving: np.ndarray, ea: np.ndarray, eb: np.ndarray, cost: np.ndarray,
             risk: np.ndarray, uses: np.ndarray, created: np.ndarray, alive: np.ndarray,
             counters: np.ndarray, factor: np.ndarray, passable: np.ndarray,
@@ -208,7 +213,7 @@ def _insert(vertex_at: np.ndarray, owner: np.ndarray, vx: np.ndarray, vy: np.nda
     dx, dy = bx - ax, by - ay
     leaving[va, _slot(dx, dy)] = edge
     leaving[vb, _slot(-dx, -dy)] = edge
-    _interior(owner, ax, ay, bx, by, edge)
+    _interior(directory, tiles, ax, ay, bx, by, edge)
     log[n[0], 0], log[n[0], 1] = kind, edge
     changed[n[1]], changed[n[1] + 1] = va, vb
     n[0] += 1
@@ -217,13 +222,13 @@ def _insert(vertex_at: np.ndarray, owner: np.ndarray, vx: np.ndarray, vy: np.nda
 
 
 @njit
-def _drop(owner: np.ndarray, vx: np.ndarray, vy: np.ndarray, leaving: np.ndarray,
-          ea: np.ndarray, eb: np.ndarray, alive: np.ndarray, edge: int, log: np.ndarray,
-          changed: np.ndarray, n: np.ndarray) -> None:
+def _drop(directory: np.ndarray, tiles: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+          leaving: np.ndarray, ea: np.ndarray, eb: np.ndarray, alive: np.ndarray, edge: int,
+          log: np.ndarray, changed: np.ndarray, n: np.ndarray) -> None:
     """Take ``edge`` out, keeping its ends as vertices."""
     va, vb = ea[edge], eb[edge]
     ax, ay, bx, by = vx[va], vy[va], vx[vb], vy[vb]
-    _interior(owner, ax, ay, bx, by, -1)
+    _interior(directory, tiles, ax, ay, bx, by, -1)
     alive[edge] = False
     leaving[va, _slot(bx - ax, by - ay)] = -1
     leaving[vb, _slot(ax - bx, ay - by)] = -1
@@ -234,8 +239,9 @@ def _drop(owner: np.ndarray, vx: np.ndarray, vy: np.ndarray, leaving: np.ndarray
 
 
 @njit(inline="always")
-def _interior(owner: np.ndarray, ax: int, ay: int, bx: int, by: int, value: int) -> None:
+def _interior(directory: np.ndarray, tiles: np.ndarray, ax: int, ay: int, bx: int, by: int,
+              value: int) -> None:
     """Set the cells strictly between a and b on their straight segment to ``value``."""
     dx, dy = np.sign(bx - ax), np.sign(by - ay)
     for i in range(1, max(abs(bx - ax), abs(by - ay))):
-        owner[ay + i * dy, ax + i * dx] = value
+        set_cell(directory, tiles, OWNER, ax + i * dx, ay + i * dy, value)

@@ -19,6 +19,7 @@ import numpy as np
 
 from cbr_casegraph.cases import segment_case
 from cbr_casegraph.costs import segment_costs
+from cbr_casegraph.geometry import segments_cells
 
 if TYPE_CHECKING:
     from cbr_casegraph.graph import CaseGraph
@@ -77,6 +78,7 @@ def retain(graph: CaseGraph, segments: np.ndarray, crossings: np.ndarray, delta:
     # each segment makes at most two vertices and, with the edges split at its ends, five
     # edge ids, seven log entries and fourteen changed vertices
     index.reserve(vertices=2 * count, edges=5 * count)
+    index.cells.allocate(*segments_cells(segments[:, :2], segments[:, 2:])[0].T)
     free = np.asarray(index.free, dtype=np.int64)
     counters = np.array([index.slots, first, len(free), 0], dtype=np.int64)
     log = np.empty((7 * count, 2), dtype=np.int64)
@@ -84,8 +86,8 @@ def retain(graph: CaseGraph, segments: np.ndarray, crossings: np.ndarray, delta:
     added = np.empty(count, dtype=np.int64)
     grid = graph.grid
     logged, touched, made = kernel.retain(
-        index.vertex_at, index.owner, index.vx, index.vy, index.leaving, index.ea, index.eb,
-        index.cost, index.risk, index.uses, index.created, index.alive, free, counters,
+        index.cells.directory, index.cells.tiles, index.vx, index.vy, index.leaving, index.ea,
+        index.eb, index.cost, index.risk, index.uses, index.created, index.alive, free, counters,
         grid.factor, grid.passable, grid.corner_cutting, grid.risk, segments, crossings,
         delta, kernel.MEASURES.get(distance, 0), log, changed, added)
     index.free = free[:counters[kernel.FREE]].tolist()
