@@ -6,7 +6,9 @@ edge's id, so the graph survives across runs and commits with the engine's learn
 Without a store (experiments that build graphs in bulk) edges are numbered by the index itself.
 
 A segment is never stored twice over the same cells: an edge whose end falls inside a stored
-edge splits that edge there, its two parts keeping its use count and creation stamp.
+edge splits that edge there, its two parts keeping its use count and creation stamp. A retained
+path's segments are connected by one compiled call (:func:`retain`); forgetting and following
+another writer connect theirs one at a time (:func:`connect`, :func:`vertex`).
 """
 
 from __future__ import annotations
@@ -60,12 +62,12 @@ def retain(graph: CaseGraph, segments: np.ndarray, crossings: np.ndarray, delta:
            distance: str) -> list[int]:
     """Connect the candidate ``segments`` of a retained path (rows ax, ay, bx, by, in path
     order) but those similar by eq. (12) at ``delta`` under ``distance`` to a segment stored
-    before the path, then the one-step ``crossings`` (:func:`cbr_casegraph.retention_kernel.
-    retain`); the ids of the new edges.
+    before the path, then the one-step ``crossings``; the ids of the new edges.
 
-    The compiled kernel changes the index and logs what it did; the log is then written to
-    the case base in the same order as :func:`connect` writes one segment, so the store sees
-    the same cases, ids and creation stamps.
+    The compiled kernel (:func:`cbr_casegraph.retention_kernel.retain`) changes the index and
+    logs what it did; the log is then written to the case base in the same order as
+    :func:`connect` writes one segment at a time, so the store sees the same cases, ids and
+    creation stamps, and the new edges move to the ids the store gave their cases.
     """
     # compiled: imported here so that loading the plugin does not load numba
     from cbr_casegraph import retention_kernel as kernel
