@@ -177,11 +177,6 @@ class SegmentIndex:
         vertex = self.vertex_at(cell)
         return self.incident(vertex).tolist() if vertex >= 0 else []
 
-    def taken(self, cells: np.ndarray) -> np.ndarray:
-        """For each cell: is it a vertex or inside an edge."""
-        x, y = cells[:, 0], cells[:, 1]
-        return (self.cells.get(VERTEX, x, y) >= 0) | (self.cells.get(OWNER, x, y) >= 0)
-
     def vertices(self) -> np.ndarray:
         """The (n, 2) cells of the vertices, row by row."""
         live = np.ones(self.slots, dtype=bool)

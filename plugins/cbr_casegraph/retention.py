@@ -18,8 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from cbr_casegraph import writes
-from cbr_casegraph.index import ID_LIMIT, SegmentIndex, slot
-from cbr_casegraph.tiles import OWNER, VERTEX
+from cbr_casegraph.index import ID_LIMIT, SegmentIndex
 from cbr_grid.distances import distance as distance_function
 from cbr_grid.query import without_loops
 
@@ -47,45 +46,23 @@ def add_path(graph: CaseGraph, path: ArrayLike, *, similarity_delta: int = 0,
     cells = without_loops(path)
     if len(cells) < 2:
         return []
-    index = graph.index
-    new_steps = _new_steps(index, cells)
-    crossings = _crossings(index, cells, new_steps)
-    joins = np.array([(*cells[i], *beside) for i, beside in crossings],
-                     dtype=np.int64).reshape(-1, 4)
+    segments, crossings = _candidates(graph.index, cells)
     # eq. (12) compares with the cases stored before this path: its own segments (the
     # steps of a staircase are within one cell of each other) are one new case, not
     # duplicates, and skipping them would cut the path into unconnected pieces. At
     # similarity_delta 0 no comparison is needed: a stored segment with the same two ends
     # would be the same straight run of cells, whose steps are then not new
-    return writes.retain(graph, candidates(index, cells, new_steps, crossings), joins,
-                         similarity_delta, distance)
+    return writes.retain(graph, segments, crossings, similarity_delta, distance)
 
 
-def candidates(index: SegmentIndex, cells: np.ndarray, new_steps: np.ndarray | None = None,
-               crossings: list[tuple[int, Cell]] | None = None) -> np.ndarray:
+def candidates(index: SegmentIndex, cells: np.ndarray) -> np.ndarray:
     """The new segments of the loop-free path ``cells`` before eq. (12) is asked about them:
-    rows (ax, ay, bx, by) in path order.
+    rows (ax, ay, bx, by) in path order (:func:`cbr_casegraph.retention_kernel.candidates`).
 
-    Each maximal stretch of new steps is cut at its turns, at the cells the graph already
-    holds and where a new diagonal step crosses a stored one between cells. The graph's
-    cells are read once for the whole path: the path's own segments cover only its own
-    cells, each visited once, so they never change what a later stretch finds.
+    The graph's cells are read once for the whole path: the path's own segments cover only
+    its own cells, each visited once, so they never change what a later stretch finds.
     """
-    if new_steps is None:
-        new_steps = _new_steps(index, cells)
-    if crossings is None:
-        crossings = _crossings(index, cells, new_steps)
-    cuts = index.taken(cells)
-    cuts[[i for i, _ in crossings]] = True
-    cuts[0] = cuts[-1] = True
-    steps = np.diff(cells, axis=0)
-    cuts[1:-1] |= np.any(steps[1:] != steps[:-1], axis=1) | (new_steps[1:] != new_steps[:-1])
-    points = np.flatnonzero(cuts)
-    first, last = points[:-1], points[1:]
-    # a stretch of new steps begins and ends at a cut, so the pair of cuts around a new step
-    # is a segment of it and the pair around a stored step is not
-    first, last = first[new_steps[first]], last[new_steps[first]]
-    return np.concatenate([cells[first], cells[last]], axis=1)
+    return _candidates(index, cells)[0]
 
 
 def record_use(index: SegmentIndex, edges: Iterable[int]) -> None:
@@ -111,47 +88,10 @@ def similar(index: SegmentIndex, a: Cell, b: Cell, delta: int, distance: str = "
                                np.zeros((0, 4), dtype=np.int64), 0))
 
 
-def _new_steps(index: SegmentIndex, cells: np.ndarray) -> np.ndarray:
-    """For each step of the path: True unless it runs along a stored edge."""
-    x, y = cells[:, 0], cells[:, 1]
-    inside = index.cells.get(OWNER, x, y)
-    vertex = index.cells.get(VERTEX, x, y)
-    new = np.ones(len(cells) - 1, dtype=bool)
-    both = (inside[:-1] >= 0) & (inside[1:] >= 0)
-    new[both] = inside[:-1][both] != inside[1:][both]
-    # a vertex and a cell inside an edge: along that edge when the vertex is one of its ends
-    for at_vertex, at_edge in ((vertex[:-1], inside[1:]), (vertex[1:], inside[:-1])):
-        mixed = (at_vertex >= 0) & (at_edge >= 0)
-        edge, ends_at = at_edge[mixed], at_vertex[mixed]
-        new[mixed] = (index.ea[edge] != ends_at) & (index.eb[edge] != ends_at)
-    # two vertices side by side: along the edge leaving the first towards the second, which
-    # can only be a one-step edge between them
-    pairs = (vertex[:-1] >= 0) & (vertex[1:] >= 0)
-    step = np.diff(cells[pairs.nonzero()[0][:, None] + [0, 1]], axis=1)[:, 0]
-    new[pairs] = index.leaving[vertex[:-1][pairs], slot(step[:, 0], step[:, 1])] < 0
-    return new
+def _candidates(index: SegmentIndex, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The candidate segments and crossings of the loop-free path ``cells``."""
+    # compiled: imported here so that loading the plugin does not load numba
+    from cbr_casegraph.retention_kernel import candidates as cut
 
-
-def _crossings(index: SegmentIndex, cells: np.ndarray, new_steps: np.ndarray
-               ) -> list[tuple[int, Cell]]:
-    """The new diagonal steps i -> i+1 that cross a stored diagonal step between cells.
-
-    Returns (i, cell): the step's first cell and the stored cell beside it (same row) that
-    a one-step edge joins it to.
-    """
-    steps = np.diff(cells, axis=0)
-    diagonal = new_steps & (np.abs(steps).sum(axis=1) == 2)
-    found_at = np.flatnonzero(diagonal)
-    if len(found_at) == 0:
-        return []
-    # the two cells beside a diagonal step p -> q: (q.x, p.y) and (p.x, q.y)
-    side = np.stack([cells[found_at + 1, 0], cells[found_at, 1]], axis=1)
-    other = np.stack([cells[found_at, 0], cells[found_at + 1, 1]], axis=1)
-    both = index.taken(side) & index.taken(other)
-    found: list[tuple[int, Cell]] = []
-    for k in np.flatnonzero(both).tolist():
-        r = (int(side[k, 0]), int(side[k, 1]))
-        t = (int(other[k, 0]), int(other[k, 1]))
-        if set(index.edges_at(r)) & set(index.edges_at(t)):  # one stored step r -> t
-            found.append((int(found_at[k]), r))
-    return found
+    return cut(index.cells.directory, index.cells.tiles, index.leaving, index.ea, index.eb,
+               np.ascontiguousarray(cells, dtype=np.int64))

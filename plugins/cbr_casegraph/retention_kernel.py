@@ -104,6 +104,99 @@ def similar(directory: np.ndarray, tiles: np.ndarray, vx: np.ndarray, vy: np.nda
 
 
 @njit
+def candidates(directory: np.ndarray, tiles: np.ndarray, leaving: np.ndarray, ea: np.ndarray,
+               eb: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The new segments of the loop-free path ``cells`` before eq. (12) is asked about them,
+    and its crossings of stored diagonal steps.
+
+    A step is new unless it runs along a stored edge. Each maximal stretch of new steps is
+    cut at its turns, at the cells the graph already holds and where a new diagonal step
+    crosses a stored one between cells (an X in a 2x2 block). Returns the segments (rows ax,
+    ay, bx, by, in path order) and the crossings (rows: the crossing step's first cell, the
+    stored cell beside it that a one-step edge joins it to).
+    """
+    n = cells.shape[0]
+    vertex = np.empty(n, dtype=np.int64)
+    inside = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        vertex[i] = cell_value(directory, tiles, VERTEX, cells[i, 0], cells[i, 1])
+        inside[i] = cell_value(directory, tiles, OWNER, cells[i, 0], cells[i, 1])
+    new = np.ones(max(n - 1, 0), dtype=np.bool_)
+    cut = np.zeros(n, dtype=np.bool_)
+    crossings = np.empty((max(n - 1, 0), 4), dtype=np.int64)
+    found = 0
+    for i in range(n - 1):
+        dx, dy = cells[i + 1, 0] - cells[i, 0], cells[i + 1, 1] - cells[i, 1]
+        if inside[i] >= 0 and inside[i + 1] >= 0:
+            new[i] = inside[i] != inside[i + 1]
+        elif vertex[i] >= 0 and inside[i + 1] >= 0:
+            # along that edge when the vertex is one of its ends
+            new[i] = ea[inside[i + 1]] != vertex[i] and eb[inside[i + 1]] != vertex[i]
+        elif inside[i] >= 0 and vertex[i + 1] >= 0:
+            new[i] = ea[inside[i]] != vertex[i + 1] and eb[inside[i]] != vertex[i + 1]
+        elif vertex[i] >= 0 and vertex[i + 1] >= 0:
+            # two vertices side by side: along the one-step edge between them, if any
+            new[i] = leaving[vertex[i], _slot(dx, dy)] < 0
+        if new[i] and dx != 0 and dy != 0:
+            # the two cells beside a diagonal step p -> q: r = (q.x, p.y), t = (p.x, q.y)
+            rx, ry = cells[i + 1, 0], cells[i, 1]
+            tx, ty = cells[i, 0], cells[i + 1, 1]
+            if _share_an_edge(directory, tiles, leaving, rx, ry, tx, ty):
+                crossings[found, 0], crossings[found, 1] = cells[i, 0], cells[i, 1]
+                crossings[found, 2], crossings[found, 3] = rx, ry
+                found += 1
+                cut[i] = True
+    if n == 0:
+        return np.empty((0, 4), dtype=np.int64), crossings[:0]
+    cut[0] = cut[n - 1] = True
+    for i in range(n):
+        if vertex[i] >= 0 or inside[i] >= 0:
+            cut[i] = True
+    for i in range(1, n - 1):
+        if (new[i - 1] != new[i] or cells[i, 0] - cells[i - 1, 0] != cells[i + 1, 0] - cells[i, 0]
+                or cells[i, 1] - cells[i - 1, 1] != cells[i + 1, 1] - cells[i, 1]):
+            cut[i] = True
+    segments = np.empty((n, 4), dtype=np.int64)
+    count = 0
+    last = 0
+    for j in range(1, n):
+        if not cut[j]:
+            continue
+        # a stretch of new steps begins and ends at a cut, so the pair of cuts around a new
+        # step is a segment of it and the pair around a stored step is not
+        if new[last]:
+            segments[count, 0], segments[count, 1] = cells[last, 0], cells[last, 1]
+            segments[count, 2], segments[count, 3] = cells[j, 0], cells[j, 1]
+            count += 1
+        last = j
+    return segments[:count], crossings[:found]
+
+
+@njit(inline="always")
+def _share_an_edge(directory: np.ndarray, tiles: np.ndarray, leaving: np.ndarray, rx: int,
+                   ry: int, tx: int, ty: int) -> bool:
+    """Whether an edge contains both cells r and t: the one a cell is inside of, or those
+    meeting at it."""
+    r_in = cell_value(directory, tiles, OWNER, rx, ry)
+    t_in = cell_value(directory, tiles, OWNER, tx, ty)
+    r_at = cell_value(directory, tiles, VERTEX, rx, ry)
+    t_at = cell_value(directory, tiles, VERTEX, tx, ty)
+    if (r_in < 0 and r_at < 0) or (t_in < 0 and t_at < 0):
+        return False
+    if r_in >= 0 and t_in >= 0:
+        return r_in == t_in
+    if r_in >= 0 or t_in >= 0:
+        edge = r_in if r_in >= 0 else t_in
+        at = t_at if r_in >= 0 else r_at
+        return bool((leaving[at] == edge).any())
+    for s in range(8):
+        for u in range(8):
+            if leaving[r_at, s] >= 0 and leaving[r_at, s] == leaving[t_at, u]:
+                return True
+    return False
+
+
+@njit
 def retain(directory: np.ndarray, tiles: np.ndarray, vx: np.ndarray, vy: np.ndarray,
            leaving: np.ndarray, ea: np.ndarray, eb: np.ndarray, cost: np.ndarray,
            risk: np.ndarray, uses: np.ndarray, created: np.ndarray, alive: np.ndarray,
