@@ -27,10 +27,9 @@ def retention_reading() -> str:
             f"{listed([grouped(v) for v in target['at_vertices']])} vertices is "
             f"{'met' if target['met_every_radius'] else 'not met'} at every radius. "
             "At δr > 0 eq. 12 looks only at the vertices near each new segment's first end, so "
-            "no radius costs in proportion to the graph, and the test and the writes of a "
-            "path's segments (splitting, pricing and indexing them) are one compiled call: "
-            "what is left in Python is cutting the path into its candidate segments with array "
-            "operations, in proportion to the path.")
+            "no radius costs in proportion to the graph, and cutting the path into its "
+            "candidate segments, the test and the writes of its segments (splitting, pricing "
+            "and indexing them) are two compiled calls per path, with no Python per segment.")
 
 
 def casegraph_speed_reading() -> str:
