@@ -5,7 +5,9 @@ it (-1 where none). Two int32 arrays over the whole map would cost 8 bytes per m
 at 8000 x 8000, though a case graph covers a small share of a large map. :class:`CellTiles`
 keeps them in tiles of 8 x 8 cells (both layers: 512 bytes) made the first time a cell of theirs
 is set, found through a directory of one int32 per tile (1/16 byte per map cell). A cell in no
-tile reads -1. Tiles are never given back: a case graph forgets edges where it learns others.
+tile reads -1. The tiles' array grows by doubling up to the directory's number of tiles, so a
+graph covering the whole map costs 8 bytes per cell, as the whole-map layers did. Tiles are
+never given back: a case graph forgets edges where it learns others.
 
 The compiled kernels read and write the same arrays through :mod:`cbr_casegraph.tile_kernels`.
 """
@@ -78,8 +80,10 @@ class CellTiles:
             return
         needed = self.count + len(missing)
         if needed > len(self.tiles):
-            bigger = np.full((max(needed, 2 * len(self.tiles), 16), 2, SIZE, SIZE), -1,
-                             dtype=np.int32)
+            # doubling, but never past the directory's tiles: a graph covering the whole map
+            # costs what two whole-map layers would
+            room = min(max(needed, 2 * len(self.tiles), 16), self.directory.size)
+            bigger = np.full((room, 2, SIZE, SIZE), -1, dtype=np.int32)
             bigger[:self.count] = self.tiles[:self.count]
             self.tiles = bigger
         flat[missing] = np.arange(self.count, needed, dtype=np.int32)

@@ -311,6 +311,16 @@ def test_the_cell_layers_take_a_tile_only_where_the_graph_has_cells() -> None:
     assert (owner >= 0).sum() == 998 + 1001
 
 
+def test_a_graph_covering_the_whole_map_keeps_no_more_tiles_than_the_map_has() -> None:
+    # 3 x 3 tiles; rows 0, 2, 4, ... each a segment: every tile is made, none spare
+    graph = CaseGraph(free(20, 20))
+    for y in range(0, 20, 2):
+        graph.add_path(line((0, y), (19, y)))
+    cells = graph.index.cells
+    assert cells.count == len(cells.tiles) == cells.directory.size == 9
+    assert cells.nbytes == 9 * 4 + 9 * 512
+
+
 def test_removing_every_edge_leaves_an_empty_graph() -> None:
     graph = CaseGraph(free(8, 8))
     graph.add_path(line((0, 0), (5, 5), (5, 7)))
