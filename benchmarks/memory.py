@@ -113,9 +113,9 @@ def _graph_bytes() -> dict[str, Any]:
     if not graphs:
         return {}
     graph = graphs[0]
-    per_cell = {name: int(getattr(graph, name).nbytes) for name in ("vertex_at", "owner")}
-    arrays = {name: value for name, value in vars(graph).items()
-              if isinstance(value, np.ndarray) and name not in per_cell}
+    per_cell = {"cell_tiles": graph.index.cells.nbytes}
+    arrays = {name: value for name, value in vars(graph.index).items()
+              if isinstance(value, np.ndarray)}
     return {"graphs": len(graphs), "vertices": int(graph.vertex_count),
             "per_cell_bytes": per_cell,
             "vertex_and_edge_arrays_bytes": {k: int(v.nbytes) for k, v in arrays.items()},

@@ -347,7 +347,7 @@ class VertexLimit:
     @hookimpl
     def cbr_forget(self, ctx: Context) -> None:
         graph = graph_of(ctx)
-        limit = int(self.options.max_coverage * graph.vertex_at.size)
+        limit = int(self.options.max_coverage * graph.grid.risk.size)
         if graph.vertex_count <= limit:
             return
         edges = graph.edge_ids()

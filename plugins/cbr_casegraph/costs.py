@@ -44,7 +44,7 @@ def reprice(index: SegmentIndex, grid: Grid, edges: np.ndarray) -> np.ndarray:
 def edges_through(index: SegmentIndex, cells: ArrayLike) -> np.ndarray:
     """The edges whose price a change of ``cells`` can change, ascending."""
     touched: set[int] = set()
-    h, w = index.owner.shape
+    h, w = index.shape
     for x, y in np.asarray(cells, dtype=np.int64).reshape(-1, 2).tolist():
         # a diagonal step passing beside a cell has its ends on the cell's orthogonal
         # neighbours: the corner rule makes the cell's change theirs too

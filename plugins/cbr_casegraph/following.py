@@ -11,6 +11,7 @@ import numpy as np
 from cbr_casegraph.cases import SEGMENT, same_ends, segment_ends
 from cbr_casegraph.costs import segment_costs
 from cbr_casegraph.geometry import segment_cells
+from cbr_casegraph.tiles import OWNER, VERTEX
 from cbr_casegraph.writes import vertex
 from cbrcore.casebase.store import Changes
 from cbrcore.errors import CbrError
@@ -28,8 +29,8 @@ def take(graph: CaseGraph, cases: Iterable[Case]) -> list[int]:
     for case in cases:
         a, b = segment_ends(case, graph.grid, index.source)
         cells = segment_cells(a, b)
-        taken = (index.owner[cells[:, 1], cells[:, 0]] >= 0)
-        taken[1:-1] |= index.vertex_at[cells[1:-1, 1], cells[1:-1, 0]] >= 0
+        taken = index.cells.get(OWNER, cells[:, 0], cells[:, 1]) >= 0
+        taken[1:-1] |= index.cells.get(VERTEX, cells[1:-1, 0], cells[1:-1, 1]) >= 0
         if taken.any():
             x, y = cells[np.flatnonzero(taken)[0]]
             raise CbrError(f"case base {index.source}: segment case {case.id} overlaps "

@@ -23,6 +23,7 @@ from cbr_casegraph import costs, following, forgetting, retention, writes
 from cbr_casegraph.cases import SEGMENT, store_name
 from cbr_casegraph.costs import segment_costs
 from cbr_casegraph.index import ID_LIMIT, Adjacency, Cell, EdgeTables, SegmentIndex
+from cbr_casegraph.tiles import OWNER, VERTEX
 from cbr_grid.grid import Grid
 from cbrcore.casebase.store import CaseStore, Changes
 from cbrcore.errors import CbrError
@@ -74,13 +75,15 @@ class CaseGraph:
 
     @property
     def vertex_at(self) -> np.ndarray:
-        """The vertex on each cell, or -1."""
-        return self.index.vertex_at
+        """The vertex on each cell, or -1, over the whole map: a copy of the index's tiles,
+        for inspection (it costs 4 bytes per map cell)."""
+        return self.index.cells.dense(VERTEX)
 
     @property
     def owner(self) -> np.ndarray:
-        """The edge whose interior covers each cell, or -1."""
-        return self.index.owner
+        """The edge whose interior covers each cell, or -1, over the whole map: a copy, as
+        :attr:`vertex_at`."""
+        return self.index.cells.dense(OWNER)
 
     @property
     def vertex_count(self) -> int:
@@ -92,7 +95,7 @@ class CaseGraph:
 
     def coverage(self) -> float:
         """The share of the map's cells that are vertices (the papers' coverage)."""
-        return self.index.vertex_count / self.index.vertex_at.size
+        return self.index.vertex_count / self.index.cells.size
 
     def edge_ids(self) -> np.ndarray:
         """The ids of the edges, ascending."""
@@ -137,6 +140,11 @@ class CaseGraph:
         """The graph as the compiled query reads it, cached until the graph changes."""
         return self.index.tables()
 
+    def cell_tiles(self) -> tuple[np.ndarray, np.ndarray]:
+        """The directory and tiles of the cell layers (:mod:`cbr_casegraph.tiles`), as the
+        compiled kernels read them."""
+        return self.index.cells.directory, self.index.cells.tiles
+
     def heuristic_scale(self) -> float:
         """The least cost factor of a passable cell: no step costs less per unit of length.
         Kept until the map changes."""
@@ -154,9 +162,9 @@ class CaseGraph:
 
     def set_grid(self, grid: Grid, cells: ArrayLike | None = None) -> None:
         """Take a changed map; recompute the edges through ``cells`` (all edges when None)."""
-        if grid.risk.shape != self.index.owner.shape:
-            raise CbrError(f"the map changed size from {self.index.owner.shape[1]}x"
-                           f"{self.index.owner.shape[0]} to {grid.width}x{grid.height}")
+        if grid.risk.shape != self.index.shape:
+            raise CbrError(f"the map changed size from {self.index.shape[1]}x"
+                           f"{self.index.shape[0]} to {grid.width}x{grid.height}")
         self.grid = grid
         self._scale = None
         if cells is None:

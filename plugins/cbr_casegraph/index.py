@@ -1,17 +1,18 @@
-"""The case graph's index: its vertices and edges in arrays, and the two cell grids over them.
+"""The case graph's index: its vertices and edges in arrays, and the two cell layers over them.
 
 Vertices are cells; an edge is a straight segment (see :mod:`cbr_casegraph.geometry`) between
-two vertices whose interior cells belong to no other edge and are no vertex. Two grids of the
-map's size index it: ``vertex_at`` (the vertex on each cell, or -1) and ``owner`` (the edge whose
-interior covers each cell, or -1), so "which cases does this cell touch" costs one lookup and a
-path is cut into new segments with array operations; a table of the edge leaving each vertex in
-each of the 8 directions answers "which cases meet at this vertex". Together they are the spatial
-index of the segments' ends that eq. (12) needs (:mod:`cbr_casegraph.retention`).
+two vertices whose interior cells belong to no other edge and are no vertex. Two cell layers
+index it, kept in tiles made where the graph has cells (:mod:`cbr_casegraph.tiles`): the vertex
+on each cell (or -1) and the edge whose interior covers each cell (its owner, or -1), so "which
+cases does this cell touch" costs one lookup and a path is cut into new segments with array
+operations; a table of the edge leaving each vertex in each of the 8 directions answers "which
+cases meet at this vertex". Together they are the spatial index of the segments' ends that eq.
+(12) needs (:mod:`cbr_casegraph.retention`).
 
 Ids are int32 (vertices, edges, cell coordinates): a map of up to 2^31 cells has fewer vertices
 and live edges than cells, and an edge id from a store that ran past 2^31 - 1 is refused with a
-CbrError rather than wrapped. The index keeps 8 bytes per map cell, 40 per vertex and 41 per
-edge id (see docs/casegraph.md, "Memory").
+CbrError rather than wrapped. The index keeps 1/16 byte per map cell, 512 bytes per 8 x 8 tile
+the graph touches, 40 per vertex and 41 per edge id (see docs/casegraph.md, "Memory").
 
 The index knows nothing of the map's costs or of the store: it holds what it is given
 (:mod:`cbr_casegraph.costs` prices the edges, :mod:`cbr_casegraph.writes` keeps the store in
@@ -25,6 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from cbr_casegraph.geometry import segment_cells, square
+from cbr_casegraph.tiles import OWNER, VERTEX, CellTiles
 from cbrcore.errors import CbrError
 
 Cell = tuple[int, int]
@@ -92,8 +94,8 @@ class SegmentIndex:
 
     def __init__(self, shape: tuple[int, int], source: str) -> None:
         self.source = source
-        self.vertex_at = np.full(shape, -1, dtype=ID)
-        self.owner = np.full(shape, -1, dtype=ID)
+        self.shape = shape
+        self.cells = CellTiles(shape)
         self.vx = np.zeros(0, dtype=ID)
         self.vy = np.zeros(0, dtype=ID)
         self.slots = 0
@@ -136,14 +138,22 @@ class SegmentIndex:
     def cell(self, vertex: int) -> Cell:
         return int(self.vx[vertex]), int(self.vy[vertex])
 
-    def cells(self, vertices: np.ndarray) -> np.ndarray:
+    def vertex_cells(self, vertices: np.ndarray) -> np.ndarray:
         """The (n, 2) cells of ``vertices``."""
         return np.stack([self.vx[vertices], self.vy[vertices]], axis=1).astype(np.int64)
 
     def ends(self, edges: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """The (n, 2) end cells a and b of the given edges."""
         edges = np.asarray(edges, dtype=np.int64)
-        return self.cells(self.ea[edges]), self.cells(self.eb[edges])
+        return self.vertex_cells(self.ea[edges]), self.vertex_cells(self.eb[edges])
+
+    def vertex_at(self, cell: Cell) -> int:
+        """The vertex on ``cell``, or -1."""
+        return self.cells.value(VERTEX, int(cell[0]), int(cell[1]))
+
+    def owner(self, cell: Cell) -> int:
+        """The edge whose interior covers ``cell``, or -1."""
+        return self.cells.value(OWNER, int(cell[0]), int(cell[1]))
 
     def other(self, edge: int, vertex: int) -> int:
         """The vertex at the other end of ``edge`` from ``vertex``."""
@@ -161,29 +171,26 @@ class SegmentIndex:
 
     def edges_at(self, cell: Cell) -> list[int]:
         """The edges containing ``cell``: the one it is inside of, or those meeting at it."""
-        x, y = cell
-        inside = int(self.owner[y, x])
+        inside = self.owner(cell)
         if inside >= 0:
             return [inside]
-        vertex = int(self.vertex_at[y, x])
+        vertex = self.vertex_at(cell)
         return self.incident(vertex).tolist() if vertex >= 0 else []
 
-    def taken(self, cells: np.ndarray) -> np.ndarray:
-        """For each cell: is it a vertex or inside an edge."""
-        x, y = cells[:, 0], cells[:, 1]
-        return (self.vertex_at[y, x] >= 0) | (self.owner[y, x] >= 0)
-
     def vertices(self) -> np.ndarray:
-        """The (n, 2) cells of the vertices."""
-        return self.cells(self.vertex_at[self.vertex_at >= 0])
+        """The (n, 2) cells of the vertices, row by row."""
+        live = np.ones(self.slots, dtype=bool)
+        live[self.free] = False
+        vertices = np.flatnonzero(live)
+        return self.vertex_cells(vertices[np.lexsort((self.vx[vertices], self.vy[vertices]))])
 
     def degree(self, cell: Cell) -> int:
-        vertex = int(self.vertex_at[cell[1], cell[0]])
+        vertex = self.vertex_at(cell)
         return int((self.leaving[vertex] >= 0).sum()) if vertex >= 0 else 0
 
     def square(self, cell: Cell, radius: int) -> tuple[int, int, int, int]:
         """The square N(cell, radius) clipped to the map: (x0, y0, x1, y1), inclusive."""
-        h, w = self.owner.shape
+        h, w = self.shape
         return square(cell, radius, w, h)
 
     def meeting(self, cell: Cell, delta: int, *, selective: bool = False) -> np.ndarray:
@@ -196,8 +203,8 @@ class SegmentIndex:
         ids, ascending.
         """
         x0, y0, x1, y1 = self.square(cell, delta)
-        inside = self.owner[y0:y1 + 1, x0:x1 + 1]
-        corners = self.vertex_at[y0:y1 + 1, x0:x1 + 1]
+        inside = self.cells.window(OWNER, x0, y0, x1, y1)
+        corners = self.cells.window(VERTEX, x0, y0, x1, y1)
         leaving = self.leaving[corners[corners >= 0]]
         edges = np.unique(np.concatenate([inside[inside >= 0], leaving[leaving >= 0]])
                           ).astype(np.int64)
@@ -221,7 +228,7 @@ class SegmentIndex:
             np.cumsum(np.bincount(source, minlength=self.slots), out=indptr[1:])
             self._adjacency = Adjacency(
                 indptr, np.concatenate([b, a])[order], np.tile(self.cost[edges], 2)[order],
-                np.tile(edges, 2)[order], self.cells(np.arange(self.slots)))
+                np.tile(edges, 2)[order], self.vertex_cells(np.arange(self.slots)))
         return self._adjacency
 
     def tables(self) -> EdgeTables:
@@ -243,10 +250,10 @@ class SegmentIndex:
         """The vertex on ``cell``, made if needed, and the edge whose interior held the cell
         (-1 if none), which the caller splits there."""
         x, y = int(cell[0]), int(cell[1])
-        vertex = int(self.vertex_at[y, x])
+        vertex = self.cells.value(VERTEX, x, y)
         if vertex >= 0:
             return vertex, -1
-        through = int(self.owner[y, x])
+        through = self.cells.value(OWNER, x, y)
         if self.free:
             vertex = self.free.pop()
         else:
@@ -256,7 +263,7 @@ class SegmentIndex:
             self.vy = grown(self.vy, self.slots, 0)
             self.leaving = grown(self.leaving, self.slots, -1)
         self.vx[vertex], self.vy[vertex] = x, y
-        self.vertex_at[y, x] = vertex
+        self.cells.set(VERTEX, x, y, vertex)
         self._adjacency = None
         return vertex, through
 
@@ -285,9 +292,52 @@ class SegmentIndex:
         self.leaving[vb, slot(-dx, -dy)] = edge
         self.changed.update((va, vb))
         cells = segment_cells(self.cell(va), self.cell(vb))[1:-1]
-        self.owner[cells[:, 1], cells[:, 0]] = edge
+        self.cells.set(OWNER, cells[:, 0], cells[:, 1], edge)
         self._adjacency = None
         return edge
+
+    def reserve(self, *, vertices: int, edges: int) -> None:
+        """Make room for ``vertices`` more vertex slots and ``edges`` more edge ids, which a
+        compiled writer fills in place; CbrError when the ids would pass the index's range."""
+        if self.next_id + edges > ID_LIMIT:
+            raise CbrError(f"case base {self.source}: segment case ids would pass the case "
+                           f"graph's ids 0..{ID_LIMIT - 1}")
+        size = self.slots + vertices
+        self.vx = grown(self.vx, size, 0)
+        self.vy = grown(self.vy, size, 0)
+        self.leaving = grown(self.leaving, size, -1)
+        size = self.next_id + edges
+        self.ea = grown(self.ea, size, -1)
+        self.eb = grown(self.eb, size, -1)
+        self.cost = grown(self.cost, size, np.inf)
+        self.risk = grown(self.risk, size, 0.0)
+        self.uses = grown(self.uses, size, 0)
+        self.created = grown(self.created, size, 0)
+        self.alive = grown(self.alive, size, False)
+
+    def touched(self) -> None:
+        """Note that a compiled writer changed the index: the cached adjacency is stale."""
+        self._adjacency = None
+
+    def renumber(self, ids: dict[int, int]) -> None:
+        """Move the live edges among the keys of ``ids`` to the ids they map to (a case
+        base's), which no other edge has; CbrError for an id outside the index's range."""
+        pairs = np.array([(old, new) for old, new in ids.items() if self.alive[old]],
+                         dtype=np.int64).reshape(-1, 2)
+        if len(pairs) and pairs[:, 1].max() >= ID_LIMIT:
+            raise CbrError(f"case base {self.source}: segment case id {pairs[:, 1].max()} is "
+                           f"outside the case graph's ids 0..{ID_LIMIT - 1}")
+        pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+        if len(pairs) == 0:
+            return
+        old, new = pairs[:, 0], pairs[:, 1]
+        va, vb = self.ea[old], self.eb[old]
+        values = [self.cost[old], self.risk[old], self.uses[old], self.created[old]]
+        self.alive[old] = False
+        for edge, a, b, cost, risk, uses, created in zip(
+                new.tolist(), va.tolist(), vb.tolist(), *(v.tolist() for v in values),
+                strict=True):
+            self.insert(edge, a, b, uses=uses, created=created, cost=cost, risk=risk)
 
     def drop(self, edge: int, *, keep_vertices: bool = False) -> tuple[Cell, Cell]:
         """Take ``edge`` out; its ends stop being vertices when it was their last edge, unless
@@ -295,14 +345,14 @@ class SegmentIndex:
         va, vb = int(self.ea[edge]), int(self.eb[edge])
         a, b = self.cell(va), self.cell(vb)
         cells = segment_cells(a, b)[1:-1]
-        self.owner[cells[:, 1], cells[:, 0]] = -1
+        self.cells.set(OWNER, cells[:, 0], cells[:, 1], -1)
         self.alive[edge] = False
         self.changed.update((va, vb))
         self.leaving[va, slot(b[0] - a[0], b[1] - a[1])] = -1
         self.leaving[vb, slot(a[0] - b[0], a[1] - b[1])] = -1
         for vertex in (va, vb):
             if not keep_vertices and (self.leaving[vertex] < 0).all():
-                self.vertex_at[self.vy[vertex], self.vx[vertex]] = -1
+                self.cells.set(VERTEX, self.vx[vertex], self.vy[vertex], -1)
                 self.free.append(vertex)
         self._adjacency = None
         return a, b

@@ -44,7 +44,7 @@ def adapt(graph: CaseGraph, start: Cell, goal: Cell, cases: Neighbourhoods, sett
         if not made and not on_graph:
             return Failure(f"no local path from the {name} to a case", detail)
         swept.append(made)
-    overlay = Overlay(graph.vertex_at, graph.owner, base=len(tables.adjacency.indptr) - 1)
+    overlay = Overlay(graph.index.cells, base=len(tables.adjacency.indptr) - 1)
     s, g = overlay.vertex(start), overlay.vertex(goal)
     # the sweep already turned from the heading: no condition where a start's edge begins;
     # the goal's edges end under the final heading: none where they end

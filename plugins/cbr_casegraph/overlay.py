@@ -17,6 +17,7 @@ import numpy as np
 
 from cbr_casegraph.index import EdgeTables
 from cbr_casegraph.search import run_costs
+from cbr_casegraph.tiles import OWNER, VERTEX, CellTiles
 from cbr_grid.grid import Grid
 
 Cell = tuple[int, int]
@@ -27,10 +28,9 @@ Trace = Callable[[], np.ndarray]
 @attrs.define
 class Overlay:
     """The virtual vertices and temporary edges of one query on the stored graph whose cell
-    grids are ``vertex_at`` and ``owner`` and whose vertices number ``base``."""
+    layers are ``stored`` and whose vertices number ``base``."""
 
-    vertex_at: np.ndarray
-    owner: np.ndarray
+    stored: CellTiles
     base: int
     cells: list[Cell] = attrs.field(factory=list)
     index: dict[Cell, int] = attrs.field(factory=dict)
@@ -42,13 +42,13 @@ class Overlay:
 
     def vertex(self, cell: Cell) -> int:
         """The vertex of ``cell`` in G': a stored vertex, or a virtual one (split if inside)."""
-        stored = int(self.vertex_at[cell[1], cell[0]])
+        stored = self.stored.value(VERTEX, cell[0], cell[1])
         if stored >= 0:
             return stored
         if cell not in self.index:
             self.index[cell] = self.base + len(self.cells)
             self.cells.append(cell)
-            inside = int(self.owner[cell[1], cell[0]])
+            inside = self.stored.value(OWNER, cell[0], cell[1])
             if inside >= 0:
                 self.splits.setdefault(inside, set()).add(cell)
         return self.index[cell]

@@ -106,7 +106,7 @@ def neighbourhoods(graph: CaseGraph, start: Cell, goal: Cell, settings: Settings
     found: list[np.ndarray] = []
     on_graph: list[bool] = []
     for name, cell in (("start", start), ("goal", goal)):
-        cases, on = query.cases_near(graph.vertex_at, graph.owner, adjacency.indptr,
+        cases, on = query.cases_near(*graph.cell_tiles(), adjacency.indptr,
                                      adjacency.edge, tables.a, tables.b, tables.cost,
                                      adjacency.xy, int(cell[0]), int(cell[1]), delta,
                                      settings.selective)
@@ -147,7 +147,7 @@ def adapt(graph: CaseGraph, start: Cell, goal: Cell, cases: Neighbourhoods, sett
     (sx, sy), (gx, gy) = (int(v) for v in start), (int(v) for v in goal)
     if settings.connector == "dijkstra":
         status, path, cost, hops, temporary, settled = query.adapt_swept(
-            grid.factor, grid.passable, grid.corner_cutting, graph.vertex_at, graph.owner,
+            grid.factor, grid.passable, grid.corner_cutting, *graph.cell_tiles(),
             adj.indptr, adj.target, adj.weight, adj.edge, adj.xy, tables.a, tables.b,
             cases.start, cases.goal, cases.start_on_graph, cases.goal_on_graph, sx, sy, gx, gy,
             settings.delta, settings.window_radius, informed, scale)
@@ -160,7 +160,7 @@ def adapt(graph: CaseGraph, start: Cell, goal: Cell, cases: Neighbourhoods, sett
                                  settings.window_radius, search)
         no_box, no_dist = np.zeros(4, dtype=np.int64), np.zeros(0)
         status, path, cost, hops, temporary, settled = query.extend(
-            grid.factor, grid.passable, grid.corner_cutting, graph.vertex_at, graph.owner,
+            grid.factor, grid.passable, grid.corner_cutting, *graph.cell_tiles(),
             adj.indptr, adj.target, adj.weight, adj.edge, adj.xy, tables.a, tables.b,
             cases.start_on_graph, cases.goal_on_graph, sx, sy, gx, gy,
             *s_links[:2], no_box, no_dist, *s_links[2:],

@@ -20,6 +20,8 @@ from __future__ import annotations
 import numpy as np
 
 from cbr_casegraph.search import descend, graph_search, path_cost, run_costs
+from cbr_casegraph.tile_kernels import cell_value
+from cbr_casegraph.tiles import OWNER, SIZE, VERTEX
 from cbr_kernels import njit
 from cbr_solvers.aistar import COST_STEPS, wavefront
 
@@ -35,7 +37,7 @@ GOAL_LINK = -2
 
 
 @njit
-def cases_near(vertex_at: np.ndarray, owner: np.ndarray, indptr: np.ndarray, edge: np.ndarray,
+def cases_near(directory: np.ndarray, tiles: np.ndarray, indptr: np.ndarray, edge: np.ndarray,
                e_a: np.ndarray, e_b: np.ndarray, e_cost: np.ndarray, xy: np.ndarray,
                cx: int, cy: int, delta: int, selective: bool) -> tuple[np.ndarray, bool]:
     """The edges of finite cost meeting N((cx, cy), delta), ascending, and whether the cell lies
@@ -44,15 +46,16 @@ def cases_near(vertex_at: np.ndarray, owner: np.ndarray, indptr: np.ndarray, edg
     Full adaptation takes every edge with a cell in the square; selective adaptation only those
     with an end within 3·delta of the cell (eqs. 9-11).
     """
-    h, w = owner.shape
+    # cells past the map but in its last tiles are in no tile's layers: -1, as if clipped
+    h, w = directory.shape[0] * SIZE, directory.shape[1] * SIZE
     x0, y0 = max(cx - delta, 0), max(cy - delta, 0)
     x1, y1 = min(cx + delta, w - 1), min(cy + delta, h - 1)
     found = np.empty(64, dtype=np.int64)
     count = np.int64(0)  # not the literal 0: numba would compile _sorted_unique for it too
     for y in range(y0, y1 + 1):
         for x in range(x0, x1 + 1):
-            inside = owner[y, x]
-            vertex = vertex_at[y, x]
+            inside = cell_value(directory, tiles, OWNER, x, y)
+            vertex = cell_value(directory, tiles, VERTEX, x, y)
             lo, hi = 0, 0
             if vertex >= 0:
                 lo, hi = indptr[vertex], indptr[vertex + 1]
@@ -80,8 +83,9 @@ def cases_near(vertex_at: np.ndarray, owner: np.ndarray, indptr: np.ndarray, edg
             if not (near_a or near_b):
                 continue
         keep[i] = True
-    vertex = vertex_at[cy, cx]
-    on_graph = owner[cy, cx] >= 0 or (vertex >= 0 and indptr[vertex + 1] > indptr[vertex])
+    vertex = cell_value(directory, tiles, VERTEX, cx, cy)
+    on_graph = (cell_value(directory, tiles, OWNER, cx, cy) >= 0
+                or (vertex >= 0 and indptr[vertex + 1] > indptr[vertex]))
     return edges[keep], on_graph
 
 
@@ -179,7 +183,7 @@ def local_links(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
 
 @njit
 def adapt_swept(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
-                vertex_at: np.ndarray, owner: np.ndarray, indptr: np.ndarray,
+                directory: np.ndarray, tiles: np.ndarray, indptr: np.ndarray,
                 target: np.ndarray, weight: np.ndarray, edge: np.ndarray, xy: np.ndarray,
                 e_a: np.ndarray, e_b: np.ndarray, start_cases: np.ndarray,
                 goal_cases: np.ndarray, start_on_graph: bool, goal_on_graph: bool,
@@ -195,7 +199,7 @@ def adapt_swept(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
                                                   xy, goal_cases, gx, gy, delta, radius)
     offsets = np.zeros(1, dtype=np.int64)
     paths = np.zeros((0, 2), dtype=np.int64)
-    return extend(factor, passable, corner_cutting, vertex_at, owner, indptr, target, weight,
+    return extend(factor, passable, corner_cutting, directory, tiles, indptr, target, weight,
                   edge, xy, e_a, e_b, start_on_graph, goal_on_graph, sx, sy, gx, gy,
                   s_cells, s_costs, s_box, s_dist, offsets, paths,
                   g_cells, g_costs, g_box, g_dist, offsets, paths, informed, scale)
@@ -212,13 +216,13 @@ def _links_beside(cells: np.ndarray, x: int, y: int) -> int:
 
 
 @njit
-def _vertex(vertex_at: np.ndarray, owner: np.ndarray, base: int, vx: np.ndarray,
+def _vertex(directory: np.ndarray, tiles: np.ndarray, base: int, vx: np.ndarray,
             vy: np.ndarray, split_edge: np.ndarray, split_at: np.ndarray,
             counts: np.ndarray, x: int, y: int) -> int:
     """The vertex of (x, y) in G': a stored one, or a virtual one made on first use (and
     recorded as a split point when it lies inside a stored edge). ``counts`` holds the number
     of virtual vertices and of split points."""
-    stored = vertex_at[y, x]
+    stored = cell_value(directory, tiles, VERTEX, x, y)
     if stored >= 0:
         return stored
     for i in range(counts[0]):
@@ -227,7 +231,7 @@ def _vertex(vertex_at: np.ndarray, owner: np.ndarray, base: int, vx: np.ndarray,
     i = counts[0]
     vx[i], vy[i] = x, y
     counts[0] += 1
-    inside = owner[y, x]
+    inside = cell_value(directory, tiles, OWNER, x, y)
     if inside >= 0:
         split_edge[counts[1]] = inside
         split_at[counts[1]] = i
@@ -237,7 +241,7 @@ def _vertex(vertex_at: np.ndarray, owner: np.ndarray, base: int, vx: np.ndarray,
 
 @njit
 def extend(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
-           vertex_at: np.ndarray, owner: np.ndarray, indptr: np.ndarray, target: np.ndarray,
+           directory: np.ndarray, tiles: np.ndarray, indptr: np.ndarray, target: np.ndarray,
            weight: np.ndarray, edge: np.ndarray, xy: np.ndarray, e_a: np.ndarray,
            e_b: np.ndarray, start_on_graph: bool, goal_on_graph: bool,
            sx: int, sy: int, gx: int, gy: int,
@@ -280,14 +284,14 @@ def extend(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
             x, y, cells, costs, on_graph = sx, sy, s_cells, s_costs, start_on_graph
         else:
             x, y, cells, costs, on_graph = gx, gy, g_cells, g_costs, goal_on_graph
-        here = _vertex(vertex_at, owner, base, vx, vy, split_edge, split_at, counts,
+        here = _vertex(directory, tiles, base, vx, vy, split_edge, split_at, counts,
                        x, y)
         ends[side] = here
         made = 0
         for k in range(cells.shape[0]):
             if cells[k, 0] == x and cells[k, 1] == y:
                 continue
-            there = _vertex(vertex_at, owner, base, vx, vy, split_edge, split_at,
+            there = _vertex(directory, tiles, base, vx, vy, split_edge, split_at,
                             counts, cells[k, 0], cells[k, 1])
             eu[temporary], ev[temporary], ew[temporary] = here, there, costs[k]
             kind[temporary] = START_LINK if side == 0 else GOAL_LINK

@@ -141,32 +141,49 @@ def descend(cost: np.ndarray, factor: np.ndarray, passable: np.ndarray, corner_c
     return path
 
 
+@njit(inline="always")
+def run_cost(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool, x: int, y: int,
+             ex: int, ey: int) -> float:
+    """The cost of the straight run (x, y) -> (ex, ey); inf when a step is not allowed."""
+    h, w = passable.shape
+    dx, dy = np.sign(ex - x), np.sign(ey - y)
+    d = 0
+    for j in range(8):
+        if DX[j] == dx and DY[j] == dy:
+            d = j
+    steps = max(abs(ex - x), abs(ey - y))
+    if steps > 0 and not passable[y, x]:
+        return np.inf
+    total = 0.0
+    for _ in range(steps):
+        if not move(passable, corner_cutting, x, y, d, 0, 0, w - 1, h - 1):
+            return np.inf
+        nx, ny = x + dx, y + dy
+        total += (SQRT2 if d >= 4 else 1.0) * (factor[y, x] + factor[ny, nx]) * 0.5
+        x, y = nx, ny
+    return total
+
+
+@njit(inline="always")
+def run_risk(risk: np.ndarray, x: int, y: int, ex: int, ey: int) -> float:
+    """The mean risk of the cells of the straight run (x, y) -> (ex, ey), both ends included."""
+    dx, dy = np.sign(ex - x), np.sign(ey - y)
+    steps = max(abs(ex - x), abs(ey - y))
+    total = 0.0
+    for _ in range(steps + 1):
+        total += risk[y, x]
+        x, y = x + dx, y + dy
+    return total / (steps + 1)
+
+
 @njit
 def run_costs(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
               starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
     """The cost of each straight run starts[k] -> ends[k]; inf when a step is not allowed."""
-    count = starts.shape[0]
-    costs = np.zeros(count)
-    h, w = passable.shape
-    for k in range(count):
-        x, y = starts[k, 0], starts[k, 1]
-        dx, dy = np.sign(ends[k, 0] - x), np.sign(ends[k, 1] - y)
-        d = 0
-        for j in range(8):
-            if DX[j] == dx and DY[j] == dy:
-                d = j
-        steps = max(abs(ends[k, 0] - x), abs(ends[k, 1] - y))
-        total = 0.0
-        for _ in range(steps):
-            if not move(passable, corner_cutting, x, y, d, 0, 0, w - 1, h - 1):
-                total = np.inf
-                break
-            nx, ny = x + dx, y + dy
-            total += (SQRT2 if d >= 4 else 1.0) * (factor[y, x] + factor[ny, nx]) * 0.5
-            x, y = nx, ny
-        if steps > 0 and not passable[starts[k, 1], starts[k, 0]]:
-            total = np.inf
-        costs[k] = total
+    costs = np.zeros(starts.shape[0])
+    for k in range(starts.shape[0]):
+        costs[k] = run_cost(factor, passable, corner_cutting, starts[k, 0], starts[k, 1],
+                            ends[k, 0], ends[k, 1])
     return costs
 
 
@@ -174,17 +191,9 @@ def run_costs(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
 def run_risks(risk: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
     """The mean risk of the cells of each straight run starts[k] -> ends[k], both ends
     included."""
-    count = starts.shape[0]
-    means = np.zeros(count)
-    for k in range(count):
-        x, y = starts[k, 0], starts[k, 1]
-        dx, dy = np.sign(ends[k, 0] - x), np.sign(ends[k, 1] - y)
-        steps = max(abs(ends[k, 0] - x), abs(ends[k, 1] - y))
-        total = 0.0
-        for _ in range(steps + 1):
-            total += risk[y, x]
-            x, y = x + dx, y + dy
-        means[k] = total / (steps + 1)
+    means = np.zeros(starts.shape[0])
+    for k in range(starts.shape[0]):
+        means[k] = run_risk(risk, starts[k, 0], starts[k, 1], ends[k, 0], ends[k, 1])
     return means
 
 

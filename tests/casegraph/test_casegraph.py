@@ -293,6 +293,34 @@ def test_turn_and_degree_three_vertices_stay() -> None:
     check_consistent(graph)
 
 
+def test_the_cell_layers_take_a_tile_only_where_the_graph_has_cells() -> None:
+    # a 1000x1000 map, 125x125 tiles of 8x8 cells: one diagonal and one row touch only the
+    # tiles their cells lie in, and a tile straddling the map's ragged edge reads -1 past it
+    graph = CaseGraph(free(1003, 1001))
+    graph.add_path(line((0, 0), (999, 999)))
+    graph.add_path(line((0, 1000), (1002, 1000)))
+    cells = graph.index.cells
+    touched = {(x // 8, x // 8) for x in range(1000)} | {(x // 8, 125) for x in range(1003)}
+    assert cells.count == len(touched)
+    assert cells.nbytes < 2 * len(touched) * 512 + cells.directory.nbytes
+    assert cells.directory.nbytes == 126 * 126 * 4
+    vertex, owner = graph.vertex_at, graph.owner
+    assert vertex.shape == owner.shape == (1001, 1003)
+    assert set(map(tuple, np.argwhere(vertex >= 0)[:, ::-1].tolist())) == {
+        (0, 0), (999, 999), (0, 1000), (1002, 1000)}
+    assert (owner >= 0).sum() == 998 + 1001
+
+
+def test_a_graph_covering_the_whole_map_keeps_no_more_tiles_than_the_map_has() -> None:
+    # 3 x 3 tiles; rows 0, 2, 4, ... each a segment: every tile is made, none spare
+    graph = CaseGraph(free(20, 20))
+    for y in range(0, 20, 2):
+        graph.add_path(line((0, y), (19, y)))
+    cells = graph.index.cells
+    assert cells.count == len(cells.tiles) == cells.directory.size == 9
+    assert cells.nbytes == 9 * 4 + 9 * 512
+
+
 def test_removing_every_edge_leaves_an_empty_graph() -> None:
     graph = CaseGraph(free(8, 8))
     graph.add_path(line((0, 0), (5, 5), (5, 7)))

@@ -1,10 +1,11 @@
 """Eq. (12) of the case graph through its spatial index, against a brute-force scan.
 
-``CaseGraph.similar`` and the comparison ``add_path`` makes at ``similarity_delta`` > 0 look only
-at the vertices in the square N(a, δr) around a new segment's first end and at their edges. The
-properties here check that this decides exactly as a scan over every stored segment's ends, under
-each distance, after any sequence of retained paths, forgotten segments, merges and another
-writer's commits followed through the store.
+``CaseGraph.similar`` and the comparison the compiled ``add_path`` makes at ``similarity_delta``
+> 0 look only at the vertices in the square N(a, δr) around a new segment's first end and at
+their edges. The properties here check that this decides exactly as a scan over every stored
+segment's ends, under each distance, after any sequence of retained paths, forgotten segments,
+merges and another writer's commits followed through the store: a candidate segment of a path
+becomes an edge exactly when no segment stored before the path is similar to it.
 """
 
 from __future__ import annotations
@@ -20,11 +21,10 @@ from hypothesis import strategies as st
 from cbr_casegraph import retention
 from cbr_casegraph.geometry import segment_cells
 from cbr_casegraph.graph import CaseGraph
-from cbr_casegraph.index import SegmentIndex
 from cbr_casegraph.state import graph_of
-from cbr_casegraph.writes import Journal
-from cbr_grid.distances import DISTANCES, Distance
+from cbr_grid.distances import DISTANCES
 from cbr_grid.grid import Grid
+from cbr_grid.query import without_loops
 from cbrcore.casebase.memory import MemoryStore
 from cbrcore.context import Context
 from cbrcore.registry import Registry
@@ -68,27 +68,21 @@ def brute(ends: tuple[np.ndarray, np.ndarray], a: Cell, b: Cell, delta: int, nam
 
 
 @contextmanager
-def compared_with_brute_force(graph: CaseGraph, delta: int, name: str,
+def compared_with_brute_force(graph: CaseGraph, path: np.ndarray, delta: int, name: str,
                               calls: list[bool]) -> Iterator[None]:
-    """Within the block, every eq. (12) decision ``graph`` takes is checked against a scan of
-    the segments it held when the block began (the cases stored before the path)."""
+    """Within the block, ``path`` is retained: every candidate segment of it must end up an edge
+    exactly when a scan of the segments ``graph`` held when the block began (the cases stored
+    before the path) finds none similar to it by eq. (12). Each scan's answer is appended to
+    ``calls``."""
     before = tuple(e.copy() for e in stored_ends(graph))
-    decide = retention.similar_before
-
-    def checked(index: SegmentIndex, journal: Journal, a: Cell, b: Cell, delta_: int,
-                measure: Distance) -> bool:
-        assert index is graph.index
-        found = decide(index, journal, a, b, delta_, measure)
-        assert delta_ == delta
-        assert found == brute(before, a, b, delta, name), (a, b)  # type: ignore[arg-type]
+    segments = retention.candidates(graph.index, without_loops(path)).tolist()
+    yield
+    a, b = stored_ends(graph)
+    edges = {frozenset({tuple(p), tuple(q)}) for p, q in zip(a.tolist(), b.tolist(), strict=True)}
+    for ax, ay, bx, by in segments:
+        found = delta > 0 and brute(before, (ax, ay), (bx, by), delta, name)
+        assert (frozenset({(ax, ay), (bx, by)}) not in edges) == found, (ax, ay, bx, by)
         calls.append(found)
-        return found
-
-    retention.similar_before = checked  # type: ignore[assignment]
-    try:
-        yield
-    finally:
-        retention.similar_before = decide  # type: ignore[assignment]
 
 
 def apply(graph: CaseGraph, op: str, cells: list[Cell], delta: int, name: str,
@@ -97,7 +91,7 @@ def apply(graph: CaseGraph, op: str, cells: list[Cell], delta: int, name: str,
     if op == "path" or not ids:
         path = bent(cells if len(cells) > 1 else [*cells, (0, 0)])
         if len(path) > 1:
-            with compared_with_brute_force(graph, delta, name, calls):
+            with compared_with_brute_force(graph, path, delta, name, calls):
                 graph.add_path(path, similarity_delta=delta, distance=name)
     elif op == "remove":
         graph.remove([ids[(cells[0][0] * SIDE + cells[0][1]) % len(ids)]])
@@ -173,7 +167,7 @@ def test_a_split_stored_segment_is_compared_as_it_was_before_the_path() -> None:
     graph.add_path(np.array([[x, 1] for x in range(9)]))
     path = bent([(4, 1), (4, 3), (9, 3), (9, 0), (0, 0)])
     calls: list[bool] = []
-    with compared_with_brute_force(graph, 1, "chebyshev", calls):
+    with compared_with_brute_force(graph, path, 1, "chebyshev", calls):
         graph.add_path(path, similarity_delta=1)
     assert calls.count(True) == 1
     a, b = stored_ends(graph)

@@ -114,7 +114,8 @@ def test_a_built_engine_has_the_kinematic_search_compiled() -> None:
 def test_a_built_engine_has_the_case_graphs_kernels_compiled() -> None:
     config = {"retrieve": "casegraph", "reuse": "casegraph", "solver": "astar",
               "retain": ["casegraph"]}
-    cases = _warmed(config, "cbr_casegraph.query.cases_near", "cbr_casegraph.query.adapt_swept")
+    cases = _warmed(config, "cbr_casegraph.query.cases_near", "cbr_casegraph.query.adapt_swept",
+                    "cbr_casegraph.retention_kernel.retain")
     assert cases == 0  # the warm-up learned into a case base of its own
 
 

@@ -392,7 +392,7 @@ def graph_steps(graph: CaseGraph) -> np.ndarray:
     flat = cells[:, 1] * graph.grid.width + cells[:, 0]
     inner = np.ones(len(flat) - 1 if len(flat) else 0, dtype=bool)
     inner[offsets[1:-1] - 1] = False  # no step from one segment's last cell to the next's first
-    return step_keys(flat, inner, graph.vertex_at.size)
+    return step_keys(flat, inner, graph.grid.risk.size)
 
 
 def step_keys(flat: np.ndarray, keep: np.ndarray, cells: int) -> np.ndarray:
@@ -442,7 +442,7 @@ def audit(store: CaseStore, grid: Any, accounts: Sequence[dict[str, Any]],
         lost_steps += len(account["trips"]) - (stored if isinstance(stored, int) else 0)
     graph = CaseGraph.load(grid, store)
     retained = [step["path"] for step in steps if step["path"] is not None]
-    uncovered = np.setdiff1d(path_steps(retained, grid.width, graph.vertex_at.size),
+    uncovered = np.setdiff1d(path_steps(retained, grid.width, graph.grid.risk.size),
                              graph_steps(graph))
     problems = list(store.check())
     for found in plugins.pm.hook.cbr_check_casebase(casebase=store):
