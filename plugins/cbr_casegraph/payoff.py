@@ -14,12 +14,12 @@ Two rules make the choice, the ``casegraph`` retriever's options:
   map with enough passable cells and between a start and goal far enough apart. They know
   nothing of the solver: how much a map's size and a query's length cost it depends on the map
   (a maze against an open field) and on the solver (A* against jump point search).
-- :class:`Learned` (``payoff: learned``), a running estimate per map: the queries are sorted into
-  bands of their octile distance (half an octave wide), and in each band the rule keeps the
-  solver's time, CBR's time and the share of CBR attempts that gave an accepted path, each over
-  the band's last :data:`WINDOW` queries that measured it. CBR is tried when its median time is
-  below :data:`MARGIN` times the share times the solver's median time: an attempt that fails
-  costs its time on top of the solver's, so an attempt pays only when
+- :class:`Learned` (``payoff: learned``), a running estimate per map: the queries are sorted
+  into bands of the straight-line distance from start to goal (half an octave wide), and in each
+  band the rule keeps the solver's time, CBR's time and the share of CBR attempts that gave an
+  accepted path, each over the band's last :data:`WINDOW` queries that measured it. CBR is
+  tried when its median time is below :data:`MARGIN` times the share times the solver's median
+  time: an attempt that fails costs its time on top of the solver's, so an attempt pays only when
   ``cbr + (1 - share) * solver < solver``. What it has not measured yet it finds out in the
   order that costs least: a band's first query goes to the solver (no loss against it), the
   next one tries CBR once. A verdict is revisited every :data:`REVISIT` queries in a row that
@@ -34,7 +34,6 @@ the same times it makes the same choices.
 
 from __future__ import annotations
 
-import math
 import statistics
 from collections import deque
 
@@ -97,11 +96,11 @@ class PassableCells:
 
 
 def band(start: Cell, goal: Cell) -> int:
-    """The distance band of a query: bands are half an octave of the octile distance wide (the
-    bit length of its square), so that the solver's times in one band are alike."""
-    dx, dy = abs(start[0] - goal[0]), abs(start[1] - goal[1])
-    d = max(dx, dy) + (math.sqrt(2) - 1) * min(dx, dy)
-    return int(d * d).bit_length()
+    """The distance band of a query: bands are half an octave of the straight-line distance
+    wide (the bit length of its square), so that the solver's times in one band are alike."""
+    # integers only: it is asked before every query, which a solver may plan in microseconds
+    dx, dy = start[0] - goal[0], start[1] - goal[1]
+    return (dx * dx + dy * dy).bit_length()
 
 
 class _Band:
@@ -137,9 +136,7 @@ class Learned:
         """Whether to try CBR on the next query of ``band`` (:func:`band`); each call counts as
         one query decided."""
         known = self._bands.get(band)
-        if known is None:
-            known = self._bands[band] = _Band()
-        if not known.solver:
+        if known is None or not known.solver:
             return False
         if not known.cbr:
             return True
