@@ -20,11 +20,12 @@ Two rules make the choice, the ``casegraph`` retriever's options:
   accepted path, each over the band's last :data:`WINDOW` queries that measured it. CBR is
   tried when its median time is below :data:`MARGIN` times the share times the solver's median
   time: an attempt that fails costs its time on top of the solver's, so an attempt pays only when
-  ``cbr + (1 - share) * solver < solver``. What it has not measured yet it finds out in the
-  order that costs least: a band's first query goes to the solver (no loss against it), the
-  next one tries CBR once. A verdict is revisited every :data:`REVISIT` queries in a row that
-  follow it, since the case graph grows and the map's costs change: a band left to the solver
-  tries CBR once more, and a band given to CBR leaves one query to the solver.
+  ``cbr + (1 - share) * solver < solver``. Until a band has :data:`SAMPLES` measurements of
+  each kind, its queries go to the solver and to CBR in turn, the solver first (its queries cost
+  nothing against it), so that no verdict rests on one stray time. A verdict is revisited every
+  :data:`REVISIT` queries in a row that follow it, since the case graph grows and the map's
+  costs change: a band left to the solver tries CBR once more, and a band given to CBR leaves
+  one query to the solver.
 
 The learned rule measures what the query costs on this machine, with this solver, on this map,
 so it carries over to maps and solvers it has never seen; its times come from the engine
@@ -56,6 +57,10 @@ slow query, few enough to follow a case graph that grows and a map whose costs c
 REVISIT = 32
 """After this many queries in a row of one band following its verdict, the learned rule makes
 one query the other way, to measure again what it no longer measures."""
+
+SAMPLES = 3
+"""Measurements of each kind a band needs before its verdict is trusted: until then its queries
+go to the solver and to CBR in turn, the solver first."""
 
 MARGIN = 0.8
 """CBR is tried when its median time is below this share of the time it is expected to save;
@@ -116,7 +121,7 @@ class _Band:
         self.streak = 0
 
     def judge(self) -> None:
-        if not (self.solver and self.cbr):
+        if len(self.solver) < SAMPLES or len(self.cbr) < SAMPLES:
             return
         share = sum(self.answered) / len(self.answered)
         verdict = (statistics.median(self.cbr)
@@ -136,10 +141,11 @@ class Learned:
         """Whether to try CBR on the next query of ``band`` (:func:`band`); each call counts as
         one query decided."""
         known = self._bands.get(band)
-        if known is None or not known.solver:
+        if known is None:
             return False
-        if not known.cbr:
-            return True
+        solved, tried = len(known.solver), len(known.cbr)
+        if solved < SAMPLES or tried < SAMPLES:
+            return tried < SAMPLES and (solved >= SAMPLES or tried < solved)
         known.streak += 1
         if known.streak >= REVISIT:
             known.streak = 0
