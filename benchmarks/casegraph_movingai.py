@@ -15,16 +15,21 @@ half holds the shorter paths and the planned half the longer ones.
 Reported per map: the CBR share under each test; how tight each lower bound is (bound / optimal
 length: the median, and for the landmarks also the tenth percentile); the deviation of path
 length from the scenario's optimal length (mean, median and largest) over the accepted CBR paths
-and (mean, median) over all hybrid answers; and the speed, as the median over queries of CBR
-time / A* time on the same query (for the queries CBR answered) and of the hybrid's time / A*
-time over all queries, for two hybrids: the papers' one, which always tries CBR first (its
-attempt plus any fallback) and tests against the octile distance, and the "decided" one, which
-first decides per query whether CBR can pay off (``cbr_casegraph.payoff``, the ``casegraph``
-retriever's ``min_cells`` and ``min_distance`` at the measured values ``payoff.MEASURED``),
-leaves the query to A* when not, and tests CBR's path against the landmark bound (its share,
-deviation and time / A*). Every time is
-one run, after a warm-up query, CBR and A* interleaved query by query; the machine may be
-shared, so medians and ratios are the figures to trust.
+and (mean, median) over all hybrid answers; and the speed: the median over the queries whose
+CBR path the landmark test accepts of CBR time / A* time and CBR time / jump point search time
+on the same query (jps,
+the fastest exact solver on these maps of uniform costs), and the median over all queries of
+each hybrid's time over the time of the solver it falls back to. The papers' hybrid always tries
+CBR first (its attempt plus any fallback to A*) and tests against the octile distance. The
+decided hybrids first choose per query whether to try CBR (``cbr_casegraph.payoff``), leave the
+query to their solver when not, and test CBR's path against the landmark bound: the fixed
+thresholds (``min_cells`` and ``min_distance`` at :data:`FIXED`) falling back to A*, and the
+learned choice (``payoff: learned``) falling back to A* and to jps, each learning only from the
+times it would itself have measured (CBR's when it tried, the solver's when the solver planned).
+Every time is one run, after warm-up queries, CBR, A* and jps interleaved query by query; the
+machine may be shared, so medians and ratios are the figures to trust. The learned choice's
+constants were tuned on the map families of :data:`TUNING`; each row says whether its map was
+in the tuning set or held out.
 
     python benchmarks/casegraph_movingai.py [--limit N] [--data DIR] [--out benchmarks/results]
 
@@ -32,7 +37,7 @@ shared, so medians and ratios are the figures to trust.
 ``casegraph_movingai.json`` and ``casegraph_movingai.md``.
 
 The protocol's pieces (``PAIRS``, ``DATA``, :func:`load_problems`, :func:`retain_half`,
-:func:`astar_solver`) are shared by the other benchmarks on these maps.
+:func:`astar_solver`, :func:`jps_solver`) are shared by the other benchmarks on these maps.
 """
 
 from __future__ import annotations
@@ -50,13 +55,14 @@ from docfigures.provenance import write_results
 
 from cbr_casegraph.experiments.common import MAX_RATIO, accepted
 from cbr_casegraph.graph import CaseGraph
-from cbr_casegraph.payoff import MEASURED, Payoff
+from cbr_casegraph.payoff import MARGIN, REVISIT, WINDOW, Learned, Payoff, band
 from cbr_casegraph.planner import Plan, Settings, plan
 from cbr_grid.costs import path_length
 from cbr_grid.distances import octile
 from cbr_grid.grid import Grid
 from cbr_grid.movingai import Scenario, load_map, load_scen
 from cbr_pathquality.ideal import Landmarks
+from cbr_solvers.jps import JumpResult, jps
 from cbr_solvers.search import SearchResult, astar
 
 DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "movingai"
@@ -82,6 +88,25 @@ PAIRS = (
 LANDMARKS = 8
 """Landmarks of the landmark quality test (the reviser's default count)."""
 
+FIXED = Payoff(min_cells=20000, min_distance=64)
+"""The fixed thresholds (the ``casegraph`` retriever's ``min_cells`` and ``min_distance``)
+that were measured on these maps for the A* hybrid, before the learned choice; kept to compare
+with it."""
+
+TUNING = ("dao", "mapf")
+"""The map families the learned choice's constants (``MARGIN``, ``WINDOW``, ``REVISIT`` of
+:mod:`cbr_casegraph.payoff`) were tuned on; the others (bg512, cities, mazes, random, rooms)
+were held out of the tuning."""
+
+MAX_OVER_SOLVER = 1.1
+"""The most a learned hybrid's median time may be of the solver's it falls back to."""
+
+MAX_CBR_OVER_JPS = 0.2
+"""The most CBR's median time may be of jump point search's on the large maps."""
+
+LARGE_SIDE = 512
+"""Maps whose shorter side has at least this many cells are the large ones."""
+
 
 def load_problems(map_path: Path, scen_path: Path, limit: int | None
                   ) -> tuple[Grid, list[Scenario]]:
@@ -98,6 +123,15 @@ def astar_solver(grid: Grid) -> Callable[[Scenario], SearchResult | None]:
     def solve(problem: Scenario) -> SearchResult | None:
         return astar(grid.factor, grid.passable, grid.corner_cutting, problem.start,
                      [problem.goal])
+    return solve
+
+
+def jps_solver(grid: Grid) -> Callable[[Scenario], JumpResult | None]:
+    """Jump point search on ``grid`` for one problem: the fastest exact solver on these maps
+    (uniform costs, no corner cutting)."""
+    def solve(problem: Scenario) -> JumpResult | None:
+        return jps(grid.factor, grid.passable, grid.corner_cutting, problem.start,
+                   [problem.goal])
     return solve
 
 
@@ -118,12 +152,12 @@ def retain_half(grid: Grid, problems: list[Scenario]
 
 @attrs.frozen
 class Query:
-    """What one planned query measured: the times in seconds, the lengths and the verdicts."""
+    """What one planned query measured: the times in seconds, the lengths and the verdicts, and
+    what each decided hybrid chose (``tried``: CBR first; ``decide_s``: the choice's time)."""
 
     cbr_s: float
     astar_s: float
-    decide_s: float
-    tried: bool
+    jps_s: float
     planned: bool
     octile_ok: bool
     landmark_ok: bool
@@ -132,6 +166,8 @@ class Query:
     optimal: float
     octile: float
     landmark_bound: float
+    tried: dict[str, bool]
+    decide_s: dict[str, float]
 
 
 def retained_paths(graph: CaseGraph) -> list[tuple[tuple[int, int], tuple[int, int]]]:
@@ -143,38 +179,91 @@ def retained_paths(graph: CaseGraph) -> list[tuple[tuple[int, int], tuple[int, i
             for p, q in zip(a[far], b[far], strict=True)]
 
 
-def measure_map(grid: Grid, graph: CaseGraph, planned: list[Scenario], landmarks: Landmarks,
-                payoff: Payoff) -> list[Query]:
-    """Each planned problem by CBR, by the payoff decision and by A*, interleaved."""
+class Hybrid:
+    """One decided hybrid: a choice per query, and the solver it leaves queries to.
+
+    ``thresholds`` is the fixed rule (:class:`cbr_casegraph.payoff.Payoff` at :data:`FIXED`,
+    falling back to A*); ``learned`` the learned one (:class:`cbr_casegraph.payoff.Learned`),
+    told only what the hybrid itself would have measured: CBR's time when it tried CBR, the
+    solver's when the solver planned.
+    """
+
+    def __init__(self, solver: str, grid: Grid, *, learned: bool) -> None:
+        self.solver = solver
+        self.learned = Learned() if learned else None
+        self.cells = int(np.count_nonzero(grid.passable))
+
+    def choose(self, problem: Scenario) -> tuple[bool, float, int]:
+        """Whether CBR is tried, the seconds the choice took and the query's band."""
+        began = time.perf_counter()
+        if self.learned is None:
+            which = 0
+            tried = FIXED.reason(self.cells, problem.start, problem.goal) is None
+        else:
+            which = band(problem.start, problem.goal)
+            tried = self.learned.tries(which)
+        return tried, time.perf_counter() - began, which
+
+    def measured(self, which: int, tried: bool, cbr_s: float, answered: bool,
+                 solver_s: float) -> None:
+        if self.learned is None:
+            return
+        if tried:
+            self.learned.attempted(which, cbr_s, answered)
+        if not (tried and answered):
+            self.learned.solved(which, solver_s)
+
+
+HYBRIDS = {"thresholds": ("astar", False), "learned_astar": ("astar", True),
+           "learned_jps": ("jps", True)}
+"""The decided hybrids measured: the solver each falls back to and whether its choice is
+learned."""
+
+
+def measure_map(grid: Grid, graph: CaseGraph, planned: list[Scenario], landmarks: Landmarks
+                ) -> list[Query]:
+    """Each planned problem by CBR, A* and jump point search, interleaved, and each decided
+    hybrid's choice for it."""
     settings = Settings()
     solve = astar_solver(grid)
-    cells = int(np.count_nonzero(grid.passable))
+    jump = jps_solver(grid)
+    hybrids = {name: Hybrid(solver, grid, learned=learned)
+               for name, (solver, learned) in HYBRIDS.items()}
     # compile the searches and the planner's kernels before timing, with queries that reach
     # every kernel: the ends of retained paths lie on the graph
     for problem in planned[:3]:
         solve(problem)
+        jump(problem)
     for path in retained_paths(graph)[:3]:
         plan(graph, path[0], path[1], settings)
     queries = []
     for problem in planned:
+        choices = {name: hybrid.choose(problem) for name, hybrid in hybrids.items()}
         t0 = time.perf_counter()
         result = plan(graph, problem.start, problem.goal, settings)
         t1 = time.perf_counter()
         reference = solve(problem)
         t2 = time.perf_counter()
-        skip = payoff.reason(cells, problem.start, problem.goal)
+        jumped = jump(problem)
         t3 = time.perf_counter()
         if reference is None or problem.optimal <= 0:
             continue
+        if jumped is None or jumped.search != "jps" or abs(jumped.cost - reference.cost) > 1e-6:
+            raise RuntimeError(f"jump point search did not plan {problem} as A* did")
         ok = isinstance(result, Plan)
         length = path_length(result.path) if isinstance(result, Plan) else np.inf
         octile_ok = ok and accepted(result.path, problem.start, problem.goal)
         bound = landmarks.bound(problem.start, problem.goal)
         landmark_ok = ok and (bound == 0 or length / bound <= MAX_RATIO)
-        queries.append(Query(t1 - t0, t2 - t1, t3 - t2, skip is None, ok, octile_ok,
-                             landmark_ok, length, path_length(reference.path),
-                             problem.optimal, float(octile(problem.start, problem.goal)),
-                             bound))
+        times = {"astar": t2 - t1, "jps": t3 - t2}
+        for name, hybrid in hybrids.items():
+            tried, _, which = choices[name]
+            hybrid.measured(which, tried, t1 - t0, landmark_ok, times[hybrid.solver])
+        queries.append(Query(t1 - t0, t2 - t1, t3 - t2, ok, octile_ok, landmark_ok, length,
+                             path_length(reference.path), problem.optimal,
+                             float(octile(problem.start, problem.goal)), bound,
+                             {name: choice[0] for name, choice in choices.items()},
+                             {name: choice[1] for name, choice in choices.items()}))
     return queries
 
 
@@ -189,6 +278,31 @@ def _median(values: list[float]) -> float | None:
     return statistics.median(values) if values else None
 
 
+def decided(queries: list[Query], name: str) -> dict[str, Any]:
+    """The figures of decided hybrid ``name``: its time over its solver's (median and mean of
+    the per-query ratios), the share CBR answered and tried, and the path deviations."""
+    solver = HYBRIDS[name][0]
+    ratios, deviations = [], []
+    for q in queries:
+        exact = q.astar_s if solver == "astar" else q.jps_s
+        tried = q.tried[name]
+        spent = q.decide_s[name] + (0.0 if not tried else q.cbr_s) + (
+            0.0 if tried and q.landmark_ok else exact)
+        ratios.append(spent / exact)
+        deviations.append((q.cbr_length if tried and q.landmark_ok else q.astar_length)
+                          / q.optimal - 1)
+    count = len(queries)
+    return {"solver": solver,
+            "over_solver_median": _median(ratios),
+            "over_solver_mean": float(np.mean(ratios)) if ratios else None,
+            "tried_share": sum(q.tried[name] for q in queries) / count if count else None,
+            "share": (sum(q.tried[name] and q.landmark_ok for q in queries) / count
+                      if count else None),
+            "deviation_mean_pct": _percent(deviations, "mean"),
+            "deviation_max_pct": _percent(deviations, "max"),
+            "decide_us_median": _median([q.decide_s[name] * 1e6 for q in queries])}
+
+
 def summary(queries: list[Query]) -> dict[str, Any]:
     """The per-map figures of the table from the measured queries."""
     cbr_dev = [q.cbr_length / q.optimal - 1 for q in queries if q.octile_ok]
@@ -197,12 +311,9 @@ def summary(queries: list[Query]) -> dict[str, Any]:
                   for q in queries]
     # the fallback is the very A* run timed beside the attempt
     always = [(q.cbr_s if q.octile_ok else q.cbr_s + q.astar_s) / q.astar_s for q in queries]
-    # the hybrid as configured for real maps: the per-query decision, then the landmark test
-    decided = [(q.decide_s + (q.cbr_s if q.landmark_ok else q.cbr_s + q.astar_s)) / q.astar_s
-               if q.tried else (q.decide_s + q.astar_s) / q.astar_s for q in queries]
-    decided_dev = [(q.cbr_length if q.tried and q.landmark_ok else q.astar_length) / q.optimal
-                   - 1 for q in queries]
-    answered = [q for q in queries if q.octile_ok]
+    # the times of the answers the landmark test accepts: it is the test the decided hybrids
+    # use, and the octile test accepts no path at all on a maze
+    answered = [q for q in queries if q.landmark_ok]
     count = len(queries)
     return {
         "queries": count,
@@ -219,15 +330,12 @@ def summary(queries: list[Query]) -> dict[str, Any]:
         "cbr_ms_median": _median([q.cbr_s * 1000 for q in answered]),
         "cbr_ms_all_median": _median([q.cbr_s * 1000 for q in queries]),
         "astar_ms_median": _median([q.astar_s * 1000 for q in queries]),
+        "jps_ms_median": _median([q.jps_s * 1000 for q in queries]),
         "cbr_over_astar_median": _median([q.cbr_s / q.astar_s for q in answered]),
+        "cbr_over_jps_median": _median([q.cbr_s / q.jps_s for q in answered]),
+        "jps_over_astar_median": _median([q.jps_s / q.astar_s for q in queries]),
         "hybrid_over_astar_median": _median(always),
-        "decided_tried_share": sum(q.tried for q in queries) / count if count else None,
-        "decided_share": (sum(q.tried and q.landmark_ok for q in queries) / count
-                          if count else None),
-        "decided_deviation_mean_pct": _percent(decided_dev, "mean"),
-        "decided_deviation_max_pct": _percent(decided_dev, "max"),
-        "decided_over_astar_median": _median(decided),
-        "decided_over_astar_mean": float(np.mean(decided)) if decided else None,
+        "decided": {name: decided(queries, name) for name in HYBRIDS},
         # how near each lower bound comes to the optimal length: bound / optimum
         "octile_tightness_median": _median([q.octile / q.optimal for q in queries]),
         "landmark_tightness_median": _median([q.landmark_bound / q.optimal for q in queries]),
@@ -236,15 +344,17 @@ def summary(queries: list[Query]) -> dict[str, Any]:
     }
 
 
-def run_map(map_path: Path, scen_path: Path, limit: int | None, payoff: Payoff,
-            data: Path = DATA) -> dict[str, Any]:
+def run_map(map_path: Path, scen_path: Path, limit: int | None, data: Path = DATA
+            ) -> dict[str, Any]:
     grid, problems = load_problems(map_path, scen_path, limit)
     graph, planned, build_s = retain_half(grid, problems)
     began = time.perf_counter()
     landmarks = Landmarks(grid, LANDMARKS)
     landmarks_s = time.perf_counter() - began
-    queries = measure_map(grid, graph, planned, landmarks, payoff)
-    return {"map": map_path.relative_to(data).as_posix(), "size": f"{grid.width}x{grid.height}",
+    queries = measure_map(grid, graph, planned, landmarks)
+    name = map_path.relative_to(data).as_posix()
+    return {"map": name, "size": f"{grid.width}x{grid.height}",
+            "set": "tuning" if name.split("/")[1] in TUNING else "held out",
             "retained_paths": len(problems) - len(planned), "vertices": graph.vertex_count,
             "edges": graph.edge_count, "coverage": graph.coverage(), "build_s": build_s,
             "landmarks_s": landmarks_s, **summary(queries)}
@@ -255,15 +365,14 @@ def _fmt(value: float | None, digits: int = 2) -> str:
 
 
 def table(rows: list[dict[str, Any]]) -> list[str]:
-    """The markdown table of the per-map rows (a "bound held" column when the rows have it)."""
+    """The markdown table of the per-map rows: what CBR answers and how good it is (a "bound
+    held" column when the rows have it)."""
     held = any("bound_held" in row for row in rows)
     lines = ["| map | size | retained | vertices (coverage) | queries | CBR share (octile) "
              "| CBR share (landmarks) | bound / optimum: octile, landmarks (10th pct) "
              "| CBR dev. mean / median / max % "
-             "| hybrid dev. mean / median % | CBR ms | A* ms | CBR / A* | hybrid / A* "
-             "| decided hybrid: share, dev. mean / max %, time / A* (tried) |"
-             + (" bound held |" if held else ""),
-             "|---" * (15 + held) + "|"]
+             "| hybrid dev. mean / median % |" + (" bound held |" if held else ""),
+             "|---" * (10 + held) + "|"]
     for row in rows:
         bound = (" yes |" if row.get("bound_held") else " no |") if held else ""
         lines.append(
@@ -276,15 +385,52 @@ def table(rows: list[dict[str, Any]]) -> list[str]:
             f"| {_fmt(row['cbr_deviation_mean_pct'])} / {_fmt(row['cbr_deviation_median_pct'])}"
             f" / {_fmt(row['cbr_deviation_max_pct'])} "
             f"| {_fmt(row['hybrid_deviation_mean_pct'])} / "
-            f"{_fmt(row['hybrid_deviation_median_pct'])} "
-            f"| {_fmt(row['cbr_ms_median'], 3)} | {_fmt(row['astar_ms_median'], 3)} "
-            f"| {_fmt(row['cbr_over_astar_median'], 3)} "
-            f"| {_fmt(row['hybrid_over_astar_median'], 3)} "
-            f"| {_fmt(row['decided_share'], 3)}, {_fmt(row['decided_deviation_mean_pct'])} / "
-            f"{_fmt(row['decided_deviation_max_pct'])}, "
-            f"{_fmt(row['decided_over_astar_median'], 3)} "
-            f"({_fmt(row['decided_tried_share'], 2)}) |" + bound)
+            f"{_fmt(row['hybrid_deviation_median_pct'])} |" + bound)
     return lines
+
+
+def _hybrid(figures: dict[str, Any]) -> str:
+    return (f"{_fmt(figures['over_solver_median'], 3)} ({_fmt(figures['tried_share'], 2)}, "
+            f"{_fmt(figures['share'], 2)})")
+
+
+def speed_table(rows: list[dict[str, Any]]) -> list[str]:
+    """The markdown table of the per-map times: CBR against A* and jump point search, and each
+    decided hybrid against the solver it falls back to."""
+    lines = ["| map | size | set | CBR ms | A* ms | jps ms | CBR / A* | CBR / jps "
+             "| papers' hybrid / A* | fixed thresholds / A* (tried, answered) "
+             "| learned / A* (tried, answered) | learned / jps (tried, answered) "
+             "| learned dev. mean / max % |",
+             "|---" * 13 + "|"]
+    for row in rows:
+        hybrids = row["decided"]
+        lines.append(
+            f"| {row['map']} | {row['size']} | {row['set']} | {_fmt(row['cbr_ms_median'], 3)} "
+            f"| {_fmt(row['astar_ms_median'], 3)} | {_fmt(row['jps_ms_median'], 3)} "
+            f"| {_fmt(row['cbr_over_astar_median'], 3)} | {_fmt(row['cbr_over_jps_median'], 3)} "
+            f"| {_fmt(row['hybrid_over_astar_median'], 3)} "
+            f"| {_hybrid(hybrids['thresholds'])} | {_hybrid(hybrids['learned_astar'])} "
+            f"| {_hybrid(hybrids['learned_jps'])} "
+            f"| {_fmt(hybrids['learned_astar']['deviation_mean_pct'])} / "
+            f"{_fmt(hybrids['learned_astar']['deviation_max_pct'])} |")
+    return lines
+
+
+def targets(rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """The targets: every learned hybrid within 1.1 times its solver's median time on every
+    map, and on the maps of 512 x 512 cells and more CBR within 1/5 of jump point search's."""
+    learned = [row["decided"][name]["over_solver_median"] for row in rows
+               for name in ("learned_astar", "learned_jps")]
+    large = [row["cbr_over_jps_median"] for row in rows
+             if min(int(side) for side in row["size"].split("x")) >= LARGE_SIDE
+             and row["cbr_over_jps_median"] is not None]
+    worst = max(learned)
+    slowest = max(large) if large else None
+    return {"learned_over_solver_max": {"value": worst, "target": f"<= {MAX_OVER_SOLVER}",
+                                        "met": worst <= MAX_OVER_SOLVER},
+            "cbr_over_jps_large_max": {"value": slowest, "target": f"<= {MAX_CBR_OVER_JPS}",
+                                       "met": slowest is not None
+                                       and slowest <= MAX_CBR_OVER_JPS}}
 
 
 def main() -> None:
@@ -293,23 +439,31 @@ def main() -> None:
     parser.add_argument("--data", type=Path, default=DATA)
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results")
     args = parser.parse_args()
-    payoff = MEASURED
     rows = []
     for map_name, scen_name in PAIRS:
-        row = run_map(args.data / map_name, args.data / scen_name, args.limit, payoff,
-                      args.data)
+        row = run_map(args.data / map_name, args.data / scen_name, args.limit, args.data)
         rows.append(row)
+        hybrids = row["decided"]
         print(f"{row['map']}: share {_fmt(row['cbr_share'], 3)} "
               f"(landmarks {_fmt(row['cbr_share_landmarks'], 3)}), "
               f"CBR/A* {_fmt(row['cbr_over_astar_median'], 3)}, "
-              f"decided hybrid/A* {_fmt(row['decided_over_astar_median'], 3)}", flush=True)
+              f"CBR/jps {_fmt(row['cbr_over_jps_median'], 3)}, decided hybrid: thresholds/A* "
+              f"{_fmt(hybrids['thresholds']['over_solver_median'], 3)}, learned/A* "
+              f"{_fmt(hybrids['learned_astar']['over_solver_median'], 3)}, learned/jps "
+              f"{_fmt(hybrids['learned_jps']['over_solver_median'], 3)}", flush=True)
     args.out.mkdir(parents=True, exist_ok=True)
-    result = {"settings": {"delta": Settings().delta, "max_ratio": MAX_RATIO, "fallback": "astar",
+    met = targets(rows)
+    result = {"settings": {"delta": Settings().delta, "max_ratio": MAX_RATIO,
                            "limit": args.limit, "landmarks": LANDMARKS,
-                           "payoff": attrs.asdict(payoff), "decided_ideal": "landmarks"},
-              "maps": rows}
+                           "thresholds": attrs.asdict(FIXED), "decided_ideal": "landmarks",
+                           "learned": {"window": WINDOW, "revisit": REVISIT, "margin": MARGIN},
+                           "tuned_on": sorted(TUNING)},
+              "maps": rows, "targets": met}
     write_results(args.out / "casegraph_movingai.json", result)
-    lines = table(rows)
+    lines = [*table(rows), "", *speed_table(rows), "", "| target | measured | goal | met |",
+             "|---|---|---|---|"]
+    lines += [f"| {name} | {_fmt(entry['value'], 3)} | {entry['target']} "
+              f"| {'yes' if entry['met'] else 'no'} |" for name, entry in met.items()]
     (args.out / "casegraph_movingai.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 

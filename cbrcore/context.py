@@ -15,6 +15,7 @@ from cbrcore.stash import Stash, StashKey
 
 if TYPE_CHECKING:
     from cbrcore.casebase.store import CaseStore
+    from cbrcore.model import Proposal
     from cbrcore.registry import Registry
 
 
@@ -32,7 +33,9 @@ class Context:
     within a run, under typed keys (:mod:`cbrcore.stash`). ``casebase`` is the run's case base
     (None while the world and the case base are being built). ``mirror`` keeps what components
     derive from the case base (a case graph, the arrays of a path index, a learned map) at the
-    store's revision (:mod:`cbrcore.casebase.mirror`).
+    store's revision (:mod:`cbrcore.casebase.mirror`). ``previous`` is the engine's proposal for
+    the query before the current one (None before the first answered query): its timings say
+    what each phase cost, for a component that decides from what the run measured.
     """
 
     registry: Registry
@@ -44,6 +47,7 @@ class Context:
     config_dir: Path = attrs.field(factory=Path.cwd)
     rng: np.random.Generator = attrs.field()
     stash: Stash = attrs.field(factory=Stash)
+    previous: Proposal | None = None
     _mirror: StoreMirror | None = attrs.field(default=None, init=False, repr=False)
     _world_view: tuple[StashKey[Any], Callable[[CaseStore], Any]] | None = attrs.field(
         default=None, init=False, repr=False)

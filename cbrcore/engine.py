@@ -478,7 +478,13 @@ class Engine:
         self._slots[ref.kind] = ref.name
 
     def solve(self, problem: Any) -> Proposal:
-        """Answer one query: from the case base if it can, else from the fallback solver."""
+        """Answer one query: from the case base if it can, else from the fallback solver. The
+        proposal is also the context's ``previous`` until the next query is answered."""
+        proposal = self._solve(problem)
+        self.ctx.previous = proposal
+        return proposal
+
+    def _solve(self, problem: Any) -> Proposal:
         self.ctx.step = self.stats.queries
         self.stats.queries += 1
         if self.casebase is not None:

@@ -73,7 +73,7 @@ def _blocks() -> list[Block]:
         _bench("casegraph-retention-reading", "casegraph_retention.json",
                cases.retention_reading),
         _bench("casegraph-movingai", "casegraph_movingai.md",
-               bench_tables("casegraph_movingai", 0)),
+               bench_tables("casegraph_movingai", 0, 1, 2)),
         _bench("casegraph-egraph", "casegraph_egraph.md", bench_tables("casegraph_egraph", 0)),
         _bench("casegraph-egraph-maps", "casegraph_egraph.json", cases.egraph_maps),
         _bench("casegraph-egraph-reading", "casegraph_egraph.json", cases.egraph_reading),

@@ -18,12 +18,12 @@ import attrs
 import numpy as np
 
 from cbr_casegraph.cases import SEGMENT
-from cbr_casegraph.payoff import PassableCells, Payoff
+from cbr_casegraph.payoff import SOLVER_CHEAPER, Learned, PassableCells, Payoff, band
 from cbr_casegraph.state import graph_of
 from cbr_grid.distances import DistanceName
 from cbr_grid.grid import grid_world
 from cbr_grid.planning import plan_with, planner_of, planner_problem
-from cbr_grid.query import GridQuery
+from cbr_grid.query import Cell, GridQuery
 from cbr_grid.risk import record_map
 from cbr_kinematics import HOLONOMIC, robot_kinematics
 from cbr_solvers import warm_grid
@@ -32,7 +32,7 @@ from cbrcore.casebase.store import CaseStore
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.hookspecs import hookimpl
-from cbrcore.model import Case, Match, Outcome, Retrieval, Solution
+from cbrcore.model import Case, Match, Outcome, Proposal, Retrieval, Solution
 from cbrcore.options import configured, option, reference
 
 if TYPE_CHECKING:
@@ -74,13 +74,17 @@ class RetrieveOptions:
     selective: bool = option(
         False, "Selective adaptation: use only the cases with an end point within 3·delta of "
         "the start (goal); full adaptation (false) uses every case meeting the neighbourhood.")
+    payoff: Literal["always", "learned"] = option(
+        "always", "Which queries the case graph is tried on: always (the papers' hybrid), or "
+        "learned: per query, from what CBR and the solver took on the queries of about the "
+        "same distance already planned on this map (cbr_casegraph.payoff.Learned); a query "
+        "left to the solver is counted under the reason 'the solver is cheaper here: "
+        "measured at this distance on this map'. The fixed thresholds below apply first.")
     min_cells: int = option(
         0, "Try the case graph only on a map with at least this many passable cells; on a "
         "smaller map A* settles so few cells that it is cheaper than a CBR query, and the "
         "query is left to the solver with the reason 'A* is cheaper here: the map is small'. "
-        "0 tries every map; 20000 (with min_distance 64 and the reviser's ideal: landmarks) "
-        "keeps the hybrid within 1.1 times A*'s median time on every Moving AI map of the "
-        "benchmark (cbr_casegraph.payoff.MEASURED).",
+        "0 tries every map.",
         validator=attrs.validators.ge(0))
     min_distance: int = option(
         0, "Try the case graph only when start and goal are at least this far apart "
@@ -105,20 +109,26 @@ class CaseGraphRetriever:
         self.options = options
         self.payoff = Payoff(options.min_cells, options.min_distance)
         self.cells = PassableCells()
+        self.learned = Learned() if options.payoff == "learned" else None
+        self.pending: Pending | None = None
         graph_of(ctx)
 
     @hookimpl
     def cbr_warm(self, ctx: Context) -> None:
         """Retrieve once from a small graph of its own."""
         scratch = _warm_context(ctx)
-        self.retrieve(_WARM_QUERY, scratch)
+        self.retrieve(_WARM_QUERY, scratch, decide=False)
 
     @hookimpl
     def cbr_retrieve(self, problem: GridQuery, casebase: CaseStore, ctx: Context) -> Retrieval:
         return self.retrieve(problem, ctx)
 
-    def retrieve(self, problem: GridQuery, ctx: Context) -> Retrieval:
-        """The retrieval of ``problem`` from the case graph of ``ctx``."""
+    def retrieve(self, problem: GridQuery, ctx: Context, *, decide: bool = True) -> Retrieval:
+        """The retrieval of ``problem`` from the case graph of ``ctx``; without ``decide``, the
+        learned choice is neither asked nor taught (a warm-up query)."""
+        learned = self.learned if decide else None
+        if learned is not None:
+            self.learn_previous(learned, ctx)
         planner = _planner()
         graph = graph_of(ctx)
         settings = planner.Settings(delta=self.options.delta, selective=self.options.selective)
@@ -129,6 +139,8 @@ class CaseGraphRetriever:
         cheaper = self.payoff.reason(cells, start, goal)
         if cheaper is not None:
             return Retrieval((), reason=cheaper)
+        if learned is not None and not self.learned_tries(learned, start, goal, ctx):
+            return Retrieval((), reason=SOLVER_CHEAPER)
         found = planner.neighbourhoods(graph, start, goal, settings)
         if isinstance(found, planner.Failure):
             return Retrieval((), reason=found.reason)
@@ -146,6 +158,31 @@ class CaseGraphRetriever:
                 matches.append(Match(case, 1.0 / (1.0 + d), {f"{end}_distance": float(d)}))
         matches.sort(key=lambda m: -m.similarity)
         return Retrieval(tuple(matches), payload=Found(settings, found))
+
+    def learn_previous(self, learned: Learned, ctx: Context) -> None:
+        """Teach the learned choice what the query it decided last took: the phases' times of
+        the engine's proposal for it (``ctx.previous``)."""
+        pending, self.pending = self.pending, None
+        # a query whose proposal never came (its solve raised) teaches nothing
+        if pending is not None and ctx.previous is not None and ctx.previous is not pending.seen:
+            learned.learn(pending.band, pending.tried, ctx.previous)
+
+    def learned_tries(self, learned: Learned, start: Cell, goal: Cell, ctx: Context) -> bool:
+        """The learned choice for this query; it learns what the query took at the next."""
+        which = band(start, goal)
+        tried = learned.tries(which)
+        self.pending = Pending(which, tried, ctx.previous)
+        return tried
+
+
+@attrs.frozen
+class Pending:
+    """A query the learned choice decided, until the engine's proposal for it is known."""
+
+    band: int
+    tried: bool
+    seen: Proposal | None
+    """The context's previous proposal when the query was decided: the one before it."""
 
 
 def segment_distance(a: np.ndarray, b: np.ndarray, cell: np.ndarray) -> np.ndarray:

@@ -39,6 +39,7 @@ if TYPE_CHECKING:
         GeneticOptions,
         GridSolver,
         JumpPointSearch,
+        JumpPointSearchOptions,
         Randomized,
         RandomizedOptions,
         load_search,
@@ -48,8 +49,8 @@ if TYPE_CHECKING:
     from cbrcore.registry import Registry
 
 __all__ = ["KINEMATIC_MODULES", "SEARCH_MODULES", "AStar", "AiStar", "Dijkstra", "Genetic",
-           "GeneticOptions", "GridSolver", "JumpPointSearch", "Randomized", "RandomizedOptions",
-           "load_search", "warm_grid", "warm_query"]
+           "GeneticOptions", "GridSolver", "JumpPointSearch", "JumpPointSearchOptions",
+           "Randomized", "RandomizedOptions", "load_search", "warm_grid", "warm_query"]
 """What :mod:`cbr_solvers.grid_solvers` defines and this package exports: imported when first
 asked for, so that loading the plugin (every start of ``cbr``) does not import the grid and
 NumPy."""
@@ -66,7 +67,8 @@ def cbr_register(registry: Registry) -> None:
     registry.add("solver", "dijkstra", f"{_SOLVERS}:Dijkstra")
     registry.add("solver", "astar", f"{_SOLVERS}:AStar")
     registry.add("solver", "aistar", f"{_SOLVERS}:AiStar")
-    registry.add("solver", "jps", f"{_SOLVERS}:JumpPointSearch")
+    registry.add("solver", "jps", f"{_SOLVERS}:JumpPointSearch",
+                 options=f"{_SOLVERS}:JumpPointSearchOptions")
     registry.add("solver", "genetic", f"{_SOLVERS}:Genetic", options=f"{_SOLVERS}:GeneticOptions")
     registry.add("solver", "randomized", f"{_SOLVERS}:Randomized",
                  options=f"{_SOLVERS}:RandomizedOptions")

@@ -151,6 +151,19 @@ class AiStar(GridSolver):
     name = "aistar"
 
 
+@attrs.frozen
+class JumpPointSearchOptions:
+    """Jump point search takes no options; reading them refuses a robot it cannot plan for, so
+    that ``cbr validate`` says so rather than the run that builds it."""
+
+    def __attrs_post_init__(self) -> None:
+        robot = configured("kinematics")
+        if robot not in (None, HOLONOMIC):
+            raise ValueError(f"jump point search plans for robots that may make any move, not "
+                             f"for kinematics {robot!r} (the configuration's robot); "
+                             f"{', '.join(sorted(KINEMATIC_MODULES))} plan for it")
+
+
 class JumpPointSearch(GridSolver):
     """The cheapest path by jump point search on a grid of equal costs without corner cutting;
     A* answers on other grids, and the solution's detail names the search that planned

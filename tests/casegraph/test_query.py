@@ -1,5 +1,5 @@
 """The compiled CBR query of the case graph planner, against brute force built from the graph's
-edge list and the map alone, and the hybrid's choice between CBR and A*.
+edge list and the map alone.
 
 The brute force builds the extended graph G' of the planning algorithm in Python: the cases
 meeting N(., delta) found by enumerating every edge's cells; the temporary edges from exact
@@ -23,7 +23,6 @@ from scipy.sparse.csgraph import dijkstra as csgraph_dijkstra
 
 from cbr_casegraph.geometry import segment_cells
 from cbr_casegraph.graph import CaseGraph
-from cbr_casegraph.payoff import SHORT_QUERY, SMALL_MAP, PassableCells, Payoff
 from cbr_casegraph.planner import Failure, Plan, Settings, neighbourhoods, plan
 from cbr_casegraph.query import cut_loops
 from cbr_grid.costs import path_cost
@@ -31,11 +30,8 @@ from cbr_grid.grid import Grid
 from cbr_grid.query import without_loops
 from cbr_solvers.aistar import cost_map
 from cbr_solvers.search import dijkstra
-from cbrcore.engine import Engine
-from repo_paths import ROOT
 
 Cell = tuple[int, int]
-CONFIG = ROOT / "configs" / "hybrid_grid.yaml"
 
 
 @st.composite
@@ -170,25 +166,3 @@ def test_the_compiled_query_finds_the_cheapest_path_of_the_extended_graph(
 def test_the_compiled_loop_cut_is_the_python_one(cells: list[Cell]) -> None:
     path = np.array(cells, dtype=np.int64)
     assert np.array_equal(cut_loops(path), without_loops(path))
-
-
-def test_the_payoff_thresholds_by_hand() -> None:
-    payoff = Payoff(min_cells=100, min_distance=20)
-    assert payoff.reason(99, (0, 0), (50, 50)) == SMALL_MAP
-    assert payoff.reason(100, (0, 0), (19, 5)) == SHORT_QUERY
-    assert payoff.reason(100, (0, 0), (20, 5)) is None
-    assert Payoff().reason(0, (0, 0), (0, 1)) is None
-    grid = Grid(np.where(np.arange(12).reshape(3, 4) % 5 == 0, 1.0, 0.0))
-    assert PassableCells().of(grid) == 9
-
-
-def test_the_retriever_leaves_a_small_map_to_a_star_and_the_engine_counts_why() -> None:
-    overrides = ["world.width=40", "world.height=40", "casebase=memory",
-                 "retrieve.min_cells=1601"]
-    with Engine.from_yaml(CONFIG, overrides=overrides) as engine:
-        queries = iter(engine.workload.queries(engine.ctx))
-        for _ in range(3):
-            proposal = engine.solve(next(queries))
-            assert proposal.source.startswith("solver")
-            assert proposal.retrieval is not None and proposal.retrieval.reason == SMALL_MAP
-        assert engine.stats.fallback_reasons == {f"no usable retrieval: {SMALL_MAP}": 3}

@@ -251,6 +251,14 @@ CASES = {
         _export_over_the_case_base,
         "cb.json: it is the case base being exported; expected another file (.yaml, .yml or "
         ".json)"),
+    "payoff choice of an unknown value": (
+        _run("retrieve: {use: casegraph, payoff: sometimes}"),
+        "retrieve.payoff (line 1, column 36): expected one of 'always', 'learned', got "
+        "'sometimes'"),
+    "jump point search for a robot that cannot make every move": (
+        _run("solver: jps\nkinematics: forward"),
+        "solver (line 1, column 9): jump point search plans for robots that may make any move, "
+        "not for kinematics 'forward'"),
     "worlds option of an unknown value": (
         _run("casebase: {use: sqlite, worlds: some}"),
         "casebase.worlds (line 1, column 33): expected one of 'one', 'any', got 'some'"),

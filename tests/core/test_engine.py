@@ -456,6 +456,19 @@ def test_the_step_counts_the_queries(build: Callable[..., Engine]) -> None:
         assert engine.ctx.step == expected
 
 
+def test_the_context_holds_the_proposal_of_the_query_before(
+        build: Callable[..., Engine]) -> None:
+    """``ctx.previous`` is the engine's last proposal, whichever way it was reached."""
+    engine = build(FULL_CYCLE, 4)
+    assert engine.ctx.previous is None
+    seen = []
+    for problem in (4, 9, 4):
+        proposal = engine.solve(problem)
+        assert engine.ctx.previous is proposal
+        seen.append(proposal.source)
+    assert len(set(seen)) > 1, seen
+
+
 # --- learning ---------------------------------------------------------------------------------
 
 

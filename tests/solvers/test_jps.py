@@ -17,7 +17,9 @@ from cbr_grid.costs import CostModel
 from cbr_grid.grid import Grid
 from cbr_grid.movingai import Scenario, load_map, load_scen
 from cbr_grid.query import GridQuery
-from cbr_solvers import JumpPointSearch
+from cbr_kinematics import KINEMATICS
+from cbr_kinematics.models import Forward
+from cbr_solvers import JumpPointSearch, JumpPointSearchOptions
 from cbr_solvers.jps import JumpResult, jps
 from cbr_solvers.search import astar
 from cbrcore.context import Context
@@ -302,9 +304,16 @@ def test_on_a_risky_grid_the_solver_says_astar_planned() -> None:
 def test_the_solver_refuses_constrained_kinematics(
         cbr_plugins: Callable[..., Plugins], cbr_engine: Callable[..., Engine]) -> None:
     cbr_plugins(entry_points=True)
-    with pytest.raises(CbrError, match="'jps' plans for robots that may make any move"):
+    with pytest.raises(CbrError, match="jump point search plans for robots that may make any "
+                       "move, not for kinematics 'forward'"):
         cbr_engine({"world": {"use": "movingai", "map": str(ARENA)}, "solver": "jps",
                     "kinematics": "forward"})
+    # a context built in code has no configuration reading to check it
+    grid = Grid(np.zeros((3, 7)))
+    ctx = Context(registry=Registry(), seed=0, world=grid)
+    ctx.stash[KINEMATICS] = Forward()
+    with pytest.raises(CbrError, match="'jps' plans for robots that may make any move"):
+        JumpPointSearch(JumpPointSearchOptions(), ctx)
 
 
 def test_cbr_plan_with_jps(cbr_plugins: Callable[..., Plugins],
