@@ -80,6 +80,13 @@ def quantised_farthest(tables: np.ndarray) -> tuple[int, int]:
     return int(x), int(y)
 
 
+def random_map(spec: tuple[int, int, float, int, bool]) -> tuple[np.ndarray, Grid]:
+    """The passable cells and the grid of a map drawn from ``maps``."""
+    h, w, density, seed, corner_cutting = spec
+    passable = np.random.default_rng(seed).random((h, w)) >= density
+    return passable, Grid((~passable).astype(float), corner_cutting=corner_cutting)
+
+
 def build(grid: Grid, count: int, unit: float | None) -> Landmarks:
     if unit is None:
         return Landmarks(grid, count)
@@ -91,10 +98,8 @@ def build(grid: Grid, count: int, unit: float | None) -> Landmarks:
 @given(maps, st.integers(1, 4), units)
 def test_the_tables_are_the_lengths_from_landmarks_chosen_farthest_first_rounded_down(
         spec: tuple[int, int, float, int, bool], count: int, unit: float | None) -> None:
-    h, w, density, seed, corner_cutting = spec
-    rng = np.random.default_rng(seed)
-    passable = rng.random((h, w)) >= density
-    grid = Grid((~passable).astype(float), corner_cutting=corner_cutting)
+    passable, grid = random_map(spec)
+    h, w, corner_cutting = *passable.shape, grid.corner_cutting
     bound = build(grid, count, unit)
     free = np.argwhere(passable)
     if not len(free):
@@ -125,10 +130,8 @@ def test_the_tables_are_the_lengths_from_landmarks_chosen_farthest_first_rounded
 @given(maps, st.integers(1, 4), units)
 def test_the_bound_never_exceeds_the_shortest_length_and_loses_under_two_units(
         spec: tuple[int, int, float, int, bool], count: int, unit: float | None) -> None:
-    h, w, density, seed, corner_cutting = spec
-    rng = np.random.default_rng(seed)
-    passable = rng.random((h, w)) >= density
-    grid = Grid((~passable).astype(float), corner_cutting=corner_cutting)
+    passable, grid = random_map(spec)
+    h, w, corner_cutting = *passable.shape, grid.corner_cutting
     bound = build(grid, count, unit)
     free = [(int(x), int(y)) for y, x in np.argwhere(passable)]
     from_landmarks = [as_map(lengths_from(passable, corner_cutting, cell), (h, w))
