@@ -47,7 +47,7 @@ def add_path(graph: CaseGraph, path: ArrayLike, *, similarity_delta: int = 0,
     cells = without_loops(path)
     if len(cells) < 2:
         return []
-    segments, crossings = _candidates(graph.index, cells)
+    segments, crossings = candidates(graph.index, cells)
     # eq. (12) compares with the cases stored before this path: its own segments (the
     # steps of a staircase are within one cell of each other) are one new case, not
     # duplicates, and skipping them would cut the path into unconnected pieces. At
@@ -56,14 +56,23 @@ def add_path(graph: CaseGraph, path: ArrayLike, *, similarity_delta: int = 0,
     return writes.retain(graph, segments, crossings, similarity_delta, distance)
 
 
-def candidates(index: SegmentIndex, cells: np.ndarray) -> np.ndarray:
-    """The new segments of the loop-free path ``cells`` before eq. (12) is asked about them:
-    rows (ax, ay, bx, by) in path order (:func:`cbr_casegraph.retention_kernel.candidates`).
+def candidates(index: SegmentIndex, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The new segments of the loop-free path ``cells`` before eq. (12) is asked about them,
+    rows (ax, ay, bx, by) in path order, and its crossings of stored diagonal steps, rows (the
+    crossing step's first cell, the stored cell beside it)
+    (:func:`cbr_casegraph.retention_kernel.candidates`).
 
     The graph's cells are read once for the whole path: the path's own segments cover only
-    its own cells, each visited once, so they never change what a later stretch finds.
+    its own cells, each visited once, so they never change what a later stretch finds. A
+    crossing's one-step edge is not compared by eq. (12): it is made whenever the path's cell
+    is a vertex once the segments are retained, and may join the same two cells as a segment
+    that eq. (12) skipped.
     """
-    return _candidates(index, cells)[0]
+    # compiled: imported here so that loading the plugin does not load numba
+    from cbr_casegraph.retention_kernel import candidates as cut
+
+    return cut(index.cells.directory, index.cells.tiles, index.leaving, index.ea, index.eb,
+               np.ascontiguousarray(cells, dtype=np.int64))
 
 
 def record_use(index: SegmentIndex, edges: Iterable[int]) -> None:
@@ -87,12 +96,3 @@ def similar(index: SegmentIndex, a: Cell, b: Cell, delta: int, distance: str = "
                                index.leaving, index.ea, index.eb, int(a[0]), int(a[1]),
                                int(b[0]), int(b[1]), delta, MEASURES[distance], ID_LIMIT,
                                np.zeros((0, 4), dtype=np.int64), 0))
-
-
-def _candidates(index: SegmentIndex, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The candidate segments and crossings of the loop-free path ``cells``."""
-    # compiled: imported here so that loading the plugin does not load numba
-    from cbr_casegraph.retention_kernel import candidates as cut
-
-    return cut(index.cells.directory, index.cells.tiles, index.leaving, index.ea, index.eb,
-               np.ascontiguousarray(cells, dtype=np.int64))
