@@ -93,6 +93,7 @@ from cbr_grid.search_base import (
     push4,
 )
 from cbr_kernels import njit
+from cbr_kernels.bits import popcount
 from cbr_solvers.search import grid_moves, grid_profile
 from cbrcore.errors import CbrError
 
@@ -240,19 +241,6 @@ def _experience_heuristic(indptr: np.ndarray, target: np.ndarray, weight: np.nda
 
 
 _ONE = np.uint64(1)
-_M1 = np.uint64(0x5555555555555555)
-_M2 = np.uint64(0x3333333333333333)
-_M4 = np.uint64(0x0F0F0F0F0F0F0F0F)
-_H01 = np.uint64(0x0101010101010101)
-
-
-@njit(inline="always")
-def _bits(word: np.uint64) -> int:
-    """How many bits of ``word`` are set."""
-    word = word - ((word >> _ONE) & _M1)
-    word = (word & _M2) + ((word >> np.uint64(2)) & _M2)
-    word = (word + (word >> np.uint64(4))) & _M4
-    return np.int64((word * _H01) >> np.uint64(56))
 
 
 @njit
@@ -274,7 +262,7 @@ def _vertex_table(xy: np.ndarray, indptr: np.ndarray, w: int, h: int
     count = 0
     for k in range(marks.shape[0]):
         before[k] = count
-        count += _bits(marks[k])
+        count += popcount(marks[k])
     order = np.empty(count, dtype=np.int64)
     for v in range(n):
         if indptr[v + 1] > indptr[v]:
@@ -286,7 +274,7 @@ def _vertex_table(xy: np.ndarray, indptr: np.ndarray, w: int, h: int
 def _rank(marks: np.ndarray, before: np.ndarray, cell: int) -> int:
     """How many marked cells come before ``cell``."""
     low = (_ONE << np.uint64(cell & 63)) - _ONE
-    return before[cell >> 6] + _bits(marks[cell >> 6] & low)
+    return before[cell >> 6] + popcount(marks[cell >> 6] & low)
 
 
 @njit(inline="always")
