@@ -20,9 +20,7 @@ numpy, numba and the kernels loaded), the bytes the Grid's arrays, the search's 
 and move masks, and the case graph's per-cell and per-vertex arrays hold, and its time; the
 engine also its peak and present RSS once built (warm: the landmark tables built), before its
 first trip. Bytes per cell divide by N². The target: an 8000 x 8000 map plans (A* and the
-engine) within 2 GB of peak RSS. On maps large enough for a grid to hold one shared cost factor
-once, the engine kinds first run unmeasured on a smaller such map (:data:`WARM_SIDE`), so that
-the measured peaks are those of every run after the first, not the compiler's.
+engine) within 2 GB of peak RSS.
 
     python benchmarks/memory.py [--side 8000] [--trips 3] [--out benchmarks/results]
                                 [--kinds grid astar dijkstra engine engine_octile]
@@ -46,8 +44,6 @@ from typing import Any
 import numpy as np
 from docfigures.provenance import units, write_results
 
-from cbr_grid.grid import UNIFORM_FACTOR_CELLS
-
 KINDS = ("grid", "astar", "dijkstra", "engine", "engine_octile")
 DENSITY = 0.15
 SEED = 0
@@ -55,13 +51,6 @@ LIMIT = 2 * 10**9
 """The target's peak RSS in bytes: 2 GB."""
 BAND = 256
 """Rows of random numbers drawn at a time while building the map."""
-WARM_SIDE = 2100
-"""The side of a map just over the size from which a grid holds one shared cost factor once
-(:data:`cbr_grid.grid.UNIFORM_FACTOR_CELLS`): the engine kinds run on it first, unmeasured, so
-that the kernel variants for that layout are compiled and cached, as they are on every run after
-the first on such a map. Compiling them during a measured trip would add the compiler's memory
-(about 0.1 GB) to its peak."""
-
 ENGINE = {
     "seed": SEED,
     "casebase": "memory",
@@ -262,11 +251,6 @@ def main() -> None:
         return
     rows = []
     ran: set[str] = set()
-    warmed = args.side * args.side > UNIFORM_FACTOR_CELLS
-    if warmed:
-        for kind in args.kinds:
-            if kind.startswith("engine"):
-                measure(kind, WARM_SIDE, 1)
     for kind in args.kinds:
         rows.append(measure(kind, args.side, args.trips))
         ran.update(rows[-1].pop("units", ()))
@@ -275,12 +259,10 @@ def main() -> None:
               "limit_bytes": LIMIT, "measurements": rows}
     args.out.mkdir(parents=True, exist_ok=True)
     write_results(args.out / "memory.json", result, unit_names=ran)
-    warmed_note = (f", the engine's kernels compiled and cached beforehand on a {WARM_SIDE}x"
-                   f"{WARM_SIDE} map" if warmed else "")
     text = "\n\n".join([
         table(rows),
         f"A {args.side}x{args.side} map with {DENSITY:.0%} random obstacles, one fresh process "
-        f"per row{warmed_note}. Peak RSS is the process's `ru_maxrss`; once built is the same "
+        f"per row. Peak RSS is the process's `ru_maxrss`; once built is the same "
         "when the engine is built and warm (its landmark tables made), before its first trip; "
         "after imports is the same before the map is built (Python, numpy, numba and the loaded "
         "kernels). Grid, search and case graph bytes are those of their arrays: the Grid's "

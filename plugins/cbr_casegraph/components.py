@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import importlib
+import math
 from types import ModuleType
 from typing import TYPE_CHECKING, Literal
 
@@ -20,8 +21,9 @@ import numpy as np
 from cbr_casegraph.cases import SEGMENT
 from cbr_casegraph.payoff import SOLVER_CHEAPER, Learned, PassableCells, Payoff, band
 from cbr_casegraph.state import graph_of
+from cbr_grid.costs import uniform_factor
 from cbr_grid.distances import DistanceName
-from cbr_grid.grid import grid_world
+from cbr_grid.grid import UNIFORM_FACTOR_CELLS, grid_world
 from cbr_grid.planning import plan_with, planner_of, planner_problem
 from cbr_grid.query import Cell, GridQuery
 from cbr_grid.risk import record_map
@@ -53,13 +55,21 @@ _WARM_PATH = [(x, 2) for x in range(2, 21)] + [(20, y) for y in range(3, 21)]
 """The path learned on the warm-up grid: along the top, then down the right side."""
 _WARM_QUERY = GridQuery((3, 4), (18, 19))
 """A query whose start and goal lie near the ends of the warm-up path."""
+_UNIFORM_WARM_SIZE = math.isqrt(UNIFORM_FACTOR_CELLS) + 1
+"""The side of the smallest square grid that holds a shared cost factor once."""
 
 
 def _warm_context(ctx: Context, *, learned: bool = True) -> Context:
     """A context of its own for a warm-up: a small free grid with the world's corner rule and
     cost model, and a memory case base holding a case graph of one learned path (or none). The
-    run's case base, graph, stash and generator stay as they were."""
-    grid = warm_grid(grid_world(ctx, "the case graph"), _WARM_SIZE, wall=False)
+    run's case base, graph, stash and generator stay as they were.
+
+    A world that holds its cost factor once (:data:`cbr_grid.grid.UNIFORM_FACTOR_CELLS`) gets a
+    warm-up grid just large enough to hold it once too: the kernels are compiled for the layout
+    of the factor they will read, not during the first query."""
+    world = grid_world(ctx, "the case graph")
+    size = _WARM_SIZE if uniform_factor(world.factor) is None else _UNIFORM_WARM_SIZE
+    grid = warm_grid(world, size, wall=False)
     scratch = Context(registry=ctx.registry, seed=ctx.seed, world=grid, casebase=MemoryStore())
     if learned:
         with scratch.mirror.transaction():

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import functools
+import gc
 import os
 import signal
 import subprocess
@@ -21,14 +22,18 @@ from typing import Any
 
 import numpy as np
 import pytest
+from numba.core.registry import CPUDispatcher
 
 from cbr_casegraph import components
 from cbr_casegraph.graph import SEGMENT, CaseGraph
 from cbr_casegraph.state import graph_of
+from cbr_grid import grid as grid_module
 from cbr_grid.grid import Grid
+from cbr_grid.query import GridQuery
 from cbr_pathquality.reviser import QualityTest
 from cbr_stores.sqlite import SQLiteStore
 from cbrcore.engine import Engine
+from cbrcore.model import Outcome
 from cbrcore.run import run_workload
 from repo_paths import ROOT
 
@@ -199,3 +204,36 @@ def test_a_killed_run_leaves_a_readable_case_base(tmp_path: Path) -> None:
         assert store.count(SEGMENT) > 0
         graph = CaseGraph.load(the_map(), store)
     check_consistent(graph)
+
+
+def compiled_signatures() -> set[tuple[str, str]]:
+    """Every signature the project's compiled kernels hold in this process."""
+    return {(d.py_func.__qualname__, str(s)) for d in gc.get_objects()
+            if isinstance(d, CPUDispatcher) and d.py_func.__module__.startswith("cbr")
+            for s in d.signatures}
+
+
+def test_a_world_holding_its_factor_once_compiles_nothing_during_its_trips(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """On a large map of free cells and obstacles the grid holds the cost factor once, a layout
+    the kernels compile apart; the warm-up compiles them for it, before the first query."""
+    # between the warm-up grid of a small world (24 x 24) and this one
+    monkeypatch.setattr(grid_module, "UNIFORM_FACTOR_CELLS", 1000)
+    blocked = np.zeros((40, 40), dtype=bool)
+    blocked[5:35, 20] = blocked[20, 5:18] = True
+    world = Grid.from_array(blocked)
+    assert world.factor.strides == (0, 0)
+    config = {"casebase": "memory", "retrieve": {"use": "casegraph", "delta": 6},
+              "reuse": {"use": "casegraph"}, "solver": "astar", "retain": ["casegraph"],
+              "revise": {"use": "path_quality", "ideal": "landmarks", "max_ratio": 1.5}}
+    sources = []
+    with Engine.from_dict(config, world=world) as engine:
+        before = compiled_signatures()
+        for trip in range(6):
+            start, goal = ((1, 1), (38, 38)) if trip % 2 == 0 else ((1, 38), (38, 1))
+            query = GridQuery(start, goal)
+            proposal = engine.solve(query)
+            sources.append(proposal.source)
+            engine.learn(query, proposal, Outcome(success=True))
+        assert compiled_signatures() == before
+    assert "casebase" in sources  # the reuser and retainer ran on the world's layout
