@@ -90,7 +90,10 @@ def _encode(digest: Any, value: Any) -> None:
     elif isinstance(value, np.ndarray):
         array = np.ascontiguousarray(value, dtype=value.dtype.newbyteorder("<"))
         digest.update(_sized(b"a", f"{array.dtype.str}{array.shape}".encode()))
-        digest.update(_sized(b"", array.tobytes()))
+        # the bytes of _sized(b"", array.tobytes()), read in place: a map's copy would double
+        # its memory while the engine is built
+        digest.update(str(array.nbytes).encode() + b":")
+        digest.update(memoryview(array.reshape(-1)).cast("B"))
     elif isinstance(value, Mapping):
         if not all(isinstance(key, str) for key in value):
             raise TypeError("a fingerprint's mappings have string keys")

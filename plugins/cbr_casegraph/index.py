@@ -259,9 +259,7 @@ class SegmentIndex:
         else:
             vertex = self.slots
             self.slots += 1
-            self.vx = grown(self.vx, self.slots, 0)
-            self.vy = grown(self.vy, self.slots, 0)
-            self.leaving = grown(self.leaving, self.slots, -1)
+            self._room_for_vertices(self.slots)
         self.vx[vertex], self.vy[vertex] = x, y
         self.cells.set(VERTEX, x, y, vertex)
         self._adjacency = None
@@ -275,13 +273,7 @@ class SegmentIndex:
             raise CbrError(f"case base {self.source}: segment case id {edge} is outside "
                            f"the case graph's ids 0..{ID_LIMIT - 1}")
         size = edge + 1
-        self.ea = grown(self.ea, size, -1)
-        self.eb = grown(self.eb, size, -1)
-        self.cost = grown(self.cost, size, np.inf)
-        self.risk = grown(self.risk, size, 0.0)
-        self.uses = grown(self.uses, size, 0)
-        self.created = grown(self.created, size, 0)
-        self.alive = grown(self.alive, size, False)
+        self._room_for_edges(size)
         self.ea[edge], self.eb[edge] = va, vb
         self.cost[edge], self.risk[edge] = cost, risk
         self.uses[edge], self.created[edge] = uses, created
@@ -302,11 +294,17 @@ class SegmentIndex:
         if self.next_id + edges > ID_LIMIT:
             raise CbrError(f"case base {self.source}: segment case ids would pass the case "
                            f"graph's ids 0..{ID_LIMIT - 1}")
-        size = self.slots + vertices
+        self._room_for_vertices(self.slots + vertices)
+        self._room_for_edges(self.next_id + edges)
+
+    def _room_for_vertices(self, size: int) -> None:
+        """Grow the vertex arrays to hold at least ``size`` slots."""
         self.vx = grown(self.vx, size, 0)
         self.vy = grown(self.vy, size, 0)
         self.leaving = grown(self.leaving, size, -1)
-        size = self.next_id + edges
+
+    def _room_for_edges(self, size: int) -> None:
+        """Grow the edge arrays to hold at least ``size`` ids."""
         self.ea = grown(self.ea, size, -1)
         self.eb = grown(self.eb, size, -1)
         self.cost = grown(self.cost, size, np.inf)
