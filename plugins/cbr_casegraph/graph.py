@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from cbr_casegraph import costs, following, forgetting, retention, writes
+from cbr_casegraph.potentials import Potentials
 from cbr_casegraph.cases import SEGMENT, store_name
 from cbr_casegraph.costs import segment_costs
 from cbr_casegraph.index import ID_LIMIT, Adjacency, Cell, EdgeTables, SegmentIndex
@@ -44,6 +45,7 @@ class CaseGraph:
         self.index = SegmentIndex(grid.risk.shape, store_name(store))
         self._clock = 0
         self._scale: float | None = None
+        self._potentials = Potentials()
 
     @classmethod
     def load(cls, grid: Grid, store: CaseStore, *, priced: bool = True) -> CaseGraph:
@@ -144,6 +146,11 @@ class CaseGraph:
         """The directory and tiles of the cell layers (:mod:`cbr_casegraph.tiles`), as the
         compiled kernels read them."""
         return self.index.cells.directory, self.index.cells.tiles
+
+    def potentials(self) -> np.ndarray:
+        """The landmark table of the graph search (:mod:`cbr_casegraph.potentials`), kept
+        valid as the graph changes."""
+        return self._potentials.of(self.index.adjacency())
 
     def heuristic_scale(self) -> float:
         """The least cost factor of a passable cell: no step costs less per unit of length.

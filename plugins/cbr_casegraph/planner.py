@@ -37,6 +37,7 @@ import numpy as np
 from cbr_casegraph import links, query
 from cbr_casegraph.graph import CaseGraph
 from cbr_casegraph.links import Connect
+from cbr_casegraph.potentials import LANDMARKS
 from cbr_grid.grid import Grid
 from cbr_grid.planning import Window
 
@@ -117,6 +118,9 @@ def neighbourhoods(graph: CaseGraph, start: Cell, goal: Cell, settings: Settings
     return Neighbourhoods(found[0], found[1], on_graph[0], on_graph[1])
 
 
+_NO_POTENTIAL = np.zeros((0, LANDMARKS))
+"""The landmark table Dijkstra's graph search is given: none."""
+
 _FAILURES = {query.NO_START_LINK: "no local path from the start to a case",
              query.NO_GOAL_LINK: "no local path from the goal to a case",
              query.NOT_CONNECTED: "the extended case graph does not connect start and goal"}
@@ -144,13 +148,14 @@ def adapt(graph: CaseGraph, start: Cell, goal: Cell, cases: Neighbourhoods, sett
     adj = tables.adjacency
     informed = settings.graph_search == "astar"
     scale = graph.heuristic_scale() if informed else 0.0
+    potential = graph.potentials() if informed else _NO_POTENTIAL
     (sx, sy), (gx, gy) = (int(v) for v in start), (int(v) for v in goal)
     if settings.connector == "dijkstra":
         status, path, cost, hops, temporary, settled = query.adapt_swept(
             grid.factor, grid.passable, grid.corner_cutting, *graph.cell_tiles(),
             adj.indptr, adj.target, adj.weight, adj.edge, adj.xy, tables.a, tables.b,
             cases.start, cases.goal, cases.start_on_graph, cases.goal_on_graph, sx, sy, gx, gy,
-            settings.delta, settings.window_radius, informed, scale)
+            settings.delta, settings.window_radius, informed, scale, potential)
     else:
         if search is None:
             raise ValueError(f"connector {settings.connector!r} needs a search function")
@@ -164,7 +169,7 @@ def adapt(graph: CaseGraph, start: Cell, goal: Cell, cases: Neighbourhoods, sett
             adj.indptr, adj.target, adj.weight, adj.edge, adj.xy, tables.a, tables.b,
             cases.start_on_graph, cases.goal_on_graph, sx, sy, gx, gy,
             *s_links[:2], no_box, no_dist, *s_links[2:],
-            *g_links[:2], no_box, no_dist, *g_links[2:], informed, scale)
+            *g_links[:2], no_box, no_dist, *g_links[2:], informed, scale, potential)
     detail: dict[str, Any] = {"start_cases": len(cases.start), "goal_cases": len(cases.goal)}
     if status != query.OK:
         return Failure(_FAILURES[status], detail)

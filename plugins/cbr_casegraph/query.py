@@ -188,7 +188,8 @@ def adapt_swept(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
                 e_a: np.ndarray, e_b: np.ndarray, start_cases: np.ndarray,
                 goal_cases: np.ndarray, start_on_graph: bool, goal_on_graph: bool,
                 sx: int, sy: int, gx: int, gy: int, delta: int, radius: int, informed: bool,
-                scale: float) -> tuple[int, np.ndarray, float, np.ndarray, int, int]:
+                scale: float, potential: np.ndarray
+                ) -> tuple[int, np.ndarray, float, np.ndarray, int, int]:
     """Steps 4-6 and the path with the Dijkstra connector, as :func:`extend` returns them."""
     s_box, s_dist, s_cells, s_costs = local_links(factor, passable, corner_cutting, e_a, e_b,
                                                   xy, start_cases, sx, sy, delta, radius)
@@ -202,7 +203,7 @@ def adapt_swept(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
     return extend(factor, passable, corner_cutting, directory, tiles, indptr, target, weight,
                   edge, xy, e_a, e_b, start_on_graph, goal_on_graph, sx, sy, gx, gy,
                   s_cells, s_costs, s_box, s_dist, offsets, paths,
-                  g_cells, g_costs, g_box, g_dist, offsets, paths, informed, scale)
+                  g_cells, g_costs, g_box, g_dist, offsets, paths, informed, scale, potential)
 
 
 @njit
@@ -248,8 +249,8 @@ def extend(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
            s_cells: np.ndarray, s_costs: np.ndarray, s_box: np.ndarray, s_dist: np.ndarray,
            s_offsets: np.ndarray, s_paths: np.ndarray,
            g_cells: np.ndarray, g_costs: np.ndarray, g_box: np.ndarray, g_dist: np.ndarray,
-           g_offsets: np.ndarray, g_paths: np.ndarray, informed: bool, scale: float
-           ) -> tuple[int, np.ndarray, float, np.ndarray, int, int]:
+           g_offsets: np.ndarray, g_paths: np.ndarray, informed: bool, scale: float,
+           potential: np.ndarray) -> tuple[int, np.ndarray, float, np.ndarray, int, int]:
     """Steps 4-6 and the path, from the temporary edges of start and goal.
 
     Each terminal's links are its target cells and their costs; the cells of link k are either
@@ -260,6 +261,14 @@ def extend(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
     Returns (status, the cell path with loops cut out, its cost on the map, for each hop of the
     path found in G' the stored edge it runs along or is a part of (-1 for a local path), the
     number of temporary edges, the vertices the graph search settled).
+
+    ``potential`` is the landmark table of the stored vertices
+    (:class:`cbr_casegraph.potentials.Potentials`), with no rows when the search is not to
+    use it. A virtual vertex inside a stored edge gets the entries the table would hold for it,
+    the least over the edge's two ends of the end's entry plus the parts' costs between; the
+    goal's interval of each landmark spans its targets' entries widened by their links' costs
+    (the goal's own entry too, when it lies on the graph), so that the bound stays consistent
+    across the goal's links.
     """
     none = np.zeros(0, dtype=np.int64)
     base = indptr.shape[0] - 1
@@ -306,6 +315,11 @@ def extend(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
     part_from = np.empty((counts[1] * 2 + 2, 2), dtype=np.int64)
     part_to = np.empty_like(part_from)
     first_part = temporary
+    # per split edge, its first part and the virtual vertices inside it, in order from a
+    group_part = np.empty(counts[1] + 1, dtype=np.int64)
+    group_edge = np.empty(counts[1], dtype=np.int64)
+    group_points = np.empty(counts[1], dtype=np.int64)
+    groups = 0
     for s in range(counts[1]):
         if done[s]:
             continue
@@ -329,6 +343,11 @@ def extend(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
                 points[j + 1], along[j + 1] = points[j], along[j]
                 j -= 1
             points[j + 1], along[j + 1] = point, at
+        group_part[groups] = temporary
+        group_edge[groups] = split
+        for j in range(m):
+            group_points[temporary - first_part - groups + j] = points[j]
+        groups += 1
         previous = a
         for j in range(m + 1):
             following = b if j == m else points[j]
@@ -346,6 +365,39 @@ def extend(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
         # error, seconds of a first run's compile
         for p in range(parts):
             ew[first_part + p] = priced[p]
+    group_part[groups] = temporary
+    landmarks = potential.shape[1] if informed and potential.shape[0] > 0 else 0
+    virtual = np.full((counts[0], landmarks), np.inf)
+    for i in range(groups):
+        first, m = group_part[i], group_part[i + 1] - group_part[i] - 1
+        inside = group_points[first - first_part - i:first - first_part - i + m]
+        a, b = e_a[group_edge[i]], e_b[group_edge[i]]
+        for k in range(landmarks):
+            forward = potential[a, k]
+            for j in range(m):
+                forward += ew[first + j]
+                virtual[inside[j] - base, k] = forward
+            backward = potential[b, k]
+            for j in range(m, 0, -1):
+                backward += ew[first + j]
+                virtual[inside[j - 1] - base, k] = min(virtual[inside[j - 1] - base, k],
+                                                       backward)
+    low = np.full(landmarks, np.inf)
+    high = np.full(landmarks, -np.inf)
+    for k in range(landmarks):
+        goal = ends[1]
+        if goal < base or goal_on_graph:
+            at_goal = potential[goal, k] if goal < base else virtual[goal - base, k]
+            if at_goal < np.inf:
+                low[k], high[k] = at_goal, at_goal
+        for t in range(temporary):
+            if kind[t] != GOAL_LINK:
+                continue
+            there = ev[t]
+            d = potential[there, k] if there < base else virtual[there - base, k]
+            if d < np.inf:
+                low[k] = min(low[k], d + ew[t])
+                high[k] = max(high[k], d - ew[t])
     n = base + counts[0]
     # the overlay in CSR form, each temporary edge in both directions, stably by tail vertex
     o_ptr = np.zeros(n + 1, dtype=np.int64)
@@ -371,7 +423,7 @@ def extend(factor: np.ndarray, passable: np.ndarray, corner_cutting: bool,
         all_xy[base + i, 0], all_xy[base + i, 1] = vx[i], vy[i]
     found, _, vertices, codes, settled = graph_search(
         indptr, target, weight, edge, o_ptr, o_target, o_weight, all_xy, ends[0], ends[1],
-        informed, scale)
+        informed, scale, potential, virtual, low, high)
     if not found:
         return (NOT_CONNECTED, np.zeros((0, 2), dtype=np.int64), np.inf, none, temporary,
                 settled)

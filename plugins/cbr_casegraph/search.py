@@ -20,13 +20,19 @@ from cbr_kernels import njit
 @njit
 def graph_search(indptr: np.ndarray, target: np.ndarray, weight: np.ndarray, edge: np.ndarray,
                  o_ptr: np.ndarray, o_target: np.ndarray, o_weight: np.ndarray,
-                 xy: np.ndarray, source: int, goal: int, informed: bool, scale: float
+                 xy: np.ndarray, source: int, goal: int, informed: bool, scale: float,
+                 potential: np.ndarray, virtual: np.ndarray, low: np.ndarray, high: np.ndarray
                  ) -> tuple[bool, float, np.ndarray, np.ndarray, int]:
     """Dijkstra (or A* when ``informed``) from ``source`` to ``goal`` over base + overlay edges.
 
     Base edges leave vertex v < len(indptr) - 1 in ``indptr[v]:indptr[v+1]``; overlay edges
-    leave any vertex v in ``o_ptr[v]:o_ptr[v+1]``. ``xy`` gives every vertex's cell for the
-    octile heuristic, scaled by ``scale`` (the least cost factor, so it never overestimates).
+    leave any vertex v in ``o_ptr[v]:o_ptr[v+1]``. A*'s bound of the cost left is the larger of
+    the octile distance from ``xy`` (every vertex's cell), scaled by ``scale`` (the least cost
+    factor), and the landmark bound: for each landmark column k of the table rows
+    (``potential`` for base vertices, ``virtual`` for the others, :mod:`cbr_casegraph.potentials`)
+    the distance of the vertex's entry D outside [``low[k]``, ``high[k]``], the goal's interval
+    (inf/-inf when it has none). Both are consistent on every edge not leaving the source, which
+    is settled first, so the first path to settle the goal is the cheapest.
     Returns (found, cost, vertices, codes, settled): the path's vertices from source to goal and,
     for each of its edges, the base edge id (>= 0) or -(overlay index + 1).
     """
@@ -76,10 +82,15 @@ def graph_search(indptr: np.ndarray, target: np.ndarray, weight: np.ndarray, edg
                 came[u] = v
                 code[u] = c
                 key = g
-                if informed:
+                if informed and u != goal:
                     dx = abs(xy[u, 0] - gx)
                     dy = abs(xy[u, 1] - gy)
-                    key = g + (max(dx, dy) + (SQRT2 - 1.0) * min(dx, dy)) * scale
+                    bound = (max(dx, dy) + (SQRT2 - 1.0) * min(dx, dy)) * scale
+                    for k in range(low.shape[0]):
+                        d = potential[u, k] if u < n_base else virtual[u - n_base, k]
+                        if d < np.inf and low[k] < np.inf:
+                            bound = max(bound, d - high[k], low[k] - d)
+                    key = g + bound
                 keys, items = push_grown(keys, items, size, key, u)
                 size += 1
     if not closed[goal]:

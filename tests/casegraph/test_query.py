@@ -54,10 +54,20 @@ def worlds(draw: st.DrawFn) -> tuple[CaseGraph, list[tuple[Cell, Cell]]]:
                  (int(free_cells[j][1]), int(free_cells[j][0]))) for i, j in picks.tolist()]
 
     graph = CaseGraph(grid)
-    for start, goal in pairs(draw(st.integers(1, 6))):
-        found = dijkstra(grid.factor, grid.passable, grid.corner_cutting, start, [goal])
-        if found is not None and len(found.path) > 1:
-            graph.add_path(found.path)
+
+    def retain(count: int) -> None:
+        for start, goal in pairs(count):
+            found = dijkstra(grid.factor, grid.passable, grid.corner_cutting, start, [goal])
+            if found is not None and len(found.path) > 1:
+                graph.add_path(found.path)
+
+    retain(draw(st.integers(1, 6)))
+    if draw(st.booleans()):
+        # the landmark table made now is repaired, not rebuilt, through what follows
+        graph.potentials()
+        retain(draw(st.integers(0, 2)))
+        ids = graph.edge_ids()
+        graph.remove(ids[rng.random(len(ids)) < draw(st.sampled_from([0.0, 0.3]))].tolist())
     return graph, pairs(6)
 
 
