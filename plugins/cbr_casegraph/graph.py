@@ -20,10 +20,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from cbr_casegraph import costs, following, forgetting, retention, writes
-from cbr_casegraph.potentials import Potentials
 from cbr_casegraph.cases import SEGMENT, store_name
 from cbr_casegraph.costs import segment_costs
 from cbr_casegraph.index import ID_LIMIT, Adjacency, Cell, EdgeTables, SegmentIndex
+from cbr_casegraph.potentials import Potentials
 from cbr_casegraph.tiles import OWNER, VERTEX
 from cbr_grid.grid import Grid
 from cbrcore.casebase.store import CaseStore, Changes

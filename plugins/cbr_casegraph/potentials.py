@@ -16,7 +16,8 @@ do to the graph, once repaired:
   leaves every remaining edge's difference as it was;
 - an edge added, or made cheaper by a changed map, can break it; :func:`repair` lowers
   the entries across such edges and propagates the decrease, as Dijkstra does from several
-  sources, until every edge holds again. It runs over the CSR arrays in one compiled call.
+  sources, until every edge holds again. It starts from the ends of the edges whose id is new
+  or whose cost changed, so its work follows what changed, not the graph's size.
 
 The table is rebuilt from scratch (landmarks chosen again, farthest first) when the graph has
 doubled its vertices since the last build, so that new regions get landmarks of their own at an
@@ -99,25 +100,20 @@ def build(indptr: np.ndarray, target: np.ndarray, weight: np.ndarray, count: int
 
 
 @njit
-def repair(indptr: np.ndarray, target: np.ndarray, weight: np.ndarray, dist: np.ndarray
-           ) -> None:
-    """Lower ``dist`` in place until ``dist[v] <= dist[u] + w`` across every edge, in every
-    column: the decreases start at the edges that break it and spread from there."""
-    n = indptr.shape[0] - 1
+def repair(indptr: np.ndarray, target: np.ndarray, weight: np.ndarray, dist: np.ndarray,
+           seeds: np.ndarray) -> None:
+    """Lower ``dist`` in place until ``dist[u] <= dist[v] + w`` across every edge (v, u), in
+    every column, when it held already across every edge but those at the ``seeds``: the
+    decreases start there and spread as far as they change anything."""
     for column in range(dist.shape[1]):
         keys = np.empty(64, dtype=np.float64)
         items = np.empty(64, dtype=np.int64)
         size = np.int64(0)
-        for v in range(n):
-            here = dist[v, column]
-            if not here < np.inf:
-                continue
-            for k in range(indptr[v], indptr[v + 1]):
-                u = target[k]
-                if here + weight[k] < dist[u, column]:
-                    dist[u, column] = here + weight[k]
-                    keys, items = push_grown(keys, items, size, dist[u, column], u)
-                    size += 1
+        for i in range(seeds.shape[0]):
+            v = seeds[i]
+            if dist[v, column] < np.inf:
+                keys, items = push_grown(keys, items, size, dist[v, column], v)
+                size += 1
         while size > 0:
             key = keys[0]
             v = pop(keys, items, size)
@@ -137,28 +133,45 @@ class Potentials:
     """The landmark table of one case graph, kept valid as its adjacency changes."""
 
     def __init__(self) -> None:
-        self.table = np.zeros((0, LANDMARKS))
+        # rows beyond the graph's vertex slots are room to grow into
+        self._table = np.zeros((0, LANDMARKS))
+        self._slots = 0
         self._cells = np.zeros((0, 2), dtype=np.int64)
+        # the cost of each edge id when the table was last made valid (nan: no such edge)
+        self._costs = np.zeros(0)
         self._built_for = 0
         self._adjacency: Adjacency | None = None
 
     def of(self, adjacency: Adjacency) -> np.ndarray:
         """The table for ``adjacency``: rebuilt when the graph has doubled, else repaired."""
-        if adjacency is self._adjacency:
-            return self.table
-        live = int(np.count_nonzero(np.diff(adjacency.indptr)))
-        if live > 2 * self._built_for:
-            self.table = build(adjacency.indptr, adjacency.target, adjacency.weight, LANDMARKS)
-            self._built_for = live
-        else:
-            slots = len(adjacency.xy)
-            kept = min(slots, len(self.table))
-            table = np.full((slots, LANDMARKS), np.inf)
-            # a slot that now holds another cell is a new vertex: its old entries say nothing
-            same = np.all(self._cells[:kept] == adjacency.xy[:kept], axis=1)
-            table[:kept][same] = self.table[:kept][same]
-            repair(adjacency.indptr, adjacency.target, adjacency.weight, table)
-            self.table = table
-        self._cells = adjacency.xy.copy()
-        self._adjacency = adjacency
-        return self.table
+        if adjacency is not self._adjacency:
+            live = int(np.count_nonzero(np.diff(adjacency.indptr)))
+            if live > 2 * self._built_for:
+                self._table = build(adjacency.indptr, adjacency.target, adjacency.weight,
+                                    LANDMARKS)
+                self._built_for = live
+            else:
+                self._repair(adjacency)
+            self._slots = len(adjacency.xy)
+            self._costs = np.full(int(adjacency.edge.max(initial=-1)) + 1, np.nan)
+            self._costs[adjacency.edge] = adjacency.weight
+            self._cells = adjacency.xy
+            self._adjacency = adjacency
+        return self._table[:self._slots]
+
+    def _repair(self, adjacency: Adjacency) -> None:
+        slots = len(adjacency.xy)
+        if slots > len(self._table):
+            grown = np.full((max(slots, 2 * len(self._table)), LANDMARKS), np.inf)
+            grown[:self._slots] = self._table[:self._slots]
+            self._table = grown
+        self._table[self._slots:slots] = np.inf
+        known = adjacency.edge < len(self._costs)
+        before = self._costs[np.where(known, adjacency.edge, 0)]
+        # new edges and repriced ones, at both ends (the CSR lists each edge both ways)
+        seeds = np.unique(adjacency.target[~known | (before != adjacency.weight)])
+        # a slot that now holds another cell is a new vertex: its old entries say nothing
+        old = seeds[seeds < self._slots]
+        moved = old[np.any(self._cells[old] != adjacency.xy[old], axis=1)]
+        self._table[moved] = np.inf
+        repair(adjacency.indptr, adjacency.target, adjacency.weight, self._table, seeds)
