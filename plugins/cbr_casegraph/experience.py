@@ -19,7 +19,8 @@ segments as successors, at the segments' real cost (infinite, so left out, for a
 crosses an obstacle of the current map), so a ride along a stored segment is one expansion.
 At eps_E = 1 no term over K undercuts h^G(s, goal) (a ride costs at least h^G of its ends, so
 H(v) >= h^G(v, goal), and the triangle inequality does the rest): K is left empty and H is not
-searched.
+searched. For the same reason a vertex of the route whose H is no less than eps_E · h^G(v, goal)
+is left out of K: its term is never the least.
 
 **The bound.** Every term of h^E is eps_E-Lipschitz in h^G and h^G(s, s') never exceeds the
 cost of a step (or of a shortcut, a straight run of steps) from s to s', so h^E / eps_E is
@@ -355,15 +356,22 @@ def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_
         route, constant, settled_vertices = np.zeros(0, np.int64), np.zeros(0), 0
     if not (passable[sy, sx] and passable[gy, gx]):
         return False, nothing[0], nothing[1], np.inf, 0, settled_vertices, route.shape[0]
-    kx = np.empty(route.shape[0], dtype=np.int64)
-    ky = np.empty(route.shape[0], dtype=np.int64)
-    for j in range(route.shape[0]):
-        kx[j], ky[j] = xy[route[j], 0], xy[route[j], 1]
     # A uniform search counts in units of scale; ``counted`` says whether the heuristic is a
     # step count too (eps_E = 1), ``exact`` whether f is then the length of g's and h's steps.
     jump = experience if uniform else experience * scale
     if uniform:
         constant = constant / scale
+    # A vertex of K whose H is no less than the jump from it to the goal never undercuts the
+    # jump from any cell (triangle inequality): left out, h^E is the same at every cell.
+    useful = np.zeros(route.shape[0], dtype=np.bool_)
+    for j in range(route.shape[0]):
+        useful[j] = constant[j] < jump * _octile(xy[route[j], 0], xy[route[j], 1], gx, gy)
+    kept = np.flatnonzero(useful)
+    kx = np.empty(kept.shape[0], dtype=np.int64)
+    ky = np.empty(kept.shape[0], dtype=np.int64)
+    for j in range(kept.shape[0]):
+        kx[j], ky[j] = xy[route[kept[j]], 0], xy[route[kept[j]], 1]
+    constant = constant[kept]
     counted = uniform and kx.shape[0] == 0 and experience == 1.0
     exact = counted and epsilon == 1.0
     masked = moves.shape[0] > 0
@@ -457,7 +465,7 @@ def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_
             size, held, held_key = _offer(keys, items, size, held, held_key, current_key,
                                           other, key)
     if stamp[goal] != settled:
-        return False, nothing[0], nothing[1], np.inf, expanded, settled_vertices, route.shape[0]
+        return False, nothing[0], nothing[1], np.inf, expanded, settled_vertices, kx.shape[0]
     path, rides_taken = _unwound(parent, ride_from, ride_edge, marks, before, order, xy,
                                  start, goal, w)
     path = _without_loops(path, steps, w)
@@ -473,7 +481,7 @@ def _search(factor: np.ndarray, passable: np.ndarray, moves: np.ndarray, corner_
             total += (SQRT2 if diagonal else 1.0) * (factor[a] + factor[b]) * 0.5
     if uniform:
         total = _length(counted_steps) * scale
-    return True, path, rides_taken, total, expanded, settled_vertices, route.shape[0]
+    return True, path, rides_taken, total, expanded, settled_vertices, kx.shape[0]
 
 
 @njit
