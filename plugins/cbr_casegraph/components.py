@@ -222,7 +222,7 @@ class ReuseOptions:
         validator=attrs.validators.optional(attrs.validators.ge(0)))
     graph_search: Literal["dijkstra", "astar"] = option(
         "astar", "The search for the best path in the extended case graph (step 6); both find "
-        "the cheapest path.")
+        "the cheapest path, astar settling fewer vertices by its octile and landmark bounds.")
 
     @connector.validator
     def _swept(self, attribute: attrs.Attribute, value: str) -> None:
