@@ -40,15 +40,16 @@ LANDMARKS = 8
 
 
 @njit
-def _sweep(indptr: np.ndarray, target: np.ndarray, weight: np.ndarray, dist: np.ndarray,
-           column: int) -> None:
-    """Dijkstra over the CSR arrays from the entries of ``dist[:, column]`` already finite,
-    lowering the column wherever a path through an edge is cheaper."""
-    n = indptr.shape[0] - 1
-    keys = np.empty(1024, dtype=np.float64)
-    items = np.empty(1024, dtype=np.int64)
+def _spread(indptr: np.ndarray, target: np.ndarray, weight: np.ndarray, dist: np.ndarray,
+            column: int, seeds: np.ndarray) -> None:
+    """Dijkstra over the CSR arrays from the ``seeds`` (their entries in ``dist[:, column]``,
+    the infinite ones left out), lowering the column wherever a path through an edge is
+    cheaper."""
+    keys = np.empty(64, dtype=np.float64)
+    items = np.empty(64, dtype=np.int64)
     size = np.int64(0)
-    for v in range(n):
+    for i in range(seeds.shape[0]):
+        v = seeds[i]
         if dist[v, column] < np.inf:
             keys, items = push_grown(keys, items, size, dist[v, column], v)
             size += 1
@@ -83,7 +84,7 @@ def build(indptr: np.ndarray, target: np.ndarray, weight: np.ndarray, count: int
     if first < 0:
         return dist
     dist[first, 0] = 0.0
-    _sweep(indptr, target, weight, dist, 0)
+    _spread(indptr, target, weight, dist, 0, np.array([first]))
     nearest = dist[:, 0].copy()
     for k in range(count):
         chosen, far = first, -1.0
@@ -93,7 +94,7 @@ def build(indptr: np.ndarray, target: np.ndarray, weight: np.ndarray, count: int
         for v in range(n):
             dist[v, k] = np.inf
         dist[chosen, k] = 0.0
-        _sweep(indptr, target, weight, dist, k)
+        _spread(indptr, target, weight, dist, k, np.array([chosen]))
         for v in range(n):
             nearest[v] = dist[v, k] if k == 0 else min(nearest[v], dist[v, k])
     return dist
@@ -106,27 +107,7 @@ def repair(indptr: np.ndarray, target: np.ndarray, weight: np.ndarray, dist: np.
     every column, when it held already across every edge but those at the ``seeds``: the
     decreases start there and spread as far as they change anything."""
     for column in range(dist.shape[1]):
-        keys = np.empty(64, dtype=np.float64)
-        items = np.empty(64, dtype=np.int64)
-        size = np.int64(0)
-        for i in range(seeds.shape[0]):
-            v = seeds[i]
-            if dist[v, column] < np.inf:
-                keys, items = push_grown(keys, items, size, dist[v, column], v)
-                size += 1
-        while size > 0:
-            key = keys[0]
-            v = pop(keys, items, size)
-            size -= 1
-            if key > dist[v, column]:
-                continue
-            for k in range(indptr[v], indptr[v + 1]):
-                u = target[k]
-                g = key + weight[k]
-                if g < dist[u, column]:
-                    dist[u, column] = g
-                    keys, items = push_grown(keys, items, size, g, u)
-                    size += 1
+        _spread(indptr, target, weight, dist, column, seeds)
 
 
 class Potentials:
