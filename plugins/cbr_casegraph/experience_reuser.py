@@ -23,13 +23,13 @@ from cbr_casegraph.graph import CaseGraph
 from cbr_casegraph.state import graph_of
 from cbr_grid.grid import grid_world
 from cbr_grid.query import GridQuery
-from cbr_kinematics import HOLONOMIC, robot_kinematics
+from cbr_kinematics import require_any_move, robot_kinematics
 from cbr_solvers import warm_grid
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Retrieval, Solution
-from cbrcore.options import configured, option
+from cbrcore.options import option
 
 _AT_LEAST_ONE = attrs.validators.ge(1.0)
 
@@ -52,11 +52,7 @@ class ExperienceOptions:
         "times the optimum.", validator=_AT_LEAST_ONE)
 
     def __attrs_post_init__(self) -> None:
-        robot = configured("kinematics")
-        if robot not in (None, HOLONOMIC):
-            raise ValueError(f"the experience-graph search plans for robots that may make any "
-                             f"move, not for kinematics {robot!r} (the configuration's robot); "
-                             f"reuse 'casegraph' plans for it")
+        require_any_move("the experience-graph search", "reuse 'casegraph' plans for it")
 
     @property
     def bound(self) -> float:

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 from cbrcore.errors import CbrError
 from cbrcore.hookspecs import hookimpl
+from cbrcore.options import configured
 from cbrcore.stash import StashKey
 
 if TYPE_CHECKING:
@@ -41,6 +42,17 @@ def robot_kinematics(ctx: Context, where: str) -> Kinematics | None:
     for one that allows every turn, and for a context built without a configuration."""
     model = ctx.stash.get(KINEMATICS, None)
     return None if model is None else checked(model, type(model).__name__, where)
+
+
+def require_any_move(planner: str, instead: str) -> None:
+    """Refuse, while a component's options are read, a configuration whose robot has kinematic
+    constraints: ``planner`` plans only for robots that may make any move, and ``instead`` says
+    what plans for that robot. A ValueError, which the options' reader reports with the
+    option's place in the file."""
+    robot = configured("kinematics")
+    if robot not in (None, HOLONOMIC):
+        raise ValueError(f"{planner} plans for robots that may make any move, not for "
+                         f"kinematics {robot!r} (the configuration's robot); {instead}")
 
 
 def checked(model: object, name: str, where: str) -> Kinematics | None:

@@ -13,12 +13,12 @@ import numpy as np
 from cbr_grid.grid import Grid, grid_world
 from cbr_grid.planning import Window
 from cbr_grid.query import Cell, GridQuery
-from cbr_kinematics import HOLONOMIC, robot_kinematics
+from cbr_kinematics import require_any_move, robot_kinematics
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.hookspecs import hookimpl
 from cbrcore.model import Solution
-from cbrcore.options import configured, option
+from cbrcore.options import option
 
 SEARCH_MODULES = {"dijkstra": "cbr_solvers.search", "astar": "cbr_solvers.search",
                   "aistar": "cbr_solvers.aistar", "jps": "cbr_solvers.jps",
@@ -33,6 +33,8 @@ KINEMATIC_MODULES = {"dijkstra": "cbr_solvers.kinematic_search",
 """The grid searches that plan for a kinematic model (section 5 of the case graph paper), and
 the module that holds each one's function taking ``kinematics``, ``heading`` and
 ``final_heading``."""
+
+_KINEMATIC_SOLVERS = ", ".join(sorted(KINEMATIC_MODULES))
 
 
 def warm_grid(world: Grid, size: int = 8, *, wall: bool = True) -> Grid:
@@ -157,11 +159,7 @@ class JumpPointSearchOptions:
     that ``cbr validate`` says so rather than the run that builds it."""
 
     def __attrs_post_init__(self) -> None:
-        robot = configured("kinematics")
-        if robot not in (None, HOLONOMIC):
-            raise ValueError(f"jump point search plans for robots that may make any move, not "
-                             f"for kinematics {robot!r} (the configuration's robot); "
-                             f"{', '.join(sorted(KINEMATIC_MODULES))} plan for it")
+        require_any_move("jump point search", f"{_KINEMATIC_SOLVERS} plan for it")
 
 
 class JumpPointSearch(GridSolver):
@@ -195,11 +193,7 @@ class GeneticOptions:
 
 
     def __attrs_post_init__(self) -> None:
-        robot = configured("kinematics")
-        if robot not in (None, HOLONOMIC):
-            raise ValueError(f"the genetic algorithm plans for robots that may make any move, "
-                             f"not for kinematics {robot!r} (the configuration's robot); "
-                             f"{', '.join(sorted(KINEMATIC_MODULES))} plan for it")
+        require_any_move("the genetic algorithm", f"{_KINEMATIC_SOLVERS} plan for it")
 
 
 class Genetic(GridSolver):
