@@ -63,7 +63,8 @@ def worlds(draw: st.DrawFn) -> tuple[CaseGraph, list[tuple[Cell, Cell]]]:
 
     retain(draw(st.integers(1, 6)))
     if draw(st.booleans()):
-        # the landmark table made now is repaired, not rebuilt, through what follows
+        # the landmark table made now is repaired through what follows (rebuilt only when
+        # the graph has doubled)
         graph.potentials()
         retain(draw(st.integers(0, 2)))
         ids = graph.edge_ids()
