@@ -488,11 +488,18 @@ def parse_config(data: Any, registry: Registry, *, source: Path | None = None,
     return Config(seed=seed, source=source, slots=slots, **values)
 
 
-def load_config(path: Path | str, registry: Registry, overrides: Overrides = ()) -> Config:
-    """Read, override (see :data:`Overrides`) and check the configuration file at ``path``."""
+def load_config(path: Path | str, registry: Registry, overrides: Overrides = (),
+                observers: Sequence[Mapping[str, Any]] = ()) -> Config:
+    """Read, override (see :data:`Overrides`) and check the configuration file at ``path``;
+    ``observers`` (each ``{use: name, ...options}``) follow the file's own, as a command's
+    option adds one (``cbr run --record``)."""
     path = Path(path).resolve()
     data, marks = read_yaml(path)
     data = apply_overrides(data, overrides, str(path), marks)
+    if observers:
+        listed = data.get("observers") if isinstance(data, dict) else None
+        if isinstance(data, dict) and (listed is None or isinstance(listed, list)):
+            data["observers"] = [*(listed or []), *(dict(o) for o in observers)]
     return parse_config(data, registry, source=path, marks=marks)
 
 

@@ -71,6 +71,12 @@ def run(
         help="Start afresh: remove the output folder's results.csv, summary.json, "
              "manifest.json and its SQLite case base (saying so first) before running."),
     set_: list[str] = _set_option(),
+    record: Path | None = typer.Option(
+        None, "--record", metavar="FILE.mcap",
+        help="Record the run as MCAP with ROS 2 message types, for Foxglove and ros2 bag play "
+             "(the 'record' observer of the recording plugin)."),
+    force: bool = typer.Option(False, "--force",
+                               help="With --record: replace the recording file if it exists."),
     as_json: bool = _json_option("the run's summary (that of summary.json)"),
 ) -> None:
     """Run the configured workload: results.csv, summary.json and manifest.json go to --out."""
@@ -86,8 +92,14 @@ def run(
     from cbrcore.run import run_workload
     from cbrcore.run_folder import check_continuable, earlier_results, fresh_files, remove
 
+    if force and record is None:
+        raise typer.BadParameter("--force goes with --record", param_hint="--force")
     out_dir = out if out is not None else Path("runs") / config.stem
-    checked = load_config(config, current().registry, set_)
+    # an absolute file, so that the recording is checked with the configuration, before
+    # anything of the run is touched
+    observers = ([] if record is None else
+                 [{"use": "record", "file": str(record.resolve()), "force": force}])
+    checked = load_config(config, current().registry, set_, observers)
     # settled before the engine opens the folder's case base: a refused run changes nothing
     if fresh:
         doomed = fresh_files(out_dir, checked)

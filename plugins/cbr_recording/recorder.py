@@ -1,0 +1,225 @@
+"""The recorder: one MCAP file of ROS 2 messages, written as a run goes.
+
+Families record through the :class:`Recorder` a run's ``record`` observer puts in the stash
+(:data:`~cbr_recording.keys.RECORDER`), with plain values (metres, radians, NumPy arrays,
+:class:`~cbr_recording.markers.Marker`); the recorder builds the standard ROS 2 messages,
+serialises them as CDR and writes them with their ``ros2msg`` schemas, as ``ros2 bag record``
+does, so that Foxglove opens the file as it is and ``ros2 bag play`` replays it.
+
+Time is simulation time. A run is a series of *episodes* (a grid trip, a 2D trial, a delivery
+day), each with a clock from 0; :meth:`Recorder.episode` starts the next one a second after the
+last message so far, so the episodes follow one another on one time line. The messages of a
+topic are in time order; fast topics (the robot's pose, the sonar) are kept to ``rate`` a second
+of simulation time (:meth:`Recorder.due`).
+
+A killed run leaves a file whose chunks written so far read back (the MCAP tools recover them);
+only a recording that was closed has its index and statistics.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+from mcap.writer import CompressionType, Writer
+
+from cbr_recording.files import check_path
+from cbr_recording.markers import Clear, Marker
+from cbr_recording.messages import Messages, typestore
+from cbrcore.model import Proposal
+from cbrcore.errors import CbrError
+
+PROFILE = "ros2"
+LIBRARY = "cbrcore"
+
+# What rosbag2 writes for a latched topic (transient local, reliable, keep last 1): a player
+# offers it so, and a subscriber joining late (RViz's map display) still gets the map.
+_LATCHED_QOS = """\
+- history: 1
+  depth: 1
+  reliability: 1
+  durability: 1
+  deadline:
+    sec: 2147483647
+    nsec: 4294967295
+  lifespan:
+    sec: 2147483647
+    nsec: 4294967295
+  liveliness: 1
+  liveliness_lease_duration:
+    sec: 2147483647
+    nsec: 4294967295
+  avoid_ros_namespace_conventions: false
+"""
+
+
+class Recorder:
+    """Writes ROS 2 messages to the MCAP file ``path``; close it (or use it as a context
+    manager) to write the file's index.
+
+    ``force`` replaces an existing file (else a CbrError); ``rate`` is the most messages a
+    second of simulation time that :meth:`due` lets through per topic.
+    """
+
+    def __init__(self, path: Path, *, force: bool = False, rate: float = 10.0) -> None:
+        if not (rate > 0 and np.isfinite(rate)):
+            raise CbrError(f"recording rate must be a finite number > 0, got {rate!r}")
+        check_path(path, force=force)
+        self.path = path
+        path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            self._file: IO[bytes] = path.open("wb" if force else "xb")
+        except OSError as exc:
+            raise CbrError(f"--record {path}: cannot be written ({exc.strerror or exc})"
+                           ) from exc
+        self._store = typestore()
+        self.messages = Messages(self._store)
+        self._writer = Writer(self._file, compression=CompressionType.ZSTD)
+        self._writer.start(profile=PROFILE, library=LIBRARY)
+        self._schemas: dict[str, int] = {}
+        self._channels: dict[str, tuple[int, str]] = {}
+        self._sequence: dict[int, int] = {}
+        self._period = 1.0 / rate
+        self._last: dict[str, float] = {}
+        self._offset = 0.0
+        self._t = 0.0
+        self._end: float | None = None
+        self.episodes = 0
+        self.closed = False
+
+    # -- time -----------------------------------------------------------------------------
+
+    @property
+    def now(self) -> float:
+        """The time of the next message: the episode's start plus its clock, in seconds."""
+        return self._offset + self._t
+
+    def episode(self) -> None:
+        """Start the next episode, its clock at 0, a second after the last message so far."""
+        if self._end is not None:
+            self._offset = self._end + 1.0
+        self._t = 0.0
+        self.episodes += 1
+
+    def at(self, t: float) -> None:
+        """Set the episode's clock to ``t`` seconds."""
+        self._t = float(t)
+
+    def due(self, topic: str) -> bool:
+        """Whether ``topic`` may take a message now at the recording's rate; a True answer
+        counts as the topic's message."""
+        now = self.now
+        last = self._last.get(topic)
+        if last is not None and now - last < self._period - 1e-9:
+            return False
+        self._last[topic] = now
+        return True
+
+    # -- writing --------------------------------------------------------------------------
+
+    def _channel(self, topic: str, msgtype: str, latched: bool) -> int:
+        known = self._channels.get(topic)
+        if known is not None:
+            channel, kind = known
+            if kind != msgtype:
+                raise CbrError(f"recording {self.path}: topic {topic} carries {kind}, not "
+                               f"{msgtype}")
+            return channel
+        schema = self._schemas.get(msgtype)
+        if schema is None:
+            text, _ = self._store.generate_msgdef(msgtype, ros_version=2)
+            schema = self._schemas[msgtype] = self._writer.register_schema(
+                msgtype, "ros2msg", text.encode())
+        metadata = {"offered_qos_profiles": _LATCHED_QOS} if latched else {}
+        channel = self._writer.register_channel(topic, "cdr", schema, metadata)
+        self._channels[topic] = (channel, msgtype)
+        return channel
+
+    def write(self, topic: str, message: Any, *, latched: bool = False) -> None:
+        """Write a message of the type store (``self.messages`` builds them) on ``topic`` at
+        :attr:`now`."""
+        msgtype = message.__msgtype__
+        channel = self._channel(topic, msgtype, latched)
+        ns = self._ns()
+        sequence = self._sequence.get(channel, 0)
+        self._sequence[channel] = sequence + 1
+        self._writer.add_message(channel, log_time=ns, publish_time=ns, sequence=sequence,
+                                 data=bytes(self._store.serialize_cdr(message, msgtype)))
+        self._end = self.now if self._end is None else max(self._end, self.now)
+
+    def _ns(self) -> int:
+        return round(self.now * 1e9)
+
+    # -- the vocabulary families use ------------------------------------------------------
+
+    def grid(self, topic: str, data: np.ndarray, resolution: float,
+             origin: tuple[float, float, float] = (0.0, 0.0, 0.0), *, frame: str = "map",
+             latched: bool = False) -> None:
+        """An occupancy grid: ``data`` int8 rows from the lower left (-1 unknown, 0..100)."""
+        self.write(topic, self.messages.occupancy_grid(self._ns(), frame, data, resolution,
+                                                       origin), latched=latched)
+
+    def path(self, topic: str, points: np.ndarray, *, frame: str = "map") -> None:
+        """A path through ``points`` (n, 2) metres."""
+        self.write(topic, self.messages.path(self._ns(), frame, points))
+
+    def pose(self, topic: str, x: float, y: float, yaw: float, *, frame: str = "map") -> None:
+        self.write(topic, self.messages.pose_stamped(self._ns(), frame, x, y, yaw))
+
+    def transform(self, x: float, y: float, yaw: float, *, parent: str = "map",
+                  child: str = "base_link") -> None:
+        """The pose of ``child`` in ``parent`` on ``/tf``."""
+        self.write("/tf", self.messages.transform(self._ns(), parent, child, x, y, yaw))
+
+    def odometry(self, topic: str, x: float, y: float, yaw: float, v: float, w: float, *,
+                 frame: str = "map", child: str = "base_link") -> None:
+        self.write(topic, self.messages.odometry(self._ns(), frame, child, x, y, yaw, v, w))
+
+    def scan(self, topic: str, angle_min: float, increment: float, ranges: np.ndarray,
+             range_min: float, range_max: float, scan_time: float, *,
+             frame: str = "base_link") -> None:
+        self.write(topic, self.messages.laser_scan(self._ns(), frame, angle_min, increment,
+                                                   ranges, range_min, range_max, scan_time))
+
+    def markers(self, topic: str, items: Sequence[Marker | Clear], *,
+                latched: bool = False) -> None:
+        self.write(topic, self.messages.marker_array(self._ns(), items), latched=latched)
+
+    def decision(self, query: int, proposal: Proposal, *, action: str = "",
+                 detail: Mapping[str, Any] | None = None) -> None:
+        """Consultation ``query`` of the engine and its ``proposal`` on ``/cbr/decision``
+        (cbrcore's ``Decision`` type), with what the family made of it: ``action`` in words
+        and ``detail`` as JSON."""
+        matches = proposal.retrieval.matches if proposal.retrieval is not None else ()
+        best = matches[0] if matches else None
+        self.write("/cbr/decision", self.messages.decision(
+            self._ns(), query=query, source=proposal.source,
+            case_id="" if best is None else str(best.case.id),
+            similarity=float("nan") if best is None else best.similarity,
+            retrieved=len(matches), fallback_reason=proposal.fallback_reason or "",
+            action=action, detail=detail or {}))
+
+    def phase(self, query: int, phase: str, milliseconds: float, outcome: str,
+              error: str = "") -> None:
+        """One phase call of the engine on ``/cbr/phase`` (cbrcore's ``Phase`` type)."""
+        self.write("/cbr/phase", self.messages.phase(
+            self._ns(), query=query, phase=phase, milliseconds=milliseconds, outcome=outcome,
+            error=error))
+
+    def close(self) -> None:
+        """Write the file's index and statistics and close it; idempotent."""
+        if self.closed:
+            return
+        self.closed = True
+        try:
+            self._writer.finish()
+        finally:
+            self._file.close()
+
+    def __enter__(self) -> Recorder:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
