@@ -28,8 +28,10 @@ from cbr_grid.drive import Robot, checked_path
 from cbr_grid.grid import Grid, grid_world
 from cbr_grid.planning import planner_of, planner_problem
 from cbr_grid.query import GridQuery, path_array
+from cbr_grid.recording import TripRecording
 from cbr_grid.risk import CONFIGURED_WORLD
 from cbr_grid.true_world import TrueWorld
+from cbr_recording.keys import RECORDER
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.model import Outcome, Proposal, Solution
@@ -182,6 +184,7 @@ class Trips:
         cells = np.column_stack((chosen % width, chosen // width))
         self.true_world.place(cells[:options.unknown_static], cells[options.unknown_static:],
                               sites)
+        self._recording = TripRecording(self.configured)
 
     @property
     def places(self) -> np.ndarray | None:
@@ -227,7 +230,11 @@ class Trips:
 
     def queries(self, ctx: Context) -> Iterator[GridQuery]:
         for _ in range(self.options.count):
-            query = self._query(grid_world(ctx, "workload 'trips'"))
+            grid = grid_world(ctx, "workload 'trips'")
+            recorder = ctx.stash.get(RECORDER, None)
+            if recorder is not None:
+                self._recording.begin(recorder, grid)
+            query = self._query(grid)
             if self.options.headings:
                 query = attrs.evolve(query, heading=int(self._heading_rng.integers(8)))
             yield query
@@ -266,13 +273,20 @@ class Trips:
         ctx.stash[PLANNED_WORLD] = grid
         # drawn for every trip, solved or not, so the draws of later trips do not depend on it
         blocked = self.true_world.draw(self._presence_rng)
+        recorder = ctx.stash.get(RECORDER, None)
         if proposal.solution is None:
+            if recorder is not None:
+                self._recording.trip(recorder, grid, ctx.step, problem, proposal, None,
+                                     self.options.collision_time)
             return Outcome(success=False)
         path = checked_path(grid, problem, proposal.solution.value)
         robot = Robot(grid, self.planner, self.options.replan_window,
                       self.options.collision_time)
         report = robot.drive(path, problem, self.true_world.passable(blocked), blocked,
                              [self.true_world.sites[i] for i in blocked.sites])
+        if recorder is not None:
+            self._recording.trip(recorder, grid, ctx.step, problem, proposal, report,
+                                 self.options.collision_time)
         cost = path_cost(grid, report.driven)
         driven = Solution(report.driven.tolist(), cost, proposal.solution.cases,
                           {"encounters": len(report.met), "replans": report.replans})

@@ -36,7 +36,7 @@ def info(
                  f"({found.end - found.start:.3f} s)")
     title = f"{file}: {sum(t.count for t in found.topics)} messages, {span}"
     if not found.closed:
-        title += " (not closed: counted by reading it through)"
+        title += " (not closed: the run was stopped; these are its complete chunks)"
     table = Table("topic", "type", "messages", "first s", "last s", title=title)
     for topic in found.topics:
         table.add_row(topic.name, topic.type, str(topic.count), shown(topic.first),

@@ -25,7 +25,7 @@ class Topic:
 @attrs.frozen
 class Contents:
     """A recording's topics, its time span (seconds) and whether it was closed (has its
-    index); one that was not (a killed run) was read through to count."""
+    summary): one that was not (a killed run) holds the messages of its complete chunks."""
 
     path: Path
     profile: str
@@ -41,8 +41,7 @@ class Contents:
 
 
 def contents(path: Path) -> Contents:
-    """Read ``path``'s summary (or, lacking one, every message); a CbrError unless it is an
-    MCAP file."""
+    """What ``path`` holds; a CbrError unless it is an MCAP file."""
     from mcap.exceptions import McapError
     from mcap.reader import make_reader
 
@@ -56,10 +55,8 @@ def contents(path: Path) -> Contents:
         try:
             reader = make_reader(handle)
             header = reader.get_header()
-            summary = reader.get_summary()
-            if summary is not None and summary.statistics is not None:
-                return _from_summary(path, header.profile, summary)
-            return _by_reading(path, header.profile, reader)
+            closed = reader.get_summary() is not None
+            return _by_reading(path, header.profile, reader, closed)
         except (McapError, ValueError, EOFError, AssertionError) as exc:
             raise CbrError(f"{path}: not a readable MCAP file ({exc})") from None
 
@@ -68,32 +65,9 @@ def _seconds(ns: int) -> float:
     return ns / 1e9
 
 
-def _from_summary(path: Path, profile: str, summary: Any) -> Contents:
-    stats = summary.statistics
-    counts = stats.channel_message_counts
-    # the summary's statistics give each channel's count, the message index its time span
-    spans: dict[int, list[int]] = {}
-    for index in summary.chunk_indexes:
-        for channel in index.message_index_offsets:
-            span = spans.setdefault(channel, [index.message_start_time,
-                                              index.message_end_time])
-            span[0] = min(span[0], index.message_start_time)
-            span[1] = max(span[1], index.message_end_time)
-    topics = []
-    for channel_id, channel in sorted(summary.channels.items()):
-        schema = summary.schemas.get(channel.schema_id)
-        span = spans.get(channel_id)
-        topics.append(Topic(channel.topic, schema.name if schema else "",
-                            counts.get(channel_id, 0),
-                            None if span is None else _seconds(span[0]),
-                            None if span is None else _seconds(span[1])))
-    empty = stats.message_count == 0
-    return Contents(path, profile, tuple(topics),
-                    None if empty else _seconds(stats.message_start_time),
-                    None if empty else _seconds(stats.message_end_time), True)
-
-
-def _by_reading(path: Path, profile: str, reader: Any) -> Contents:
+def _by_reading(path: Path, profile: str, reader: Any, closed: bool) -> Contents:
+    """Every topic's count and time span, from reading every message (undecoded): the
+    summary's statistics count messages per channel but do not give a channel's span."""
     found: dict[str, list[Any]] = {}
     for schema, channel, message in reader.iter_messages(log_time_order=False):
         entry = found.setdefault(channel.topic, [schema.name if schema else "", 0, None, None])
@@ -106,4 +80,4 @@ def _by_reading(path: Path, profile: str, reader: Any) -> Contents:
     firsts = [topic.first for topic in topics if topic.first is not None]
     lasts = [topic.last for topic in topics if topic.last is not None]
     return Contents(path, profile, topics, min(firsts, default=None), max(lasts, default=None),
-                    False)
+                    closed)

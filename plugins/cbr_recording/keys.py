@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 from cbrcore.stash import StashKey
 
 if TYPE_CHECKING:
-    from cbr_recording.recorder import Recorder
+    pass
 
 RECORDER = StashKey["Recorder"]()
 """The run's :class:`~cbr_recording.recorder.Recorder`, present while the run is recorded."""

@@ -1,19 +1,18 @@
 """ROS 2 messages built from plain values, with the types of the ROS 2 Humble type store.
 
-Every type is a standard ROS 2 message type except :data:`DECISION` and :data:`PHASE`,
-cbrcore's own, whose definitions travel in the recording as every schema does (Foxglove and the MCAP tools read it
+Every type is a standard ROS 2 message type except :data:`DECISION`, cbrcore's own, whose
+definition travels in the recording as every schema does (Foxglove and the MCAP tools read it
 from there).
 """
 
 from __future__ import annotations
 
-import json
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from cbr_recording.markers import KINDS, Clear, Marker
 
@@ -37,36 +36,21 @@ uint32 retrieved
 string fallback_reason
 # what the family made of the answer, in words: the behaviors installed, the action taken
 string action
+# the wall time the engine took to answer (retrieve to the fallback solver), in milliseconds
+float64 plan_ms
+# each phase the engine ran, in order: its wall time and what it answered
+string phases
 # the family's detail as one JSON object
 string detail
-"""
-
-PHASE = "cbrcore_msgs/msg/Phase"
-"""The type of one phase call of the engine."""
-
-PHASE_DEFINITION = """\
-# One phase call of the CBR engine (retrieve, reuse, revise or solve) and what it answered.
-builtin_interfaces/Time stamp
-# the consultation's number in the run: the query column of results.csv
-uint32 query
-# retrieve, reuse, revise or solve
-string phase
-# wall time the configured component took
-float64 milliseconds
-# what it answered, in words (empty when it answered nothing)
-string outcome
-# the exception it raised (empty when none)
-string error
 """
 
 _ADD, _DELETEALL = 0, 3
 
 
 def typestore() -> Any:
-    """The ROS 2 Humble type store with cbrcore's :data:`DECISION` and :data:`PHASE` added."""
+    """The ROS 2 Humble type store with cbrcore's :data:`DECISION` added."""
     store = get_typestore(Stores.ROS2_HUMBLE)
     store.register(get_types_from_msg(DECISION_DEFINITION, DECISION))
-    store.register(get_types_from_msg(PHASE_DEFINITION, PHASE))
     return store
 
 
@@ -102,20 +86,6 @@ class Messages:
         return self._pose(position=self._point(x=float(x), y=float(y), z=0.0),
                           orientation=self.quaternion(float(yaw)))
 
-    def pose_stamped(self, ns: int, frame: str, x: float, y: float, yaw: float) -> Any:
-        return self._pose_stamped(header=self.header(ns, frame), pose=self.pose(x, y, yaw))
-
-    def path(self, ns: int, frame: str, points: np.ndarray) -> Any:
-        """A ``nav_msgs/msg/Path`` through ``points`` (n, 2), each pose facing the next."""
-        points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-        step = np.diff(points, axis=0)
-        yaw = np.arctan2(step[:, 1], step[:, 0]) if len(step) else np.zeros(0)
-        yaw = np.append(yaw, yaw[-1] if len(yaw) else 0.0)
-        header = self.header(ns, frame)
-        poses = [self._pose_stamped(header=header, pose=self.pose(x, y, a))
-                 for (x, y), a in zip(points.tolist(), yaw.tolist(), strict=True)]
-        return self.types["nav_msgs/msg/Path"](header=header, poses=poses)
-
     def occupancy_grid(self, ns: int, frame: str, data: np.ndarray, resolution: float,
                        origin: tuple[float, float, float]) -> Any:
         """A ``nav_msgs/msg/OccupancyGrid`` of ``data`` (rows from the lower left, int8: -1
@@ -127,17 +97,6 @@ class Messages:
         return self.types["nav_msgs/msg/OccupancyGrid"](
             header=self.header(ns, frame), info=info,
             data=np.ascontiguousarray(data, dtype=np.int8).ravel())
-
-    def transform(self, ns: int, parent: str, child: str, x: float, y: float,
-                  yaw: float) -> Any:
-        """A ``tf2_msgs/msg/TFMessage`` holding the one transform ``parent`` -> ``child``."""
-        t = self.types
-        transform = t["geometry_msgs/msg/Transform"](
-            translation=self._vector(x=float(x), y=float(y), z=0.0),
-            rotation=self.quaternion(float(yaw)))
-        stamped = t["geometry_msgs/msg/TransformStamped"](
-            header=self.header(ns, parent), child_frame_id=child, transform=transform)
-        return t["tf2_msgs/msg/TFMessage"](transforms=[stamped])
 
     def odometry(self, ns: int, frame: str, child: str, x: float, y: float, yaw: float,
                  v: float, w: float) -> Any:
@@ -176,8 +135,8 @@ class Messages:
         else:
             kind, action = KINDS[item.kind], _ADD
         seconds = float(item.lifetime)
-        lifetime = self._duration(sec=int(seconds), nanosec=int(round(
-            (seconds - int(seconds)) * 1e9)))
+        lifetime = self._duration(sec=int(seconds),
+                                  nanosec=round((seconds - int(seconds)) * 1e9))
         points = [self._point(x=x, y=y, z=z) for x, y, z in item.points.tolist()]
         colors = ([] if item.colors is None
                   else [self._rgba(c) for c in np.asarray(item.colors, dtype=float).tolist()])
@@ -195,17 +154,3 @@ class Messages:
     def marker_array(self, ns: int, items: Sequence[Marker | Clear]) -> Any:
         return self.types["visualization_msgs/msg/MarkerArray"](
             markers=[self.marker(ns, item) for item in items])
-
-    def decision(self, ns: int, *, query: int, source: str, case_id: str, similarity: float,
-                 retrieved: int, fallback_reason: str, action: str,
-                 detail: Mapping[str, Any]) -> Any:
-        return self.types[DECISION](
-            stamp=self.stamp(ns), query=int(query), source=source, case_id=case_id,
-            similarity=float(similarity), retrieved=int(retrieved),
-            fallback_reason=fallback_reason, action=action,
-            detail=json.dumps(dict(detail), default=str, sort_keys=True))
-
-    def phase(self, ns: int, *, query: int, phase: str, milliseconds: float, outcome: str,
-              error: str) -> Any:
-        return self.types[PHASE](stamp=self.stamp(ns), query=int(query), phase=phase,
-                                 milliseconds=float(milliseconds), outcome=outcome, error=error)

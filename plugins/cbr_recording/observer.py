@@ -1,8 +1,9 @@
 """The ``record`` observer: the run recorded as MCAP with ROS 2 message types.
 
-It opens the recording when the engine is built, leaves the :class:`~cbr_recording.recorder.
-Recorder` in the stash for the families, which record their world, robot and decisions on it,
-and records each planning phase call itself on ``/cbr/phase``. ``cbr run --record FILE`` adds it.
+It opens the recording when the engine is built and leaves the
+:class:`~cbr_recording.recorder.Recorder` in the stash for the families, which record their
+world, robot and decisions on it; around each planning phase it notes the phase's wall time and
+answer, which the consultation's decision message lists. ``cbr run --record FILE`` adds it.
 """
 
 from __future__ import annotations
@@ -20,7 +21,6 @@ from cbr_recording.keys import RECORDER
 from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.hookspecs import hookimpl
-from cbrcore.model import Retrieval, Revision, Solution
 from cbrcore.options import OutputPath, in_run_folder, option
 
 
@@ -51,20 +51,6 @@ class RecordOptions:
                 raise ValueError(str(exc)) from None
 
 
-def _outcome(result: Any) -> str:
-    if isinstance(result, Retrieval):
-        if not result.matches:
-            return "no case" + (f": {result.reason}" if result.reason else "")
-        best = result.matches[0]
-        return f"{len(result.matches)} cases, best {best.case.id} ({best.similarity:.3f})"
-    if isinstance(result, Solution):
-        cases = ", ".join(str(case) for case in result.cases)
-        return f"cost {result.cost:.6g}" + (f" from {cases}" if cases else "")
-    if isinstance(result, Revision):
-        return "accepted" if result.accepted else f"rejected: {result.reason}"
-    return ""
-
-
 class Record:
     """Record the run into ``file`` (see :class:`RecordOptions`)."""
 
@@ -77,18 +63,16 @@ class Record:
 
     def _watch(self, phase: str, ctx: Context) -> Generator[None, Any, Any]:
         started = time.perf_counter()
-        outcome, error = "", ""
+        result, error = None, ""
         try:
             result = yield
         except BaseException as exc:
             error = f"{type(exc).__name__}: {exc}"
             raise
         else:
-            outcome = _outcome(result)
             return result
         finally:
-            self.recorder.phase(ctx.step, phase, (time.perf_counter() - started) * 1000,
-                                outcome, error)
+            self.recorder.note(ctx.step, phase, time.perf_counter() - started, result, error)
 
     @hookimpl(wrapper=True)
     def cbr_retrieve(self, ctx: Context) -> Generator[None, Any, Any]:

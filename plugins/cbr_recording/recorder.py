@@ -18,6 +18,8 @@ only a recording that was closed has its index and statistics.
 
 from __future__ import annotations
 
+import json
+import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import IO, Any
@@ -25,11 +27,15 @@ from typing import IO, Any
 import numpy as np
 from mcap.writer import CompressionType, Writer
 
+from cbr_recording import cdr
 from cbr_recording.files import check_path
 from cbr_recording.markers import Clear, Marker
-from cbr_recording.messages import Messages, typestore
-from cbrcore.model import Proposal
+from cbr_recording.messages import DECISION, Messages, typestore
 from cbrcore.errors import CbrError
+from cbrcore.model import Proposal, Retrieval, Revision, Solution
+
+PLANNING = ("retrieve", "reuse", "revise", "solve")
+"""The phases of a consultation, whose time is the time to answer it."""
 
 PROFILE = "ros2"
 LIBRARY = "cbrcore"
@@ -55,6 +61,21 @@ _LATCHED_QOS = """\
 """
 
 
+def describe(result: Any) -> str:
+    """A phase's answer in words."""
+    if isinstance(result, Retrieval):
+        if not result.matches:
+            return "no case" + (f" ({result.reason})" if result.reason else "")
+        best = result.matches[0]
+        return f"{len(result.matches)} cases, best {best.case.id} ({best.similarity:.3f})"
+    if isinstance(result, Solution):
+        cases = ", ".join(str(case) for case in result.cases)
+        return f"cost {result.cost:.6g}" + (f" from {cases}" if cases else "")
+    if isinstance(result, Revision):
+        return "accepted" if result.accepted else f"rejected: {result.reason}"
+    return "nothing"
+
+
 class Recorder:
     """Writes ROS 2 messages to the MCAP file ``path``; close it (or use it as a context
     manager) to write the file's index.
@@ -67,7 +88,7 @@ class Recorder:
         if not (rate > 0 and np.isfinite(rate)):
             raise CbrError(f"recording rate must be a finite number > 0, got {rate!r}")
         check_path(path, force=force)
-        self.path = path
+        self.file = path
         path.parent.mkdir(parents=True, exist_ok=True)
         try:
             self._file: IO[bytes] = path.open("wb" if force else "xb")
@@ -87,6 +108,8 @@ class Recorder:
         self._t = 0.0
         self._end: float | None = None
         self.episodes = 0
+        self._noted_query = -1
+        self._notes: list[tuple[str, float, Any, str]] = []
         self.closed = False
 
     # -- time -----------------------------------------------------------------------------
@@ -124,7 +147,7 @@ class Recorder:
         if known is not None:
             channel, kind = known
             if kind != msgtype:
-                raise CbrError(f"recording {self.path}: topic {topic} carries {kind}, not "
+                raise CbrError(f"recording {self.file}: topic {topic} carries {kind}, not "
                                f"{msgtype}")
             return channel
         schema = self._schemas.get(msgtype)
@@ -141,12 +164,15 @@ class Recorder:
         """Write a message of the type store (``self.messages`` builds them) on ``topic`` at
         :attr:`now`."""
         msgtype = message.__msgtype__
+        self._write(topic, msgtype, bytes(self._store.serialize_cdr(message, msgtype)), latched)
+
+    def _write(self, topic: str, msgtype: str, data: bytes, latched: bool = False) -> None:
         channel = self._channel(topic, msgtype, latched)
         ns = self._ns()
         sequence = self._sequence.get(channel, 0)
         self._sequence[channel] = sequence + 1
         self._writer.add_message(channel, log_time=ns, publish_time=ns, sequence=sequence,
-                                 data=bytes(self._store.serialize_cdr(message, msgtype)))
+                                 data=data)
         self._end = self.now if self._end is None else max(self._end, self.now)
 
     def _ns(self) -> int:
@@ -162,16 +188,23 @@ class Recorder:
                                                        origin), latched=latched)
 
     def path(self, topic: str, points: np.ndarray, *, frame: str = "map") -> None:
-        """A path through ``points`` (n, 2) metres."""
-        self.write(topic, self.messages.path(self._ns(), frame, points))
+        """A path through ``points`` (n, 2) metres, each pose facing the next."""
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        sec, nanosec = divmod(self._ns(), 1_000_000_000)
+        self._write(topic, "nav_msgs/msg/Path",
+                    cdr.path(sec, nanosec, frame, points, cdr.headings(points)))
 
     def pose(self, topic: str, x: float, y: float, yaw: float, *, frame: str = "map") -> None:
-        self.write(topic, self.messages.pose_stamped(self._ns(), frame, x, y, yaw))
+        sec, nanosec = divmod(self._ns(), 1_000_000_000)
+        self._write(topic, "geometry_msgs/msg/PoseStamped",
+                    cdr.pose_stamped(sec, nanosec, frame, float(x), float(y), float(yaw)))
 
     def transform(self, x: float, y: float, yaw: float, *, parent: str = "map",
                   child: str = "base_link") -> None:
         """The pose of ``child`` in ``parent`` on ``/tf``."""
-        self.write("/tf", self.messages.transform(self._ns(), parent, child, x, y, yaw))
+        sec, nanosec = divmod(self._ns(), 1_000_000_000)
+        self._write("/tf", "tf2_msgs/msg/TFMessage",
+                    cdr.transform(sec, nanosec, parent, child, float(x), float(y), float(yaw)))
 
     def odometry(self, topic: str, x: float, y: float, yaw: float, v: float, w: float, *,
                  frame: str = "map", child: str = "base_link") -> None:
@@ -187,6 +220,14 @@ class Recorder:
                 latched: bool = False) -> None:
         self.write(topic, self.messages.marker_array(self._ns(), items), latched=latched)
 
+    def note(self, query: int, phase: str, seconds: float, result: Any,
+             error: str = "") -> None:
+        """What a planning phase of consultation ``query`` answered (the ``record`` observer
+        notes each), for the consultation's decision message."""
+        if query != self._noted_query:
+            self._noted_query, self._notes = query, []
+        self._notes.append((phase, seconds, result, error))
+
     def decision(self, query: int, proposal: Proposal, *, action: str = "",
                  detail: Mapping[str, Any] | None = None) -> None:
         """Consultation ``query`` of the engine and its ``proposal`` on ``/cbr/decision``
@@ -194,19 +235,20 @@ class Recorder:
         and ``detail`` as JSON."""
         matches = proposal.retrieval.matches if proposal.retrieval is not None else ()
         best = matches[0] if matches else None
-        self.write("/cbr/decision", self.messages.decision(
-            self._ns(), query=query, source=proposal.source,
-            case_id="" if best is None else str(best.case.id),
-            similarity=float("nan") if best is None else best.similarity,
-            retrieved=len(matches), fallback_reason=proposal.fallback_reason or "",
-            action=action, detail=detail or {}))
-
-    def phase(self, query: int, phase: str, milliseconds: float, outcome: str,
-              error: str = "") -> None:
-        """One phase call of the engine on ``/cbr/phase`` (cbrcore's ``Phase`` type)."""
-        self.write("/cbr/phase", self.messages.phase(
-            self._ns(), query=query, phase=phase, milliseconds=milliseconds, outcome=outcome,
-            error=error))
+        notes = self._notes if query == self._noted_query else []
+        phases = "; ".join(
+            f"{phase} {seconds * 1000:.3f} ms: " + (error or describe(result))
+            for phase, seconds, result, error in notes)
+        sec, nanosec = divmod(self._ns(), 1_000_000_000)
+        self._write("/cbr/decision", DECISION, cdr.flat([
+            ("int32", sec), ("uint32", nanosec), ("uint32", query),
+            ("string", proposal.source), ("string", "" if best is None else best.case.id),
+            ("float64", math.nan if best is None else best.similarity),
+            ("uint32", len(matches)), ("string", proposal.fallback_reason or ""),
+            ("string", action),
+            ("float64", 1000.0 * sum(proposal.timings.get(p, 0.0) for p in PLANNING)),
+            ("string", phases),
+            ("string", json.dumps(dict(detail or {}), default=str, sort_keys=True))]))
 
     def close(self) -> None:
         """Write the file's index and statistics and close it; idempotent."""
