@@ -18,7 +18,6 @@ only a recording that was closed has its index and statistics.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -30,7 +29,7 @@ from mcap.writer import CompressionType, Writer
 from cbr_recording import cdr
 from cbr_recording.files import check_path
 from cbr_recording.markers import Clear, Marker
-from cbr_recording.messages import DECISION, Messages, typestore
+from cbr_recording.messages import DECISION, typestore
 from cbrcore.errors import CbrError
 from cbrcore.model import Proposal, Retrieval, Revision, Solution
 
@@ -96,7 +95,6 @@ class Recorder:
             raise CbrError(f"--record {path}: cannot be written ({exc.strerror or exc})"
                            ) from exc
         self._store = typestore()
-        self.messages = Messages(self._store)
         self._writer = Writer(self._file, compression=CompressionType.ZSTD)
         self._writer.start(profile=PROFILE, library=LIBRARY)
         self._schemas: dict[str, int] = {}
@@ -160,12 +158,6 @@ class Recorder:
         self._channels[topic] = (channel, msgtype)
         return channel
 
-    def write(self, topic: str, message: Any, *, latched: bool = False) -> None:
-        """Write a message of the type store (``self.messages`` builds them) on ``topic`` at
-        :attr:`now`."""
-        msgtype = message.__msgtype__
-        self._write(topic, msgtype, bytes(self._store.serialize_cdr(message, msgtype)), latched)
-
     def _write(self, topic: str, msgtype: str, data: bytes, latched: bool = False) -> None:
         channel = self._channel(topic, msgtype, latched)
         ns = self._ns()
@@ -173,52 +165,62 @@ class Recorder:
         self._sequence[channel] = sequence + 1
         self._writer.add_message(channel, log_time=ns, publish_time=ns, sequence=sequence,
                                  data=data)
-        self._end = self.now if self._end is None else max(self._end, self.now)
+        now = self._offset + self._t
+        if self._end is None or now > self._end:
+            self._end = now
 
     def _ns(self) -> int:
-        return round(self.now * 1e9)
+        return round((self._offset + self._t) * 1e9)
 
     # -- the vocabulary families use ------------------------------------------------------
 
     def grid(self, topic: str, data: np.ndarray, resolution: float,
              origin: tuple[float, float, float] = (0.0, 0.0, 0.0), *, frame: str = "map",
              latched: bool = False) -> None:
-        """An occupancy grid: ``data`` int8 rows from the lower left (-1 unknown, 0..100)."""
-        self.write(topic, self.messages.occupancy_grid(self._ns(), frame, data, resolution,
-                                                       origin), latched=latched)
+        """``nav_msgs/msg/OccupancyGrid``: ``data`` int8 rows from the lower left (-1 unknown,
+        0..100 occupied), ``resolution`` metres a cell, ``origin`` the pose (x, y, yaw) of its
+        lower-left corner."""
+        self._write(topic, "nav_msgs/msg/OccupancyGrid",
+                    cdr.occupancy_grid(self._ns(), frame, data, resolution, origin), latched)
 
     def path(self, topic: str, points: np.ndarray, *, frame: str = "map") -> None:
-        """A path through ``points`` (n, 2) metres, each pose facing the next."""
+        """``nav_msgs/msg/Path`` through ``points`` (n, 2) metres, each pose facing the
+        next."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-        sec, nanosec = divmod(self._ns(), 1_000_000_000)
         self._write(topic, "nav_msgs/msg/Path",
-                    cdr.path(sec, nanosec, frame, points, cdr.headings(points)))
+                    cdr.path(self._ns(), frame, points, cdr.headings(points)))
 
     def pose(self, topic: str, x: float, y: float, yaw: float, *, frame: str = "map") -> None:
-        sec, nanosec = divmod(self._ns(), 1_000_000_000)
+        """``geometry_msgs/msg/PoseStamped``."""
         self._write(topic, "geometry_msgs/msg/PoseStamped",
-                    cdr.pose_stamped(sec, nanosec, frame, float(x), float(y), float(yaw)))
+                    cdr.pose_stamped(self._ns(), frame, float(x), float(y), float(yaw)))
 
     def transform(self, x: float, y: float, yaw: float, *, parent: str = "map",
                   child: str = "base_link") -> None:
-        """The pose of ``child`` in ``parent`` on ``/tf``."""
-        sec, nanosec = divmod(self._ns(), 1_000_000_000)
+        """The pose of ``child`` in ``parent`` on ``/tf`` (``tf2_msgs/msg/TFMessage``)."""
         self._write("/tf", "tf2_msgs/msg/TFMessage",
-                    cdr.transform(sec, nanosec, parent, child, float(x), float(y), float(yaw)))
+                    cdr.transform(self._ns(), parent, child, float(x), float(y), float(yaw)))
 
     def odometry(self, topic: str, x: float, y: float, yaw: float, v: float, w: float, *,
                  frame: str = "map", child: str = "base_link") -> None:
-        self.write(topic, self.messages.odometry(self._ns(), frame, child, x, y, yaw, v, w))
+        """``nav_msgs/msg/Odometry``: an estimated pose and the speed and turn rate."""
+        self._write(topic, "nav_msgs/msg/Odometry",
+                    cdr.odometry(self._ns(), frame, child, float(x), float(y), float(yaw),
+                                 float(v), float(w)))
 
     def scan(self, topic: str, angle_min: float, increment: float, ranges: np.ndarray,
              range_min: float, range_max: float, scan_time: float, *,
              frame: str = "base_link") -> None:
-        self.write(topic, self.messages.laser_scan(self._ns(), frame, angle_min, increment,
-                                                   ranges, range_min, range_max, scan_time))
+        """``sensor_msgs/msg/LaserScan``: ``ranges`` at ``angle_min + k * increment``."""
+        self._write(topic, "sensor_msgs/msg/LaserScan",
+                    cdr.laser_scan(self._ns(), frame, angle_min, increment, ranges, range_min,
+                                   range_max, scan_time))
 
     def markers(self, topic: str, items: Sequence[Marker | Clear], *,
                 latched: bool = False) -> None:
-        self.write(topic, self.messages.marker_array(self._ns(), items), latched=latched)
+        """``visualization_msgs/msg/MarkerArray``."""
+        self._write(topic, "visualization_msgs/msg/MarkerArray",
+                    cdr.marker_array(self._ns(), items), latched)
 
     def note(self, query: int, phase: str, seconds: float, result: Any,
              error: str = "") -> None:
@@ -239,16 +241,14 @@ class Recorder:
         phases = "; ".join(
             f"{phase} {seconds * 1000:.3f} ms: " + (error or describe(result))
             for phase, seconds, result, error in notes)
-        sec, nanosec = divmod(self._ns(), 1_000_000_000)
-        self._write("/cbr/decision", DECISION, cdr.flat([
-            ("int32", sec), ("uint32", nanosec), ("uint32", query),
-            ("string", proposal.source), ("string", "" if best is None else best.case.id),
-            ("float64", math.nan if best is None else best.similarity),
-            ("uint32", len(matches)), ("string", proposal.fallback_reason or ""),
-            ("string", action),
-            ("float64", 1000.0 * sum(proposal.timings.get(p, 0.0) for p in PLANNING)),
-            ("string", phases),
-            ("string", json.dumps(dict(detail or {}), default=str, sort_keys=True))]))
+        self._write("/cbr/decision", DECISION, cdr.decision(
+            self._ns(), query=query, source=proposal.source,
+            case_id="" if best is None else str(best.case.id),
+            similarity=math.nan if best is None else best.similarity,
+            retrieved=len(matches), fallback_reason=proposal.fallback_reason or "",
+            action=action,
+            plan_ms=1000.0 * sum(proposal.timings.get(p, 0.0) for p in PLANNING),
+            phases=phases, detail=detail or {}))
 
     def close(self) -> None:
         """Write the file's index and statistics and close it; idempotent."""
