@@ -48,6 +48,7 @@ from cbr_behaviors.casetypes import freeze
 from cbr_behaviors.moment import CaseChoice, InstallBehaviors, InstallPlan, Moment, SpellReport
 from cbr_behaviors.triggers import TriggerOptions
 from cbr_grid.planning import planner_problem
+from cbr_recording.keys import RECORDER
 from cbr_world2d.pilots import PILOT, BehaviorPilot, parse_behavior_set
 from cbr_world2d.pilots.monitor import STUCK
 from cbr_world2d.pilots.primitives import COLLISION_ARC
@@ -259,7 +260,8 @@ class Delivery:
         self._installed_name = DEFAULT_SET
         sim = Simulation(self.world, spec, sensors.fitted(spec.radius), Navigator(self.pilot),
                          Pose(*self.home, 0.0), self.home, dt=0.1, rng=rng,
-                         tolerance=o.waypoint, capacity=int(o.length / 0.1) + 2)
+                         tolerance=o.waypoint, capacity=int(o.length / 0.1) + 2,
+                         recorder=self.ctx.stash.get(RECORDER, None))
         gmap = GlobalMap(self.world, fade=o.fade, robot_radius=spec.radius, plan_cell=o.cell)
         if self.planner is None:
             self.planner = self._planner(gmap)
@@ -373,6 +375,11 @@ class Delivery:
             raise PluginError(f"workload 'delivery': the proposal for query {decision.index} "
                               f"is a {type(value).__name__}, expected InstallBehaviors or "
                               "InstallPlan (cbr_behaviors.moment)")
+        recorder = self.ctx.stash.get(RECORDER, None)
+        if recorder is not None:
+            recorder.decision(decision.index, decision.proposal, action=_action(value),
+                              detail={"fired": list(fired), "kind": kind,
+                                      "installed": self._installed_name})
         if state.log is not None:
             similarity = 1.0 - (choice.distance if isinstance(choice, CaseChoice) else math.nan)
             adapted = isinstance(value, InstallBehaviors) and value.adapted is not None
@@ -542,6 +549,8 @@ class _DayState:
         self.steps = steps if chosen is not None else ()
         self.route_total = self.remaining(at)
         self._door_t = -math.inf  # a new route: look again
+        if self.sim.recording is not None:
+            self.sim.recording.route([at, *self.route])
 
     def remaining(self, at: Point) -> float:
         """Metres of route left from ``at``."""
@@ -705,6 +714,18 @@ class _DayState:
                         plan_installed=self.plan_installed, distance=self.sim.distance,
                         target=self.target, status=status, situation=self.situation(obs),
                         waiting=self.waiting(obs), busy=self.goal is not None)
+
+
+def _action(value: Any) -> str:
+    """A consultation's answer in words, for a recording's decision."""
+    if isinstance(value, InstallBehaviors):
+        behaviors = ", ".join(str(item[0][0]) for item in value.behaviors)
+        adapted = " (adapted)" if value.adapted is not None else ""
+        return f"install {value.name}{adapted}: {behaviors}"
+    if isinstance(value, InstallPlan):
+        localize = ", localize first" if value.localize else ""
+        return f"plan {value.name} via {', '.join(value.route) or 'no place'}{localize}"
+    return "keep the installed behaviors"
 
 
 def _length(route: list[Point]) -> float:

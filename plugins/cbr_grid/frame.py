@@ -81,7 +81,11 @@ class MapFrame:
     def to_map(self, cells: ArrayLike, height: int) -> np.ndarray:
         """The map-frame points (metres), (n, 2), at the centres of ``cells`` (x, y) of a grid
         ``height`` rows high. Fractional cells are allowed: (x, y) + (0.5, 0.5) is a corner."""
-        xy = _points(cells, "cells")
+        return self.centres(_points(cells, "cells"), height)
+
+    def centres(self, xy: np.ndarray, height: int) -> np.ndarray:
+        """:meth:`to_map` of an (n, 2) float array already checked (a path's own cells),
+        without the checks, which cost more than the conversion on a short path."""
         # along the image's axes, in metres from its lower-left corner
         u = (xy[:, 0] + 0.5) * self.resolution
         v = (height - xy[:, 1] - 0.5) * self.resolution

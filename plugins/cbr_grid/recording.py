@@ -37,8 +37,9 @@ def frame_of(grid: Grid) -> MapFrame:
 
 
 def in_metres(grid: Grid, cells: np.ndarray) -> np.ndarray:
-    """The (n, 2) map-frame points of ``cells`` (x, y) of ``grid``."""
-    return frame_of(grid).to_map(np.asarray(cells).reshape(-1, 2), grid.height)
+    """The (n, 2) map-frame points of the centres of ``cells`` (x, y) of ``grid``."""
+    xy = np.asarray(cells, dtype=np.float64).reshape(-1, 2)
+    return frame_of(grid).centres(xy, grid.height)
 
 
 def occupancy(grid: Grid) -> np.ndarray:
@@ -95,6 +96,7 @@ class TripRecording:
     def trip(self, recorder: Recorder, grid: Grid, query: int, problem: GridQuery,
              proposal: Proposal, report: DriveReport | None, collision_time: float) -> None:
         """The consultation, its plan, the drive and the obstacles met, at the trip's times."""
+        from cbr_recording.cdr import headings
         from cbr_recording.markers import Clear
 
         recorder.at(0.0)
@@ -102,24 +104,28 @@ class TripRecording:
         action = "no path" if solution is None else (
             f"path of {len(solution.value)} cells, cost {solution.cost:.6g}")
         recorder.decision(query, proposal, action=action, detail={
-            "start": list(problem.start), "goal": list(problem.goal),
-            "cost": None if solution is None else solution.cost,
-            "segments": [] if solution is None else list(solution.cases)})
+            "start": list(problem.start), "goal": list(problem.goal)})
+        driven = None if report is None else report.driven
         if solution is not None:
-            recorder.path("/plan", in_metres(grid, np.asarray(solution.value)))
+            plan = np.asarray(solution.value)
+            if driven is not None and plan.shape == driven.shape and (plan == driven).all():
+                plan = driven  # driven as planned: its metres and headings serve both
+            points = in_metres(grid, plan)
+            yaws = headings(points)
+            recorder.path("/plan", points, yaws)
         if report is None:
             return
-        driven = report.driven
-        points = in_metres(grid, driven)
+        if driven is not plan:
+            points = in_metres(grid, driven)
+            yaws = headings(points)
         times, stopped = _drive_times(driven, report.stops, collision_time)
-        yaws = _headings(points)
-        for i in _turns(driven, stopped).tolist():
+        for i in _moments(driven, stopped).tolist():
             recorder.at(float(times[i]))
             if recorder.due("/robot/pose"):
                 x, y = points[i].tolist()
                 recorder.pose("/robot/pose", x, y, float(yaws[i]))
                 recorder.transform(x, y, float(yaws[i]))
-        recorder.path("/driven", points)
+        recorder.path("/driven", points, yaws)
         # drawn when the robot met something, and cleared on the next trip
         if report.met or self._met_shown:
             items: list[Marker | Clear] = [Clear()]
@@ -129,22 +135,11 @@ class TripRecording:
             self._met_shown = bool(report.met)
 
 
-def _headings(points: np.ndarray) -> np.ndarray:
-    """The robot's heading on each cell: towards the next, the last as the one before."""
-    step = np.diff(points, axis=0)
-    if not len(step):
-        return np.zeros(len(points))
-    yaws = np.arctan2(step[:, 1], step[:, 0])
-    return np.append(yaws, yaws[-1])
-
-
-def _turns(driven: np.ndarray, stopped: np.ndarray) -> np.ndarray:
-    """The indices of ``driven`` where the robot's pose is recorded: the start, each cell
-    where its direction changes, each stop and the end. Between two of them it drives
-    straight, so the poses there add nothing a viewer needs."""
-    step = np.diff(driven, axis=0)
-    turning = np.flatnonzero((step[1:] != step[:-1]).any(axis=1)) + 1
-    return np.unique(np.concatenate(([0, len(driven) - 1], turning, stopped)).astype(np.int64))
+def _moments(driven: np.ndarray, stopped: np.ndarray) -> np.ndarray:
+    """The indices of ``driven`` where the robot's pose is recorded: the start, each stop
+    and the end. Between two of them it follows its plan of the moment (``/driven`` draws
+    it), so poses there would add messages but no news."""
+    return np.unique(np.concatenate(([0, len(driven) - 1], stopped)).astype(np.int64))
 
 
 def _drive_times(driven: np.ndarray, stops: tuple[tuple[int, int], ...],

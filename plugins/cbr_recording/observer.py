@@ -40,7 +40,7 @@ class RecordOptions:
         "the run's output folder.")
     force: bool = option(False, "Replace the file if it exists (else the run is refused).")
     rate: float = option(
-        10.0, "The most messages a second of simulation time on the fast topics (the robot's "
+        5.0, "The most messages a second of simulation time on the fast topics (the robot's "
         "pose and transform, odometry, sonar, people).", validator=_rate)
 
     def __attrs_post_init__(self) -> None:

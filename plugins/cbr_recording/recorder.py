@@ -69,10 +69,31 @@ def describe(result: Any) -> str:
         return f"{len(result.matches)} cases, best {best.case.id} ({best.similarity:.3f})"
     if isinstance(result, Solution):
         cases = ", ".join(str(case) for case in result.cases)
-        return f"cost {result.cost:.6g}" + (f" from {cases}" if cases else "")
+        cost = "a solution" if result.cost is None else f"cost {result.cost:.6g}"
+        return cost + (f" from {cases}" if cases else "")
     if isinstance(result, Revision):
         return "accepted" if result.accepted else f"rejected: {result.reason}"
     return "nothing"
+
+
+class Channel:
+    """One topic of a recording, written at the recorder's current time."""
+
+    __slots__ = ("_recorder", "_sequence", "id")
+
+    def __init__(self, recorder: Recorder, channel_id: int) -> None:
+        self._recorder = recorder
+        self.id = channel_id
+        self._sequence = 0
+
+    def write(self, data: bytes) -> None:
+        """Write one message's CDR bytes."""
+        recorder = self._recorder
+        stamp = recorder._stamp
+        recorder._writer.add_message(self.id, stamp, data, stamp, self._sequence)
+        self._sequence += 1
+        if stamp > recorder._end:
+            recorder._end = stamp
 
 
 class Recorder:
@@ -83,7 +104,7 @@ class Recorder:
     second of simulation time that :meth:`due` lets through per topic.
     """
 
-    def __init__(self, path: Path, *, force: bool = False, rate: float = 10.0) -> None:
+    def __init__(self, path: Path, *, force: bool = False, rate: float = 5.0) -> None:
         if not (rate > 0 and np.isfinite(rate)):
             raise CbrError(f"recording rate must be a finite number > 0, got {rate!r}")
         check_path(path, force=force)
@@ -95,16 +116,17 @@ class Recorder:
             raise CbrError(f"--record {path}: cannot be written ({exc.strerror or exc})"
                            ) from exc
         self._store = typestore()
-        self._writer = Writer(self._file, compression=CompressionType.ZSTD)
+        self._writer = Writer(self._file, compression=CompressionType.LZ4)
         self._writer.start(profile=PROFILE, library=LIBRARY)
         self._schemas: dict[str, int] = {}
-        self._channels: dict[str, tuple[int, str]] = {}
-        self._sequence: dict[int, int] = {}
+        self._channels: dict[str, tuple[Channel, str]] = {}
         self._period = 1.0 / rate
         self._last: dict[str, float] = {}
         self._offset = 0.0
         self._t = 0.0
-        self._end: float | None = None
+        self._stamp = 0
+        self._end = -1
+        self._templates: dict[object, Any] = {}
         self.episodes = 0
         self._noted_query = -1
         self._notes: list[tuple[str, float, Any, str]] = []
@@ -115,23 +137,24 @@ class Recorder:
     @property
     def now(self) -> float:
         """The time of the next message: the episode's start plus its clock, in seconds."""
-        return self._offset + self._t
+        return self._stamp / 1e9
 
     def episode(self) -> None:
         """Start the next episode, its clock at 0, a second after the last message so far."""
-        if self._end is not None:
-            self._offset = self._end + 1.0
-        self._t = 0.0
+        if self._end >= 0:
+            self._offset = self._end / 1e9 + 1.0
+        self.at(0.0)
         self.episodes += 1
 
     def at(self, t: float) -> None:
         """Set the episode's clock to ``t`` seconds."""
         self._t = float(t)
+        self._stamp = round((self._offset + self._t) * 1e9)
 
     def due(self, topic: str) -> bool:
         """Whether ``topic`` may take a message now at the recording's rate; a True answer
         counts as the topic's message."""
-        now = self.now
+        now = self._stamp / 1e9
         last = self._last.get(topic)
         if last is not None and now - last < self._period - 1e-9:
             return False
@@ -140,7 +163,10 @@ class Recorder:
 
     # -- writing --------------------------------------------------------------------------
 
-    def _channel(self, topic: str, msgtype: str, latched: bool) -> int:
+    def channel(self, topic: str, msgtype: str, latched: bool = False) -> Channel:
+        """The channel of ``topic``, which carries messages of ``msgtype``; a CbrError when
+        the topic carries another type. ``latched`` topics are offered as ``ros2 bag
+        record`` offers a latched one, so that a late subscriber gets the last message."""
         known = self._channels.get(topic)
         if known is not None:
             channel, kind = known
@@ -154,23 +180,18 @@ class Recorder:
             schema = self._schemas[msgtype] = self._writer.register_schema(
                 msgtype, "ros2msg", text.encode())
         metadata = {"offered_qos_profiles": _LATCHED_QOS} if latched else {}
-        channel = self._writer.register_channel(topic, "cdr", schema, metadata)
+        channel = Channel(self, self._writer.register_channel(topic, "cdr", schema, metadata))
         self._channels[topic] = (channel, msgtype)
         return channel
 
     def _write(self, topic: str, msgtype: str, data: bytes, latched: bool = False) -> None:
-        channel = self._channel(topic, msgtype, latched)
-        ns = self._ns()
-        sequence = self._sequence.get(channel, 0)
-        self._sequence[channel] = sequence + 1
-        self._writer.add_message(channel, log_time=ns, publish_time=ns, sequence=sequence,
-                                 data=data)
-        now = self._offset + self._t
-        if self._end is None or now > self._end:
-            self._end = now
+        self.channel(topic, msgtype, latched).write(data)
 
-    def _ns(self) -> int:
-        return round((self._offset + self._t) * 1e9)
+    def _template(self, key: object, make: Any) -> Any:
+        template = self._templates.get(key)
+        if template is None:
+            template = self._templates[key] = make(*key[1:])
+        return template
 
     # -- the vocabulary families use ------------------------------------------------------
 
@@ -181,46 +202,64 @@ class Recorder:
         0..100 occupied), ``resolution`` metres a cell, ``origin`` the pose (x, y, yaw) of its
         lower-left corner."""
         self._write(topic, "nav_msgs/msg/OccupancyGrid",
-                    cdr.occupancy_grid(self._ns(), frame, data, resolution, origin), latched)
+                    cdr.occupancy_grid(self._stamp, frame, data, resolution, origin), latched)
 
-    def path(self, topic: str, points: np.ndarray, *, frame: str = "map") -> None:
-        """``nav_msgs/msg/Path`` through ``points`` (n, 2) metres, each pose facing the
-        next."""
+    def path(self, topic: str, points: np.ndarray, yaws: np.ndarray | None = None, *,
+             frame: str = "map") -> None:
+        """``nav_msgs/msg/Path`` through ``points`` (n, 2) metres, facing ``yaws`` (default:
+        each pose the next, :func:`~cbr_recording.cdr.headings`)."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-        self._write(topic, "nav_msgs/msg/Path",
-                    cdr.path(self._ns(), frame, points, cdr.headings(points)))
+        if yaws is None:
+            yaws = cdr.headings(points)
+        self._write(topic, "nav_msgs/msg/Path", cdr.path(self._stamp, frame, points, yaws))
 
     def pose(self, topic: str, x: float, y: float, yaw: float, *, frame: str = "map") -> None:
         """``geometry_msgs/msg/PoseStamped``."""
         self._write(topic, "geometry_msgs/msg/PoseStamped",
-                    cdr.pose_stamped(self._ns(), frame, float(x), float(y), float(yaw)))
+                    cdr.pose_stamped(self._stamp, frame, float(x), float(y), float(yaw)))
 
     def transform(self, x: float, y: float, yaw: float, *, parent: str = "map",
                   child: str = "base_link") -> None:
         """The pose of ``child`` in ``parent`` on ``/tf`` (``tf2_msgs/msg/TFMessage``)."""
+        template = self._template((cdr.transform_template, parent, child),
+                                  cdr.transform_template)
         self._write("/tf", "tf2_msgs/msg/TFMessage",
-                    cdr.transform(self._ns(), parent, child, float(x), float(y), float(yaw)))
+                    template.fill(self._stamp, cdr.pose_numbers(x, y, yaw)))
 
     def odometry(self, topic: str, x: float, y: float, yaw: float, v: float, w: float, *,
                  frame: str = "map", child: str = "base_link") -> None:
         """``nav_msgs/msg/Odometry``: an estimated pose and the speed and turn rate."""
-        self._write(topic, "nav_msgs/msg/Odometry",
-                    cdr.odometry(self._ns(), frame, child, float(x), float(y), float(yaw),
-                                 float(v), float(w)))
+        template = self._template((cdr.odometry_template, frame, child),
+                                  cdr.odometry_template)
+        self._write(topic, "nav_msgs/msg/Odometry", template.fill(
+            self._stamp, cdr.pose_numbers(x, y, yaw), (v, 0.0, 0.0, 0.0, 0.0, w)))
 
     def scan(self, topic: str, angle_min: float, increment: float, ranges: np.ndarray,
              range_min: float, range_max: float, scan_time: float, *,
              frame: str = "base_link") -> None:
         """``sensor_msgs/msg/LaserScan``: ``ranges`` at ``angle_min + k * increment``."""
-        self._write(topic, "sensor_msgs/msg/LaserScan",
-                    cdr.laser_scan(self._ns(), frame, angle_min, increment, ranges, range_min,
-                                   range_max, scan_time))
+        template = self._template(
+            (cdr.laser_scan_template, frame, angle_min, increment, len(ranges), range_min,
+             range_max, scan_time), cdr.laser_scan_template)
+        self._write(topic, "sensor_msgs/msg/LaserScan", template.fill(self._stamp, ranges))
 
     def markers(self, topic: str, items: Sequence[Marker | Clear], *,
                 latched: bool = False) -> None:
         """``visualization_msgs/msg/MarkerArray``."""
         self._write(topic, "visualization_msgs/msg/MarkerArray",
-                    cdr.marker_array(self._ns(), items), latched)
+                    cdr.marker_array(self._stamp, items), latched)
+
+    def moving(self, topic: str, item: Marker, points: np.ndarray) -> None:
+        """A ``MarkerArray`` of the one marker ``item`` at ``points`` (n, 2) or (n, 3): a
+        marker drawn again and again with new points only (the people present), laid out
+        once (:class:`~cbr_recording.cdr.PointsMarker`)."""
+        template = self._template((cdr.PointsMarker, item), cdr.PointsMarker)
+        xyz = np.zeros((len(points), 3))
+        if len(points):
+            given = np.asarray(points, dtype=np.float64)
+            xyz[:, :given.shape[1]] = given
+        self._write(topic, "visualization_msgs/msg/MarkerArray",
+                    template.fill(self._stamp, xyz))
 
     def note(self, query: int, phase: str, seconds: float, result: Any,
              error: str = "") -> None:
@@ -242,7 +281,7 @@ class Recorder:
             f"{phase} {seconds * 1000:.3f} ms: " + (error or describe(result))
             for phase, seconds, result, error in notes)
         self._write("/cbr/decision", DECISION, cdr.decision(
-            self._ns(), query=query, source=proposal.source,
+            self._stamp, query=query, source=proposal.source,
             case_id="" if best is None else str(best.case.id),
             similarity=math.nan if best is None else best.similarity,
             retrieved=len(matches), fallback_reason=proposal.fallback_reason or "",

@@ -77,6 +77,10 @@ class Divert:
     via: tuple[tuple[float, float], ...] = attrs.field(default=(), converter=tuple)
     _legs: _Legs = attrs.field(factory=_Legs, init=False, eq=False, repr=False)
 
+    def __str__(self) -> str:
+        via = f" via {len(self.via)} waypoints" if self.via else ""
+        return f"divert to ({self.x:.2f}, {self.y:.2f}){via}"
+
     def start(self, simulation: Simulation) -> None:
         self._legs.points = [*self.via, (self.x, self.y)]
         self._legs.deadline = (None if self.give_up is None else

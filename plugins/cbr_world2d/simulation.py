@@ -18,7 +18,7 @@ import concurrent.futures
 import math
 import multiprocessing
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import attrs
 import numpy as np
@@ -37,6 +37,10 @@ from cbrcore.context import Context
 from cbrcore.errors import CbrError
 from cbrcore.options import structure_options
 from cbrcore.registry import Registry
+
+if TYPE_CHECKING:
+    from cbr_recording.recorder import Recorder
+    from cbr_world2d.recording import TrialRecording
 
 REACHED = "reached"
 """A trial's reason when the robot came within the tolerance of its final target."""
@@ -198,13 +202,15 @@ class Simulation:
     robot and returns the new observation. :attr:`events` are the events of the last step;
     :attr:`reached` says whether the robot is within ``tolerance`` of the final ``target``
     (whatever diverting target the navigator is heading for); :meth:`retarget` changes that
-    target mid-run.
+    target mid-run. With a ``recorder`` the simulation is recorded as it steps, an episode of
+    the recording (:mod:`cbr_world2d.recording`).
     """
 
     def __init__(self, world: World, spec: RobotSpec, sensors: Sensors, navigator: Navigator,
                  start: Pose, target: Point, *, dt: float = 0.1,
                  rng: np.random.Generator | None = None, seed: int = 0,
-                 tolerance: float = 0.3, capacity: int = 1024) -> None:
+                 tolerance: float = 0.3, capacity: int = 1024,
+                 recorder: Recorder | None = None) -> None:
         if not (math.isfinite(dt) and dt > 0.0):
             raise ValueError(f"dt must be a finite number > 0, not {dt!r}")
         self.world = world
@@ -235,6 +241,12 @@ class Simulation:
         sensors.reset()
         self.observation: Observation = self._sense(0.0, False)
         self.reached = self._within()
+        self.recording: TrialRecording | None = None
+        """What records the simulation, when it is recorded."""
+        if recorder is not None:
+            from cbr_world2d.recording import TrialRecording
+
+            self.recording = TrialRecording(recorder, self)
 
     def observe(self) -> Observation:
         """What the robot senses now (the observation of the last step, or of the start)."""
@@ -316,6 +328,8 @@ class Simulation:
             self._clocks.append(self.crowd.clocks)
         self.observation = self._sense(t_next, collided)
         self.reached = self._within()
+        if self.recording is not None:
+            self.recording.step(self)
         return self.observation
 
     def result(self, trial: Trial, seed: int) -> TrialResult:
@@ -365,21 +379,23 @@ PilotSource = Pilot | PilotRecipe
 
 def run_trial(world: World, trial: Trial, pilot: PilotSource, *,
               spec: RobotSpec = PIONEER_2DX, sensors: Sensors | None = None, seed: int = 0,
-              navigation: NavigatorOptions | None = None) -> TrialResult:
+              navigation: NavigatorOptions | None = None,
+              recorder: Recorder | None = None) -> TrialResult:
     """Run ``trial`` in ``world`` to its end and return what happened.
 
     The start and target are checked first (:meth:`Trial.check`). ``pilot`` is reset (a
     recipe builds a new one) and driven by a :class:`Navigator` with ``navigation``'s options
     (default: the Rescuer diverts only when asked, 002's baseline). ``sensors`` (default:
     sonar ring, camera, noiseless odometry) are copied and mounted on the robot's rim, so the
-    caller's suite keeps no state from the trial.
+    caller's suite keeps no state from the trial. A ``recorder`` records the trial.
     """
     trial.check(world, spec)
     built = pilot.build(seed) if isinstance(pilot, PilotRecipe) else pilot
     suite = (sensors if sensors is not None else Sensors()).fitted(spec.radius)
     sim = Simulation(world, spec, suite, Navigator(built, navigation), trial.start, trial.target,
                      dt=trial.dt, seed=seed, tolerance=trial.tolerance,
-                     capacity=min(int(trial.timeout / trial.dt) + 2, 1 << 16))
+                     capacity=min(int(trial.timeout / trial.dt) + 2, 1 << 16),
+                     recorder=recorder)
     # the step count bounds the loop, not the clock: t is steps * dt, so this is exact
     last = math.ceil(trial.timeout / trial.dt - 1e-9)
     while not sim.reached and sim.steps < last:

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import attrs
 import numpy as np
 
+from cbr_recording.keys import RECORDER
 from cbr_world2d import PILOT, checks
 from cbr_world2d.actions import TRIAL_ENDED, Action, ActionReport
 from cbr_world2d.landmark_memory import LandmarkMemory, MemoryOptions
@@ -349,7 +350,8 @@ class Trials:
                         pan_rate=math.radians(options.camera.pan_rate))
         sim = Simulation(self.world, self.spec, Sensors(camera=camera).fitted(self.spec.radius),
                          Navigator(self.pilot, options.navigation), trial.start, trial.target,
-                         dt=trial.dt, rng=self.rng.spawn(1)[0], tolerance=trial.tolerance)
+                         dt=trial.dt, rng=self.rng.spawn(1)[0], tolerance=trial.tolerance,
+                         recorder=session.ctx.stash.get(RECORDER, None))
         opened: _Open | None = None
         consultations = 0
         obs = sim.observe()
@@ -398,6 +400,11 @@ class Trials:
             raise PluginError(f"workload 'trials': the proposal for query {decision.index} is "
                               f"a {type(action).__name__}, expected an action of the 2D world "
                               "(cbr_world2d.actions: Divert, or a class with start and ended)")
+        recorder = session.ctx.stash.get(RECORDER, None)
+        if recorder is not None:
+            recorder.decision(decision.index, decision.proposal,
+                              action="go on" if action is None else str(action),
+                              detail={"trial": index, "trigger": trigger})
         opened = _Open(decision, action, sim.t, sim.distance, sim.collisions)
         if action is None:
             # nothing to carry out: what follows is the navigation system's own doing

@@ -158,3 +158,28 @@ def test_decision() -> None:
                        retrieved=4, fallback_reason="", action="went", plan_ms=1.5,
                        phases="retrieve 1 ms: 4 cases", detail=detail)
     assert got == reference(expected)
+
+
+def test_templates_fill_the_encoders_bytes() -> None:
+    tf = cdr.transform_template("map", "base_link")
+    assert tf.fill(NS, cdr.pose_numbers(1.5, -2.0, 0.7)) == cdr.transform(
+        NS, "map", "base_link", 1.5, -2.0, 0.7)
+    odometry = cdr.odometry_template("odom", "base_link")
+    assert odometry.fill(NS, cdr.pose_numbers(1.0, 2.0, 0.5), (0.4, 0, 0, 0, 0, -0.2)) == (
+        cdr.odometry(NS, "odom", "base_link", 1.0, 2.0, 0.5, 0.4, -0.2))
+    ranges = np.linspace(0.2, 5.0, 360)
+    scan = cdr.laser_scan_template("base_link", -math.pi, 0.01, 360, 0.0, 5.0, 0.1)
+    assert scan.fill(NS, ranges) == cdr.laser_scan(NS, "base_link", -math.pi, 0.01, ranges,
+                                                   0.0, 5.0, 0.1)
+
+
+@pytest.mark.parametrize("count", [0, 1, 4])
+@pytest.mark.parametrize("frame", ["map", "ab", "base_link"])
+def test_points_marker_fills_the_encoders_bytes(count: int, frame: str) -> None:
+    points = np.random.default_rng(count).random((count, 3))
+    item = Marker("people", 0, "sphere_list", scale=(0.5, 0.5, 0.5), color=(1, 0.5, 0, 1),
+                  frame=frame)
+    expected = cdr.marker_array(NS, [Marker("people", 0, "sphere_list", points,
+                                            scale=(0.5, 0.5, 0.5), color=(1, 0.5, 0, 1),
+                                            frame=frame)])
+    assert cdr.PointsMarker(item).fill(NS, points) == expected

@@ -1,0 +1,160 @@
+"""What a 2D trial records (see :mod:`cbr_recording`): the world, the robot, what it sensed
+and where it was heading, at simulation time.
+
+A trial (or a delivery day) is an episode of the recording. At its start go the world's walls,
+landmarks, point obstacles and places (latched), then, as the robot drives:
+
+- each step the ``rate`` lets through: the true pose (the ``map`` -> ``base_link``
+  transform on ``/tf``), the odometry's estimate and speeds (``/odom``), the sonar ring
+  (``/sonar``), the people present (``/world/people``) and the camera's sightings
+  (``/camera/sightings``: the peak of each fuzzy place, in ``base_link``);
+- whenever they change: the doors open (green) or shut (red) (``/world/doors``), the target
+  and any diverting target (``/target``), and a planned route (``/plan``, a delivery day's);
+- when they happen: the navigator's events and collisions as labels (``/events``).
+
+The sonar ring is a ``LaserScan`` of one ray a degree round the robot: each ray inside a beam's
+cone reads that beam's range from the robot's centre (the rim reading plus the mount radius;
+the nearest where two cones overlap), a ray no beam covers reads +inf (no return).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from cbr_recording.markers import Clear, Marker
+from cbr_world2d.sensors import SonarRing, sighted_points
+
+if TYPE_CHECKING:
+    from cbr_recording.recorder import Recorder
+    from cbr_world2d.simulation import Simulation
+    from cbr_world2d.world import World
+
+WALL = (0.6, 0.6, 0.6, 1.0)
+OPEN = (0.2, 0.8, 0.3, 1.0)
+SHUT = (0.9, 0.2, 0.2, 1.0)
+LANDMARK = (0.2, 0.5, 1.0, 1.0)
+PERSON = (1.0, 0.6, 0.1, 0.9)
+TARGET = (0.1, 0.8, 0.2, 0.9)
+DIVERTING = (1.0, 0.5, 0.0, 0.9)
+SIGHTINGS = Marker("sightings", 0, "sphere_list", scale=(0.3, 0.3, 0.3),
+                   color=(0.2, 0.5, 1.0, 0.6), frame="base_link")
+"""The camera's sightings: a sphere at the peak of each fuzzy place, in the robot's frame."""
+EVENT_SECONDS = 10.0
+"""How long an event's label stays shown."""
+
+RAYS = 360
+
+
+def world_markers(world: World) -> list[Marker]:
+    """The static world: walls and polygon edges, landmarks with their ids, point obstacles
+    and the places' names."""
+    segments = world.static_segments
+    items = [Marker("walls", 0, "line_list", segments.reshape(-1, 2), scale=(0.05, 0, 0),
+                    color=WALL)]
+    for k, mark in enumerate(world.landmarks):
+        items.append(Marker("landmarks", k, "cylinder", pose=(mark.x, mark.y, 0.0),
+                            scale=(2 * mark.radius, 2 * mark.radius, 0.5), color=LANDMARK))
+        items.append(Marker("landmark ids", k, "text", pose=(mark.x, mark.y, 0.0),
+                            scale=(0, 0, 0.3), text=mark.id))
+    for k, (x, y, radius) in enumerate(world.points):
+        items.append(Marker("points", k, "cylinder", pose=(x, y, 0.0),
+                            scale=(2 * radius, 2 * radius, 0.3), color=WALL))
+    for k, (name, (x, y)) in enumerate(world.places.items()):
+        items.append(Marker("places", k, "text", pose=(x, y, 0.0), scale=(0, 0, 0.25),
+                            text=name, color=(0.8, 0.8, 0.8, 1.0)))
+    return items
+
+
+def _beam_table(sonar: SonarRing) -> np.ndarray:
+    """For each of :data:`RAYS` rays from -pi, the beams whose cones cover it, as a (RAYS,
+    k) table of beam indices, k the most beams covering one ray; the index ``len(beams)``
+    (a reading of +inf) fills the rest."""
+    rays = -math.pi + np.arange(RAYS) * (2 * math.pi / RAYS)
+    off = np.angle(np.exp(1j * (rays[:, None] - np.array(sonar.angles)[None, :])))
+    covers = np.abs(off) <= 0.5 * sonar.beam_width + 1e-9
+    table = np.full((RAYS, max(int(covers.sum(axis=1).max()), 1)), len(sonar.angles))
+    for ray, beams in enumerate(covers):
+        found = np.flatnonzero(beams)
+        table[ray, :len(found)] = found
+    return table
+
+
+class TrialRecording:
+    """Records one simulation on ``recorder`` as it steps (see the module)."""
+
+    def __init__(self, recorder: Recorder, sim: Simulation) -> None:
+        self.recorder = recorder
+        recorder.episode()
+        recorder.at(sim.t)
+        recorder.markers("/world/walls", world_markers(sim.world), latched=True)
+        sonar = sim.sensors.sonar
+        self._sonar = sonar
+        self._covers = None if sonar is None else _beam_table(sonar)
+        self._doors: tuple[bool, ...] | None = None
+        self._target: tuple[object, ...] | None = None
+        self._sighted = False
+        width = 2 * max((mover.radius for mover in sim.world.movers), default=0.0)
+        # one marker for them all, each as wide as the widest person
+        self._people = (Marker("people", 0, "sphere_list", scale=(width, width, 0.5),
+                               color=PERSON) if sim.world.movers else None)
+        self.step(sim)
+
+    def route(self, points: list[tuple[float, float]]) -> None:
+        """The route the robot follows now (``/plan``), from where it is."""
+        self.recorder.path("/plan", np.asarray(points, dtype=np.float64))
+
+    def step(self, sim: Simulation) -> None:
+        recorder = self.recorder
+        recorder.at(sim.t)
+        world = sim.world
+        if world.doors:
+            doors = tuple(door.is_open(sim.t) for door in world.doors)
+            if doors != self._doors:
+                self._doors = doors
+                colors = np.repeat([OPEN if is_open else SHUT for is_open in doors], 2, axis=0)
+                recorder.markers("/world/doors", [Marker(
+                    "doors", 0, "line_list", world.door_segments.reshape(-1, 2),
+                    scale=(0.08, 0, 0), colors=colors)])
+        navigator = sim.navigator
+        target = (sim.target, navigator.current_target if navigator.diverting else None)
+        if target != self._target:
+            self._target = target
+            items: list[Marker | Clear] = [Clear(), Marker(
+                "target", 0, "sphere", pose=(*sim.target, 0.0), scale=(0.3, 0.3, 0.3),
+                color=TARGET)]
+            if target[1] is not None:
+                items.append(Marker("diverting", 0, "sphere", pose=(*target[1], 0.0),
+                                    scale=(0.3, 0.3, 0.3), color=DIVERTING))
+            recorder.markers("/target", items)
+        if sim.events:
+            recorder.markers("/events", [
+                Marker("events", k, "text", pose=(event.x, event.y, 0.0), scale=(0, 0, 0.25),
+                       text=event.name, color=SHUT, lifetime=EVENT_SECONDS)
+                for k, event in enumerate(sim.events)])
+        if recorder.due("/robot"):
+            self._fast(sim)
+
+    def _fast(self, sim: Simulation) -> None:
+        recorder = self.recorder
+        state, obs = sim.state, sim.observation
+        recorder.transform(state.x, state.y, state.theta)
+        recorder.odometry("/odom", obs.pose.x, obs.pose.y, obs.pose.theta, obs.v, obs.w)
+        if self._covers is not None and len(obs.sonar):
+            sonar = self._sonar
+            centre = np.append(np.asarray(obs.sonar, dtype=np.float64) + sonar.mount_radius,
+                               np.inf)
+            ranges = centre[self._covers].min(axis=1)
+            recorder.scan("/sonar", -math.pi, 2 * math.pi / RAYS, ranges, 0.0,
+                          sonar.max_range + sonar.mount_radius, sim.dt)
+        world = sim.world
+        if self._people is not None:
+            present = [xy for mover, xy in zip(world.movers, sim.crowd.now, strict=True)
+                       if mover.present(sim.t)]
+            recorder.moving("/world/people", self._people, present)
+        if obs.sightings or self._sighted:
+            points = sighted_points(obs.sightings)[0] if obs.sightings else ()
+            recorder.moving("/camera/sightings", SIGHTINGS, points)
+            self._sighted = bool(obs.sightings)
