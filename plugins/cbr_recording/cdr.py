@@ -155,7 +155,7 @@ class Template:
         """The message stamped ``ns`` with each block's numbers, in the blocks' order: a
         tuple for a ``struct`` block, an array for a NumPy one."""
         out = bytearray(self._sample)
-        _STAMP.pack_into(out, self._stamp_at, *divmod(ns, 1_000_000_000))
+        _STAMP.pack_into(out, self._stamp_at, ns // 1_000_000_000, ns % 1_000_000_000)
         for (at, packer), numbers in zip(self._blocks, values, strict=True):
             if isinstance(packer, np.dtype):
                 data = np.asarray(numbers, dtype=packer).tobytes()

@@ -79,21 +79,19 @@ def describe(result: Any) -> str:
 class Channel:
     """One topic of a recording, written at the recorder's current time."""
 
-    __slots__ = ("_recorder", "_sequence", "id")
+    __slots__ = ("_add", "_recorder", "_sequence", "id")
 
-    def __init__(self, recorder: Recorder, channel_id: int) -> None:
+    def __init__(self, recorder: Recorder, channel_id: int, add: Any) -> None:
         self._recorder = recorder
+        self._add = add
         self.id = channel_id
         self._sequence = 0
 
     def write(self, data: bytes) -> None:
         """Write one message's CDR bytes."""
-        recorder = self._recorder
-        stamp = recorder._stamp
-        recorder._writer.add_message(self.id, stamp, data, stamp, self._sequence)
+        stamp = self._recorder._stamp
+        self._add(self.id, stamp, data, stamp, self._sequence)
         self._sequence += 1
-        if stamp > recorder._end:
-            recorder._end = stamp
 
 
 class Recorder:
@@ -139,8 +137,13 @@ class Recorder:
         """The time of the next message: the episode's start plus its clock, in seconds."""
         return self._stamp / 1e9
 
+    @property
+    def stamp(self) -> int:
+        """:attr:`now` in integer nanoseconds, as messages are stamped."""
+        return self._stamp
+
     def episode(self) -> None:
-        """Start the next episode, its clock at 0, a second after the last message so far."""
+        """Start the next episode, its clock at 0, a second after the latest time so far."""
         if self._end >= 0:
             self._offset = self._end / 1e9 + 1.0
         self.at(0.0)
@@ -150,6 +153,8 @@ class Recorder:
         """Set the episode's clock to ``t`` seconds."""
         self._t = float(t)
         self._stamp = round((self._offset + self._t) * 1e9)
+        # the latest time set, so that the next episode follows whatever was written
+        self._end = max(self._end, self._stamp)
 
     def due(self, topic: str) -> bool:
         """Whether ``topic`` may take a message now at the recording's rate; a True answer
@@ -180,7 +185,8 @@ class Recorder:
             schema = self._schemas[msgtype] = self._writer.register_schema(
                 msgtype, "ros2msg", text.encode())
         metadata = {"offered_qos_profiles": _LATCHED_QOS} if latched else {}
-        channel = Channel(self, self._writer.register_channel(topic, "cdr", schema, metadata))
+        channel = Channel(self, self._writer.register_channel(topic, "cdr", schema, metadata),
+                          self._writer.add_message)
         self._channels[topic] = (channel, msgtype)
         return channel
 

@@ -20,12 +20,13 @@ the nearest where two cones overlap), a ray no beam covers reads +inf (no return
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from cbr_recording import cdr
 from cbr_recording.markers import Clear, Marker
-from cbr_world2d.sensors import SonarRing, sighted_points
+from cbr_world2d.sensors import SonarRing
 
 if TYPE_CHECKING:
     from cbr_recording.recorder import Recorder
@@ -93,6 +94,21 @@ class TrialRecording:
         sonar = sim.sensors.sonar
         self._sonar = sonar
         self._covers = None if sonar is None else _beam_table(sonar)
+        # the sonar's readings from the robot's centre, and +inf for the rays no beam covers
+        self._readings = np.full(0 if sonar is None else len(sonar.angles) + 1, np.inf)
+        markers = "visualization_msgs/msg/MarkerArray"
+        self._fast_topics: dict[str, Any] = {
+            "tf": recorder.channel("/tf", "tf2_msgs/msg/TFMessage"),
+            "tf bytes": cdr.transform_template("map", "base_link"),
+            "odom": recorder.channel("/odom", "nav_msgs/msg/Odometry"),
+            "odom bytes": cdr.odometry_template("map", "base_link"),
+            "sightings": recorder.channel("/camera/sightings", markers),
+            "sightings bytes": cdr.PointsMarker(SIGHTINGS)}
+        if sonar is not None:
+            self._fast_topics["sonar"] = recorder.channel("/sonar", "sensor_msgs/msg/LaserScan")
+            self._fast_topics["sonar bytes"] = cdr.laser_scan_template(
+                "base_link", -math.pi, 2 * math.pi / RAYS, RAYS, 0.0,
+                sonar.max_range + sonar.mount_radius, sim.dt)
         self._doors: tuple[bool, ...] | None = None
         self._target: tuple[object, ...] | None = None
         self._sighted = False
@@ -100,6 +116,9 @@ class TrialRecording:
         # one marker for them all, each as wide as the widest person
         self._people = (Marker("people", 0, "sphere_list", scale=(width, width, 0.5),
                                color=PERSON) if sim.world.movers else None)
+        if self._people is not None:
+            self._fast_topics["people"] = recorder.channel("/world/people", markers)
+            self._fast_topics["people bytes"] = cdr.PointsMarker(self._people)
         self.step(sim)
 
     def route(self, points: list[tuple[float, float]]) -> None:
@@ -138,23 +157,31 @@ class TrialRecording:
             self._fast(sim)
 
     def _fast(self, sim: Simulation) -> None:
+        # written through channels and templates laid out once: this runs at every
+        # recorded step, where the recorder's general methods would cost more than the step
         recorder = self.recorder
+        stamp = recorder.stamp
         state, obs = sim.state, sim.observation
-        recorder.transform(state.x, state.y, state.theta)
-        recorder.odometry("/odom", obs.pose.x, obs.pose.y, obs.pose.theta, obs.v, obs.w)
+        fast = self._fast_topics
+        fast["tf"].write(fast["tf bytes"].fill(
+            stamp, cdr.pose_numbers(state.x, state.y, state.theta)))
+        pose = obs.pose
+        fast["odom"].write(fast["odom bytes"].fill(
+            stamp, cdr.pose_numbers(pose.x, pose.y, pose.theta), (obs.v, 0, 0, 0, 0, obs.w)))
         if self._covers is not None and len(obs.sonar):
-            sonar = self._sonar
-            centre = np.append(np.asarray(obs.sonar, dtype=np.float64) + sonar.mount_radius,
-                               np.inf)
-            ranges = centre[self._covers].min(axis=1)
-            recorder.scan("/sonar", -math.pi, 2 * math.pi / RAYS, ranges, 0.0,
-                          sonar.max_range + sonar.mount_radius, sim.dt)
-        world = sim.world
+            readings = self._readings
+            readings[:-1] = obs.sonar
+            readings[:-1] += self._sonar.mount_radius
+            fast["sonar"].write(fast["sonar bytes"].fill(
+                stamp, readings[self._covers].min(axis=1)))
         if self._people is not None:
-            present = [xy for mover, xy in zip(world.movers, sim.crowd.now, strict=True)
-                       if mover.present(sim.t)]
-            recorder.moving("/world/people", self._people, present)
+            people = [(x, y, 0.0) for mover, (x, y) in zip(sim.world.movers, sim.crowd.now,
+                                                           strict=True) if mover.present(sim.t)]
+            fast["people"].write(fast["people bytes"].fill(stamp, np.array(people).reshape(
+                -1, 3)))
         if obs.sightings or self._sighted:
-            points = sighted_points(obs.sightings)[0] if obs.sightings else ()
-            recorder.moving("/camera/sightings", SIGHTINGS, points)
+            peaks = [(s.distance.peak * math.cos(s.bearing.peak),
+                      s.distance.peak * math.sin(s.bearing.peak), 0.0) for s in obs.sightings]
+            fast["sightings"].write(fast["sightings bytes"].fill(stamp, np.array(peaks).reshape(
+                -1, 3)))
             self._sighted = bool(obs.sightings)
