@@ -102,7 +102,7 @@ class Recorder:
     second of simulation time that :meth:`due` lets through per topic.
     """
 
-    def __init__(self, path: Path, *, force: bool = False, rate: float = 5.0) -> None:
+    def __init__(self, path: Path, *, force: bool = False, rate: float = 2.0) -> None:
         if not (rate > 0 and np.isfinite(rate)):
             raise CbrError(f"recording rate must be a finite number > 0, got {rate!r}")
         check_path(path, force=force)
