@@ -15,6 +15,7 @@ import csv
 import hashlib
 import io
 import json
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -33,11 +34,15 @@ MANIFEST = "manifest.json"
 
 def config_sha256(config: Config) -> str:
     """The SHA-256 of the configuration as resolved (every default filled in, secrets as they
-    are shown), as a run's manifest records it under ``config_sha256``."""
+    are shown), as a run's manifest records it under ``config_sha256``. Observers are left
+    out: they watch a run (a trace, a recording) without changing what it does, so a run
+    recorded once and not the next continues the same results."""
     return _digest(config.resolved())
 
 
 def _digest(resolved: Any) -> str:
+    if isinstance(resolved, Mapping):
+        resolved = {key: value for key, value in resolved.items() if key != "observers"}
     # through JSON as the manifest stores it, so a configuration and the manifest written of it
     # give the same digest (tuples become lists, paths strings)
     plain = json.loads(json.dumps(resolved, default=str))

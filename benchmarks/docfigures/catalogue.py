@@ -14,6 +14,7 @@ from . import fleet_experiment as fleet
 from . import landmark_experiments as landmarks
 from . import layers, route_graph
 from . import pathcases_experiments as pathcases
+from . import recording_benchmarks as recording
 from . import ros2005_baseline as baseline
 from . import rupart_experiments as delivery
 from . import solver_benchmarks as solvers
@@ -100,6 +101,9 @@ def _blocks() -> list[Block]:
                               "exhaustive", "cost / optimum (median, max)"])),
         _bench("experiment-sweep", "experiment_sweep.md", solvers.experiment_sweep),
         _bench("engine-overhead-reading", "engine_overhead.json", solvers.engine_overhead_reading),
+        _bench("recording-cost", "recording_cost.md", bench_tables("recording_cost", 0)),
+        _bench("recording-cost-reading", "recording_cost.json",
+               recording.recording_cost_reading),
         _bench("solvers-targets", "solvers.json", solvers.solvers_targets),
         _bench("genetic-reading", "genetic.json", solvers.genetic_reading),
         _bench("casegraph-speed-reading", "casegraph_speed.json", cases.casegraph_speed_reading),

@@ -72,7 +72,7 @@ def run(
              "manifest.json and its SQLite case base (saying so first) before running."),
     set_: list[str] = _set_option(),
     record: Path | None = typer.Option(
-        None, "--record", metavar="FILE.mcap",
+        None, "--record", metavar="FILE",
         help="Record the run as MCAP with ROS 2 message types, for Foxglove and ros2 bag play "
              "(the 'record' observer of the recording plugin)."),
     force: bool = typer.Option(False, "--force",

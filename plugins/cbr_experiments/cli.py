@@ -52,6 +52,7 @@ def experiment(
     workers: int | None = typer.Option(
         None, "--workers", metavar="N",
         help="With --scheduler local: worker processes (default: one per core)."),
+    record: Path | None = typer.Option(None, "--record", metavar="FILE", hidden=True),
 ) -> None:
     """Run an experiment registered by a plugin: results.json, results.md and PNG figures."""
     from rich.table import Table
@@ -62,6 +63,10 @@ def experiment(
     from cbrcore.cli.compiling import announce_cold_cache, announcing_compiles
     from cbrcore.cli.progress import progress as _progress
 
+    if record is not None:
+        raise typer.BadParameter(
+            "an experiment runs many runs, spread over processes, and records none; record "
+            "one of its runs with 'cbr run CONFIG --record FILE.mcap'", param_hint="--record")
     registry = current().registry
     if list_:
         found = [c for c in registry if c.kind == "experiment"]

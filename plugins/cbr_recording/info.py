@@ -2,12 +2,20 @@
 
 from __future__ import annotations
 
+import struct
 from pathlib import Path
 from typing import Any
 
 import attrs
 
 from cbrcore.errors import CbrError
+
+
+def _broken() -> tuple[type[Exception], ...]:
+    """What reading a damaged or cut-short record raises."""
+    from mcap.exceptions import McapError
+
+    return (McapError, EOFError, ValueError, struct.error, RuntimeError)
 
 
 @attrs.frozen
@@ -41,9 +49,11 @@ class Contents:
 
 
 def contents(path: Path) -> Contents:
-    """What ``path`` holds; a CbrError unless it is an MCAP file."""
-    from mcap.exceptions import McapError
-    from mcap.reader import make_reader
+    """What ``path`` holds, read record by record from the start, so that the file of a
+    killed run (no summary, maybe a record cut short at its end) reads as far as it goes; a
+    CbrError unless it starts as an MCAP file."""
+    from mcap.records import Channel, Footer, Header, Message, Schema
+    from mcap.stream_reader import StreamReader
 
     try:
         handle = path.open("rb")
@@ -52,32 +62,40 @@ def contents(path: Path) -> Contents:
     except OSError as exc:
         raise CbrError(f"{path}: cannot be read ({exc.strerror or exc})") from None
     with handle:
+        records = StreamReader(handle).records
         try:
-            reader = make_reader(handle)
-            header = reader.get_header()
-            closed = reader.get_summary() is not None
-            return _by_reading(path, header.profile, reader, closed)
-        except (McapError, ValueError, EOFError, AssertionError) as exc:
-            raise CbrError(f"{path}: not a readable MCAP file ({exc})") from None
-
-
-def _seconds(ns: int) -> float:
-    return ns / 1e9
-
-
-def _by_reading(path: Path, profile: str, reader: Any, closed: bool) -> Contents:
-    """Every topic's count and time span, from reading every message (undecoded): the
-    summary's statistics count messages per channel but do not give a channel's span."""
-    found: dict[str, list[Any]] = {}
-    for schema, channel, message in reader.iter_messages(log_time_order=False):
-        entry = found.setdefault(channel.topic, [schema.name if schema else "", 0, None, None])
-        entry[1] += 1
-        t = message.log_time
-        entry[2] = t if entry[2] is None else min(entry[2], t)
-        entry[3] = t if entry[3] is None else max(entry[3], t)
-    topics = tuple(Topic(name, kind, count, _seconds(first), _seconds(last))
-                   for name, (kind, count, first, last) in found.items())
-    firsts = [topic.first for topic in topics if topic.first is not None]
-    lasts = [topic.last for topic in topics if topic.last is not None]
-    return Contents(path, profile, topics, min(firsts, default=None), max(lasts, default=None),
-                    closed)
+            header = next(records)
+        except (*_broken(), StopIteration) as exc:
+            raise CbrError(f"{path}: not a readable MCAP file ({exc or 'empty'})") from None
+        if not isinstance(header, Header):
+            raise CbrError(f"{path}: not a readable MCAP file (no header record)")
+        schemas: dict[int, str] = {}
+        channels: dict[int, tuple[str, int]] = {}
+        found: dict[int, list[int]] = {}
+        closed = False
+        try:
+            for record in records:
+                if isinstance(record, Message):
+                    entry = found.setdefault(record.channel_id, [0, record.log_time,
+                                                                 record.log_time])
+                    entry[0] += 1
+                    entry[1] = min(entry[1], record.log_time)
+                    entry[2] = max(entry[2], record.log_time)
+                elif isinstance(record, Schema):
+                    schemas[record.id] = record.name
+                elif isinstance(record, Channel):
+                    channels[record.id] = (record.topic, record.schema_id)
+                elif isinstance(record, Footer):
+                    closed = True
+        except _broken():
+            pass  # a record cut short by a killed run: what came before it stands
+    topics = []
+    for channel_id, (topic, schema_id) in channels.items():
+        count, first, last = found.get(channel_id, (0, None, None))
+        topics.append(Topic(topic, schemas.get(schema_id, ""), count,
+                            None if first is None else first / 1e9,
+                            None if last is None else last / 1e9))
+    firsts = [t.first for t in topics if t.first is not None]
+    lasts = [t.last for t in topics if t.last is not None]
+    return Contents(path, header.profile, tuple(topics), min(firsts, default=None),
+                    max(lasts, default=None), closed)

@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Generator
-from pathlib import Path
 from typing import Any
 
 import attrs
@@ -19,7 +18,7 @@ import attrs
 from cbr_recording.files import check_path
 from cbr_recording.keys import RECORDER
 from cbrcore.context import Context
-from cbrcore.errors import CbrError
+from cbrcore.errors import CbrError, ConfigError
 from cbrcore.hookspecs import hookimpl
 from cbrcore.options import OutputPath, in_run_folder, option
 
@@ -35,16 +34,18 @@ class RecordOptions:
     gives one), when the engine is built for a file in the run's folder: either way before the
     run writes anything."""
 
-    file: OutputPath = option(
-        Path("recording.mcap"), "The MCAP file to write: an absolute path, or a file inside "
-        "the run's output folder.")
+    file: OutputPath | None = option(
+        None, "The MCAP file to write: an absolute path, or a file inside the run's output "
+        "folder; default: recording.mcap there.")
     force: bool = option(False, "Replace the file if it exists (else the run is refused).")
     rate: float = option(
-        5.0, "The most messages a second of simulation time on the fast topics (the robot's "
-        "pose and transform, odometry, sonar, people).", validator=_rate)
+        2.0, "The most messages a second of simulation time on the 2D world's fast topics "
+        "(the robot's transform, odometry, sonar, people, sightings); each hertz costs a "
+        "delivery day about 2.6% of its time (benchmarks/recording_cost.py).",
+        validator=_rate)
 
     def __attrs_post_init__(self) -> None:
-        if self.file.is_absolute():
+        if self.file is not None and self.file.is_absolute():
             try:
                 check_path(self.file, force=self.force, what="file")
             except CbrError as exc:
@@ -52,12 +53,20 @@ class RecordOptions:
 
 
 class Record:
-    """Record the run into ``file`` (see :class:`RecordOptions`)."""
+    """Record the run as MCAP with ROS 2 message types, for Foxglove and ``ros2 bag play``
+    (``cbr run --record FILE`` adds it): the families record their world, robot and decisions,
+    and each decision lists the planning phases' times and answers."""
 
     def __init__(self, options: RecordOptions, ctx: Context) -> None:
         from cbr_recording.recorder import Recorder
 
-        path = in_run_folder(options.file, ctx.out_dir, ctx.config_dir)
+        if options.file is not None:
+            path = in_run_folder(options.file, ctx.out_dir, ctx.config_dir)
+        elif ctx.out_dir is None:
+            raise ConfigError("observers", [
+                "observers: record needs a 'file' when the engine has no output folder"])
+        else:
+            path = ctx.out_dir / "recording.mcap"
         self.recorder = Recorder(path, force=options.force, rate=options.rate)
         ctx.stash[RECORDER] = self.recorder
 

@@ -77,6 +77,15 @@ RescueOption = Annotated[Rescue, typer.Option(
     "oscillating).")]
 _RESULT_KEYS = ("success, reason (reached or timeout), time, distance, collisions, steps, stuck "
                 "(how many times), diverting (a list of [x, y]) and seed")
+RecordOption = Annotated[Path | None, typer.Option(
+    "--record", metavar="FILE", show_default=False,
+    help="Record the trial as MCAP with ROS 2 message types, for Foxglove and ros2 bag play.")]
+ForceOption = Annotated[bool, typer.Option(
+    "--force", help="With --record: replace the recording file if it exists.")]
+RateOption = Annotated[float, typer.Option(
+    "--rate", min=0.01, metavar="HZ",
+    help="With --record: the most messages a second of simulation time on the fast topics "
+    "(transform, odometry, sonar, people, sightings).")]
 RunJsonOption = Annotated[bool, typer.Option("--json", help=(
     f"Print one JSON object with the keys world, start, target, pilot, robot, {_RESULT_KEYS}."))]
 BatchJsonOption = Annotated[bool, typer.Option("--json", help=(
@@ -250,13 +259,23 @@ def run(
         "--frames", min=1, max=MAX_FRAMES, metavar="N",
         help="The most frames of the GIF, spread evenly over the trial.")]
     = 150,
+    record: RecordOption = None,
+    force: ForceOption = False,
+    rate: RateOption = 2.0,
     as_json: RunJsonOption = False,
 ) -> None:
-    """Run one trial from a start to a target; print how it went, draw or animate it."""
+    """Run one trial from a start to a target; print how it went, draw, animate or record
+    it."""
     from cbr_world2d.robot import Pose
     from cbr_world2d.simulation import PilotRecipe, Trial, run_trial
 
     _timing(timeout, dt, tolerance)
+    if force and record is None:
+        raise typer.BadParameter("--force goes with --record", param_hint="'--force'")
+    if record is not None:
+        from cbr_recording.files import check_path
+
+        check_path(record, force=force)
     if heading is not None and not math.isfinite(heading):
         raise typer.BadParameter(f"expected a finite angle, got {heading!r}",
                                  param_hint="'--heading'")
@@ -274,8 +293,15 @@ def run(
     trial = Trial(Pose(*start_point, theta), target_point, timeout=timeout,
                   tolerance=tolerance, dt=dt)
     trial.check(world, spec, start="--start", target="--target")
-    result = run_trial(world, trial, recipe, spec=spec, seed=seed,
-                       navigation=_navigation(rescue))
+    if record is None:
+        result = run_trial(world, trial, recipe, spec=spec, seed=seed,
+                           navigation=_navigation(rescue))
+    else:
+        from cbr_recording.recorder import Recorder
+
+        with Recorder(record, force=force, rate=rate) as recorder:
+            result = run_trial(world, trial, recipe, spec=spec, seed=seed,
+                               navigation=_navigation(rescue), recorder=recorder)
     if plot is not None:
         from cbr_world2d.plot import plot_trial
 
@@ -294,7 +320,7 @@ def run(
                f"{pilot}, robot {robot.value}, rescue {rescue.value}, seed {seed}")
     for key, value in _result_lines(result):
         typer.echo(f"{key:<10} {value}")
-    for written in (plot, gif):
+    for written in (plot, gif, record):
         if written is not None:
             typer.echo(f"wrote {written}")
 
@@ -317,6 +343,8 @@ def batch(
     tolerance: ToleranceOption = 0.3,
     robot: RobotOption = RobotName.pioneer2dx,
     rescue: RescueOption = Rescue.blocked,
+    record: Annotated[Path | None, typer.Option(
+        "--record", metavar="FILE", show_default=False, hidden=True)] = None,
     as_json: BatchJsonOption = False,
 ) -> None:
     """Run trials between random free points of a world; print a table and the success rate,
@@ -325,6 +353,12 @@ def batch(
 
     from cbr_world2d.simulation import PilotRecipe, random_trials, run_batch
 
+    if record is not None:
+        raise typer.BadParameter(
+            "cbr sim batch runs its trials in parallel processes and records none; record "
+            "one trial with 'cbr sim run --record FILE.mcap', or trials one after another "
+            "with 'cbr run CONFIG --record FILE.mcap' (the trials workload)",
+            param_hint="'--record'")
     _timing(timeout, dt, tolerance)
     most = WORKERS_PER_CORE * (os.cpu_count() or 1)
     if workers > most:

@@ -204,7 +204,7 @@ def test_guide_example_runs_through_its_entry_point(guide_example: tuple[Path, P
 # -- dependencies: declared exactly as the code imports them ----------------------------------
 
 # import name -> distribution name, where they differ
-DISTRIBUTION_OF = {"yaml": "pyyaml", "PIL": "pillow"}
+DISTRIBUTION_OF = {"yaml": "pyyaml", "PIL": "pillow", "mcap_ros2": "mcap-ros2-support"}
 # imported only by the testing kit, which pytest itself loads (the pytest11 entry point)
 TESTING_KIT = {"pytest", "hypothesis"}
 
