@@ -24,8 +24,9 @@ KEPT_NAME = "docs/figures/layers.json"
 IMAGE_NAME = "docs/img/layers.png"
 COMMAND = "python benchmarks/figures.py --write"
 #: what each layer holds, named by one of its packages
-TITLES = {"cbrcore": "engine", "cbr_stores": "stores, recording, experiments, kernels", "cbr_grid": "worlds",
-          "cbr_kinematics": "kinematic models", "cbr_solvers": "model-based planners",
+TITLES = {"cbrcore": "engine", "cbr_stores": "stores, recording, experiments, kernels",
+          "cbr_grid": "worlds", "cbr_kinematics": "kinematic models",
+          "cbr_solvers": "model-based planners",
           "cbr_casegraph": "CBR families, observers"}
 
 

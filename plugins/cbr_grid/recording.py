@@ -107,9 +107,12 @@ class TripRecording:
             "start": list(problem.start), "goal": list(problem.goal)})
         driven = None if report is None else report.driven
         if solution is not None:
-            plan = np.asarray(solution.value)
-            if driven is not None and plan.shape == driven.shape and (plan == driven).all():
-                plan = driven  # driven as planned: its metres and headings serve both
+            if driven is not None and not report.stops and len(driven) == len(solution.value):
+                # a drive that never stopped followed its plan cell by cell: the plan's
+                # metres and headings are the drive's, without converting the plan's list
+                plan = driven
+            else:
+                plan = np.asarray(solution.value)
             points = in_metres(grid, plan)
             yaws = headings(points)
             recorder.path("/plan", points, yaws)
@@ -121,10 +124,9 @@ class TripRecording:
         times, stopped = _drive_times(driven, report.stops, collision_time)
         for i in _moments(driven, stopped).tolist():
             recorder.at(float(times[i]))
-            if recorder.due("/robot/pose"):
-                x, y = points[i].tolist()
-                recorder.pose("/robot/pose", x, y, float(yaws[i]))
-                recorder.transform(x, y, float(yaws[i]))
+            x, y = points[i].tolist()
+            recorder.pose("/robot/pose", x, y, float(yaws[i]))
+            recorder.transform(x, y, float(yaws[i]))
         recorder.path("/driven", points, yaws)
         # drawn when the robot met something, and cleared on the next trip
         if report.met or self._met_shown:

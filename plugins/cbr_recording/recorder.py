@@ -2,18 +2,20 @@
 
 Families record through the :class:`Recorder` a run's ``record`` observer puts in the stash
 (:data:`~cbr_recording.keys.RECORDER`), with plain values (metres, radians, NumPy arrays,
-:class:`~cbr_recording.markers.Marker`); the recorder builds the standard ROS 2 messages,
-serialises them as CDR and writes them with their ``ros2msg`` schemas, as ``ros2 bag record``
-does, so that Foxglove opens the file as it is and ``ros2 bag play`` replays it.
+:class:`~cbr_recording.markers.Marker`); the recorder encodes the standard ROS 2 messages as
+CDR (:mod:`cbr_recording.cdr`) and writes them with their ``ros2msg`` schemas, as ``ros2 bag
+record`` does, so that Foxglove opens the file as it is and ``ros2 bag play`` replays it. A hot
+loop writes through a :class:`Channel` with a :class:`~cbr_recording.cdr.Template` laid out
+once (the 2D world's fast topics).
 
 Time is simulation time. A run is a series of *episodes* (a grid trip, a 2D trial, a delivery
-day), each with a clock from 0; :meth:`Recorder.episode` starts the next one a second after the
-last message so far, so the episodes follow one another on one time line. The messages of a
-topic are in time order; fast topics (the robot's pose, the sonar) are kept to ``rate`` a second
-of simulation time (:meth:`Recorder.due`).
+day), each with a clock from 0 that only moves forward; :meth:`Recorder.episode` starts the
+next one a second after the latest time so far, so the episodes follow one another on one time
+line. Fast topics (the robot's transform, the sonar) are kept to ``rate`` a second of simulation
+time (:meth:`Recorder.due`).
 
-A killed run leaves a file whose chunks written so far read back (the MCAP tools recover them);
-only a recording that was closed has its index and statistics.
+A killed run leaves a file whose complete chunks read back (:func:`~cbr_recording.info.contents`
+and the MCAP readers); only a recording that was closed has its summary.
 """
 
 from __future__ import annotations
@@ -77,7 +79,8 @@ def describe(result: Any) -> str:
 
 
 class Channel:
-    """One topic of a recording, written at the recorder's current time."""
+    """One topic of a recording (:meth:`Recorder.channel`), written at the recorder's current
+    time with its own sequence numbers."""
 
     __slots__ = ("_add", "_recorder", "_sequence", "id")
 
@@ -121,25 +124,19 @@ class Recorder:
         self._period = 1.0 / rate
         self._last: dict[str, float] = {}
         self._offset = 0.0
-        self._t = 0.0
         self._stamp = 0
         self._end = -1
         self._templates: dict[object, Any] = {}
-        self.episodes = 0
         self._noted_query = -1
         self._notes: list[tuple[str, float, Any, str]] = []
-        self.closed = False
+        self._closed = False
 
     # -- time -----------------------------------------------------------------------------
 
     @property
-    def now(self) -> float:
-        """The time of the next message: the episode's start plus its clock, in seconds."""
-        return self._stamp / 1e9
-
-    @property
     def stamp(self) -> int:
-        """:attr:`now` in integer nanoseconds, as messages are stamped."""
+        """The time of the next message, the episode's start plus its clock, in integer
+        nanoseconds as messages are stamped."""
         return self._stamp
 
     def episode(self) -> None:
@@ -147,12 +144,10 @@ class Recorder:
         if self._end >= 0:
             self._offset = self._end / 1e9 + 1.0
         self.at(0.0)
-        self.episodes += 1
 
     def at(self, t: float) -> None:
         """Set the episode's clock to ``t`` seconds."""
-        self._t = float(t)
-        self._stamp = round((self._offset + self._t) * 1e9)
+        self._stamp = round((self._offset + float(t)) * 1e9)
         # the latest time set, so that the next episode follows whatever was written
         self._end = max(self._end, self._stamp)
 
@@ -297,9 +292,9 @@ class Recorder:
 
     def close(self) -> None:
         """Write the file's index and statistics and close it; idempotent."""
-        if self.closed:
+        if self._closed:
             return
-        self.closed = True
+        self._closed = True
         try:
             self._writer.finish()
         finally:
