@@ -31,7 +31,7 @@ from cbr_world2d.sensors import SonarRing
 if TYPE_CHECKING:
     from cbr_recording.recorder import Recorder
     from cbr_world2d.simulation import Simulation
-    from cbr_world2d.world import World
+    from cbr_world2d.world import Door, World
 
 WALL = (0.6, 0.6, 0.6, 1.0)
 OPEN = (0.2, 0.8, 0.3, 1.0)
@@ -67,6 +67,13 @@ def world_markers(world: World) -> list[Marker]:
         items.append(Marker("places", k, "text", pose=(x, y, 0.0), scale=(0, 0, 0.25),
                             text=name, color=(0.8, 0.8, 0.8, 1.0)))
     return items
+
+
+def _next_change(door: Door, t: float) -> float:
+    """When ``door`` next opens or shuts after ``t`` (it is open while ``(t + phase) mod
+    period < open_for``)."""
+    into = (t + door.phase) % door.period
+    return t + (door.open_for - into if into < door.open_for else door.period - into)
 
 
 def _beam_table(sonar: SonarRing) -> np.ndarray:
@@ -110,6 +117,7 @@ class TrialRecording:
                 "base_link", -math.pi, 2 * math.pi / RAYS, RAYS, 0.0,
                 sonar.max_range + sonar.mount_radius, sim.dt)
         self._doors: tuple[bool, ...] | None = None
+        self._doors_change = -math.inf
         self._target: tuple[object, ...] | None = None
         self._sighted = False
         width = 2 * max((mover.radius for mover in sim.world.movers), default=0.0)
@@ -129,8 +137,10 @@ class TrialRecording:
         recorder = self.recorder
         recorder.at(sim.t)
         world = sim.world
-        if world.doors:
+        if world.doors and sim.t >= self._doors_change:
+            # a door changes only on its schedule: looked at again when the next one does
             doors = tuple(door.is_open(sim.t) for door in world.doors)
+            self._doors_change = min(_next_change(door, sim.t) for door in world.doors)
             if doors != self._doors:
                 self._doors = doors
                 colors = np.repeat([OPEN if is_open else SHUT for is_open in doors], 2, axis=0)
