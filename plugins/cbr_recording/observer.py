@@ -2,14 +2,14 @@
 
 It opens the recording when the engine is built and leaves the
 :class:`~cbr_recording.recorder.Recorder` in the stash for the families, which record their
-world, robot and decisions on it; around each planning phase it notes the phase's wall time and
-answer, which the consultation's decision message lists. ``cbr run --record FILE`` adds it.
+world, robot and decisions on it. A decision lists each planning phase's time and answer from
+the proposal; around reuse the observer notes what reuse answered, which the proposal drops
+when revision rejects it. ``cbr run --record FILE`` adds it.
 """
 
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Generator
 from typing import Any
 
@@ -54,8 +54,8 @@ class RecordOptions:
 
 class Record:
     """Record the run as MCAP with ROS 2 message types, for Foxglove and ``ros2 bag play``
-    (``cbr run --record FILE`` adds it): the families record their world, robot and decisions,
-    and each decision lists the planning phases' times and answers."""
+    (``cbr run --record FILE`` adds it): the families record their world, robot and
+    decisions."""
 
     def __init__(self, options: RecordOptions, ctx: Context) -> None:
         from cbr_recording.recorder import Recorder
@@ -70,34 +70,11 @@ class Record:
         self.recorder = Recorder(path, force=options.force, rate=options.rate)
         ctx.stash[RECORDER] = self.recorder
 
-    def _watch(self, phase: str, ctx: Context) -> Generator[None, Any, Any]:
-        started = time.perf_counter()
-        result, error = None, ""
-        try:
-            result = yield
-        except BaseException as exc:
-            error = f"{type(exc).__name__}: {exc}"
-            raise
-        else:
-            return result
-        finally:
-            self.recorder.note(ctx.step, phase, time.perf_counter() - started, result, error)
-
-    @hookimpl(wrapper=True)
-    def cbr_retrieve(self, ctx: Context) -> Generator[None, Any, Any]:
-        return (yield from self._watch("retrieve", ctx))
-
     @hookimpl(wrapper=True)
     def cbr_reuse(self, ctx: Context) -> Generator[None, Any, Any]:
-        return (yield from self._watch("reuse", ctx))
-
-    @hookimpl(wrapper=True)
-    def cbr_revise(self, ctx: Context) -> Generator[None, Any, Any]:
-        return (yield from self._watch("revise", ctx))
-
-    @hookimpl(wrapper=True)
-    def cbr_solve(self, ctx: Context) -> Generator[None, Any, Any]:
-        return (yield from self._watch("solve", ctx))
+        reused = yield
+        self.recorder.note(ctx.step, reused)
+        return reused
 
     def close(self) -> None:
         self.recorder.close()

@@ -70,12 +70,24 @@ def describe(result: Any) -> str:
         best = result.matches[0]
         return f"{len(result.matches)} cases, best {best.case.id} ({best.similarity:.3f})"
     if isinstance(result, Solution):
-        cases = ", ".join(str(case) for case in result.cases)
         cost = "a solution" if result.cost is None else f"cost {result.cost:.6g}"
+        count = len(result.cases)
+        if count > 3:  # a path of many case graph segments: how many, not which
+            return f"{cost} from {count} cases"
+        cases = ", ".join(str(case) for case in result.cases)
         return cost + (f" from {cases}" if cases else "")
     if isinstance(result, Revision):
         return "accepted" if result.accepted else f"rejected: {result.reason}"
     return "nothing"
+
+
+def _phases(proposal: Proposal, reused: Solution | None) -> str:
+    """Each planning phase the engine ran for ``proposal``, its time and its answer."""
+    answers = {"retrieve": proposal.retrieval, "reuse": reused, "revise": proposal.revision,
+               "solve": None if proposal.from_casebase else proposal.solution}
+    timings = proposal.timings
+    return "; ".join(f"{phase} {1000 * timings[phase]:.3f} ms: {describe(answers[phase])}"
+                     for phase in PLANNING if phase in timings)
 
 
 class Channel:
@@ -127,8 +139,7 @@ class Recorder:
         self._stamp = 0
         self._end = -1
         self._templates: dict[object, Any] = {}
-        self._noted_query = -1
-        self._notes: list[tuple[str, float, Any, str]] = []
+        self._reused: tuple[int, Solution | None] = (-1, None)
         self._closed = False
 
     # -- time -----------------------------------------------------------------------------
@@ -262,13 +273,10 @@ class Recorder:
         self._write(topic, "visualization_msgs/msg/MarkerArray",
                     template.fill(self._stamp, xyz))
 
-    def note(self, query: int, phase: str, seconds: float, result: Any,
-             error: str = "") -> None:
-        """What a planning phase of consultation ``query`` answered (the ``record`` observer
-        notes each), for the consultation's decision message."""
-        if query != self._noted_query:
-            self._noted_query, self._notes = query, []
-        self._notes.append((phase, seconds, result, error))
+    def note(self, query: int, reused: Solution | None) -> None:
+        """What reuse answered consultation ``query`` (the ``record`` observer notes it): a
+        proposal keeps it only when revision accepted it."""
+        self._reused = (query, reused)
 
     def decision(self, query: int, proposal: Proposal, *, action: str = "",
                  detail: Mapping[str, Any] | None = None) -> None:
@@ -277,10 +285,9 @@ class Recorder:
         and ``detail`` as JSON."""
         matches = proposal.retrieval.matches if proposal.retrieval is not None else ()
         best = matches[0] if matches else None
-        notes = self._notes if query == self._noted_query else []
-        phases = "; ".join(
-            f"{phase} {seconds * 1000:.3f} ms: " + (error or describe(result))
-            for phase, seconds, result, error in notes)
+        noted, reused = self._reused
+        if noted != query:
+            reused = proposal.solution if proposal.from_casebase else None
         self._write("/cbr/decision", DECISION, cdr.decision(
             self._stamp, query=query, source=proposal.source,
             case_id="" if best is None else str(best.case.id),
@@ -288,7 +295,7 @@ class Recorder:
             retrieved=len(matches), fallback_reason=proposal.fallback_reason or "",
             action=action,
             plan_ms=1000.0 * sum(proposal.timings.get(p, 0.0) for p in PLANNING),
-            phases=phases, detail=detail or {}))
+            phases=_phases(proposal, reused), detail=detail or {}))
 
     def close(self) -> None:
         """Write the file's index and statistics and close it; idempotent."""
