@@ -99,17 +99,25 @@ def _decisions_match(found: dict[str, list[tuple[Any, Any]]], rows: list[dict[st
             assert decision.phases.startswith("retrieve ")
 
 
+def _recorded(invoke_cbr: Callable[..., CliResult], out: Path, config: str,
+              *settings: str) -> dict[str, list[tuple[Any, Any]]]:
+    """Run ``configs/<config>`` into ``out`` with ``settings``, recorded; every message of the
+    recording read back, its decisions checked against results.csv."""
+    recording = out.with_suffix(".mcap")
+    sets = [arg for setting in settings for arg in ("--set", setting)]
+    result = invoke_cbr("run", str(ROOT / "configs" / config), "--out", str(out), *sets,
+                        "--record", str(recording))
+    assert result.exit_code == 0, result.stderr
+    found = read(recording)
+    _decisions_match(found, _rows(out / "results.csv"))
+    return found
+
+
 def test_the_main_job_reads_back(tmp_path: Path, invoke_cbr: Callable[..., CliResult],
                                  cbr_engine: Callable[..., Any]) -> None:
     from cbr_grid.recording import occupancy
 
-    out, recording = tmp_path / "run", tmp_path / "grid.mcap"
-    result = invoke_cbr("run", str(ROOT / "configs/hybrid_grid.yaml"), "--out", str(out),
-                        "--set", "workload.count=40", "--record", str(recording))
-    assert result.exit_code == 0, result.stderr
-    found = read(recording)
-    rows = _rows(out / "results.csv")
-    _decisions_match(found, rows)
+    found = _recorded(invoke_cbr, tmp_path / "run", "hybrid_grid.yaml", "workload.count=40")
     # the map: the generated office, row 0 of the message its bottom row, one metre a cell
     (_, grid_message), = found["/map"]
     grid = cbr_engine(ROOT / "configs/hybrid_grid.yaml", out_dir=tmp_path / "map").ctx.world
@@ -151,13 +159,9 @@ def test_the_main_job_reads_back(tmp_path: Path, invoke_cbr: Callable[..., CliRe
 
 def test_a_delivery_day_reads_back(tmp_path: Path,
                                    invoke_cbr: Callable[..., CliResult]) -> None:
-    out, recording = tmp_path / "day", tmp_path / "day.mcap"
-    result = invoke_cbr("run", str(ROOT / "configs/rupart.yaml"), "--out", str(out),
-                        "--set", "workload.length=120", "--set", "workload.trajectories=true",
-                        "--record", str(recording))
-    assert result.exit_code == 0, result.stderr
-    found = read(recording)
-    _decisions_match(found, _rows(out / "results.csv"))
+    out = tmp_path / "day"
+    found = _recorded(invoke_cbr, out, "rupart.yaml", "workload.length=120",
+                      "workload.trajectories=true")
     assert any("install" in message.action for _, message in found["/cbr/decision"])
     # the transform is the true pose of the day's trajectory at its time, 2 a second
     track = np.load(out / "trajectories.npz")["day_0"]
@@ -187,12 +191,8 @@ def test_a_landmark_trial_reads_back(tmp_path: Path,
                                      invoke_cbr: Callable[..., CliResult]) -> None:
     from cbr_world2d.worldfile import load_world
 
-    out, recording = tmp_path / "trials", tmp_path / "trials.mcap"
-    result = invoke_cbr("run", str(ROOT / "configs/landmarks.yaml"), "--out", str(out),
-                        "--set", "workload.repeat=2", "--record", str(recording))
-    assert result.exit_code == 0, result.stderr
-    found = read(recording)
-    _decisions_match(found, _rows(out / "results.csv"))
+    out = tmp_path / "trials"
+    found = _recorded(invoke_cbr, out, "landmarks.yaml", "workload.repeat=2")
     assert any(message.action.startswith("divert to") for _, message in found["/cbr/decision"])
     # one episode a trial, its walls first; the transform follows each trial's trajectory
     world = load_world(ROOT / "plugins/cbr_world2d/worlds/scenario2.yaml")
