@@ -20,6 +20,7 @@ import numpy as np
 
 from cbr_casegraph.cases import SEGMENT
 from cbr_casegraph.payoff import SOLVER_CHEAPER, Learned, PassableCells, Payoff, band
+from cbr_casegraph.recording import record_reuse
 from cbr_casegraph.state import graph_of
 from cbr_grid.costs import uniform_factor
 from cbr_grid.distances import DistanceName
@@ -298,6 +299,7 @@ class CaseGraphReuser:
                                      self.kinematics, problem.heading, problem.final_heading)
         if isinstance(result, planner.Failure):
             return None
+        record_reuse(ctx, graph, result.edges)
         return Solution(result.path.tolist(), cost=result.cost, cases=result.edges,
                         detail=result.detail)
 

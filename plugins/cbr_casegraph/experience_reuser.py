@@ -20,6 +20,7 @@ from types import ModuleType
 import attrs
 
 from cbr_casegraph.graph import CaseGraph
+from cbr_casegraph.recording import record_reuse
 from cbr_casegraph.state import graph_of
 from cbr_grid.grid import grid_world
 from cbr_grid.query import GridQuery
@@ -99,5 +100,6 @@ class ExperienceGraphReuser:
                                    self.options.epsilon, self.options.experience_factor)
         if found is None:
             return None
+        record_reuse(ctx, graph, found.edges)
         return Solution(found.path.tolist(), cost=found.cost, cases=found.edges,
                         detail=found.detail, bound=found.bound)

@@ -162,12 +162,14 @@ class Recorder:
         # the latest time set, so that the next episode follows whatever was written
         self._end = max(self._end, self._stamp)
 
-    def due(self, topic: str) -> bool:
-        """Whether ``topic`` may take a message now at the recording's rate; a True answer
-        counts as the topic's message."""
+    def due(self, topic: str, period: float | None = None) -> bool:
+        """Whether ``topic`` may take a message now at the recording's rate (or at most one
+        every ``period`` seconds of simulation time); a True answer counts as the topic's
+        message."""
         now = self._stamp / 1e9
         last = self._last.get(topic)
-        if last is not None and now - last < self._period - 1e-9:
+        least = self._period if period is None else period
+        if last is not None and now - last < least - 1e-9:
             return False
         self._last[topic] = now
         return True

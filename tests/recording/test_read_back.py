@@ -150,6 +150,19 @@ def test_the_main_job_reads_back(tmp_path: Path, invoke_cbr: Callable[..., CliRe
         assert (tf.header.frame_id, tf.child_frame_id) == ("map", "base_link")
         assert tf.transform.translation.x == pose.pose.position.x
         assert tf.transform.translation.y == pose.pose.position.y
+    # the segments each answer from the case base was adapted from: straight, in the graph
+    reused = {t: message.markers[0] for t, message in found["/casegraph/reused"]}
+    graphs = found["/casegraph"]
+    assert graphs and graphs[0][0] == min(reused)
+    for t, decision in found["/cbr/decision"]:
+        if decision.source != "casebase":
+            continue
+        lines = np.array([(p.x, p.y) for p in reused[t].points]).reshape(-1, 2, 2)
+        assert len(lines) > 0
+        steps = np.abs(lines[:, 1] - lines[:, 0])
+        assert ((steps[:, 0] == 0) | (steps[:, 1] == 0) | (steps[:, 0] == steps[:, 1])).all()
+        drawn = max((g for g in graphs if g[0] <= t), key=lambda g: g[0])[1].markers[0]
+        assert len(drawn.colors) == len(drawn.points)
     firsts = {round(t / 1e9): p for t, p in found["/robot/pose"]}
     for t, plan in found["/plan"]:
         first = firsts[round(t / 1e9)]

@@ -1,0 +1,48 @@
+"""What the case graph records (see :mod:`cbr_recording`): the segments a query reused, and the
+whole graph now and then.
+
+Every edge of the graph is a straight segment between its two vertices, so the graph is drawn
+as one line list in the map frame, each segment coloured by its mean risk (green 0 to red 1);
+the segments a path was adapted from are drawn again, wider and yellow, on their own topic.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cbr_casegraph.graph import CaseGraph
+from cbr_grid.recording import frame_of, in_metres, risk_colors
+from cbr_recording.keys import RECORDER
+from cbrcore.context import Context
+
+GRAPH_PERIOD = 1000.0
+"""The least simulated seconds between two drawings of the whole graph (a few trips): the graph
+is large, the segments each query reused are drawn every time."""
+
+REUSED = (1.0, 0.85, 0.0, 1.0)
+
+
+def _lines(graph: CaseGraph, edges: np.ndarray) -> np.ndarray:
+    """The map-frame points of ``edges``' ends, two a segment, as a line list draws them."""
+    a, b = graph.ends(edges)
+    return in_metres(graph.grid, np.stack((a, b), axis=1).reshape(-1, 2))
+
+
+def record_reuse(ctx: Context, graph: CaseGraph, edges: list[int]) -> None:
+    """Draw the segments ``edges`` a query reused (``/casegraph/reused``) and, when it is due,
+    the whole graph (``/casegraph``), when the run is recorded."""
+    recorder = ctx.stash.get(RECORDER, None)
+    if recorder is None:
+        return
+    from cbr_recording.markers import Marker
+
+    side = frame_of(graph.grid).resolution
+    if recorder.due("/casegraph", GRAPH_PERIOD):
+        ids = graph.edge_ids()
+        colors = np.repeat(risk_colors(graph.risks(ids)), 2, axis=0)
+        recorder.markers("/casegraph", [Marker(
+            "segments", 0, "line_list", _lines(graph, ids), scale=(0.15 * side, 0, 0),
+            colors=colors)])
+    recorder.markers("/casegraph/reused", [Marker(
+        "reused", 0, "line_list", _lines(graph, np.asarray(edges, dtype=np.int64)),
+        scale=(0.4 * side, 0, 0), color=REUSED)])
