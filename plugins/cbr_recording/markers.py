@@ -63,4 +63,5 @@ class Marker:
 @attrs.frozen
 class Clear:
     """Remove every marker of the topic drawn so far (``DELETEALL``) before those that follow
-    in the same array: a family redrawing a changing set (its case graph) sends it first."""
+    in the same array: a family redrawing a changing set (the obstacles a trip met, the
+    targets) sends it first."""
