@@ -20,7 +20,7 @@ import numpy as np
 
 from cbr_casegraph.cases import SEGMENT
 from cbr_casegraph.payoff import SOLVER_CHEAPER, Learned, PassableCells, Payoff, band
-from cbr_casegraph.recording import record_reuse
+from cbr_casegraph.recording import clear_reuse, record_reuse
 from cbr_casegraph.state import graph_of
 from cbr_grid.costs import uniform_factor
 from cbr_grid.distances import DistanceName
@@ -132,6 +132,7 @@ class CaseGraphRetriever:
 
     @hookimpl
     def cbr_retrieve(self, problem: GridQuery, casebase: CaseStore, ctx: Context) -> Retrieval:
+        clear_reuse(ctx)
         return self.retrieve(problem, ctx)
 
     def retrieve(self, problem: GridQuery, ctx: Context, *, decide: bool = True) -> Retrieval:

@@ -1,5 +1,5 @@
-"""What the case graph records (see :mod:`cbr_recording`): the segments a query reused, and the
-whole graph now and then.
+"""What the case graph records (see :mod:`cbr_recording`): the segments a query reused (taken
+down at the next query), and the whole graph now and then.
 
 Every edge of the graph is a straight segment between its two vertices, so the graph is drawn
 as one line list in the map frame, each segment coloured by its mean risk (green 0 to red 1);
@@ -14,12 +14,16 @@ from cbr_casegraph.graph import CaseGraph
 from cbr_grid.recording import frame_of, in_metres, risk_colors
 from cbr_recording.keys import RECORDER
 from cbrcore.context import Context
+from cbrcore.stash import StashKey
 
 GRAPH_PERIOD = 1000.0
 """The least simulated seconds between two drawings of the whole graph (a few trips): the graph
 is large, the segments each query reused are drawn every time."""
 
 REUSED = (1.0, 0.85, 0.0, 1.0)
+
+_DRAWN = StashKey[bool]()
+"""Whether ``/casegraph/reused`` shows the segments of the last query."""
 
 
 def _lines(graph: CaseGraph, edges: np.ndarray) -> np.ndarray:
@@ -46,3 +50,16 @@ def record_reuse(ctx: Context, graph: CaseGraph, edges: list[int]) -> None:
     recorder.markers("/casegraph/reused", [Marker(
         "reused", 0, "line_list", _lines(graph, np.asarray(edges, dtype=np.int64)),
         scale=(0.4 * side, 0, 0), color=REUSED)])
+    ctx.stash[_DRAWN] = True
+
+
+def clear_reuse(ctx: Context) -> None:
+    """At a new query, take down the segments the last one reused, if it reused any: an
+    answer from the fallback solver reuses none."""
+    recorder = ctx.stash.get(RECORDER, None)
+    if recorder is None or not ctx.stash.get(_DRAWN, False):
+        return
+    from cbr_recording.markers import Clear
+
+    recorder.markers("/casegraph/reused", [Clear()])
+    ctx.stash[_DRAWN] = False

@@ -143,19 +143,21 @@ class Template:
     numbers: the bytes are laid out once and each message packs its numbers into a copy,
     which costs a microsecond where encoding field by field costs several."""
 
-    __slots__ = ("_blocks", "_sample", "_stamp_at")
+    __slots__ = ("_blocks", "_sample", "_stamps")
 
-    def __init__(self, sample: bytes, stamp_at: int,
+    def __init__(self, sample: bytes, stamps: Sequence[int],
                  blocks: Sequence[tuple[int, struct.Struct | np.dtype]]) -> None:
         self._sample = sample
-        self._stamp_at = stamp_at
+        self._stamps = tuple(stamps)
         self._blocks = tuple(blocks)
 
     def fill(self, ns: int, *values: Sequence[float] | np.ndarray) -> bytes:
         """The message stamped ``ns`` with each block's numbers, in the blocks' order: a
         tuple for a ``struct`` block, an array for a NumPy one."""
         out = bytearray(self._sample)
-        _STAMP.pack_into(out, self._stamp_at, ns // 1_000_000_000, ns % 1_000_000_000)
+        sec, nanosec = divmod(ns, 1_000_000_000)
+        for at in self._stamps:
+            _STAMP.pack_into(out, at, sec, nanosec)
         for (at, packer), numbers in zip(self._blocks, values, strict=True):
             if isinstance(packer, np.dtype):
                 data = np.asarray(numbers, dtype=packer).tobytes()
@@ -170,11 +172,21 @@ def pose_numbers(x: float, y: float, yaw: float) -> tuple[float, ...]:
     return (x, y, 0.0, 0.0, 0.0, math.sin(0.5 * yaw), math.cos(0.5 * yaw))
 
 
-def transform_template(parent: str, child: str) -> Template:
-    """``transform`` from ``parent`` to ``child`` as a :class:`Template` of one block, the
-    seven :func:`pose_numbers`."""
-    sample = transform(0, parent, child, 0.0, 0.0, 0.0)
-    return Template(sample, 8, [(len(sample) - 56, _SEVEN)])
+def transforms_template(frames: Sequence[tuple[str, str]]) -> Template:
+    """:func:`transforms` of the links ``frames`` (parent, child) as a :class:`Template` of
+    one block a link, its seven :func:`pose_numbers`, every link stamped alike."""
+    out = Encoder()
+    out.u32(len(frames))
+    stamps, blocks = [], []
+    for parent, child in frames:
+        out.align(4)
+        stamps.append(len(_ENCAPSULATION) + len(out.body))
+        out.header(0, parent)
+        out.string(child)
+        out.align(8)
+        blocks.append((len(_ENCAPSULATION) + len(out.body), _SEVEN))
+        out.pose(0.0, 0.0, 0.0)
+    return Template(out.bytes(), stamps, blocks)
 
 
 def odometry_template(frame: str, child: str) -> Template:
@@ -182,7 +194,7 @@ def odometry_template(frame: str, child: str) -> Template:
     and the twist's (v, 0, 0, 0, 0, w)."""
     sample = odometry(0, frame, child, 0.0, 0.0, 0.0, 0.0, 0.0)
     twist = len(sample) - 8 * (36 + 6)
-    return Template(sample, 4, [(twist - 8 * (36 + 7), _SEVEN),
+    return Template(sample, [4], [(twist - 8 * (36 + 7), _SEVEN),
                                 (twist, struct.Struct("<6d"))])
 
 
@@ -191,7 +203,7 @@ def laser_scan_template(frame: str, angle_min: float, increment: float, rays: in
     """``laser_scan`` of ``rays`` ranges as a :class:`Template` of one block, the ranges."""
     sample = laser_scan(0, frame, angle_min, increment, np.zeros(rays), range_min, range_max,
                         scan_time)
-    return Template(sample, 4, [(len(sample) - 4 - 4 * rays, np.dtype("<f4"))])
+    return Template(sample, [4], [(len(sample) - 4 - 4 * rays, np.dtype("<f4"))])
 
 
 def pose_stamped(ns: int, frame: str, x: float, y: float, yaw: float) -> bytes:
@@ -202,13 +214,15 @@ def pose_stamped(ns: int, frame: str, x: float, y: float, yaw: float) -> bytes:
     return out.bytes()
 
 
-def transform(ns: int, parent: str, child: str, x: float, y: float, yaw: float) -> bytes:
-    """``tf2_msgs/msg/TFMessage`` holding the one transform ``parent`` -> ``child``."""
+def transforms(ns: int, links: Sequence[tuple[str, str, float, float, float]]) -> bytes:
+    """``tf2_msgs/msg/TFMessage`` of the transforms ``links``, each (parent, child, x, y,
+    yaw): the pose of the child in the parent."""
     out = Encoder()
-    out.u32(1)
-    out.header(ns, parent)
-    out.string(child)
-    out.pose(x, y, yaw)  # a Transform's translation and rotation: the seven numbers of a Pose
+    out.u32(len(links))
+    for parent, child, x, y, yaw in links:
+        out.header(ns, parent)
+        out.string(child)
+        out.pose(x, y, yaw)  # a Transform's translation and rotation: a Pose's seven numbers
     return out.bytes()
 
 

@@ -66,7 +66,9 @@ def contents(path: Path) -> Contents:
         try:
             header = next(records)
         except (*_broken(), StopIteration) as exc:
-            raise CbrError(f"{path}: not a readable MCAP file ({exc or 'empty'})") from None
+            why = str(exc) or ("the file is empty" if isinstance(exc, StopIteration)
+                               else type(exc).__name__)
+            raise CbrError(f"{path}: not a readable MCAP file ({why})") from None
         if not isinstance(header, Header):
             raise CbrError(f"{path}: not a readable MCAP file (no header record)")
         schemas: dict[int, str] = {}

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Generator
+from pathlib import Path
 from typing import Any
 
 import attrs
@@ -30,14 +31,15 @@ def _rate(_: object, attribute: attrs.Attribute, value: float) -> None:
 
 @attrs.frozen
 class RecordOptions:
-    """Checked when the configuration is read for an absolute ``file`` (``cbr run --record``
-    gives one), when the engine is built for a file in the run's folder: either way before the
-    run writes anything."""
+    """An absolute ``file`` (``cbr run --record`` gives one) is checked when the configuration
+    is read, before the run touches anything."""
 
     file: OutputPath | None = option(
         None, "The MCAP file to write: an absolute path, or a file inside the run's output "
-        "folder; default: recording.mcap there.")
-    force: bool = option(False, "Replace the file if it exists (else the run is refused).")
+        "folder; default: recording.mcap there. A file inside the folder that exists (an "
+        "earlier run's, continued) is kept, the recording going to <name>-2.mcap, -3 ...")
+    force: bool = option(False, "Replace the file if it exists (else an absolute path is "
+                         "refused, and one inside the run's folder numbered).")
     rate: float = option(
         2.0, "The most messages a second of simulation time on the 2D world's fast topics "
         "(the robot's transform, odometry, sonar, people, sightings); each hertz costs a "
@@ -52,6 +54,19 @@ class RecordOptions:
                 raise ValueError(str(exc)) from None
 
 
+DEFAULT_FILE = Path("recording.mcap")
+
+
+def _free(path: Path) -> Path:
+    """``path``, or when a file is there the first free ``<stem>-2<suffix>``, ``-3`` ...: a run
+    continuing a folder records beside the earlier runs' recordings."""
+    candidate, number = path, 1
+    while candidate.exists():
+        number += 1
+        candidate = path.with_name(f"{path.stem}-{number}{path.suffix}")
+    return candidate
+
+
 class Record:
     """Record the run as MCAP with ROS 2 message types, for Foxglove and ``ros2 bag play``
     (``cbr run --record FILE`` adds it): the families record their world, robot and
@@ -59,15 +74,17 @@ class Record:
 
     def __init__(self, options: RecordOptions, ctx: Context) -> None:
         from cbr_recording.recorder import Recorder
+        from cbrcore.run_folder import earlier_results
 
-        if options.file is not None:
-            path = in_run_folder(options.file, ctx.out_dir, ctx.config_dir)
-        elif ctx.out_dir is None:
+        if ctx.out_dir is None and options.file is None:
             raise ConfigError("observers", [
                 "observers: record needs a 'file' when the engine has no output folder"])
-        else:
-            path = ctx.out_dir / "recording.mcap"
-        self.recorder = Recorder(path, force=options.force, rate=options.rate)
+        path = in_run_folder(options.file or DEFAULT_FILE, ctx.out_dir, ctx.config_dir)
+        if not options.force and (options.file is None or not options.file.is_absolute()):
+            path = _free(path)
+        first = earlier_results(ctx.out_dir).next_query if ctx.out_dir is not None else 0
+        self.recorder = Recorder(path, force=options.force, rate=options.rate,
+                                 first_query=first)
         ctx.stash[RECORDER] = self.recorder
 
     @hookimpl(wrapper=True)

@@ -111,26 +111,26 @@ class Channel:
 
 class Recorder:
     """Writes ROS 2 messages to the MCAP file ``path``; close it (or use it as a context
-    manager) to write the file's index.
+    manager) to write the file's summary.
 
     ``force`` replaces an existing file (else a CbrError); ``rate`` is the most messages a
-    second of simulation time that :meth:`due` lets through per topic.
+    second of simulation time that :meth:`due` lets through per topic; ``first_query`` is the
+    ``query`` column of ``results.csv`` the run's first consultation has (a run continuing a
+    folder numbers its queries after the earlier runs'). The file is created with the first
+    message: a run that fails before recording anything leaves none.
     """
 
-    def __init__(self, path: Path, *, force: bool = False, rate: float = 2.0) -> None:
+    def __init__(self, path: Path, *, force: bool = False, rate: float = 2.0,
+                 first_query: int = 0) -> None:
         if not (rate > 0 and np.isfinite(rate)):
             raise CbrError(f"recording rate must be a finite number > 0, got {rate!r}")
         check_path(path, force=force)
         self.file = path
-        path.parent.mkdir(parents=True, exist_ok=True)
-        try:
-            self._file: IO[bytes] = path.open("wb" if force else "xb")
-        except OSError as exc:
-            raise CbrError(f"--record {path}: cannot be written ({exc.strerror or exc})"
-                           ) from exc
+        self._force = force
+        self._first_query = first_query
+        self._file: IO[bytes] | None = None
+        self._writer: Writer | None = None
         self._store = typestore()
-        self._writer = Writer(self._file, compression=CompressionType.LZ4)
-        self._writer.start(profile=PROFILE, library=LIBRARY)
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, tuple[Channel, str]] = {}
         self._period = 1.0 / rate
@@ -143,6 +143,11 @@ class Recorder:
         self._closed = False
 
     # -- time -----------------------------------------------------------------------------
+
+    @property
+    def period(self) -> float:
+        """The least seconds of simulation time between two messages of a fast topic."""
+        return self._period
 
     @property
     def stamp(self) -> int:
@@ -187,16 +192,29 @@ class Recorder:
                 raise CbrError(f"recording {self.file}: topic {topic} carries {kind}, not "
                                f"{msgtype}")
             return channel
+        writer = self._writer if self._writer is not None else self._open()
         schema = self._schemas.get(msgtype)
         if schema is None:
             text, _ = self._store.generate_msgdef(msgtype, ros_version=2)
-            schema = self._schemas[msgtype] = self._writer.register_schema(
+            schema = self._schemas[msgtype] = writer.register_schema(
                 msgtype, "ros2msg", text.encode())
         metadata = {"offered_qos_profiles": _LATCHED_QOS} if latched else {}
-        channel = Channel(self, self._writer.register_channel(topic, "cdr", schema, metadata),
-                          self._writer.add_message)
+        channel = Channel(self, writer.register_channel(topic, "cdr", schema, metadata),
+                          writer.add_message)
         self._channels[topic] = (channel, msgtype)
         return channel
+
+    def _open(self) -> Writer:
+        path = self.file
+        path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            self._file = path.open("wb" if self._force else "xb")
+        except OSError as exc:
+            raise CbrError(f"recording {path}: cannot be written ({exc.strerror or exc})"
+                           ) from exc
+        self._writer = Writer(self._file, compression=CompressionType.LZ4)
+        self._writer.start(profile=PROFILE, library=LIBRARY)
+        return self._writer
 
     def _write(self, topic: str, msgtype: str, data: bytes, latched: bool = False) -> None:
         self.channel(topic, msgtype, latched).write(data)
@@ -235,8 +253,8 @@ class Recorder:
     def transform(self, x: float, y: float, yaw: float, *, parent: str = "map",
                   child: str = "base_link") -> None:
         """The pose of ``child`` in ``parent`` on ``/tf`` (``tf2_msgs/msg/TFMessage``)."""
-        template = self._template((cdr.transform_template, parent, child),
-                                  cdr.transform_template)
+        template = self._template((cdr.transforms_template, ((parent, child),)),
+                                  cdr.transforms_template)
         self._write("/tf", "tf2_msgs/msg/TFMessage",
                     template.fill(self._stamp, cdr.pose_numbers(x, y, yaw)))
 
@@ -282,16 +300,16 @@ class Recorder:
 
     def decision(self, query: int, proposal: Proposal, *, action: str = "",
                  detail: Mapping[str, Any] | None = None) -> None:
-        """Consultation ``query`` of the engine and its ``proposal`` on ``/cbr/decision``
-        (cbrcore's ``Decision`` type), with what the family made of it: ``action`` in words
-        and ``detail`` as JSON."""
+        """Consultation ``query`` of the run (counted from 0) and its ``proposal`` on
+        ``/cbr/decision`` (cbrcore's ``Decision`` type, numbered as ``results.csv``), with what
+        the family made of it: ``action`` in words and ``detail`` as JSON."""
         matches = proposal.retrieval.matches if proposal.retrieval is not None else ()
         best = matches[0] if matches else None
         noted, reused = self._reused
         if noted != query:
             reused = proposal.solution if proposal.from_casebase else None
         self._write("/cbr/decision", DECISION, cdr.decision(
-            self._stamp, query=query, source=proposal.source,
+            self._stamp, query=self._first_query + query, source=proposal.source,
             case_id="" if best is None else str(best.case.id),
             similarity=math.nan if best is None else best.similarity,
             retrieved=len(matches), fallback_reason=proposal.fallback_reason or "",
@@ -300,10 +318,12 @@ class Recorder:
             phases=_phases(proposal, reused), detail=detail or {}))
 
     def close(self) -> None:
-        """Write the file's index and statistics and close it; idempotent."""
+        """Write the file's summary and close it; idempotent."""
         if self._closed:
             return
         self._closed = True
+        if self._writer is None or self._file is None:
+            return
         try:
             self._writer.finish()
         finally:

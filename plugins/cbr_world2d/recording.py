@@ -4,8 +4,9 @@ and where it was heading, at simulation time.
 A trial (or a delivery day) is an episode of the recording. At its start go the world's walls,
 landmarks, point obstacles and places (latched), then, as the robot drives:
 
-- each step the ``rate`` lets through: the true pose (the ``map`` -> ``base_link``
-  transform on ``/tf``), the odometry's estimate and speeds (``/odom``), the sonar ring
+- each step the ``rate`` lets through: the frames as REP 105 has them (``/tf``: ``odom`` ->
+  ``base_link`` the odometry's estimate, ``map`` -> ``odom`` the correction that puts it on
+  the true pose), the odometry's estimate and speeds (``/odom``, in ``odom``), the sonar ring
   (``/sonar``), the people present (``/world/people``) and the camera's sightings
   (``/camera/sightings``: the peak of each fuzzy place, in ``base_link``);
 - whenever they change: the doors open (green) or shut (red) (``/world/doors``), the target
@@ -14,7 +15,8 @@ landmarks, point obstacles and places (latched), then, as the robot drives:
 
 The sonar ring is a ``LaserScan`` of one ray a degree round the robot: each ray inside a beam's
 cone reads that beam's range from the robot's centre (the rim reading plus the mount radius;
-the nearest where two cones overlap), a ray no beam covers reads +inf (no return).
+the nearest where two cones overlap); a ray no beam covers, or whose beam heard no echo, reads
++inf (no return).
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from cbr_world2d.sensors import SonarRing
 
 if TYPE_CHECKING:
     from cbr_recording.recorder import Recorder
+    from cbr_world2d.robot import Pose, RobotState
     from cbr_world2d.simulation import Simulation
     from cbr_world2d.world import Door, World
 
@@ -69,6 +72,17 @@ def world_markers(world: World) -> list[Marker]:
     return items
 
 
+def _correction(truth: RobotState, estimate: Pose) -> tuple[float, ...]:
+    """The ``map`` -> ``odom`` transform that puts the odometry's ``estimate`` (the pose in
+    ``odom``) on the ``truth`` (the pose in ``map``), as a localiser would: truth composed
+    with the inverse of the estimate, in the plane."""
+    turn = truth.theta - estimate.theta
+    c, s = math.cos(turn), math.sin(turn)
+    x = truth.x - (c * estimate.x - s * estimate.y)
+    y = truth.y - (s * estimate.x + c * estimate.y)
+    return cdr.pose_numbers(x, y, turn)
+
+
 def _next_change(door: Door, t: float) -> float:
     """When ``door`` next opens or shuts after ``t`` (it is open while ``(t + phase) mod
     period < open_for``)."""
@@ -106,18 +120,19 @@ class TrialRecording:
         markers = "visualization_msgs/msg/MarkerArray"
         self._fast_topics: dict[str, Any] = {
             "tf": recorder.channel("/tf", "tf2_msgs/msg/TFMessage"),
-            "tf bytes": cdr.transform_template("map", "base_link"),
+            "tf bytes": cdr.transforms_template([("map", "odom"), ("odom", "base_link")]),
             "odom": recorder.channel("/odom", "nav_msgs/msg/Odometry"),
-            "odom bytes": cdr.odometry_template("map", "base_link"),
+            "odom bytes": cdr.odometry_template("odom", "base_link"),
             "sightings": recorder.channel("/camera/sightings", markers),
             "sightings bytes": cdr.PointsMarker(SIGHTINGS)}
         if sonar is not None:
             self._fast_topics["sonar"] = recorder.channel("/sonar", "sensor_msgs/msg/LaserScan")
             self._fast_topics["sonar bytes"] = cdr.laser_scan_template(
                 "base_link", -math.pi, 2 * math.pi / RAYS, RAYS, 0.0,
-                sonar.max_range + sonar.mount_radius, sim.dt)
+                sonar.max_range + sonar.mount_radius, recorder.period)
         self._doors: tuple[bool, ...] | None = None
         self._doors_change = -math.inf
+        self._events = 0
         self._target: tuple[object, ...] | None = None
         self._sighted = False
         width = 2 * max((mover.radius for mover in sim.world.movers), default=0.0)
@@ -159,9 +174,13 @@ class TrialRecording:
                                     scale=(0.3, 0.3, 0.3), color=DIVERTING))
             recorder.markers("/target", items)
         if sim.events:
+            # ids run on, so that a label stays its lifetime rather than until the next event
+            first = self._events
+            self._events += len(sim.events)
             recorder.markers("/events", [
-                Marker("events", k, "text", pose=(event.x, event.y, 0.0), scale=(0, 0, 0.25),
-                       text=event.name, color=SHUT, lifetime=EVENT_SECONDS)
+                Marker("events", first + k, "text", pose=(event.x, event.y, 0.0),
+                       scale=(0, 0, 0.25), text=event.name, color=SHUT,
+                       lifetime=EVENT_SECONDS)
                 for k, event in enumerate(sim.events)])
         if recorder.due("/robot"):
             self._fast(sim)
@@ -173,15 +192,15 @@ class TrialRecording:
         stamp = recorder.stamp
         state, obs = sim.state, sim.observation
         fast = self._fast_topics
-        fast["tf"].write(fast["tf bytes"].fill(
-            stamp, cdr.pose_numbers(state.x, state.y, state.theta)))
-        pose = obs.pose
-        fast["odom"].write(fast["odom bytes"].fill(
-            stamp, cdr.pose_numbers(pose.x, pose.y, pose.theta), (obs.v, 0, 0, 0, 0, obs.w)))
+        pose = cdr.pose_numbers(obs.pose.x, obs.pose.y, obs.pose.theta)
+        fast["tf"].write(fast["tf bytes"].fill(stamp, _correction(state, obs.pose), pose))
+        fast["odom"].write(fast["odom bytes"].fill(stamp, pose, (obs.v, 0, 0, 0, 0, obs.w)))
         if self._covers is not None and len(obs.sonar):
-            readings = self._readings
+            sonar, readings = self._sonar, self._readings
             readings[:-1] = obs.sonar
-            readings[:-1] += self._sonar.mount_radius
+            # a beam that heard no echo reads its maximum range: no return, +inf in ROS
+            readings[:-1][readings[:-1] >= sonar.max_range] = np.inf
+            readings[:-1] += sonar.mount_radius
             fast["sonar"].write(fast["sonar bytes"].fill(
                 stamp, readings[self._covers].min(axis=1)))
         if self._people is not None:

@@ -60,14 +60,21 @@ def test_path(frame: str, points: list[tuple[float, float]]) -> None:
 
 @settings(max_examples=40, deadline=None)
 @given(parent=frames, child=frames, x=numbers, y=numbers, yaw=st.floats(-7, 7))
-def test_pose_and_transform(parent: str, child: str, x: float, y: float, yaw: float) -> None:
+def test_pose_and_transforms(parent: str, child: str, x: float, y: float, yaw: float) -> None:
     stamped = T["geometry_msgs/msg/PoseStamped"](header=header(NS, parent), pose=pose(x, y, yaw))
     assert cdr.pose_stamped(NS, parent, x, y, yaw) == reference(stamped)
-    moved = T["geometry_msgs/msg/Transform"](translation=vector(x, y, 0.0),
-                                             rotation=pose(x, y, yaw).orientation)
-    tf = T["tf2_msgs/msg/TFMessage"](transforms=[T["geometry_msgs/msg/TransformStamped"](
-        header=header(NS, parent), child_frame_id=child, transform=moved)])
-    assert cdr.transform(NS, parent, child, x, y, yaw) == reference(tf)
+    links = [(parent, child, x, y, yaw), (child, "base_link", y, -x, -yaw)]
+    for count in (1, 2):
+        tf = T["tf2_msgs/msg/TFMessage"](transforms=[
+            T["geometry_msgs/msg/TransformStamped"](
+                header=header(NS, a), child_frame_id=b,
+                transform=T["geometry_msgs/msg/Transform"](
+                    translation=vector(px, py, 0.0), rotation=pose(px, py, turn).orientation))
+            for a, b, px, py, turn in links[:count]])
+        assert cdr.transforms(NS, links[:count]) == reference(tf)
+        template = cdr.transforms_template([(a, b) for a, b, *_ in links[:count]])
+        assert template.fill(NS, *(cdr.pose_numbers(px, py, turn)
+                                   for *_, px, py, turn in links[:count])) == reference(tf)
 
 
 def test_odometry() -> None:
@@ -161,9 +168,6 @@ def test_decision() -> None:
 
 
 def test_templates_fill_the_encoders_bytes() -> None:
-    tf = cdr.transform_template("map", "base_link")
-    assert tf.fill(NS, cdr.pose_numbers(1.5, -2.0, 0.7)) == cdr.transform(
-        NS, "map", "base_link", 1.5, -2.0, 0.7)
     odometry = cdr.odometry_template("odom", "base_link")
     assert odometry.fill(NS, cdr.pose_numbers(1.0, 2.0, 0.5), (0.4, 0, 0, 0, 0, -0.2)) == (
         cdr.odometry(NS, "odom", "base_link", 1.0, 2.0, 0.5, 0.4, -0.2))

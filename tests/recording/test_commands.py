@@ -86,6 +86,49 @@ def test_an_existing_recording_is_refused_and_the_run_left_as_it_was(
     assert contents(recording).closed
 
 
+def test_a_continued_run_numbers_its_decisions_as_its_results(
+        tmp_path: Path, invoke_cbr: Callable[..., CliResult]) -> None:
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    out = tmp_path / "run"
+    for name in ("first", "second"):
+        result = invoke_cbr("run", GRID, "--out", str(out), "--set", "workload.count=3",
+                            "--record", str(tmp_path / f"{name}.mcap"))
+        assert result.exit_code == 0, result.stderr
+    with (tmp_path / "second.mcap").open("rb") as handle:
+        reader = make_reader(handle, decoder_factories=[DecoderFactory()])
+        queries = [decoded.query for *_, decoded in reader.iter_decoded_messages(
+            topics=["/cbr/decision"])]
+    assert queries == [3, 4, 5]
+
+
+def test_the_configured_observer_records_each_run_of_a_folder(
+        tmp_path: Path, invoke_cbr: Callable[..., CliResult]) -> None:
+    config = tmp_path / "recorded.yaml"
+    config.write_text((ROOT / "configs/hybrid_grid.yaml").read_text(encoding="utf-8")
+                      + "observers: [record]\n", encoding="utf-8")
+    out = tmp_path / "run"
+    for args in ([], [], ["--fresh"]):
+        result = invoke_cbr("run", str(config), "--out", str(out), "--set", "workload.count=2",
+                            *args)
+        assert result.exit_code == 0, result.stderr
+    assert sorted(p.name for p in out.glob("*.mcap")) == [
+        "recording-2.mcap", "recording-3.mcap", "recording.mcap"]
+    assert all(contents(p).closed for p in out.glob("*.mcap"))
+
+
+def test_a_run_that_fails_to_start_leaves_no_recording(
+        tmp_path: Path, invoke_cbr: Callable[..., CliResult]) -> None:
+    recording = tmp_path / "r.mcap"
+    # more unknown obstacles than free cells: the workload refuses when the engine is built,
+    # after the observer
+    result = invoke_cbr("run", GRID, "--out", str(tmp_path / "run"), "--set",
+                        "workload.unknown_static=1000000", "--record", str(recording))
+    assert result.exit_code == 2 and "unknown_static" in result.stderr
+    assert not recording.exists()
+
+
 def test_bad_recording_options_exit_2(tmp_path: Path,
                                       invoke_cbr: Callable[..., CliResult]) -> None:
     blocker = tmp_path / "a file"

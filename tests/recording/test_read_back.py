@@ -77,8 +77,17 @@ def _yaw(q: Any) -> float:
     return 2 * math.atan2(q.z, q.w)
 
 
-def _same_angle(a: float, b: float) -> bool:
-    return abs(math.remainder(a - b, 2 * math.pi)) < 1e-9
+def _base_in_map(message: Any) -> tuple[float, float, float]:
+    """The pose of ``base_link`` in ``map`` that a 2D world's ``/tf`` message gives: its
+    ``map`` -> ``odom`` and ``odom`` -> ``base_link`` transforms composed, as tf2 would."""
+    correction, odometry = message.transforms
+    assert (correction.header.frame_id, correction.child_frame_id) == ("map", "odom")
+    assert (odometry.header.frame_id, odometry.child_frame_id) == ("odom", "base_link")
+    c, o = correction.transform, odometry.transform
+    turn = _yaw(c.rotation)
+    x = c.translation.x + math.cos(turn) * o.translation.x - math.sin(turn) * o.translation.y
+    y = c.translation.y + math.sin(turn) * o.translation.x + math.cos(turn) * o.translation.y
+    return x, y, turn + _yaw(o.rotation)
 
 
 def _decisions_match(found: dict[str, list[tuple[Any, Any]]], rows: list[dict[str, str]]
@@ -151,7 +160,11 @@ def test_the_main_job_reads_back(tmp_path: Path, invoke_cbr: Callable[..., CliRe
         assert tf.transform.translation.x == pose.pose.position.x
         assert tf.transform.translation.y == pose.pose.position.y
     # the segments each answer from the case base was adapted from: straight, in the graph
-    reused = {t: message.markers[0] for t, message in found["/casegraph/reused"]}
+    reused = {t: message.markers[0] for t, message in found["/casegraph/reused"]
+              if message.markers[0].action == 0}
+    # taken down at the next query: every clearing is a consultation's
+    cleared = {t for t, message in found["/casegraph/reused"] if message.markers[0].action == 3}
+    assert cleared and cleared <= {t for t, _ in found["/cbr/decision"]}
     graphs = found["/casegraph"]
     assert graphs and graphs[0][0] == min(reused)
     for t, decision in found["/cbr/decision"]:
@@ -181,22 +194,25 @@ def test_a_delivery_day_reads_back(tmp_path: Path,
     transforms = found["/tf"]
     assert len(transforms) == 2 * 120 + 1
     for t, message in transforms:
-        tf = message.transforms[0]
+        x, y, yaw = _base_in_map(message)
         row = track[round(t / 1e9 / 0.1)]
         assert row[0] == pytest.approx(t / 1e9)
-        assert (tf.transform.translation.x, tf.transform.translation.y) == (row[1], row[2])
-        assert _same_angle(_yaw(tf.transform.rotation), row[3])
-    # odometry is the robot's estimate, near the truth; the sonar a ring of 360 rays
+        assert (x, y) == pytest.approx((row[1], row[2]), abs=1e-9)
+        assert abs(math.remainder(yaw - row[3], 2 * math.pi)) < 1e-9
+    # odometry is the robot's estimate, in odom, which the transforms place near the truth
     for (_, odometry), (_, tf) in zip(found["/odom"], transforms, strict=True):
-        truth = tf.transforms[0].transform.translation
-        assert (odometry.header.frame_id, odometry.child_frame_id) == ("map", "base_link")
-        assert math.dist((odometry.pose.pose.position.x, odometry.pose.pose.position.y),
-                         (truth.x, truth.y)) < 1.0
+        estimate = tf.transforms[1].transform.translation
+        assert (odometry.header.frame_id, odometry.child_frame_id) == ("odom", "base_link")
+        assert (odometry.pose.pose.position.x, odometry.pose.pose.position.y) == (
+            estimate.x, estimate.y)
+        truth = _base_in_map(tf)
+        assert math.dist((estimate.x, estimate.y), truth[:2]) < 1.0
     for _, scan in found["/sonar"]:
         ranges = np.asarray(scan.ranges)
         assert scan.header.frame_id == "base_link" and len(ranges) == 360
+        assert scan.scan_time == pytest.approx(0.5)  # 2 a second
         finite = ranges[np.isfinite(ranges)]
-        assert len(finite) > 0 and (finite <= scan.range_max + 1e-6).all()
+        assert len(finite) > 0 and (finite < scan.range_max).all()
     assert found["/world/walls"] and found["/world/doors"] and found["/world/people"]
 
 
@@ -221,6 +237,5 @@ def test_a_landmark_trial_reads_back(tmp_path: Path,
         track = paths[f"trial_{k}"]
         for t, message in found["/tf"]:
             if start <= t < end:
-                tf = message.transforms[0].transform
                 row = track[round((t - start) / 1e9 / 0.1)]
-                assert (tf.translation.x, tf.translation.y) == (row[1], row[2])
+                assert _base_in_map(message)[:2] == pytest.approx((row[1], row[2]), abs=1e-9)
