@@ -12,15 +12,22 @@ import numpy as np
 
 from cbr_casegraph.graph import CaseGraph
 from cbr_grid.recording import frame_of, in_metres, risk_colors
+from cbr_recording import cdr
 from cbr_recording.keys import RECORDER
+from cbr_recording.markers import Clear, Marker
 from cbrcore.context import Context
 from cbrcore.stash import StashKey
 
-GRAPH_PERIOD = 1000.0
-"""The least simulated seconds between two drawings of the whole graph (a few trips): the graph
-is large, the segments each query reused are drawn every time."""
+GRAPH_PERIOD = 5000.0
+"""The least simulated seconds between two drawings of the whole graph (some forty trips of the
+main job): the graph is large, the segments each query reused are drawn every time."""
 
 REUSED = (1.0, 0.85, 0.0, 1.0)
+
+MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
+
+_CLEAR = cdr.Template(cdr.marker_array(0, [Clear()]), [8], [])
+"""A marker array that clears its topic, its stamp filled in (at offset 8, the one marker's)."""
 
 _DRAWN = StashKey[bool]()
 """Whether ``/casegraph/reused`` shows the segments of the last query."""
@@ -38,8 +45,6 @@ def record_reuse(ctx: Context, graph: CaseGraph, edges: list[int]) -> None:
     recorder = ctx.stash.get(RECORDER, None)
     if recorder is None:
         return
-    from cbr_recording.markers import Marker
-
     side = frame_of(graph.grid).resolution
     if recorder.due("/casegraph", GRAPH_PERIOD):
         ids = graph.edge_ids()
@@ -47,9 +52,10 @@ def record_reuse(ctx: Context, graph: CaseGraph, edges: list[int]) -> None:
         recorder.markers("/casegraph", [Marker(
             "segments", 0, "line_list", _lines(graph, ids), scale=(0.15 * side, 0, 0),
             colors=colors)])
-    recorder.markers("/casegraph/reused", [Marker(
-        "reused", 0, "line_list", _lines(graph, np.asarray(edges, dtype=np.int64)),
-        scale=(0.4 * side, 0, 0), color=REUSED)])
+    # every query draws it anew: laid out once, its points filled in
+    reused = Marker("reused", 0, "line_list", scale=(0.4 * side, 0, 0), color=REUSED)
+    recorder.moving("/casegraph/reused", reused,
+                    _lines(graph, np.asarray(edges, dtype=np.int64)))
     ctx.stash[_DRAWN] = True
 
 
@@ -59,7 +65,6 @@ def clear_reuse(ctx: Context) -> None:
     recorder = ctx.stash.get(RECORDER, None)
     if recorder is None or not ctx.stash.get(_DRAWN, False):
         return
-    from cbr_recording.markers import Clear
-
-    recorder.markers("/casegraph/reused", [Clear()])
+    recorder.channel("/casegraph/reused", MARKER_ARRAY).write(
+        _CLEAR.fill(recorder.stamp))
     ctx.stash[_DRAWN] = False
